@@ -1,0 +1,2 @@
+// placeholder; the foundation helper replaces this file
+int main() { return 0; }

@@ -1,0 +1,135 @@
+// Small-strain linear elasticity on simplex meshes (P1/P2) and on voxel hexahedra (Q1), with a
+// per-cell Young's modulus and constant Poisson ratio (paper §VI-C, DESIGN.md §4).
+// This header is deal.II-free: plain Eigen/std arrays in and out; deal.II lives in fem/src.
+#pragma once
+
+#include <vim/simplex_mesh.hpp>
+
+#include <Eigen/Core>
+
+#include <array>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace vim::fem {
+
+template <int dim>
+using Vec = Eigen::Matrix<double, dim, 1>;
+
+// A geometric selector in the model's coordinates. A node (support point) belongs to the region
+// when contains(x) is true; a boundary face belongs when all its vertices do.
+template <int dim>
+struct Region {
+  std::string name;
+  std::function<bool(const Vec<dim>&)> contains;
+};
+
+// Region helpers (tolerance `tol` in length units).
+template <int dim> Region<dim> box_face_region(const Vec<dim>& box_min, const Vec<dim>& box_max, int axis, bool upper, double tol);
+template <int dim> Region<dim> sphere_region(const Vec<dim>& center, double radius);
+template <int dim> Region<dim> box_region(const Vec<dim>& lo, const Vec<dim>& hi);
+template <int dim> Region<dim> cylinder_region(const Vec<dim>& center, const Vec<dim>& axis, double radius);  // infinite cylinder (2D: slab)
+
+// u_c = value_c on every support point in region, for each component c with components[c] true.
+template <int dim>
+struct DirichletBC {
+  Region<dim> region;
+  std::array<bool, dim> components = filled(true);
+  Vec<dim> value = Vec<dim>::Zero();
+  static std::array<bool, dim> filled(bool b) { std::array<bool, dim> a; a.fill(b); return a; }
+};
+
+// Surface load on boundary faces inside `region`: traction vector t, plus pressure p along the
+// inward normal (t_total = t - p·n, n the outward normal).
+template <int dim>
+struct SurfaceLoad {
+  Region<dim> region;
+  Vec<dim> traction = Vec<dim>::Zero();
+  double pressure = 0.0;
+};
+
+// u(position) = displacement (selected components), for a point anywhere inside the mesh:
+// a linear constraint on the DoFs of the cell containing it, through its shape functions.
+template <int dim>
+struct PointConstraint {
+  Vec<dim> position;
+  Vec<dim> displacement = Vec<dim>::Zero();
+  std::array<bool, dim> components = DirichletBC<dim>::filled(true);
+};
+
+struct SolverOptions {
+  enum class Type { automatic, direct, amg } type = Type::automatic;
+  double tolerance = 1e-10;       // relative residual for CG
+  unsigned max_iterations = 10000;
+  unsigned direct_limit = 200000; // `automatic` uses UMFPACK up to this many DoFs
+};
+
+struct SolverStats {
+  std::string method;           // "umfpack" | "cg+amg"
+  unsigned iterations = 0;
+  double residual = 0.0;
+  unsigned n_dofs = 0;
+  double assemble_seconds = 0.0, solve_seconds = 0.0;
+};
+
+template <int dim>
+struct Solution {
+  std::vector<Vec<dim>> vertex_displacement;   // per mesh vertex (input numbering)
+  std::vector<Eigen::Matrix<double, dim, dim>> cell_strain;  // per cell, at the centroid
+  std::vector<Eigen::Matrix<double, dim, dim>> cell_stress;
+  std::vector<double> von_mises;               // per cell
+  double strain_energy = 0.0;                  // ½ uᵀ K u
+  std::vector<Vec<dim>> dirichlet_reaction;    // per DirichletBC: Σ (K u − f) over its constrained DoFs
+  std::vector<Vec<dim>> point_force;           // per PointConstraint: force the constraint applies on the body
+  SolverStats stats;
+};
+
+struct PointSample {
+  std::vector<bool> inside;      // false: point outside the mesh (value left at zero)
+  std::size_t n_outside = 0;
+};
+
+// The problem. Construct, add conditions, then solve(); the stiffness matrix is assembled and
+// (for the direct solver) factorised once and reused by later solves with other point constraints.
+template <int dim>
+class ElasticModel {
+ public:
+  // Simplex model: per-cell Young's modulus (one per mesh cell), constant ν, FE_SimplexP(degree).
+  ElasticModel(const SimplexMesh<dim>& mesh, std::vector<double> youngs_modulus, double poisson_ratio,
+               unsigned degree = 1);
+  // Voxel reference model: a structured grid of cells[0]×…×cells[dim-1] Q1 hexahedra (quads in 2D)
+  // spanning [box_min, box_max]; moduli in the same order as Image data (axis 0 fastest).
+  static ElasticModel voxel_grid(const std::array<long, dim>& cells, const Vec<dim>& box_min,
+                                 const Vec<dim>& box_max, std::vector<double> youngs_modulus,
+                                 double poisson_ratio);
+  ~ElasticModel();
+  ElasticModel(ElasticModel&&) noexcept;
+  ElasticModel& operator=(ElasticModel&&) noexcept;
+
+  void add_dirichlet(const DirichletBC<dim>& bc);
+  void add_surface_load(const SurfaceLoad<dim>& load);
+  void set_body_force(const Vec<dim>& f);
+
+  unsigned n_dofs() const;
+  unsigned n_cells() const;
+  // Vertices of the model (input mesh vertices, or grid vertices for voxel_grid).
+  const std::vector<Vec<dim>>& vertices() const;
+
+  // Solve with the given embedded point constraints (may be empty). Throws std::runtime_error
+  // if no Dirichlet condition removes the rigid-body modes.
+  Solution<dim> solve(const std::vector<PointConstraint<dim>>& points = {}, const SolverOptions& options = {});
+  // The same, as one monolithic saddle-point solve [K Cᵀ; C 0] (reference for the fast path).
+  Solution<dim> solve_monolithic(const std::vector<PointConstraint<dim>>& points, const SolverOptions& options = {});
+
+  // Displacement of the last solution at arbitrary points (compute_point_locations).
+  std::vector<Vec<dim>> sample(const std::vector<Vec<dim>>& points, PointSample* info = nullptr) const;
+
+ private:
+  ElasticModel();
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace vim::fem

@@ -1,0 +1,1 @@
+// placeholder; FEM helper replaces this file

@@ -1,0 +1,72 @@
+// The VIM optimiser (paper §IV): alternate node updates and connectivity swaps that minimise
+// E = (1-λ)·E_G/E_G0 + λ·E_D/E_D0 (Eq. 7 with the normalisation of §IV-C) under a quality bound.
+// This header is the mesher's public entry point used by the pipeline.
+#pragma once
+
+#include <vim/image.hpp>
+#include <vim/simplex_mesh.hpp>
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace vim {
+
+// Options with the paper's defaults; validate() throws std::invalid_argument naming the option.
+struct VimOptions {
+  double lambda = 0.3;                 // λ ∈ [0,1): weight of the (normalised) discretisation energy
+  double max_dihedral_deg = 150.0;     // quality bound (3D: max dihedral; 2D: max interior angle), in (90,180)
+  double min_dihedral_deg = 0.0;       // optional lower bound (0 = off)
+  double min_radius_ratio = 0.0;       // optional normalised radius-ratio lower bound in [0,1) (0 = off)
+  int max_iterations = 50;             // cap on node-update + swap sweeps
+  double convergence = 1e-3;           // Eq. 9 threshold on v
+  double line_search_step = 0.5;       // golden-section stops below this many (minimum) voxel sizes
+  enum class NodeStrategy { centroid_line_search, random_walk } strategy = NodeStrategy::centroid_line_search;
+  int random_walk_samples = 16;        // candidates per node for the random-walk strategy
+  bool swaps = true;                   // connectivity updates (2D flips; 3D 2-3, 3-2, 4-4)
+  int threads = 0;                     // 0 = TBB default; results do not depend on it
+  std::uint64_t seed = 1;              // random-walk and tie-breaking seed
+  int insert_nodes = 0;                // extra nodes to insert near high-cost elements (never above node_budget)
+  long node_budget = 0;                // hard cap for insertion (0 = current node count)
+
+  void validate() const;
+};
+
+// Per-element voxel statistics: n voxel centres inside, their mean and variance (paper Eq. 4–6).
+struct ElementValue {
+  long voxels = 0;
+  double mean = 0.0;      // element value h̃_j (centroid sample when voxels == 0)
+  double variance = 0.0;  // population variance of the enclosed voxel values
+};
+
+struct IterationRecord {
+  int iteration = 0;      // 0 = initial mesh
+  double energy = 0.0;    // E (normalised, Eq. 7)
+  double geometric = 0.0; // E_G (absolute)
+  double discretization = 0.0; // E_D (absolute)
+  double v = 0.0;         // Eq. 9 convergence measure of this iteration's node moves
+  long moves = 0;         // accepted node moves
+  long swaps = 0;         // accepted connectivity changes
+  double seconds = 0.0;
+};
+
+template <int dim>
+struct VimResult {
+  SimplexMesh<dim> mesh;                 // positively oriented
+  std::vector<ElementValue> values;      // one per cell
+  std::vector<IterationRecord> history;  // history[0] is the initial mesh
+  double eg0 = 0.0, ed0 = 0.0;           // normalisation constants (§IV-C)
+  bool converged = false;
+  std::vector<std::uint8_t> boundary_kind; // per node: 0 interior, 1 face, 2 edge, 3 corner (3D); 2D: 0,1(edge),3(corner)
+};
+
+using ProgressCallback = std::function<void(const IterationRecord&)>;
+
+// Runs VIM from `initial` (a mesh of the image box). The image must have >= 2 voxels per axis.
+template <int dim>
+VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const VimOptions& options,
+                        const ProgressCallback& progress = {});
+
+}  // namespace vim

@@ -1,0 +1,44 @@
+// Image IO through ITK: MetaImage (.mha/.mhd), NRRD, NIfTI; any scalar pixel type read as float.
+// The voxel grid goes to the mesher as Image<dim> (axis-aligned physical frame); the direction
+// matrix stays here and is applied to every output (world = origin + D·(p − origin)).
+#pragma once
+
+#include <vim/image.hpp>
+
+#include <Eigen/Core>
+
+#include <stdexcept>
+#include <string>
+
+namespace vim::pipeline {
+
+// One clear message naming the file and the problem (the CLI prints it and exits with 1).
+struct InputError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+template <int dim>
+struct OrientedImage {
+  Image<dim> image;
+  Eigen::Matrix<double, dim, dim> direction = Eigen::Matrix<double, dim, dim>::Identity();
+
+  using Point = Eigen::Matrix<double, dim, 1>;
+  Point origin() const { Point o; for (int a = 0; a < dim; ++a) o[a] = image.origin[a]; return o; }
+  // Axis-aligned physical frame (the mesher's) -> world (ITK physical point, as Slicer shows it).
+  Point to_world(const Point& p) const { return origin() + direction * (p - origin()); }
+  Point to_frame(const Point& w) const { return origin() + direction.inverse() * (w - origin()); }
+};
+
+// Number of spatial dimensions in the file's header (2 or 3); throws InputError otherwise.
+int image_dimension(const std::string& path);
+
+// Reads a scalar image; throws InputError for a missing/unreadable file, an unsupported format,
+// vector pixels, an empty image, NaN/Inf voxels or non-positive spacing.
+template <int dim>
+OrientedImage<dim> read_image(const std::string& path);
+
+// Writes a float image (.mha, .nrrd, .nii[.gz] by extension) through a temporary name + rename.
+template <int dim>
+void write_image(const OrientedImage<dim>& image, const std::string& path);
+
+}  // namespace vim::pipeline

@@ -1,0 +1,1 @@
+// placeholder; the foundation helper replaces this file
