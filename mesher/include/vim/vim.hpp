@@ -59,7 +59,7 @@ struct VimResult {
   std::vector<IterationRecord> history;  // history[0] is the initial mesh
   double eg0 = 0.0, ed0 = 0.0;           // normalisation constants (§IV-C)
   bool converged = false;
-  std::vector<std::uint8_t> boundary_kind; // per node: 0 interior, 1 face, 2 edge, 3 corner (3D); 2D: 0,1(edge),3(corner)
+  std::vector<std::uint8_t> boundary_kind; // per node: number of box faces it lies on (dim = corner)
 };
 
 using ProgressCallback = std::function<void(const IterationRecord&)>;

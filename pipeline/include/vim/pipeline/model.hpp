@@ -1,0 +1,51 @@
+// The meshed model as the pipeline passes it between stages and writers: a simplex mesh in the
+// image's axis-aligned physical frame, per-element statistics/modulus, and the frame→world map.
+#pragma once
+
+#include <vim/image.hpp>
+#include <vim/simplex_mesh.hpp>
+#include <vim/vim.hpp>
+
+#include <Eigen/Core>
+
+#include <map>
+#include <string>
+#include <vector>
+
+namespace vim::pipeline {
+
+// Axis-aligned physical frame -> world (ITK physical point): world = origin + D·(p − origin).
+template <int dim>
+struct WorldTransform {
+  Eigen::Matrix<double, dim, 1> origin = Eigen::Matrix<double, dim, 1>::Zero();
+  Eigen::Matrix<double, dim, dim> direction = Eigen::Matrix<double, dim, dim>::Identity();
+  Eigen::Matrix<double, dim, 1> to_world(const Eigen::Matrix<double, dim, 1>& p) const {
+    return origin + direction * (p - origin);
+  }
+  Eigen::Matrix<double, dim, 1> to_frame(const Eigen::Matrix<double, dim, 1>& w) const {
+    return origin + direction.transpose() * (w - origin);  // direction is orthonormal (ITK)
+  }
+  // A vector (displacement, force) from frame to world axes.
+  Eigen::Matrix<double, dim, 1> vector_to_world(const Eigen::Matrix<double, dim, 1>& v) const { return direction * v; }
+  Eigen::Matrix<double, dim, 1> vector_to_frame(const Eigen::Matrix<double, dim, 1>& v) const { return direction.transpose() * v; }
+};
+
+template <int dim>
+struct MeshModel {
+  SimplexMesh<dim> mesh;                 // frame coordinates, positively oriented
+  std::vector<ElementValue> values;      // per cell: voxel count, mean, variance
+  std::vector<double> youngs_modulus;    // per cell (Eq. 15: scaled/clamped mean); may be empty before the model stage
+  std::vector<int> segment;              // per cell component id (-1 none); empty when no threshold
+  std::vector<int> object;               // per cell 1 if in the largest component; empty when no threshold
+  WorldTransform<dim> transform;
+};
+
+// Named fields for unstructured-grid writers. Each field has n_components values per entity,
+// stored entity-major. Vectors/tensors given in the frame are rotated to world by the writer's caller.
+struct Field {
+  int components = 1;
+  std::vector<double> values;
+};
+using FieldMap = std::map<std::string, Field>;
+
+}  // namespace vim::pipeline

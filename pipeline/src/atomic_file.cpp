@@ -1,0 +1,43 @@
+// Temporary-name-then-rename writes (see atomic_file.hpp).
+#include <vim/pipeline/atomic_file.hpp>
+
+#include <atomic>
+#include <stdexcept>
+#include <unistd.h>
+
+namespace vim::pipeline {
+
+namespace fs = std::filesystem;
+
+fs::path temporary_path_for(const fs::path& final_path) {
+  static std::atomic<unsigned> counter{0};
+  const fs::path dir = final_path.has_parent_path() ? final_path.parent_path() : fs::path(".");
+  return dir / ("." + final_path.filename().string() + "." + std::to_string(::getpid()) + "." +
+                std::to_string(counter++) + ".partial");
+}
+
+void write_atomically(const fs::path& final_path, const std::function<void(const fs::path&)>& write) {
+  const fs::path tmp = temporary_path_for(final_path);
+  try {
+    write(tmp);
+    if (!fs::exists(tmp)) throw std::runtime_error("writer produced no file for " + final_path.string());
+    fs::rename(tmp, final_path);
+  } catch (...) {
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    throw;
+  }
+}
+
+void write_text_atomically(const fs::path& final_path, const std::function<void(std::ostream&)>& write) {
+  write_atomically(final_path, [&](const fs::path& tmp) {
+    std::ofstream out(tmp);
+    if (!out) throw std::runtime_error("cannot open " + tmp.string() + " for writing");
+    out.precision(17);
+    write(out);
+    out.flush();
+    if (!out) throw std::runtime_error("error while writing " + final_path.string());
+  });
+}
+
+}  // namespace vim::pipeline
