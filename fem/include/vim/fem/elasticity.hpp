@@ -6,11 +6,14 @@
 #include <vim/simplex_mesh.hpp>
 
 #include <Eigen/Core>
+#include <mpi.h>
 
 #include <array>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace vim::fem {
@@ -33,11 +36,14 @@ template <int dim> Region<dim> box_region(const Vec<dim>& lo, const Vec<dim>& hi
 template <int dim> Region<dim> cylinder_region(const Vec<dim>& center, const Vec<dim>& axis, double radius);  // infinite cylinder (2D: slab)
 
 // u_c = value_c on every support point in region, for each component c with components[c] true.
+// If `function` is set it replaces `value`: u_c = function(x)_c (e.g. a linear field for patch tests).
+// A DoF selected by several conditions takes the FIRST condition added (and counts for its reaction).
 template <int dim>
 struct DirichletBC {
   Region<dim> region;
   std::array<bool, dim> components = filled(true);
   Vec<dim> value = Vec<dim>::Zero();
+  std::function<Vec<dim>(const Vec<dim>&)> function = {};
   static std::array<bool, dim> filled(bool b) { std::array<bool, dim> a; a.fill(b); return a; }
 };
 
@@ -58,6 +64,22 @@ struct PointConstraint {
   Vec<dim> displacement = Vec<dim>::Zero();
   std::array<bool, dim> components = DirichletBC<dim>::filled(true);
 };
+
+// Eq. 15: E_j = clamp(scale · mean_j, min, max) per element, from the per-element voxel means
+// (the mesher's ElementValue::mean). Throws std::invalid_argument naming the element index and value
+// for NaN/inf means, or a result that is not > 0 (a negative mean is fine if the clamp lifts it);
+// also for scale not finite/> 0 and a clamp with min <= 0 or min > max.
+std::vector<double> element_modulus(const std::vector<double>& element_mean, double scale = 1.0,
+                                    std::optional<std::pair<double, double>> clamp = std::nullopt);
+
+// Block means of a voxel image (axis 0 fastest) over factor^dim blocks, for a downsampled fine voxel
+// reference; dims must be divisible by factor. Returns the coarse values; `coarse_dims` gets the size.
+template <int dim>
+std::vector<double> block_mean(const std::array<long, dim>& dims, const std::vector<double>& values, int factor,
+                               std::array<long, dim>* coarse_dims = nullptr);
+
+// Lamé parameters from (E, ν): {λ, μ}. 2D is plane strain everywhere in this module.
+std::pair<double, double> lame_parameters(double youngs_modulus, double poisson_ratio);
 
 struct SolverOptions {
   enum class Type { automatic, direct, amg } type = Type::automatic;
@@ -82,7 +104,9 @@ struct Solution {
   std::vector<double> von_mises;               // per cell
   double strain_energy = 0.0;                  // ½ uᵀ K u
   std::vector<Vec<dim>> dirichlet_reaction;    // per DirichletBC: Σ (K u − f) over its constrained DoFs
-  std::vector<Vec<dim>> point_force;           // per PointConstraint: force the constraint applies on the body
+  // Per PointConstraint: the force the constraint applies ON THE BODY at that point (components not
+  // selected are 0). With K u = f − Cᵀμ this is −μ: a point pulled in +x gets a force with +x sign.
+  std::vector<Vec<dim>> point_force;
   SolverStats stats;
 };
 
@@ -123,8 +147,23 @@ class ElasticModel {
   // The same, as one monolithic saddle-point solve [K Cᵀ; C 0] (reference for the fast path).
   Solution<dim> solve_monolithic(const std::vector<PointConstraint<dim>>& points, const SolverOptions& options = {});
 
+  // Solve on parallel::fullydistributed::Triangulation over `comm` (Trilinos CG + AMG with rigid-body
+  // modes). Collective: every rank must hold the same model (same mesh, moduli, conditions) and call
+  // it. Every rank gets the full vertex_displacement, per-cell fields, strain energy and reactions.
+  // Point constraints are not supported here (use solve()).
+  Solution<dim> solve_distributed(MPI_Comm comm, const SolverOptions& options = {});
+
   // Displacement of the last solution at arbitrary points (compute_point_locations).
   std::vector<Vec<dim>> sample(const std::vector<Vec<dim>>& points, PointSample* info = nullptr) const;
+
+  // ½ uᵀ K u for the continuous piecewise-linear field with the given vertex values (interpolated
+  // into the FE space; exact for P1/Q1, and for P2 a linear-per-cell field is represented exactly).
+  double strain_energy_of(const std::vector<Vec<dim>>& vertex_displacement) const;
+
+  // Per-cell Young's modulus as used (input cell order) and the Poisson ratio.
+  const std::vector<double>& youngs_modulus() const;
+  double poisson_ratio() const;
+  unsigned degree() const;
 
  private:
   ElasticModel();

@@ -1,0 +1,110 @@
+// Internal to vim_fem (deal.II inside): the state behind ElasticModel<dim>, shared by the serial
+// TU (elasticity.cpp) and the MPI TU (elasticity_mpi.cpp). Weak form (step-8):
+//   ∫ λ (∇·u)(∇·v) + 2μ ε(u):ε(v) dx = ∫ b·v dx + ∫_Γ (t − p n)·v ds,   λ, μ per cell from (E_j, ν).
+#pragma once
+
+#include <vim/fem/elasticity.hpp>
+
+#include <deal.II/base/quadrature.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/fe/fe_system.h>
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/fe/mapping.h>
+#include <deal.II/grid/grid_tools_cache.h>
+#include <deal.II/grid/tria.h>
+#include <deal.II/lac/affine_constraints.h>
+#include <deal.II/lac/full_matrix.h>
+#include <deal.II/lac/sparse_direct.h>
+#include <deal.II/lac/sparse_matrix.h>
+#include <deal.II/lac/sparsity_pattern.h>
+#include <deal.II/lac/trilinos_precondition.h>
+#include <deal.II/lac/trilinos_sparse_matrix.h>
+#include <deal.II/lac/vector.h>
+
+#include <map>
+#include <memory>
+#include <tuple>
+#include <vector>
+
+namespace vim::fem {
+
+// One scalar constraint row c·u = g on the free DoFs (Dirichlet DoFs condensed into g).
+struct ConstraintRow {
+  std::vector<dealii::types::global_dof_index> dofs;
+  std::vector<double> values;
+  double g = 0.0;      // right-hand side after moving Dirichlet contributions over
+  bool active = true;  // false: the point sits on Dirichlet DoFs only (the row is void)
+};
+
+template <int dim>
+struct ElasticModel<dim>::Impl {
+  using Key = std::pair<std::array<double, dim>, int>;  // (position, component) of a constraint row
+
+  // ---- input -------------------------------------------------------------------------------
+  bool voxel = false;
+  std::vector<Vec<dim>> vertices;
+  std::vector<double> E;  // per input cell (material_id of a deal.II cell = its input index)
+  double nu = 0.3;
+  unsigned degree = 1;
+  std::vector<DirichletBC<dim>> bcs;
+  std::vector<SurfaceLoad<dim>> loads;
+  Vec<dim> body_force = Vec<dim>::Zero();
+
+  // ---- discretisation ----------------------------------------------------------------------
+  dealii::Triangulation<dim> tria;
+  std::unique_ptr<dealii::FESystem<dim>> fe;
+  std::unique_ptr<dealii::FiniteElement<dim>> linear_fe;  // scalar P1 / Q1: vertex interpolation
+  std::unique_ptr<dealii::Mapping<dim>> mapping;
+  std::unique_ptr<dealii::Quadrature<dim>> quadrature;
+  std::unique_ptr<dealii::Quadrature<dim - 1>> face_quadrature;
+  dealii::Point<dim> unit_centroid;
+  dealii::DoFHandler<dim> dof;
+  std::unique_ptr<dealii::GridTools::Cache<dim>> cache;
+
+  // ---- assembled system (serial) -----------------------------------------------------------
+  bool assembled = false;
+  std::vector<dealii::Point<dim>> support_points;  // per DoF
+  std::vector<int> dof_bc;                          // per DoF: owning DirichletBC or -1
+  dealii::AffineConstraints<double> constraints;
+  dealii::SparsityPattern sparsity;
+  dealii::SparseMatrix<double> K;       // Dirichlet DoFs eliminated (symmetric)
+  dealii::SparseMatrix<double> K_full;  // unconstrained: energy ½uᵀKu and reactions Ku − f
+  dealii::Vector<double> f, f_full;
+  double assemble_seconds = 0.0;
+
+  // ---- solvers (cached across solve() calls) -----------------------------------------------
+  std::string method;  // "umfpack" | "cg+amg" once prepared
+  std::unique_ptr<dealii::SparseDirectUMFPACK> direct;
+  std::unique_ptr<dealii::TrilinosWrappers::SparseMatrix> K_trilinos;
+  std::unique_ptr<dealii::TrilinosWrappers::PreconditionAMG> amg;
+  double prepare_seconds = 0.0;
+  bool have_u0 = false;
+  dealii::Vector<double> u0;  // K⁻¹ f
+  unsigned u0_iterations = 0;
+  std::map<Key, std::pair<ConstraintRow, dealii::Vector<double>>> columns;  // row and K⁻¹cᵀ
+
+  // ---- last solution -----------------------------------------------------------------------
+  bool have_solution = false;
+  dealii::Vector<double> u;
+
+  // ---- shared helpers (elasticity.cpp) -----------------------------------------------------
+  void setup_dofs();
+  // Per-DoF support points over the cells given by `cells` (all active cells in serial).
+  int dirichlet_owner(const dealii::Point<dim>& x, unsigned component, double* value) const;
+  void check_rigid_modes_removed(const std::vector<std::pair<dealii::Point<dim>, unsigned>>& constrained,
+                                 std::size_t n_selected_total) const;
+  // Local stiffness and load of one cell (fe_values/fe_face_values reinit'ed inside).
+  void local_system(const typename dealii::DoFHandler<dim>::active_cell_iterator& cell,
+                    dealii::FEValues<dim>& fe_values, dealii::FEFaceValues<dim>& fe_face_values,
+                    dealii::FullMatrix<double>& Ke, dealii::Vector<double>& fe_rhs) const;
+  std::unique_ptr<dealii::FEValues<dim>> make_fe_values() const;
+  std::unique_ptr<dealii::FEFaceValues<dim>> make_face_values() const;
+  // Strain at the centroid of `cell` from the local DoF values.
+  Eigen::Matrix<double, dim, dim> centroid_strain(const typename dealii::DoFHandler<dim>::active_cell_iterator& cell,
+                                                  dealii::FEValues<dim>& centroid_values,
+                                                  const std::vector<double>& local_u) const;
+  void stress_of(const Eigen::Matrix<double, dim, dim>& eps, double E_cell, Eigen::Matrix<double, dim, dim>& sigma,
+                 double& von_mises) const;
+};
+
+}  // namespace vim::fem

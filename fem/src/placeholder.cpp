@@ -1,1 +1,0 @@
-// placeholder; FEM helper replaces this file

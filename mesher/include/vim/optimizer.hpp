@@ -1,0 +1,139 @@
+// State of the VIM optimisation (paper §IV): the mesh, per-element caches of the voxel sums and of
+// E_G, E_D (Eq. 3, 6), the fixed normalisation of §IV-C, and the node/connectivity updates of
+// §IV-B that lower E = (1−λ)·E_G/E_G0 + λ·E_D/E_D0 (Eq. 7) under the quality bound.
+#pragma once
+
+#include <vim/adjacency.hpp>
+#include <vim/image.hpp>
+#include <vim/quality.hpp>
+#include <vim/simplex_mesh.hpp>
+#include <vim/vim.hpp>
+#include <vim/voxel_statistics.hpp>
+
+#include <Eigen/Core>
+
+#include <tbb/enumerable_thread_specific.h>
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace vim {
+
+// Per-element cache: voxel sums (n, S, Q shifted by the image mean), volume, E_G (density
+// weighted), E_D and the element's share of the normalised objective.
+struct CellCache {
+  long n = 0;
+  double s = 0.0, q = 0.0;
+  double volume = 0.0, eg = 0.0, ed = 0.0, cost = 0.0;
+};
+
+struct EnergyTotals {
+  double geometric = 0.0, discretization = 0.0, energy = 0.0;
+};
+
+template <int dim>
+class VimOptimizer {
+ public:
+  using Point = Eigen::Matrix<double, dim, 1>;
+  using Simplex = std::array<Point, dim + 1>;
+  using Cell = std::array<int, dim + 1>;
+
+  // stats == nullptr: geometry only (E_D ≡ 0). density != nullptr: E_G of each element is weighted by
+  // the density sampled at its centroid (§VI-E sizing). The box constraints use the mesh's bounding
+  // box: corners fixed, edge nodes slide along their edge, face nodes within their face.
+  // Throws std::invalid_argument if a cell is inverted or degenerate (signed volume <= 0).
+  VimOptimizer(SimplexMesh<dim> mesh, const VoxelStatistics<dim>* stats, const Image<dim>* density,
+               const VimOptions& options);
+
+  // Fixes E_G0, E_D0 from the current mesh (§IV-C) and recomputes every element's cost.
+  // E_D0 == 0 (constant image, or no image) switches the image term off.
+  void fix_normalization();
+  double eg0() const { return eg0_; }
+  double ed0() const { return ed0_; }
+
+  // One node-update sweep over the colour classes (parallel inside a class). Returns accepted moves
+  // and writes Σ_i |Δx_i|² to *sum_sq.
+  long update_nodes(int iteration, double* sum_sq);
+  // Updates one node (sequential use; tests). Returns true if it moved.
+  bool update_node(int node, int iteration);
+
+  // One sequential pass of connectivity swaps (2D flips; 3D 2-3, 3-2, 4-4). Returns accepted swaps.
+  long swap_pass();
+  // Individual swaps (tests and swap_pass). Each is taken iff every new element is acceptable, the
+  // new elements tile the same region, and E drops. Return true if taken.
+  bool try_flip(int cell, int local_vertex);        // 2D: flip the edge opposite local_vertex
+  bool try_swap_23(int cell, int local_vertex);     // 3D: the facet opposite local_vertex
+  bool try_swap_32(int a, int b);                   // 3D: interior edge with 3 cells
+  bool try_swap_44(int a, int b);                   // 3D: interior edge with 4 cells
+
+  // Splits the longest edge of up to k highest-cost elements (all cells sharing the edge are
+  // split). Only splits that keep every new element acceptable and do not raise E are taken.
+  long insert_nodes(long k);
+
+  // Sums over live cells (deterministic order, extended precision).
+  EnergyTotals totals() const;
+  // Brute-force recomputation of the totals from the mesh (tests).
+  EnergyTotals recompute_totals() const;
+
+  // Live cells in index order, positively oriented.
+  SimplexMesh<dim> compact_mesh() const;
+
+  const SimplexMesh<dim>& mesh() const { return mesh_; }
+  const std::vector<char>& alive() const { return alive_; }
+  const Adjacency<dim>& adjacency() const { return adj_; }
+  const std::vector<CellCache>& caches() const { return cache_; }
+  std::uint8_t fixed_axes(int node) const { return fixed_[node]; }
+  std::size_t n_live_cells() const { return n_live_; }
+  double bbox_diagonal() const { return (box_max_ - box_min_).norm(); }
+  const Point& box_min() const { return box_min_; }
+  const Point& box_max() const { return box_max_; }
+  // Colour classes of the node graph used by update_nodes (greedy, node order).
+  const std::vector<std::vector<int>>& colour_classes() const { return colours_; }
+  void recolour();
+
+  // Evaluates one simplex (all cache fields; cost uses the current normalisation).
+  CellCache evaluate(const Simplex& x) const;
+  bool acceptable(const Simplex& x) const;
+  Simplex simplex(int cell) const { return cell_points(mesh_, static_cast<std::size_t>(cell)); }
+
+ private:
+  struct Scratch {
+    std::vector<int> ring, local;
+    std::vector<Simplex> base;
+    std::vector<CellCache> trial, best;
+  };
+  bool update_node_impl(int node, int iteration, Scratch& s, double* moved_sq);
+  double evaluate_candidate(const Point& p, Scratch& s, double bound) const;
+  double cost_of(const CellCache& c) const;
+  // Replaces old_cells by the best of the alternatives (lists of vertex tuples) that lowers E.
+  bool try_replace(const std::vector<int>& old_cells, const std::vector<std::vector<Cell>>& alternatives);
+  void set_cell(int c, const Cell& v, const CellCache& cache);
+  int new_cell_slot();
+  std::uint8_t classify(const Point& p) const;
+
+  SimplexMesh<dim> mesh_;
+  std::vector<char> alive_;
+  std::vector<int> free_;
+  std::size_t n_live_ = 0;
+  std::vector<CellCache> cache_;
+  std::vector<std::uint8_t> fixed_;  // bit a set: coordinate a is fixed (node on an axis-a face)
+  Adjacency<dim> adj_;
+  std::vector<std::vector<int>> colours_;
+
+  const VoxelStatistics<dim>* stats_;
+  const Image<dim>* density_;
+  VimOptions options_;
+  QualityBound bound_;
+  Point box_min_, box_max_;
+  double boundary_tol_ = 0.0;
+  double min_step_ = 0.0;        // line-search stopping step (physical)
+  double eg0_ = 1.0, ed0_ = 0.0;
+  double wg_ = 1.0, wd_ = 0.0;   // cost = wg·E_G + wd·E_D
+  mutable tbb::enumerable_thread_specific<Scratch> scratch_;
+};
+
+extern template class VimOptimizer<2>;
+extern template class VimOptimizer<3>;
+
+}  // namespace vim

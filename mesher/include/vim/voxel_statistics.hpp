@@ -1,0 +1,69 @@
+// Voxel enclosure and per-element voxel statistics (paper Eq. 4–6, DESIGN.md §3): which voxel
+// centres lie in a simplex, their count n, shifted sums S = Σ(h−shift), Q = Σ(h−shift)², and the
+// element mean/variance, read from per-row prefix sums in O(rows) with a consistent tie rule.
+#pragma once
+
+#include <vim/image.hpp>
+#include <vim/vim.hpp>
+
+#include <Eigen/Core>
+
+#include <array>
+#include <vector>
+
+namespace vim {
+
+// Tie rule (documented here because every element must apply the same one): in continuous index
+// space (voxel centres at integers) a centre p belongs to simplex τ iff p + ε·d(p) lies in the open
+// interior of τ for infinitesimal ε, where d(p) = c* − p points to the image centre c* and, if d(p)
+// is parallel to a face through p, the fixed directions e_0, e_1, e_2 break the tie in that order.
+// Face planes are computed from the face's vertices in a canonical (lexicographic) order, so two
+// elements sharing a face evaluate exactly negated plane values; |value| ≤ tol counts as "on the
+// face" (robust on grid-aligned meshes). Hence every centre of a mesh of a convex domain that
+// contains c* belongs to exactly one element, including centres on the domain boundary.
+template <int dim>
+class VoxelStatistics {
+ public:
+  using Point = Eigen::Matrix<double, dim, 1>;
+  using Simplex = std::array<Point, dim + 1>;
+
+  // Builds per-row prefix sums of (h − shift) and (h − shift)², shift = image mean.
+  explicit VoxelStatistics(const Image<dim>& image);
+
+  struct Sums {
+    long n = 0;       // voxel centres inside
+    double s = 0.0;   // Σ (h − shift)
+    double q = 0.0;   // Σ (h − shift)²
+  };
+
+  // Voxel centres inside x (tie rule above): O(rows), allocation-free, thread-safe.
+  Sums sums(const Simplex& x) const;
+  // Same result by testing every voxel centre of the bounding box with the same predicate
+  // (reference for tests and the benchmark; O(voxels)).
+  Sums sums_per_voxel(const Simplex& x) const;
+  // Whether the voxel centre with this index belongs to x under the tie rule.
+  bool contains(const Simplex& x, const typename Image<dim>::Index& index) const;
+
+  // mean = shift + s/n, population variance (clamped ≥ 0); n == 0 → image value at the centroid.
+  ElementValue value(const Simplex& x) const { return value_from(sums(x), x); }
+  ElementValue value_from(const Sums& s, const Simplex& x) const;
+
+  double shift() const { return shift_; }
+  const Image<dim>& image() const { return *image_; }
+
+ private:
+  struct Faces;  // per-simplex face planes in index space (defined in the .cpp)
+  bool prepare(const Simplex& x, Faces& f) const;
+
+  const Image<dim>* image_;
+  double shift_ = 0.0;
+  long row_length_ = 0;             // size[0] + 1 prefix entries per row
+  std::vector<double> prefix_s_;    // rows × (size[0] + 1)
+  std::vector<double> prefix_q_;
+  Point centre_;                    // c* in index space
+};
+
+extern template class VoxelStatistics<2>;
+extern template class VoxelStatistics<3>;
+
+}  // namespace vim

@@ -1,0 +1,75 @@
+// Segmentation of paper §VI-B: elements with mean > threshold, face-connected components (facets
+// matched by sorting vertex tuples), the largest component flagged as the object.
+#include <vim/segmentation.hpp>
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace vim {
+
+template <int dim>
+Segmentation segment(const SimplexMesh<dim>& mesh, const std::vector<ElementValue>& values, double threshold) {
+  const std::size_t nc = mesh.n_cells();
+  if (values.size() != nc)
+    throw std::invalid_argument("values: expected one ElementValue per cell (" + std::to_string(nc) + "), got " +
+                                std::to_string(values.size()));
+  Segmentation seg;
+  seg.component.assign(nc, -1);
+  seg.object.assign(nc, false);
+
+  // Facets of the cells above the threshold, as sorted vertex tuples; equal tuples are neighbours.
+  using Facet = std::array<int, dim>;
+  std::vector<std::pair<Facet, int>> facets;
+  for (std::size_t c = 0; c < nc; ++c) {
+    if (!(values[c].mean > threshold)) continue;
+    for (int i = 0; i <= dim; ++i) {
+      Facet f;
+      for (int k = 0, m = 0; k <= dim; ++k)
+        if (k != i) f[m++] = mesh.cells[c][k];
+      std::sort(f.begin(), f.end());
+      facets.emplace_back(f, static_cast<int>(c));
+    }
+  }
+  std::sort(facets.begin(), facets.end());
+  std::vector<std::vector<int>> adjacent(nc);
+  for (std::size_t k = 0; k + 1 < facets.size(); ++k)
+    if (facets[k].first == facets[k + 1].first) {
+      adjacent[facets[k].second].push_back(facets[k + 1].second);
+      adjacent[facets[k + 1].second].push_back(facets[k].second);
+    }
+
+  std::vector<long> sizes;
+  std::vector<int> stack;
+  for (std::size_t c = 0; c < nc; ++c) {
+    if (!(values[c].mean > threshold) || seg.component[c] >= 0) continue;
+    const int id = seg.n_components++;
+    long size = 0;
+    seg.component[c] = id;
+    stack.assign(1, static_cast<int>(c));
+    while (!stack.empty()) {
+      const int u = stack.back();
+      stack.pop_back();
+      ++size;
+      for (int w : adjacent[u])
+        if (seg.component[w] < 0) {
+          seg.component[w] = id;
+          stack.push_back(w);
+        }
+    }
+    sizes.push_back(size);
+  }
+  for (int id = 0; id < seg.n_components; ++id)
+    if (sizes[id] > seg.largest_size) {
+      seg.largest = id;
+      seg.largest_size = sizes[id];
+    }
+  for (std::size_t c = 0; c < nc; ++c) seg.object[c] = seg.largest >= 0 && seg.component[c] == seg.largest;
+  return seg;
+}
+
+template Segmentation segment<2>(const SimplexMesh<2>&, const std::vector<ElementValue>&, double);
+template Segmentation segment<3>(const SimplexMesh<3>&, const std::vector<ElementValue>&, double);
+
+}  // namespace vim

@@ -1,0 +1,279 @@
+// The VIM driver (paper §IV): per-element caches of Eq. 3 / Eq. 6, the fixed normalisation of
+// §IV-C, and the outer loop alternating node updates and swaps until Eq. 9's v < threshold.
+// Node updates live in node_update.cpp, swaps in swaps.cpp, insertion in insertion.cpp.
+#include <vim/energy.hpp>
+#include <vim/initial_mesh.hpp>
+#include <vim/optimizer.hpp>
+#include <vim/vim.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace vim {
+
+template <int dim>
+VimOptimizer<dim>::VimOptimizer(SimplexMesh<dim> mesh, const VoxelStatistics<dim>* stats,
+                                const Image<dim>* density, const VimOptions& options)
+    : mesh_(std::move(mesh)), stats_(stats), density_(density), options_(options) {
+  options_.validate();
+  if (mesh_.cells.empty() || mesh_.points.empty()) throw std::invalid_argument("initial mesh is empty");
+  for (const auto& cell : mesh_.cells)
+    for (int v : cell)
+      if (v < 0 || static_cast<std::size_t>(v) >= mesh_.points.size())
+        throw std::invalid_argument("initial mesh: cell vertex index out of range");
+  bound_.max_dihedral_deg = options_.max_dihedral_deg;
+  bound_.min_dihedral_deg = options_.min_dihedral_deg;
+  bound_.min_radius_ratio = options_.min_radius_ratio;
+
+  box_min_ = mesh_.points[0];
+  box_max_ = mesh_.points[0];
+  for (const auto& p : mesh_.points) {
+    box_min_ = box_min_.cwiseMin(p);
+    box_max_ = box_max_.cwiseMax(p);
+  }
+  boundary_tol_ = 1e-9 * (box_max_ - box_min_).norm();
+  const Image<dim>* img = stats_ ? &stats_->image() : density_;
+  const double voxel = img ? img->min_spacing() : (box_max_ - box_min_).minCoeff() / 100.0;
+  min_step_ = options_.line_search_step * voxel;
+
+  fixed_.resize(mesh_.points.size());
+  for (std::size_t i = 0; i < mesh_.points.size(); ++i) fixed_[i] = classify(mesh_.points[i]);
+
+  alive_.assign(mesh_.cells.size(), 1);
+  n_live_ = mesh_.cells.size();
+  cache_.resize(mesh_.cells.size());
+  for (std::size_t c = 0; c < mesh_.cells.size(); ++c) {
+    const Simplex x = simplex(static_cast<int>(c));
+    const double vol = signed_volume<dim>(x);
+    if (!(vol > 0.0)) {
+      std::ostringstream m;
+      m << "initial mesh has an inverted or degenerate element: cell " << c << " has signed volume " << vol;
+      throw std::invalid_argument(m.str());
+    }
+    cache_[c] = evaluate(x);
+  }
+  adj_.build(mesh_.points.size(), mesh_.cells);
+  fix_normalization();
+  recolour();
+}
+
+template <int dim>
+std::uint8_t VimOptimizer<dim>::classify(const Point& p) const {
+  std::uint8_t mask = 0;
+  for (int a = 0; a < dim; ++a)
+    if (std::abs(p[a] - box_min_[a]) <= boundary_tol_ || std::abs(p[a] - box_max_[a]) <= boundary_tol_)
+      mask |= static_cast<std::uint8_t>(1u << a);
+  return mask;
+}
+
+template <int dim>
+double VimOptimizer<dim>::cost_of(const CellCache& c) const {
+  return wg_ * c.eg + wd_ * c.ed;
+}
+
+template <int dim>
+CellCache VimOptimizer<dim>::evaluate(const Simplex& x) const {
+  CellCache c;
+  c.volume = signed_volume<dim>(x);
+  c.eg = geometric_energy<dim>(x);
+  if (density_) c.eg *= density_->interpolate(centroid<dim>(x));
+  if (stats_) {
+    const auto s = stats_->sums(x);
+    c.n = s.n;
+    c.s = s.s;
+    c.q = s.q;
+    if (s.n > 0) {
+      const double mean = s.s / static_cast<double>(s.n);
+      const double var = std::max(0.0, s.q / static_cast<double>(s.n) - mean * mean);
+      c.ed = discretization_energy(std::abs(c.volume), var);
+    }
+  }
+  c.cost = cost_of(c);
+  return c;
+}
+
+template <int dim>
+bool VimOptimizer<dim>::acceptable(const Simplex& x) const {
+  return vim::acceptable<dim>(x, bound_);
+}
+
+template <int dim>
+void VimOptimizer<dim>::fix_normalization() {
+  const EnergyTotals t = totals();
+  eg0_ = t.geometric > 0.0 ? t.geometric : 1.0;
+  ed0_ = t.discretization;
+  EnergyNormalization norm{eg0_, ed0_, options_.lambda};
+  // cost = (1−λ)·E_G/E_G0 + λ·E_D/E_D0 per element, the same weights as EnergyNormalization.
+  wg_ = norm.combined(1.0, 0.0);
+  wd_ = ed0_ > 0.0 ? norm.combined(0.0, 1.0) : 0.0;
+  for (std::size_t c = 0; c < cache_.size(); ++c)
+    if (alive_[c]) cache_[c].cost = cost_of(cache_[c]);
+}
+
+template <int dim>
+EnergyTotals VimOptimizer<dim>::totals() const {
+  long double g = 0.0L, d = 0.0L, e = 0.0L;
+  for (std::size_t c = 0; c < cache_.size(); ++c) {
+    if (!alive_[c]) continue;
+    g += cache_[c].eg;
+    d += cache_[c].ed;
+    e += cache_[c].cost;
+  }
+  return {static_cast<double>(g), static_cast<double>(d), static_cast<double>(e)};
+}
+
+template <int dim>
+EnergyTotals VimOptimizer<dim>::recompute_totals() const {
+  long double g = 0.0L, d = 0.0L, e = 0.0L;
+  for (std::size_t c = 0; c < mesh_.cells.size(); ++c) {
+    if (!alive_[c]) continue;
+    const CellCache k = evaluate(simplex(static_cast<int>(c)));
+    g += k.eg;
+    d += k.ed;
+    e += k.cost;
+  }
+  return {static_cast<double>(g), static_cast<double>(d), static_cast<double>(e)};
+}
+
+template <int dim>
+SimplexMesh<dim> VimOptimizer<dim>::compact_mesh() const {
+  SimplexMesh<dim> out;
+  out.points = mesh_.points;
+  out.cells.reserve(n_live_);
+  for (std::size_t c = 0; c < mesh_.cells.size(); ++c)
+    if (alive_[c]) out.cells.push_back(mesh_.cells[c]);
+  orient_positively(out);
+  return out;
+}
+
+// Greedy colouring of the node graph in node order: a node gets the smallest colour not used by an
+// already coloured neighbour. Nodes of one colour share no element, so their 1-rings are disjoint
+// in cells and no node of the class is a vertex of another's 1-ring: their updates commute.
+// Corner nodes (all axes fixed) are not scheduled.
+template <int dim>
+void VimOptimizer<dim>::recolour() {
+  const std::size_t n = mesh_.points.size();
+  std::vector<int> colour(n, -1);
+  std::vector<char> used;
+  colours_.clear();
+  const std::uint8_t all = static_cast<std::uint8_t>((1u << dim) - 1);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (fixed_[i] == all || adj_.cells_of(static_cast<int>(i)).empty()) continue;
+    used.assign(colours_.size() + 1, 0);
+    for (int c : adj_.cells_of(static_cast<int>(i)))
+      for (int v : mesh_.cells[c])
+        if (colour[v] >= 0) used[colour[v]] = 1;
+    int k = 0;
+    while (used[k]) ++k;
+    colour[i] = k;
+    if (k == static_cast<int>(colours_.size())) colours_.emplace_back();
+    colours_[k].push_back(static_cast<int>(i));
+  }
+}
+
+template <int dim>
+int VimOptimizer<dim>::new_cell_slot() {
+  if (!free_.empty()) {
+    const int c = free_.back();
+    free_.pop_back();
+    return c;
+  }
+  mesh_.cells.emplace_back();
+  cache_.emplace_back();
+  alive_.push_back(0);
+  return static_cast<int>(mesh_.cells.size() - 1);
+}
+
+template <int dim>
+void VimOptimizer<dim>::set_cell(int c, const Cell& v, const CellCache& cache) {
+  mesh_.cells[c] = v;
+  cache_[c] = cache;
+  if (!alive_[c]) ++n_live_;
+  alive_[c] = 1;
+  adj_.add_cell(c, v);
+}
+
+template class VimOptimizer<2>;
+template class VimOptimizer<3>;
+
+// ---------------------------------------------------------------------------------------------
+// optimize(): the outer loop of §IV — node updates, then connectivity swaps, then (optionally)
+// insertion, until v < options.convergence (Eq. 9) or options.max_iterations.
+template <int dim>
+VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const VimOptions& options,
+                        const ProgressCallback& progress) {
+  options.validate();
+  for (int a = 0; a < dim; ++a)
+    if (image.size[a] < 2) {
+      std::ostringstream m;
+      m << "image has " << image.size[a] << " voxel(s) along axis " << a << ": VIM needs at least 2 per axis";
+      throw std::invalid_argument(m.str());
+    }
+  if (image.data.size() != image.voxel_count()) throw std::invalid_argument("image data size does not match its size");
+
+  using clock = std::chrono::steady_clock;
+  const auto t_start = clock::now();
+  VoxelStatistics<dim> stats(image);
+  VimOptimizer<dim> opt(std::move(initial), &stats, nullptr, options);
+
+  VimResult<dim> result;
+  result.eg0 = opt.eg0();
+  result.ed0 = opt.ed0();
+  {
+    const EnergyTotals t = opt.totals();
+    IterationRecord r;
+    r.iteration = 0;
+    r.energy = t.energy;
+    r.geometric = t.geometric;
+    r.discretization = t.discretization;
+    r.seconds = std::chrono::duration<double>(clock::now() - t_start).count();
+    result.history.push_back(r);
+    if (progress) progress(r);
+  }
+
+  const long budget = options.node_budget > 0 ? options.node_budget : static_cast<long>(opt.mesh().n_points());
+  long to_insert = std::min<long>(options.insert_nodes, std::max<long>(0, budget - static_cast<long>(opt.mesh().n_points())));
+  const double b = opt.bbox_diagonal();
+  for (int it = 1; it <= options.max_iterations; ++it) {
+    const auto t0 = clock::now();
+    IterationRecord r;
+    r.iteration = it;
+    double sum_sq = 0.0;
+    const std::size_t n_nodes = opt.mesh().n_points();
+    r.moves = opt.update_nodes(it, &sum_sq);
+    r.v = std::sqrt(sum_sq / static_cast<double>(n_nodes)) / b;
+    if (options.swaps) r.swaps = opt.swap_pass();
+    long inserted = 0;
+    if (to_insert > 0) {
+      const long k = std::min<long>(to_insert, std::max<long>(1, static_cast<long>(n_nodes) / 10));
+      inserted = opt.insert_nodes(k);
+      to_insert = inserted > 0 ? to_insert - inserted : 0;  // stop when no split lowers E
+    }
+    if (r.swaps > 0 || inserted > 0) opt.recolour();
+    const EnergyTotals t = opt.totals();
+    r.energy = t.energy;
+    r.geometric = t.geometric;
+    r.discretization = t.discretization;
+    r.seconds = std::chrono::duration<double>(clock::now() - t0).count();
+    result.history.push_back(r);
+    if (progress) progress(r);
+    if (r.v < options.convergence && to_insert == 0) {
+      result.converged = true;
+      break;
+    }
+  }
+
+  result.mesh = opt.compact_mesh();
+  result.values.resize(result.mesh.n_cells());
+  for (std::size_t c = 0; c < result.mesh.n_cells(); ++c) result.values[c] = stats.value(cell_points(result.mesh, c));
+  result.boundary_kind = boundary_kind<dim>(result.mesh, opt.box_min(), opt.box_max(), 1e-9 * b);
+  return result;
+}
+
+template VimResult<2> optimize<2>(const Image<2>&, SimplexMesh<2>, const VimOptions&, const ProgressCallback&);
+template VimResult<3> optimize<3>(const Image<3>&, SimplexMesh<3>, const VimOptions&, const ProgressCallback&);
+
+}  // namespace vim

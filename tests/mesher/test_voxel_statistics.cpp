@@ -1,0 +1,198 @@
+// Tests of VoxelStatistics (voxel enclosure by rows + prefix sums, DESIGN.md §3, paper Eq. 4–6):
+// partition of the voxel centres on tie-heavy grid-aligned and perturbed meshes, and agreement with
+// an independent per-voxel barycentric enumeration on random simplices, images and spacings.
+#include "primitives_test_util.hpp"
+
+#include <vim/initial_mesh.hpp>
+#include <vim/voxel_statistics.hpp>
+
+#include <Eigen/LU>
+#include <gtest/gtest.h>
+
+#include <thread>
+
+namespace vim {
+namespace {
+
+using testing::perturbed_grid_mesh;
+using testing::random_image;
+
+// Every voxel centre is contained in exactly one cell (checked voxel by voxel), the row/prefix-sum
+// counts equal the per-voxel counts per cell, and the totals match the image.
+template <int dim>
+void expect_partition(const Image<dim>& img, const SimplexMesh<dim>& mesh) {
+  const VoxelStatistics<dim> stats(img);
+  std::vector<int> owners(img.voxel_count(), 0);
+  long total_n = 0;
+  double total_s = 0.0;
+  for (std::size_t c = 0; c < mesh.n_cells(); ++c) {
+    const auto x = cell_points(mesh, c);
+    const auto s = stats.sums(x);
+    const auto r = stats.sums_per_voxel(x);
+    ASSERT_EQ(s.n, r.n) << "cell " << c;
+    EXPECT_NEAR(s.s, r.s, 1e-9 * (1.0 + std::abs(r.s)));
+    EXPECT_NEAR(s.q, r.q, 1e-9 * (1.0 + r.q));
+    total_n += s.n;
+    total_s += s.s;
+    for (std::size_t k = 0; k < img.voxel_count(); ++k)
+      if (stats.contains(x, img.index_of(k))) ++owners[k];
+  }
+  EXPECT_EQ(total_n, static_cast<long>(img.voxel_count()));
+  double expected_s = 0.0;
+  for (float v : img.data) expected_s += v - stats.shift();
+  EXPECT_NEAR(total_s, expected_s, 1e-8);
+  long wrong = 0;
+  for (int o : owners) wrong += o != 1;
+  EXPECT_EQ(wrong, 0) << "voxel centres not owned by exactly one cell";
+}
+
+TEST(VoxelStatistics, PartitionNodesOnVoxelCentres2D) {
+  std::mt19937 rng(1);
+  const auto img = random_image<2>({13, 10}, {0.7, 1.3}, {-2.0, 5.0}, rng);
+  // Nodes every 2 voxels on axis 0, every 3 on axis 1, starting at the first voxel centre.
+  const auto mesh = regular_grid_mesh<2>(img.point_of({0, 0}), img.point_of({12, 9}), {7, 4});
+  expect_partition(img, mesh);
+}
+
+TEST(VoxelStatistics, PartitionNodesOnVoxelCentres3D) {
+  std::mt19937 rng(2);
+  const auto img = random_image<3>({9, 7, 5}, {0.5, 0.5, 3.0}, {1.0, -4.0, 2.5}, rng);
+  const auto mesh = regular_grid_mesh<3>(img.point_of({0, 0, 0}), img.point_of({8, 6, 4}), {5, 4, 3});
+  expect_partition(img, mesh);
+}
+
+TEST(VoxelStatistics, PartitionNodesOnVoxelFacesAndCentres2D) {
+  std::mt19937 rng(3);
+  const auto img = random_image<2>({12, 9}, {0.3, 0.9}, {0.25, -1.0}, rng);
+  // Image box; cells of 1.5 voxels (nodes alternate between voxel faces and centres) and 3 voxels.
+  expect_partition(img, regular_grid_mesh<2>(img.box_min(), img.box_max(), {9, 4}));
+  expect_partition(img, regular_grid_mesh<2>(img.box_min(), img.box_max(), {5, 10}));
+}
+
+TEST(VoxelStatistics, PartitionNodesOnVoxelFacesAndCentres3D) {
+  std::mt19937 rng(4);
+  const auto img = random_image<3>({6, 9, 4}, {0.4, 0.4, 1.7}, {-3.0, 0.1, 7.0}, rng);
+  expect_partition(img, regular_grid_mesh<3>(img.box_min(), img.box_max(), {5, 7, 3}));  // 1.5, 1.5, 2 voxels
+  expect_partition(img, regular_grid_mesh<3>(img.box_min(), img.box_max(), {7, 10, 5}));  // 1 voxel per cell
+}
+
+TEST(VoxelStatistics, PartitionPerturbedMeshes) {
+  std::mt19937 rng(5);
+  const auto img2 = random_image<2>({20, 15}, {0.6, 0.8}, {3.0, -2.0}, rng);
+  for (int rep = 0; rep < 3; ++rep)
+    expect_partition(img2, perturbed_grid_mesh<2>(img2.box_min(), img2.box_max(), {6, 5}, 0.3, rng));
+  const auto img3 = random_image<3>({10, 8, 7}, {0.6, 0.8, 1.5}, {3.0, -2.0, 0.5}, rng);
+  for (int rep = 0; rep < 2; ++rep)
+    expect_partition(img3, perturbed_grid_mesh<3>(img3.box_min(), img3.box_max(), {4, 4, 3}, 0.3, rng));
+}
+
+// Independent truth: barycentric coordinates of every voxel centre by an LU solve in physical
+// space; random simplices have no centre on a face, so strict inclusion is unambiguous.
+template <int dim>
+void expect_matches_bruteforce(const std::array<long, dim>& size, const std::array<double, dim>& spacing,
+                               const std::array<double, dim>& origin, int trials, unsigned seed) {
+  std::mt19937 rng(seed);
+  const auto img = random_image<dim>(size, spacing, origin, rng);
+  const VoxelStatistics<dim> stats(img);
+  const auto lo = img.box_min(), hi = img.box_max();
+  std::uniform_real_distribution<double> u(-0.1, 1.1);  // some vertices outside the image box
+  long nonempty = 0;
+  for (int t = 0; t < trials; ++t) {
+    typename VoxelStatistics<dim>::Simplex x;
+    for (auto& p : x)
+      for (int a = 0; a < dim; ++a) p[a] = lo[a] + u(rng) * (hi[a] - lo[a]);
+    if (t % 3 == 0)  // small elements too (≈ 10 voxels across)
+      for (int k = 1; k <= dim; ++k) x[k] = x[0] + 0.2 * (x[k] - x[0]);
+    Eigen::Matrix<double, dim, dim> m;
+    for (int k = 0; k < dim; ++k) m.col(k) = x[k + 1] - x[0];
+    const auto lu = m.fullPivLu();
+    std::vector<double> inside;
+    for (std::size_t k = 0; k < img.voxel_count(); ++k) {
+      const Eigen::Matrix<double, dim, 1> l = lu.solve(img.point_of(img.index_of(k)) - x[0]);
+      if (l.minCoeff() > 0.0 && l.sum() < 1.0) inside.push_back(img.data[k]);
+    }
+    const auto v = stats.value(x);
+    ASSERT_EQ(v.voxels, static_cast<long>(inside.size())) << "trial " << t;
+    if (inside.empty()) {
+      EXPECT_DOUBLE_EQ(v.mean, img.interpolate(centroid<dim>(x)));
+      EXPECT_EQ(v.variance, 0.0);
+      continue;
+    }
+    ++nonempty;
+    double mean = 0.0;
+    for (double h : inside) mean += h;
+    mean /= static_cast<double>(inside.size());
+    double var = 0.0;
+    for (double h : inside) var += (h - mean) * (h - mean);
+    var /= static_cast<double>(inside.size());
+    EXPECT_NEAR(v.mean, mean, 1e-10);
+    EXPECT_NEAR(v.variance, var, 1e-10);
+    const auto s = stats.sums(x);
+    EXPECT_NEAR(s.s, static_cast<double>(inside.size()) * (mean - stats.shift()), 1e-8);
+  }
+  EXPECT_GT(nonempty, trials / 2);
+}
+
+TEST(VoxelStatistics, MatchesBruteForce2D) {
+  expect_matches_bruteforce<2>({37, 23}, {0.5, 1.7}, {-10.0, 4.0}, 300, 11);
+}
+
+TEST(VoxelStatistics, MatchesBruteForce3D) {
+  expect_matches_bruteforce<3>({17, 13, 11}, {0.5, 0.5, 3.0}, {2.0, -7.0, 1.0}, 150, 12);
+}
+
+TEST(VoxelStatistics, EmptyElementTakesCentroidValue) {
+  // Linear image h = 1 + 2i + 3j: the centroid sample is exact.
+  Image<2> img({5, 5}, {1.0, 2.0}, {0.0, 0.0});
+  for (std::size_t k = 0; k < img.voxel_count(); ++k) {
+    const auto i = img.index_of(k);
+    img.data[k] = static_cast<float>(1 + 2 * i[0] + 3 * i[1]);
+  }
+  const VoxelStatistics<2> stats(img);
+  const VoxelStatistics<2>::Simplex x{Eigen::Vector2d(1.1, 2.2), Eigen::Vector2d(1.9, 2.2), Eigen::Vector2d(1.1, 3.8)};
+  const auto v = stats.value(x);
+  EXPECT_EQ(v.voxels, 0);
+  const Eigen::Vector2d c = centroid<2>(x);
+  EXPECT_NEAR(v.mean, 1 + 2 * c[0] + 3 * c[1] / 2.0, 1e-12);
+  EXPECT_EQ(v.variance, 0.0);
+}
+
+TEST(VoxelStatistics, ConstantImageHasZeroVariance) {
+  Image<3> img({6, 5, 4}, {1.0, 1.0, 1.0}, {0.0, 0.0, 0.0}, 4.5f);
+  const VoxelStatistics<3> stats(img);
+  EXPECT_DOUBLE_EQ(stats.shift(), 4.5);
+  const VoxelStatistics<3>::Simplex x{Eigen::Vector3d(-0.5, -0.5, -0.5), Eigen::Vector3d(5.5, -0.5, -0.5),
+                                      Eigen::Vector3d(-0.5, 4.5, -0.5), Eigen::Vector3d(-0.5, -0.5, 3.5)};
+  const auto v = stats.value(x);
+  EXPECT_GT(v.voxels, 0);
+  EXPECT_DOUBLE_EQ(v.mean, 4.5);
+  EXPECT_EQ(v.variance, 0.0);
+}
+
+TEST(VoxelStatistics, ConcurrentCallsAgree) {
+  std::mt19937 rng(13);
+  const auto img = random_image<3>({12, 12, 12}, {1.0, 1.0, 1.0}, {0.0, 0.0, 0.0}, rng);
+  const VoxelStatistics<3> stats(img);
+  const auto mesh = perturbed_grid_mesh<3>(img.box_min(), img.box_max(), {5, 5, 5}, 0.3, rng);
+  std::vector<double> serial(mesh.n_cells()), a(mesh.n_cells()), b(mesh.n_cells());
+  for (std::size_t c = 0; c < mesh.n_cells(); ++c) serial[c] = stats.value(cell_points(mesh, c)).mean;
+  auto run = [&](std::vector<double>& out) {
+    for (std::size_t c = 0; c < mesh.n_cells(); ++c) out[c] = stats.value(cell_points(mesh, c)).mean;
+  };
+  std::thread t1(run, std::ref(a)), t2(run, std::ref(b));
+  t1.join();
+  t2.join();
+  EXPECT_EQ(a, serial);
+  EXPECT_EQ(b, serial);
+}
+
+TEST(VoxelStatistics, RejectsInconsistentImage) {
+  Image<2> img({4, 4}, {1.0, 1.0}, {0.0, 0.0});
+  img.data.pop_back();
+  EXPECT_THROW(VoxelStatistics<2> s(img), std::invalid_argument);
+  Image<2> bad({4, 4}, {1.0, 0.0}, {0.0, 0.0});
+  EXPECT_THROW(VoxelStatistics<2> s(bad), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace vim
