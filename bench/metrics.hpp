@@ -9,6 +9,7 @@
 #include <vim/simplex_mesh.hpp>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <Eigen/LU>
 
 #include <algorithm>

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -18,7 +19,14 @@ struct VoxelStatistics<dim>::Faces {
   std::array<Point, dim + 1> base;    // first face vertex in canonical order
   std::array<double, dim + 1> tol;    // |plane value| ≤ tol counts as "on the face"
   std::array<bool, dim + 1> tie_in;   // on-face points are inside across this face
+  // Fast row clipping: the face's crossing of row j is at t = cross0 + Σ_{a≥1} slope[a]·j_a.
+  std::array<Point, dim + 1> slope;
+  std::array<double, dim + 1> cross0;
+  std::array<bool, dim + 1> fast;     // |n_0| large enough for the fast path
+  bool all_fast;                      // every face fast: rows use the branch-free bound below
   std::array<long, dim> lo, hi;       // voxel index range of the bounding box (clipped to the image)
+  std::array<Point, dim + 1> vertex;  // vertices in index space
+  double margin;                      // bounding-box slack, far above the tie tolerance
 };
 
 namespace {
@@ -33,6 +41,16 @@ inline double row_rest(const Vec<dim>& n, const Vec<dim>& b, const std::array<lo
   double r = 0.0;
   for (int a = 1; a < dim; ++a) r += n[a] * (static_cast<double>(j[a]) - b[a]);
   return r;
+}
+
+// floor/ceil/nearest without a libm call (|t| < 2^62 here: callers clamp to the row range first).
+inline long floor_long(double t) {
+  const long i = static_cast<long>(t);
+  return static_cast<double>(i) > t ? i - 1 : i;
+}
+inline long ceil_long(double t) {
+  const long i = static_cast<long>(t);
+  return static_cast<double>(i) < t ? i + 1 : i;
 }
 
 inline bool accepts(double f, double tol, bool tie_in) { return tie_in ? f >= -tol : f > tol; }
@@ -72,17 +90,16 @@ VoxelStatistics<dim>::VoxelStatistics(const Image<dim>& image) : image_(&image) 
   const long n0 = image.size[0];
   row_length_ = n0 + 1;
   const long rows = static_cast<long>(image.data.size()) / n0;
-  prefix_s_.assign(static_cast<std::size_t>(rows * row_length_), 0.0);
-  prefix_q_.assign(static_cast<std::size_t>(rows * row_length_), 0.0);
+  prefix_.assign(static_cast<std::size_t>(2 * rows * row_length_), 0.0);
   for (long r = 0; r < rows; ++r) {
     double s = 0.0, q = 0.0;
-    const std::size_t base = static_cast<std::size_t>(r * row_length_);
+    const std::size_t base = static_cast<std::size_t>(2 * r * row_length_);
     for (long t = 0; t < n0; ++t) {
       const double h = static_cast<double>(image.data[static_cast<std::size_t>(r * n0 + t)]) - shift_;
       s += h;
       q += h * h;
-      prefix_s_[base + static_cast<std::size_t>(t) + 1] = s;
-      prefix_q_[base + static_cast<std::size_t>(t) + 1] = q;
+      prefix_[base + 2 * static_cast<std::size_t>(t + 1)] = s;
+      prefix_[base + 2 * static_cast<std::size_t>(t + 1) + 1] = q;
     }
   }
   for (int a = 0; a < dim; ++a) centre_[a] = 0.5 * static_cast<double>(image.size[a] - 1);
@@ -100,6 +117,8 @@ bool VoxelStatistics<dim>::prepare(const Simplex& x, Faces& f) const {
   }
   if (!std::isfinite(big)) return false;
   const double margin = 1e-6 * (1.0 + big);
+  f.vertex = c;
+  f.margin = margin;
   for (int a = 0; a < dim; ++a) {
     double lo = c[0][a], hi = c[0][a];
     for (int k = 1; k <= dim; ++k) {
@@ -114,6 +133,7 @@ bool VoxelStatistics<dim>::prepare(const Simplex& x, Faces& f) const {
     f.hi[a] = static_cast<long>(hi);
   }
   const double centre_size = centre_.cwiseAbs().maxCoeff();
+  f.all_fast = true;
   for (int i = 0; i <= dim; ++i) {
     std::array<Point, dim> v;
     for (int k = 0, m = 0; k <= dim; ++k)
@@ -150,6 +170,16 @@ bool VoxelStatistics<dim>::prepare(const Simplex& x, Faces& f) const {
     f.base[i] = v[0];
     f.tol[i] = tol;
     f.tie_in[i] = in;
+    f.fast[i] = std::abs(n[0]) >= 1e-3 * norm1;
+    f.all_fast = f.all_fast && f.fast[i];
+    if (f.fast[i]) {
+      const double thr = in ? -tol : tol;
+      double rest = thr;
+      for (int a = 1; a < dim; ++a) rest += n[a] * v[0][a];
+      f.cross0[i] = v[0][0] + rest / n[0];
+      f.slope[i][0] = 0.0;
+      for (int a = 1; a < dim; ++a) f.slope[i][a] = -n[a] / n[0];
+    }
   }
   return true;
 }
@@ -159,12 +189,62 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::sums(const Simplex& x)
   Sums out;
   Faces f;
   if (!prepare(x, f)) return out;
-  std::array<long, dim> j = f.lo;  // j[0] unused; odometer over axes 1..dim-1
-  const long size1 = dim > 1 ? image_->size[1] : 1;
-  while (true) {
+  std::array<long, dim> j = f.lo;  // j[0] unused
+  auto clip_row = [&]() {
     long a = f.lo[0], b = f.hi[0];
-    for (int i = 0; i <= dim && a <= b; ++i) {
+    bool decided = false;
+    if (f.all_fast) {
+      // The row interval is [max of the crossings of faces with n_0 > 0, min of the others]; only a
+      // bound within 1e-6 of a voxel centre (a possible tie) needs the exact per-face path below.
+      double lower = static_cast<double>(a) - 0.5, upper = static_cast<double>(b) + 0.5;
+      for (int i = 0; i <= dim; ++i) {
+        double t = f.cross0[i];
+        for (int ax = 1; ax < dim; ++ax) t += f.slope[i][ax] * static_cast<double>(j[ax]);
+        if (f.normal[i][0] > 0.0)
+          lower = std::max(lower, t);
+        else
+          upper = std::min(upper, t);
+      }
+      if (lower > upper + 1e-6) return;
+      const long fl = floor_long(lower), fu = floor_long(upper);
+      const double rl = lower - static_cast<double>(fl), ru = upper - static_cast<double>(fu);
+      if (rl > 1e-6 && rl < 1.0 - 1e-6 && ru > 1e-6 && ru < 1.0 - 1e-6) {
+        a = fl + 1;
+        b = fu;
+        decided = true;
+      }
+    }
+    for (int i = 0; i <= dim && a <= b && !decided; ++i) {
       const Point& n = f.normal[i];
+      if (f.fast[i]) {
+        // Crossing of the row; trusted unless it is within 1e-6 of a voxel centre (a possible tie),
+        // where the exact predicate below decides.
+        double t = f.cross0[i];
+        for (int ax = 1; ax < dim; ++ax) t += f.slope[i][ax] * static_cast<double>(j[ax]);
+        const double lo = static_cast<double>(a) - 1e-6, hi = static_cast<double>(b) + 1e-6;
+        if (n[0] > 0.0) {  // accepted: t ≥ crossing
+          if (t < lo) continue;
+          if (t > hi) {
+            a = b + 1;
+            continue;
+          }
+        } else {  // accepted: t ≤ crossing
+          if (t > hi) continue;
+          if (t < lo) {
+            a = b + 1;
+            continue;
+          }
+        }
+        const long below = floor_long(t);
+        const double frac = t - static_cast<double>(below);
+        if (frac > 1e-6 && frac < 1.0 - 1e-6) {
+          if (n[0] > 0.0)
+            a = std::max(a, below + 1);
+          else
+            b = std::min(b, below);
+          continue;
+        }
+      }
       const double b0 = f.base[i][0], tol = f.tol[i];
       const bool tie = f.tie_in[i];
       const double r = row_rest<dim>(n, f.base[i], j);
@@ -173,16 +253,16 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::sums(const Simplex& x)
       if (n[0] == 0.0) {
         if (!ok(a)) a = b + 1;
       } else if (n[0] > 0.0) {  // accepted set is [t0, ∞)
-        double est = std::ceil(b0 + (thr - r) / n[0]);
+        double est = b0 + (thr - r) / n[0];
         est = std::min(std::max(est, static_cast<double>(a)), static_cast<double>(b + 1));
-        long t0 = static_cast<long>(est);
+        long t0 = ceil_long(est);
         while (t0 > a && ok(t0 - 1)) --t0;
         while (t0 <= b && !ok(t0)) ++t0;
         a = t0;
       } else {  // accepted set is (−∞, t1]
-        double est = std::floor(b0 + (thr - r) / n[0]);
+        double est = b0 + (thr - r) / n[0];
         est = std::min(std::max(est, static_cast<double>(a - 1)), static_cast<double>(b));
-        long t1 = static_cast<long>(est);
+        long t1 = floor_long(est);
         while (t1 < b && ok(t1 + 1)) ++t1;
         while (t1 >= a && !ok(t1)) --t1;
         b = t1;
@@ -191,23 +271,45 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::sums(const Simplex& x)
     if (a <= b) {
       long row = 0;
       if constexpr (dim == 2) row = j[1];
-      if constexpr (dim == 3) row = j[1] + size1 * j[2];
-      const std::size_t base = static_cast<std::size_t>(row * row_length_);
+      if constexpr (dim == 3) row = j[1] + image_->size[1] * j[2];
+      const double* p = prefix_.data() + 2 * row * row_length_;
       out.n += b - a + 1;
-      out.s += prefix_s_[base + static_cast<std::size_t>(b) + 1] - prefix_s_[base + static_cast<std::size_t>(a)];
-      out.q += prefix_q_[base + static_cast<std::size_t>(b) + 1] - prefix_q_[base + static_cast<std::size_t>(a)];
+      out.s += p[2 * (b + 1)] - p[2 * a];
+      out.q += p[2 * (b + 1) + 1] - p[2 * a + 1];
     }
-    int ax = 1;
-    for (; ax < dim; ++ax) {
-      if (j[ax] < f.hi[ax]) {
-        ++j[ax];
-        break;
+  };
+  if constexpr (dim == 2) {
+    for (j[1] = f.lo[1]; j[1] <= f.hi[1]; ++j[1]) clip_row();
+  } else {
+    // Per slab j_2, only rows within the cross-section's extent along axis 1 can be non-empty:
+    // intersect the 6 edges with the plane x_2 = j_2.
+    for (j[2] = f.lo[2]; j[2] <= f.hi[2]; ++j[2]) {
+      const double z = static_cast<double>(j[2]);
+      double ymin = std::numeric_limits<double>::infinity(), ymax = -ymin;
+      for (int p = 0; p <= dim; ++p) {
+        const Point& u = f.vertex[p];
+        if (std::abs(u[2] - z) <= f.margin) {
+          ymin = std::min(ymin, u[1]);
+          ymax = std::max(ymax, u[1]);
+        }
+        for (int q = p + 1; q <= dim; ++q) {
+          const Point& w = f.vertex[q];
+          if ((u[2] - z) * (w[2] - z) < 0.0) {
+            const double y = u[1] + (z - u[2]) / (w[2] - u[2]) * (w[1] - u[1]);
+            ymin = std::min(ymin, y);
+            ymax = std::max(ymax, y);
+          }
+        }
       }
-      j[ax] = f.lo[ax];
+      if (!(ymin <= ymax)) {  // slab only within the margin of the simplex: scan the whole range
+        ymin = static_cast<double>(f.lo[1]);
+        ymax = static_cast<double>(f.hi[1]);
+      }
+      const long r0 = std::max(f.lo[1], ceil_long(std::max(ymin - f.margin, static_cast<double>(f.lo[1]) - 1.0)));
+      const long r1 = std::min(f.hi[1], floor_long(std::min(ymax + f.margin, static_cast<double>(f.hi[1]) + 1.0)));
+      for (j[1] = r0; j[1] <= r1; ++j[1]) clip_row();
     }
-    if (ax == dim) break;
   }
-  (void)size1;
   return out;
 }
 

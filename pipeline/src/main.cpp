@@ -1,2 +1,4 @@
-// placeholder; the CLI helper replaces this file
-int main() { return 0; }
+// vim-pipeline: the command-line tool (options and run order in cli.hpp / cli.cpp).
+#include <vim/pipeline/cli.hpp>
+
+int main(int argc, char** argv) { return vim::pipeline::main_cli(argc, argv); }

@@ -23,6 +23,7 @@ class Adjacency {
   void build(std::size_t n_points, const std::vector<Cell>& cells, const std::vector<char>& alive = {});
 
   void add_point() { vertex_cells_.emplace_back(); }
+  void pop_point() { vertex_cells_.pop_back(); }  // the last point must have no cells
   void add_cell(int c, const Cell& v);
   void remove_cell(int c, const Cell& v);
 

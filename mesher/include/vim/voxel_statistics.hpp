@@ -58,8 +58,7 @@ class VoxelStatistics {
   const Image<dim>* image_;
   double shift_ = 0.0;
   long row_length_ = 0;             // size[0] + 1 prefix entries per row
-  std::vector<double> prefix_s_;    // rows × (size[0] + 1)
-  std::vector<double> prefix_q_;
+  std::vector<double> prefix_;      // rows × (size[0] + 1) interleaved pairs (Σ(h−shift), Σ(h−shift)²)
   Point centre_;                    // c* in index space
 };
 

@@ -1,0 +1,231 @@
+// Connectivity updates of paper §IV-B (GRUMMP-style, ref. [37]): 2D edge flips; 3D 2-3, 3-2 and
+// 4-4 swaps. A swap is taken iff every new element passes the quality bound, the new elements tile
+// exactly the region of the old ones, and E (Eq. 7) drops. Boundary facets are never swapped.
+#include <vim/optimizer.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace vim {
+
+// Replaces old_cells by the alternative with the lowest energy, if that energy is below the old
+// one. Each new cell is oriented positively; an alternative whose |volumes| do not sum to the old
+// volume (the new cells overlap / leave the region) or with an unacceptable cell is skipped.
+template <int dim>
+bool VimOptimizer<dim>::try_replace(const std::vector<int>& old_cells,
+                                    const std::vector<std::vector<Cell>>& alternatives) {
+  double old_cost = 0.0, old_volume = 0.0;
+  for (int c : old_cells) {
+    old_cost += cache_[c].cost;
+    old_volume += cache_[c].volume;
+  }
+  double best = old_cost * (1.0 - 1e-12);
+  int best_alt = -1;
+  std::vector<Cell> best_cells;
+  std::vector<CellCache> best_caches, caches;
+  for (std::size_t a = 0; a < alternatives.size(); ++a) {
+    std::vector<Cell> cells = alternatives[a];
+    bool ok = true;
+    double volume = 0.0;
+    for (Cell& v : cells) {
+      Simplex x;
+      for (int j = 0; j <= dim; ++j) x[j] = mesh_.points[v[j]];
+      double vol = signed_volume<dim>(x);
+      if (vol < 0.0) {
+        std::swap(v[0], v[1]);
+        std::swap(x[0], x[1]);
+        vol = -vol;
+      }
+      if (!acceptable(x)) {
+        ok = false;
+        break;
+      }
+      volume += vol;
+    }
+    if (!ok || std::abs(volume - old_volume) > 1e-9 * old_volume) continue;
+    caches.clear();
+    double total = 0.0;
+    for (const Cell& v : cells) {
+      Simplex x;
+      for (int j = 0; j <= dim; ++j) x[j] = mesh_.points[v[j]];
+      caches.push_back(evaluate(x));
+      total += caches.back().cost;
+    }
+    if (total < best) {
+      best = total;
+      best_alt = static_cast<int>(a);
+      best_cells = std::move(cells);
+      std::swap(best_caches, caches);
+    }
+  }
+  if (best_alt < 0) return false;
+
+  std::vector<int> slots = old_cells;
+  std::sort(slots.begin(), slots.end());
+  for (int c : slots) adj_.remove_cell(c, mesh_.cells[c]);
+  while (slots.size() > best_cells.size()) {
+    const int c = slots.back();
+    slots.pop_back();
+    alive_[c] = 0;
+    --n_live_;
+    free_.push_back(c);
+  }
+  for (int c : slots) {
+    alive_[c] = 0;
+    --n_live_;
+  }
+  while (slots.size() < best_cells.size()) slots.push_back(new_cell_slot());
+  for (std::size_t k = 0; k < best_cells.size(); ++k) set_cell(slots[k], best_cells[k], best_caches[k]);
+  return true;
+}
+
+template <int dim>
+bool VimOptimizer<dim>::try_flip(int cell, int k) {
+  if constexpr (dim != 2) {
+    return false;
+  } else {
+    if (!alive_[cell]) return false;
+    const Cell v = mesh_.cells[cell];
+    const int nb = adj_.neighbor(cell, v, k);
+    if (nb < 0) return false;  // boundary edge
+    const int c = v[k], a = v[(k + 1) % 3], b = v[(k + 2) % 3];
+    int d = -1;
+    for (int w : mesh_.cells[nb])
+      if (w != a && w != b) d = w;
+    return try_replace({cell, nb}, {{Cell{c, a, d}, Cell{c, d, b}}});
+  }
+}
+
+template <int dim>
+bool VimOptimizer<dim>::try_swap_23(int cell, int k) {
+  if constexpr (dim != 3) {
+    return false;
+  } else {
+    if (!alive_[cell]) return false;
+    const Cell v = mesh_.cells[cell];
+    const int nb = adj_.neighbor(cell, v, k);
+    if (nb < 0) return false;  // boundary facet
+    std::array<int, 3> f;
+    for (int j = 0, m = 0; j < 4; ++j)
+      if (j != k) f[m++] = v[j];
+    const int d = v[k];
+    int e = -1;
+    for (int w : mesh_.cells[nb])
+      if (w != f[0] && w != f[1] && w != f[2]) e = w;
+    return try_replace({cell, nb}, {{Cell{d, e, f[0], f[1]}, Cell{d, e, f[1], f[2]}, Cell{d, e, f[2], f[0]}}});
+  }
+}
+
+namespace {
+// Orders the link of an edge (the opposite edges (u, v) of its ring cells) into a closed cycle.
+// Returns false if the link is not a single closed cycle (a boundary edge).
+bool link_cycle(const std::vector<std::array<int, 2>>& link, std::vector<int>& cycle) {
+  const std::size_t m = link.size();
+  std::vector<char> used(m, 0);
+  cycle.assign(1, link[0][0]);
+  int current = link[0][1];
+  used[0] = 1;
+  for (std::size_t step = 1; step < m; ++step) {
+    cycle.push_back(current);
+    std::size_t j = 0;
+    while (j < m && (used[j] || (link[j][0] != current && link[j][1] != current))) ++j;
+    if (j == m) return false;
+    used[j] = 1;
+    current = link[j][0] == current ? link[j][1] : link[j][0];
+  }
+  if (current != cycle[0]) return false;
+  std::vector<int> sorted = cycle;
+  std::sort(sorted.begin(), sorted.end());
+  return std::adjacent_find(sorted.begin(), sorted.end()) == sorted.end();
+}
+}  // namespace
+
+// The ring of edge (a, b) and its link as a cycle; false unless it is an interior edge with m cells.
+template <int dim>
+static bool edge_ring(const Adjacency<dim>& adj, const std::vector<std::array<int, dim + 1>>& cells, int a, int b,
+                      std::size_t m, std::vector<int>& ring, std::vector<int>& cycle) {
+  adj.cells_with_edge(a, b, ring);
+  if (ring.size() != m) return false;
+  std::vector<std::array<int, 2>> link;
+  for (int c : ring) {
+    std::array<int, 2> uv{-1, -1};
+    int j = 0;
+    for (int w : cells[c])
+      if (w != a && w != b) uv[j++] = w;
+    link.push_back(uv);
+  }
+  return link_cycle(link, cycle);
+}
+
+template <int dim>
+bool VimOptimizer<dim>::try_swap_32(int a, int b) {
+  if constexpr (dim != 3) {
+    return false;
+  } else {
+    std::vector<int> ring, p;
+    if (!edge_ring<3>(adj_, mesh_.cells, a, b, 3, ring, p)) return false;
+    return try_replace(ring, {{Cell{p[0], p[1], p[2], a}, Cell{p[0], p[1], p[2], b}}});
+  }
+}
+
+template <int dim>
+bool VimOptimizer<dim>::try_swap_44(int a, int b) {
+  if constexpr (dim != 3) {
+    return false;
+  } else {
+    std::vector<int> ring, p;
+    if (!edge_ring<3>(adj_, mesh_.cells, a, b, 4, ring, p)) return false;
+    return try_replace(ring, {{Cell{p[0], p[2], p[1], a}, Cell{p[0], p[2], p[1], b}, Cell{p[0], p[2], p[3], a},
+                               Cell{p[0], p[2], p[3], b}},
+                              {Cell{p[1], p[3], p[0], a}, Cell{p[1], p[3], p[0], b}, Cell{p[1], p[3], p[2], a},
+                               Cell{p[1], p[3], p[2], b}}});
+  }
+}
+
+// One sequential pass, in cell / node order (deterministic): facets (2D flips, 3D 2-3 swaps), then
+// in 3D the interior edges with 3 (3-2 swap) or 4 (4-4 swap) cells.
+template <int dim>
+long VimOptimizer<dim>::swap_pass() {
+  long swaps = 0;
+  for (std::size_t c = 0; c < mesh_.cells.size(); ++c) {
+    for (int k = 0; k <= dim; ++k) {
+      if (!alive_[c]) break;
+      const int nb = adj_.neighbor(static_cast<int>(c), mesh_.cells[c], k);
+      if (nb < static_cast<int>(c)) continue;  // boundary, or the pair was tried from nb
+      const bool taken = dim == 2 ? try_flip(static_cast<int>(c), k) : try_swap_23(static_cast<int>(c), k);
+      if (taken) ++swaps;
+    }
+  }
+  if constexpr (dim == 3) {
+    std::vector<int> nbrs, ring;
+    for (std::size_t a = 0; a < mesh_.points.size(); ++a) {
+      nbrs.clear();
+      for (int c : adj_.cells_of(static_cast<int>(a)))
+        for (int w : mesh_.cells[c])
+          if (w > static_cast<int>(a)) nbrs.push_back(w);
+      std::sort(nbrs.begin(), nbrs.end());
+      nbrs.erase(std::unique(nbrs.begin(), nbrs.end()), nbrs.end());
+      for (int b : nbrs) {
+        adj_.cells_with_edge(static_cast<int>(a), b, ring);
+        if (ring.size() == 3 && try_swap_32(static_cast<int>(a), b)) ++swaps;
+        else if (ring.size() == 4 && try_swap_44(static_cast<int>(a), b)) ++swaps;
+      }
+    }
+  }
+  return swaps;
+}
+
+template bool VimOptimizer<2>::try_replace(const std::vector<int>&, const std::vector<std::vector<Cell>>&);
+template bool VimOptimizer<3>::try_replace(const std::vector<int>&, const std::vector<std::vector<Cell>>&);
+template bool VimOptimizer<2>::try_flip(int, int);
+template bool VimOptimizer<3>::try_flip(int, int);
+template bool VimOptimizer<2>::try_swap_23(int, int);
+template bool VimOptimizer<3>::try_swap_23(int, int);
+template bool VimOptimizer<2>::try_swap_32(int, int);
+template bool VimOptimizer<3>::try_swap_32(int, int);
+template bool VimOptimizer<2>::try_swap_44(int, int);
+template bool VimOptimizer<3>::try_swap_44(int, int);
+template long VimOptimizer<2>::swap_pass();
+template long VimOptimizer<3>::swap_pass();
+
+}  // namespace vim

@@ -1,0 +1,73 @@
+// Mesh exports for other tools (DESIGN.md §6, issue 7): legacy VTK for deal.II's GridIn::read_vtk,
+// FEBio (.feb, per-element E map), Gmsh 4.1 (.msh, physical group per material bin) and Abaqus (.inp,
+// element set + material per bin). All in WORLD coordinates (direction matrix applied), every cell
+// positively oriented in world space, each file written under a temporary name and renamed.
+#pragma once
+
+#include <vim/pipeline/model.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <Eigen/Core>
+
+#include <array>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace vim::pipeline {
+
+struct ExportOptions {
+  double poisson_ratio = 0.49;  // ν written to .feb and .inp (nearly incompressible soft tissue)
+  int max_material_bins = 255;  // material ids stay in 1..255 (8-bit safe for every reader)
+};
+
+// The valid --export names, in the order the files are written: vtk, feb, msh, inp.
+const std::vector<std::string>& export_formats();
+
+// "vtk,msh" -> {"vtk","msh"}; "all" or "" -> every format. Throws std::invalid_argument naming an
+// unknown entry and the valid list.
+std::vector<std::string> parse_export_formats(const std::string& comma_separated);
+
+// Per-element material index: the element modulus (youngs_modulus, or the element mean when that
+// is empty) binned into at most max_bins bins. When there are at most max_bins distinct moduli,
+// every distinct value is its own bin (exact); otherwise equal-width bins over [min, max]. Empty
+// bins are dropped, so ids are 1..n_bins, ordered by modulus.
+struct MaterialBins {
+  std::vector<double> element_modulus;  // per element, the value that was binned
+  std::vector<int> element_material;    // per element, material id in 1..n_bins
+  std::vector<double> modulus;          // per bin (index id-1): mean modulus of its elements
+  std::vector<double> lower, upper;     // per bin: smallest/largest element modulus in it
+  std::vector<long> count;              // per bin: number of elements
+  std::size_t n_bins() const { return modulus.size(); }
+};
+
+template <int dim>
+MaterialBins material_bins(const MeshModel<dim>& model, int max_bins = 255);
+
+// The mesh in world coordinates with every cell positively oriented in world space (a direction
+// matrix with det < 0 mirrors the mesh; the first two vertices of each cell are then swapped).
+template <int dim>
+SimplexMesh<dim> world_mesh(const MeshModel<dim>& model);
+
+// Single-format writers (world mesh + bins computed by the caller with the two functions above).
+template <int dim>
+void write_vtk_legacy(const std::filesystem::path& path, const SimplexMesh<dim>& world, const MaterialBins& bins);
+void write_feb(const std::filesystem::path& path, const SimplexMesh<3>& world, const MaterialBins& bins,
+               double poisson_ratio);
+template <int dim>
+void write_msh(const std::filesystem::path& path, const SimplexMesh<dim>& world, const MaterialBins& bins);
+template <int dim>
+void write_inp(const std::filesystem::path& path, const SimplexMesh<dim>& world, const MaterialBins& bins,
+               double poisson_ratio);
+
+// Writes dir/mesh.{vtk,feb,msh,inp} for the requested formats (subset of export_formats(); an
+// unknown name throws std::invalid_argument before anything is written) and fills
+// report["exports"]: files written, skipped formats with the reason (FEBio has no 2D solid
+// elements), material_table [{id, E, E_min, E_max, elements}], element_modulus, poisson_ratio.
+template <int dim>
+void write_exports(const MeshModel<dim>& model, const std::filesystem::path& dir,
+                   const std::vector<std::string>& formats, nlohmann::json& report,
+                   const ExportOptions& options = {});
+
+}  // namespace vim::pipeline

@@ -1,0 +1,69 @@
+// Needle geometry for the kinematic insertion model (DESIGN.md §5): locating points in the model's
+// cells, sampling the embedded shaft points along the straight path, and solving for the axial
+// values of force-controlled (sliding) points, which the stick-slip and force models need.
+#pragma once
+
+#include <vim/simplex_mesh.hpp>
+
+#include <Eigen/Core>
+
+#include <array>
+#include <functional>
+#include <vector>
+
+namespace vim::pipeline {
+
+// Point location in a simplex mesh or in a regular grid of cells (frame coordinates). locate()
+// returns the cell containing p (-1 outside) and, optionally, the model vertices whose P1/Q1 shape
+// functions are non-zero at p (the support of an embedded-point constraint there).
+template <int dim>
+class CellLocator {
+ public:
+  using Vec = Eigen::Matrix<double, dim, 1>;
+  static CellLocator simplex(const SimplexMesh<dim>& mesh);
+  // Grid of cells[0]×…×cells[dim-1] cells on [lo, hi]; `vertices` are the model's vertices in its own
+  // numbering (every lattice point must be one of them).
+  static CellLocator grid(const std::array<long, dim>& cells, const Vec& lo, const Vec& hi, const std::vector<Vec>& vertices);
+
+  long locate(const Vec& p, std::vector<int>* support = nullptr) const;
+  // Mean edge length of the cells (a length scale for the shaft sampling).
+  double mean_edge_length() const { return mean_edge_; }
+
+ private:
+  bool is_grid_ = false;
+  SimplexMesh<dim> mesh_;  // own copy (cells and points)
+  std::vector<Eigen::Matrix<double, dim, dim>> inverse_;  // per simplex: maps x - x0 to barycentrics 1..dim
+  Vec lo_, hi_, bucket_size_;
+  std::array<long, dim> nb_{};
+  std::vector<std::vector<int>> buckets_;
+  std::array<long, dim> cells_{};
+  std::vector<int> lattice_to_vertex_;
+  double mean_edge_ = 0.0;
+};
+
+// One embedded shaft point: reference (frame) position entry + s·axis and the length of shaft it stands for.
+template <int dim>
+struct ShaftPoint {
+  Eigen::Matrix<double, dim, 1> position;
+  double s = 0.0;
+  double length = 0.0;
+};
+
+// Shaft points at s = 0, pitch, 2·pitch, … < depth, keeping a candidate only if its support differs
+// from the previous kept point's (at most one point per cell crossed, so the constraints stay linearly
+// independent) and has at least one vertex that is not `blocked` (fully fixed by a Dirichlet condition).
+template <int dim>
+std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator, const Eigen::Matrix<double, dim, 1>& entry,
+                                          const Eigen::Matrix<double, dim, 1>& axis, double depth, double pitch,
+                                          const std::vector<bool>& blocked);
+
+// Force control by conjugate gradients on the axial values. `axial_force(w)` solves the model with
+// axial constraint values w (one per point) and returns the axial forces; the map is affine with a
+// symmetric positive definite matrix on the `free` entries. Finds w on the free entries such that
+// force_free = target_free (other entries of w are kept); returns the number of solves used.
+// `length_scale` (e.g. the shaft pitch) sets the size of the probing steps.
+int solve_axial_forces(std::vector<double>& w, const std::vector<bool>& free, const std::vector<double>& target,
+                       const std::function<std::vector<double>(const std::vector<double>&)>& axial_force,
+                       double length_scale, double tolerance, int max_iterations);
+
+}  // namespace vim::pipeline

@@ -1,0 +1,67 @@
+// A tiny RGB raster canvas for the figures (no display, no fonts): pixels, Bresenham lines, filled
+// polygons (scanline, pixel centres), rectangles, a viridis-like colormap and grey ramp, and PNG
+// output through ITK's PNGImageIO under a temporary name (write_atomically).
+#pragma once
+
+#include <Eigen/Core>
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+namespace vim::pipeline {
+
+struct Rgb {
+  std::uint8_t r = 0, g = 0, b = 0;
+  bool operator==(const Rgb& o) const { return r == o.r && g == o.g && b == o.b; }
+  bool operator!=(const Rgb& o) const { return !(*this == o); }
+};
+
+namespace colors {
+inline constexpr Rgb white{255, 255, 255};
+inline constexpr Rgb black{0, 0, 0};
+inline constexpr Rgb outline{255, 0, 0};      // element outlines over the grey image
+inline constexpr Rgb axis{40, 40, 40};
+inline constexpr Rgb light_grey{200, 200, 200};
+}  // namespace colors
+
+// Viridis-like map of t ∈ [0,1] (clamped); never pure black, never grey (r == g == b).
+Rgb viridis(double t);
+// Grey ramp of t ∈ [0,1] (clamped): r = g = b.
+Rgb grey(double t);
+// Distinct line colours for plot series (cycled).
+Rgb series_color(int k);
+
+class Canvas {
+ public:
+  Canvas(int width, int height, Rgb background = colors::white);
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+  bool inside(int x, int y) const { return x >= 0 && y >= 0 && x < width_ && y < height_; }
+  void set(int x, int y, Rgb c) {
+    if (inside(x, y)) pixels_[static_cast<std::size_t>(y) * width_ + x] = c;
+  }
+  Rgb at(int x, int y) const { return pixels_[static_cast<std::size_t>(y) * width_ + x]; }
+
+  // Bresenham line between pixel positions (rounded), both ends included; thickness 1 or more.
+  void line(double x0, double y0, double x1, double y1, Rgb c, int thickness = 1);
+  // Closed outline of a polygon.
+  void polyline_closed(const std::vector<Eigen::Vector2d>& pts, Rgb c, int thickness = 1);
+  // Fills every pixel whose centre (x + 0.5, y + 0.5) is inside the polygon (even-odd rule).
+  void fill_polygon(const std::vector<Eigen::Vector2d>& pts, Rgb c);
+  void fill_rect(int x0, int y0, int x1, int y1, Rgb c);  // inclusive corners
+
+  // Writes an 8-bit RGB PNG (ITK PNGImageIO) via a temporary name + rename.
+  void write_png(const std::filesystem::path& path) const;
+
+  // Reads an RGB PNG back (tests, and tools that post-process figures).
+  static Canvas read_png(const std::filesystem::path& path);
+
+ private:
+  int width_, height_;
+  std::vector<Rgb> pixels_;
+};
+
+}  // namespace vim::pipeline

@@ -1,0 +1,103 @@
+// Needle-insertion simulation on the meshed model (issue 6, DESIGN.md §5): per-cell modulus (Eq. 15),
+// boundary conditions from the scenario (world regions mapped to the image frame), and a rigid straight
+// needle advanced in steps. Each step is one ElasticModel::solve with embedded-point constraints on
+// the fast condensed path (K factorised once, K⁻¹Cᵀ columns cached as shaft points are picked up).
+//
+// Needle models (all in the reference configuration, small strain):
+//  * kinematic / stick: shaft points s_j = entry + s·a are sampled along the path (about one per cell
+//    crossed). A point is picked up when the tip travel d passes s_j; from then on it moves with the
+//    rigid needle: u_j = (d − s_j)·a, lateral displacement 0 (it stays on the shaft). The most
+//    recently picked-up point is the one the tip pushes. Pure stick drags the shaft's tissue along
+//    with the needle; it is the upper bound of tissue drag.
+//  * kinematic / stick-slip: the same, but a point whose axial load exceeds max_shear_per_length × (its
+//    shaft length) slides: its axial value is solved (conjugate gradients on the condensed map, each
+//    iteration one fast solve) so that its load equals the limit; slip accumulates (u_j = d − s_j − slip_j).
+//    Lateral displacement stays 0. Active set: sliding points whose load falls below the limit stick again.
+//  * force: every passed shaft point carries the axial friction force friction_per_length × length and
+//    the most recently picked-up point also the tip force; lateral displacement 0 (the shaft holds the
+//    tissue). Point loads are realised as point constraints whose axial values are solved for.
+// Needle force: F = −Σ point_force (the force the tissue exerts on the needle), world axes; reported as
+// axial = −F·a (insertion resistance, > 0 when the tissue resists) and lateral = |F − (F·a)a|.
+#pragma once
+
+#include <vim/fem/elasticity.hpp>
+#include <vim/pipeline/model.hpp>
+#include <vim/pipeline/scenario.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace vim::pipeline {
+
+struct SimulationOptions {
+  // Where to write: returns the absolute path for a file relative to the output folder (creating
+  // parent folders), e.g. OutputDirectory::file. Empty: write nothing (tests, benchmarks).
+  std::function<std::filesystem::path(const std::string& relative)> output_file;
+  std::optional<unsigned> degree;   // overrides scenario mesh.degree (the CLI's --degree)
+  bool monolithic = false;          // solve each step with solve_monolithic (reference for the fast path)
+  bool keep_step_fields = false;    // keep every step's vertex displacement in the result (tests)
+  bool progress = true;             // a progress line per step on stderr
+};
+
+template <int dim>
+struct NeedleRun {
+  using Vec = Eigen::Matrix<double, dim, 1>;
+  std::string name;
+  Vec axis;                                        // world, unit
+  std::vector<double> depth;                       // per step (step 0 = rest)
+  std::vector<Vec> tip;                            // world
+  std::vector<Vec> force;                          // world: force of the tissue on the needle
+  std::vector<double> axial_force, lateral_force;  // see the header comment
+  std::vector<std::vector<Vec>> target_displacement;  // [step][target], world axes
+  std::vector<std::vector<Vec>> vertex_displacement;  // world axes: every step if keep_step_fields, else the last
+  std::vector<int> active_points;                  // shaft points constrained at each step
+  std::vector<int> solves;                         // model solves per step (> 1 with sliding points)
+  double max_displacement = 0.0;                   // largest vertex displacement norm over all steps
+  double solve_seconds = 0.0;                      // total time in solves
+  double steps_per_second = 0.0;
+  fem::SolverStats stats;                          // of the last solve
+};
+
+template <int dim>
+struct SimulationResult {
+  std::vector<NeedleRun<dim>> needles;
+  nlohmann::json report;  // for report.json["simulation"]
+};
+
+template <int dim>
+class NeedleSimulation {
+ public:
+  using Vec = Eigen::Matrix<double, dim, 1>;
+  // Simplex model (VIM or grid mesh) in the frame; per-cell modulus from model.values (Eq. 15 with
+  // the scenario's scale and clamp) or the scenario's constant. Validates everything that needs the
+  // mesh (regions that select no node, targets outside the mesh) and throws ScenarioError; writes nothing.
+  NeedleSimulation(const MeshModel<dim>& model, const Scenario& scenario, SimulationOptions options = {});
+  // Fine voxel reference model: one Q1 cell per voxel of `image`, E = voxel value × scale (clamped).
+  static NeedleSimulation voxel(const Image<dim>& image, const WorldTransform<dim>& transform, const Scenario& scenario,
+                                SimulationOptions options = {});
+  ~NeedleSimulation();
+  NeedleSimulation(NeedleSimulation&&) noexcept;
+
+  // Runs every needle of the scenario from rest; writes the outputs when options.output_file is set.
+  SimulationResult<dim> run();
+
+  const std::vector<double>& youngs_modulus() const;  // per cell, as used
+  fem::ElasticModel<dim>& model();
+
+ private:
+  NeedleSimulation();
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Convenience: construct + run.
+template <int dim>
+SimulationResult<dim> run_simulation(const MeshModel<dim>& model, const Scenario& scenario, SimulationOptions options = {});
+
+}  // namespace vim::pipeline

@@ -1,0 +1,600 @@
+// The vim-pipeline command line (see cli.hpp). run_dim<dim>() shows the run order:
+//   read_image → initial mesh → VIM optimisation (or grid / voxel) → segmentation
+//   → [simulation] → mesh.vtu → [exports, figures] → report.json → summary.
+// Other stages plug in at the call sites marked "PLUG-IN".
+#include <vim/pipeline/cli.hpp>
+
+#include <vim/initial_mesh.hpp>
+#include <vim/pipeline/atomic_file.hpp>
+#include <vim/pipeline/image_io.hpp>
+#include <vim/pipeline/model.hpp>
+#include <vim/pipeline/report.hpp>
+#include <vim/pipeline/vtk_output.hpp>
+#include <vim/quality.hpp>
+#include <vim/segmentation.hpp>
+#include <vim/version.hpp>
+#include <vim/voxel_statistics.hpp>
+#include <vim/energy.hpp>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdarg>
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+
+namespace vim::pipeline {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::string to_string(MesherKind m) {
+  switch (m) {
+    case MesherKind::vim: return "vim";
+    case MesherKind::grid: return "grid";
+    case MesherKind::voxel: return "voxel";
+  }
+  return "?";
+}
+
+VimOptions RunOptions::vim_options() const {
+  VimOptions v;
+  v.lambda = lambda;
+  v.max_dihedral_deg = max_dihedral_deg;
+  v.max_iterations = max_iterations;
+  v.threads = threads;
+  v.seed = seed;
+  return v;
+}
+
+// ---------------------------------------------------------------------------------------------
+// OutputDirectory
+
+OutputDirectory::OutputDirectory(fs::path dir, bool overwrite) : dir_(std::move(dir)) {
+  std::error_code ec;
+  if (dir_.empty()) throw InputError("--out: no output directory given");
+  if (fs::exists(dir_, ec)) {
+    if (!fs::is_directory(dir_, ec))
+      throw InputError("--out " + dir_.string() + ": exists and is not a directory");
+    if (!overwrite && !fs::is_empty(dir_, ec))
+      throw InputError("--out " + dir_.string() +
+                       ": output directory is not empty; choose a new or empty directory, or pass --overwrite");
+  }
+}
+
+void OutputDirectory::create() {
+  if (ready_) return;
+  std::error_code ec;
+  if (!fs::exists(dir_, ec)) {
+    if (!fs::create_directories(dir_, ec) || ec)
+      throw InputError("--out " + dir_.string() + ": cannot create the directory (" + ec.message() + ")");
+    created_dir_ = true;
+  }
+  ready_ = true;
+}
+
+fs::path OutputDirectory::file(const std::string& relative) {
+  create();
+  const fs::path p = dir_ / relative;
+  // Create intermediate folders (e.g. steps/, figures/), remembering those this run made.
+  std::vector<fs::path> missing;
+  for (fs::path d = p.parent_path(); d != dir_ && !d.empty() && !fs::exists(d); d = d.parent_path())
+    missing.push_back(d);
+  for (auto it = missing.rbegin(); it != missing.rend(); ++it) {
+    fs::create_directory(*it);
+    created_subdirs_.push_back(*it);
+  }
+  if (std::find(relative_.begin(), relative_.end(), relative) == relative_.end()) relative_.push_back(relative);
+  return p;
+}
+
+OutputDirectory::~OutputDirectory() {
+  if (committed_ || !ready_) return;
+  std::error_code ec;
+  for (const auto& r : relative_) fs::remove(dir_ / r, ec);
+  for (auto it = created_subdirs_.rbegin(); it != created_subdirs_.rend(); ++it)
+    if (fs::is_empty(*it, ec)) fs::remove(*it, ec);
+  if (created_dir_ && fs::is_empty(dir_, ec)) fs::remove(dir_, ec);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Command line
+
+namespace {
+
+CLI::Validator half_open_unit() {
+  return CLI::Validator(
+      [](std::string& s) -> std::string {
+        double v = 0;
+        try {
+          std::size_t pos = 0;
+          v = std::stod(s, &pos);
+          if (pos != s.size()) throw std::invalid_argument(s);
+        } catch (...) {
+          return "value " + s + " is not a number";
+        }
+        return (v >= 0.0 && v < 1.0) ? std::string() : "value " + s + " not in [0, 1)";
+      },
+      "in [0, 1)");
+}
+
+CLI::Validator open_interval(double lo, double hi) {
+  std::ostringstream d;
+  d << "in (" << lo << ", " << hi << ")";
+  const std::string desc = d.str();
+  return CLI::Validator(
+      [lo, hi, desc](std::string& s) -> std::string {
+        double v = 0;
+        try {
+          std::size_t pos = 0;
+          v = std::stod(s, &pos);
+          if (pos != s.size()) throw std::invalid_argument(s);
+        } catch (...) {
+          return "value " + s + " is not a number";
+        }
+        return (v > lo && v < hi) ? std::string() : "value " + s + " not " + desc;
+      },
+      desc);
+}
+
+const char* kFooter = R"(Outputs (in DIR):
+  mesh.vtu     the mesh in world coordinates (image direction applied); cell data mean, variance,
+               voxels, quality (3D: max dihedral angle, 2D: min angle, degrees), with --threshold
+               also segment and object; point data boundary (number of box faces a node lies on)
+  report.json  input, options, mesh counts and quality, energy history, timings (see README)
+  A non-empty DIR is refused unless --overwrite; a failed run removes the files it wrote.
+
+Exit status: 0 success, 1 bad input or failure (one 'vim-pipeline: error:' line), 2 usage error.
+
+Examples:
+  vim-make-phantom table1 table1.mha
+  vim-pipeline --info table1.mha
+  vim-pipeline table1.mha --nodes 343 --threshold 1.5 --out out/table1
+  vim-pipeline table1.mha --nodes 343 --mesher grid --out out/table1-grid
+  vim-make-phantom prostate prostate.mha
+  vim-pipeline prostate.mha --nodes 1000 --lambda 0.3 --out out/prostate
+  vim-pipeline prostate.mha --nodes 1000 --simulate examples/prostate_needle.yaml --out out/needle)";
+
+}  // namespace
+
+std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_code) {
+  RunOptions o;
+  for (int i = 0; i < argc; ++i) o.command_line.emplace_back(argv[i]);
+  const VimOptions d;
+
+  CLI::App app{
+      "vim-pipeline: Image-based Variational Meshing (Goksel & Salcudean, IEEE TMI 2011) of a 2D/3D\n"
+      "image (e.g. an elastogram of Young's modulus), optionally followed by a needle-insertion FEM\n"
+      "simulation. Lengths are in the image's unit (mm for the shipped phantoms), values in its\n"
+      "value unit (kPa for elastograms).",
+      "vim-pipeline"};
+  app.get_formatter()->column_width(34);
+  app.footer(kFooter);
+  app.set_version_flag("--version", std::string("vim-pipeline ") + VIM_VERSION_STRING);
+
+  app.add_option("image", o.image,
+                 "Input image: MetaImage (.mha/.mhd), NRRD (.nrrd/.nhdr) or NIfTI (.nii/.nii.gz); 2D or 3D, "
+                 "scalar, any pixel type (read as float)")
+      ->type_name("IMAGE")
+      ->required();
+  app.add_option("-o,--out", o.out, "Output directory (required unless --info); must be empty or new")
+      ->type_name("DIR");
+  app.add_flag("--info", o.info, "Print the image's size, spacing, extent, direction and value statistics, then exit");
+
+  auto* nodes = app.add_option("-n,--nodes", o.nodes,
+                               "Node budget of the initial regular grid (default 1000; range [4, 10^8]; "
+                               "a 3D image needs >= 8); per-axis counts follow the box's aspect ratio")
+                    ->type_name("N")
+                    ->check(CLI::Range(4L, 100000000L));
+  app.add_option("--spacing", o.spacing,
+                 "Initial grid edge length in image units, instead of --nodes (default: off; > 0)")
+      ->type_name("MM")
+      ->check(CLI::PositiveNumber)
+      ->excludes(nodes);
+  app.add_option("--lambda", o.lambda,
+                 "Weight of the image term in E = (1-λ)E_G/E_G0 + λE_D/E_D0 (default " + std::to_string(d.lambda).substr(0, 4) +
+                     "; range [0, 1); 0 = purely geometric)")
+      ->type_name("L")
+      ->check(half_open_unit());
+  app.add_option("--max-dihedral", o.max_dihedral_deg,
+                 "Quality bound: largest dihedral angle in 3D / interior angle in 2D, degrees (default " +
+                     std::to_string(static_cast<int>(d.max_dihedral_deg)) + "; range (90, 180))")
+      ->type_name("DEG")
+      ->check(open_interval(90.0, 180.0));
+  app.add_option("--max-iterations", o.max_iterations,
+                 "Cap on VIM iterations (default " + std::to_string(d.max_iterations) +
+                     "; range [0, 100000]); the run stops earlier when v < 1e-3 (Eq. 9)")
+      ->type_name("K")
+      ->check(CLI::Range(0, 100000));
+  app.add_option("--threads", o.threads,
+                 "Worker threads (default 0 = all cores; range [0, 1024]); results do not depend on it")
+      ->type_name("T")
+      ->check(CLI::Range(0, 1024));
+  app.add_option("--seed", o.seed, "Random seed for tie-breaking and random-walk updates (default 1; >= 0)")
+      ->type_name("S");
+  app.add_option("--sizing", o.sizing,
+                 "Sizing/density image (same dimension as IMAGE, values > 0; larger = denser) for an "
+                 "E_G-only initialisation (paper §VI-E) (default: none)")
+      ->type_name("IMAGE");
+  app.add_option("--threshold", o.threshold,
+                 "Segment elements whose mean value is > T into face-connected components; the largest "
+                 "is the object (paper §VI-B) (default: off; unit of the image values)")
+      ->type_name("T");
+  std::string mesher = "vim";
+  app.add_option("--mesher", mesher,
+                 "vim = VIM optimisation; grid = the unoptimised initial grid with the same nodes; voxel = "
+                 "one cell per voxel (fine reference) (default vim)")
+      ->type_name("vim|grid|voxel")
+      ->check(CLI::IsMember({"vim", "grid", "voxel"}));
+  app.add_option("--degree", o.degree,
+                 "FEM polynomial degree for --simulate: 1 = linear (the paper's model), 2 = quadratic "
+                 "(avoids locking for ν near 0.5) (default 1; range {1, 2})")
+      ->type_name("1|2")
+      ->check(CLI::Range(1, 2));
+  app.add_option("--simulate", o.simulate,
+                 "Needle-insertion scenario (YAML) to simulate on the mesh (default: mesh only)")
+      ->type_name("SCENARIO.yaml");
+  app.add_option("--export", o.exports,
+                 "Extra mesh formats, comma-separated: vtk (legacy, deal.II GridIn), feb (FEBio), msh "
+                 "(Gmsh 4.1), inp (Abaqus), none (default: vtk,feb,msh,inp; mesh.vtu is always written)")
+      ->type_name("LIST")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"vtk", "feb", "msh", "inp", "none"}));
+  app.add_flag("--overwrite", o.overwrite, "Write into a non-empty DIR, replacing files of the same name");
+  bool quiet = false, verbose = false;
+  auto* q = app.add_flag("-q,--quiet", quiet, "Only errors on stderr, no summary on stdout");
+  app.add_flag("-v,--verbose", verbose, "More progress detail on stderr")->excludes(q);
+
+  try {
+    app.parse(argc, argv);
+    if (!o.info && o.out.empty()) throw CLI::RequiredError("--out");
+  } catch (const CLI::CallForHelp& e) {
+    exit_code = app.exit(e);
+    return std::nullopt;
+  } catch (const CLI::CallForAllHelp& e) {
+    exit_code = app.exit(e);
+    return std::nullopt;
+  } catch (const CLI::CallForVersion& e) {
+    exit_code = app.exit(e);
+    return std::nullopt;
+  } catch (const CLI::ParseError& e) {
+    std::string msg = e.what();
+    for (char& c : msg)
+      if (c == '\n') c = ' ';
+    std::cerr << "vim-pipeline: error: " << msg << " (see vim-pipeline --help)\n";
+    exit_code = 2;
+    return std::nullopt;
+  }
+  o.mesher = mesher == "grid" ? MesherKind::grid : mesher == "voxel" ? MesherKind::voxel : MesherKind::vim;
+  if (std::find(o.exports.begin(), o.exports.end(), "none") != o.exports.end()) o.exports.clear();
+  o.verbosity = quiet ? Verbosity::quiet : verbose ? Verbosity::verbose : Verbosity::normal;
+  exit_code = 0;
+  return o;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The run
+
+namespace {
+
+json options_json(const RunOptions& o) {
+  json j;
+  j["nodes"] = o.nodes;
+  j["spacing"] = o.spacing;
+  j["lambda"] = o.lambda;
+  j["max_dihedral_deg"] = o.max_dihedral_deg;
+  j["max_iterations"] = o.max_iterations;
+  j["threads"] = o.threads;
+  j["seed"] = o.seed;
+  j["sizing"] = o.sizing.empty() ? json(nullptr) : json(o.sizing);
+  j["threshold"] = o.threshold ? json(*o.threshold) : json(nullptr);
+  j["mesher"] = to_string(o.mesher);
+  j["degree"] = o.degree;
+  j["simulate"] = o.simulate.empty() ? json(nullptr) : json(o.simulate);
+  j["export"] = o.exports;
+  j["overwrite"] = o.overwrite;
+  return j;
+}
+
+std::string fmt(const char* f, ...) __attribute__((format(printf, 1, 2)));
+std::string fmt(const char* f, ...) {
+  char buf[512];
+  va_list ap;
+  va_start(ap, f);
+  std::vsnprintf(buf, sizeof buf, f, ap);
+  va_end(ap);
+  return buf;
+}
+
+template <int dim>
+void check_meshable(const OrientedImage<dim>& img, const std::string& file) {
+  for (int a = 0; a < dim; ++a)
+    if (img.image.size[a] < 2) {
+      std::string sz;
+      for (int b = 0; b < dim; ++b) sz += (b ? " x " : "") + std::to_string(img.image.size[b]);
+      throw InputError(file + ": image is 1 voxel thick along axis " + std::to_string(a) + " (size " + sz +
+                       "); meshing needs at least 2 voxels per axis (store a single slice as a 2D image)");
+    }
+}
+
+// Per-element values of a fixed mesh (the grid mesher) and its energies, as history[0].
+template <int dim>
+void evaluate_fixed_mesh(const Image<dim>& image, MeshModel<dim>& model, const VimOptions& vo, json& report) {
+  const VoxelStatistics<dim> stats(image);
+  model.values.resize(model.mesh.n_cells());
+  double eg = 0.0, ed = 0.0;
+  for (std::size_t c = 0; c < model.mesh.n_cells(); ++c) {
+    const auto x = cell_points(model.mesh, c);
+    model.values[c] = stats.value(x);
+    eg += geometric_energy<dim>(x);
+    ed += discretization_energy(std::abs(signed_volume<dim>(x)), model.values[c].variance);
+  }
+  IterationRecord r;
+  r.geometric = eg;
+  r.discretization = ed;
+  r.energy = EnergyNormalization{eg, ed, vo.lambda}.combined(eg, ed);
+  report["optimization"] = {{"iterations", 0}, {"converged", false}, {"eg0", eg}, {"ed0", ed},
+                            {"history", history_json({r})}};
+}
+
+// mesh-only output for --mesher voxel: one quad/hexahedron per voxel, value = voxel value.
+template <int dim>
+UnstructuredGrid voxel_grid(const OrientedImage<dim>& img) {
+  const Image<dim>& im = img.image;
+  UnstructuredGrid g;
+  g.vtk_cell_type = dim == 3 ? 12 : 9;
+  g.nodes_per_cell = 1 << dim;
+  std::array<long, dim> np{};
+  std::size_t n_points = 1;
+  for (int a = 0; a < dim; ++a) n_points *= static_cast<std::size_t>(np[a] = im.size[a] + 1);
+  g.points.reserve(n_points);
+  for (std::size_t k = 0; k < n_points; ++k) {
+    std::size_t r = k;
+    Eigen::Matrix<double, dim, 1> p;
+    for (int a = 0; a < dim; ++a) {
+      p[a] = im.origin[a] + (static_cast<double>(r % np[a]) - 0.5) * im.spacing[a];
+      r /= np[a];
+    }
+    const auto w = img.to_world(p);
+    std::array<double, 3> q{0, 0, 0};
+    for (int a = 0; a < dim; ++a) q[a] = w[a];
+    g.points.push_back(q);
+  }
+  // VTK corner order: quad (0,0),(1,0),(1,1),(0,1); hexahedron the same on z=0 then z=1.
+  const int order2[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  Field value{1, {}};
+  value.values.reserve(im.voxel_count());
+  for (std::size_t k = 0; k < im.voxel_count(); ++k) {
+    const auto idx = im.index_of(k);
+    for (int z = 0; z < (dim == 3 ? 2 : 1); ++z)
+      for (const auto& c : order2) {
+        long id = 0, stride = 1;
+        for (int a = 0; a < dim; ++a) {
+          const long off = a == 0 ? c[0] : a == 1 ? c[1] : z;
+          id += (idx[a] + off) * stride;
+          stride *= np[a];
+        }
+        g.connectivity.push_back(id);
+      }
+    value.values.push_back(im.data[k]);
+  }
+  g.cell_data["value"] = std::move(value);
+  return g;
+}
+
+template <int dim>
+int run_dim(const RunOptions& o) {
+  json report;
+  report["tool"] = {{"name", "vim-pipeline"}, {"version", VIM_VERSION_STRING}};
+  report["command_line"] = o.command_line;
+  report["options"] = options_json(o);
+  report["out"] = o.out.string();
+  const auto t_total = std::chrono::steady_clock::now();
+
+  OutputDirectory out(o.out, o.overwrite);  // refuses a non-empty DIR before any work
+  if (!o.simulate.empty())  // remove when run_simulation is wired at the PLUG-IN below
+    throw InputError("--simulate " + o.simulate + ": the simulation stage is not available in this build");
+
+  // 1. Image
+  StageTimer t_read(report, "read_image");
+  const OrientedImage<dim> img = read_image<dim>(o.image);
+  t_read.stop();
+  report["input"] = image_json(img, o.image);
+  Log::info("image", fmt("%s: %dD, %zu voxels, values %.4g..%.4g", o.image.c_str(), dim, img.image.voxel_count(),
+                         report["input"]["values"]["min"].get<double>(), report["input"]["values"]["max"].get<double>()));
+  check_meshable(img, o.image);
+  const VimOptions vo = o.vim_options();
+  vo.validate();
+
+  std::optional<OrientedImage<dim>> sizing;
+  if (!o.sizing.empty()) {
+    if (image_dimension(o.sizing) != dim)
+      throw InputError(o.sizing + ": sizing image is " + std::to_string(image_dimension(o.sizing)) +
+                       "D but IMAGE is " + std::to_string(dim) + "D; they must match");
+    sizing = read_image<dim>(o.sizing);
+    const ImageSummary s = summarize(sizing->image);
+    if (!(s.min > 0.0))
+      throw InputError(o.sizing + ": sizing image has values <= 0 (min " + std::to_string(s.min) +
+                       "); density must be positive everywhere");
+    report["sizing"] = image_json(*sizing, o.sizing);
+  }
+
+  MeshModel<dim> model;
+  model.transform.origin = img.origin();
+  model.transform.direction = img.direction;
+  const auto bmin = img.image.box_min(), bmax = img.image.box_max();
+
+  UnstructuredGrid grid;
+  if (o.mesher == MesherKind::voxel) {
+    // The fine voxel model. PLUG-IN (engineer D/B): with --simulate, the voxel reference model
+    // is built by the simulation stage from `img`; mesh-only mode writes the voxel grid itself.
+    StageTimer t(report, "voxel_grid");
+    grid = voxel_grid(img);
+    t.stop();
+    report["mesh"] = {{"mesher", "voxel"}, {"nodes", grid.points.size()}, {"elements", grid.n_cells()}};
+  } else {
+    // 2. Initial mesh: Kuhn/Freudenthal grid with the node budget (or spacing).
+    StageTimer t_init(report, "initial_mesh");
+    if (o.spacing <= 0.0 && o.nodes < (1L << dim))
+      throw InputError("--nodes " + std::to_string(o.nodes) + ": a " + std::to_string(dim) + "D mesh needs at least " +
+                       std::to_string(1 << dim) + " nodes (2 per axis)");
+    const std::array<int, dim> per_axis = o.spacing > 0.0 ? nodes_per_axis_for_spacing<dim>(bmin, bmax, o.spacing)
+                                                          : nodes_per_axis_for_budget<dim>(bmin, bmax, o.nodes);
+    SimplexMesh<dim> initial = regular_grid_mesh<dim>(bmin, bmax, per_axis);
+    t_init.stop();
+    Log::info("mesh", fmt("initial grid %s: %zu nodes, %zu elements", [&] {
+                std::string s;
+                for (int a = 0; a < dim; ++a) s += (a ? "x" : "") + std::to_string(per_axis[a]);
+                return s;
+              }().c_str(), initial.n_points(), initial.n_cells()));
+
+    if (o.mesher == MesherKind::grid) {
+      StageTimer t(report, "voxel_statistics");
+      model.mesh = std::move(initial);
+      evaluate_fixed_mesh(img.image, model, vo, report);
+      t.stop();
+    } else {
+      // 3. VIM optimisation (paper §IV).
+      if (sizing) {
+        // PLUG-IN (engineer A2): E_G-only initialisation with the density image (§VI-E) goes here,
+        // replacing `initial`; the mesher API has no sizing entry point yet.
+        Log::warning("sizing", "the mesher has no sizing entry point yet; " + o.sizing + " was read and checked but not used");
+      }
+      StageTimer t(report, "optimize");
+      const auto start = std::chrono::steady_clock::now();
+      auto progress = [&](const IterationRecord& r) {
+        const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        std::string left;
+        if (r.iteration > 0 && r.iteration < vo.max_iterations)
+          left = fmt(", at most ~%.0fs left", el / r.iteration * (vo.max_iterations - r.iteration));
+        Log::info("vim", fmt("iteration %d: E %.6f (E_G %.5g, E_D %.5g), v %.2e, moves %ld, swaps %ld, %.1fs%s",
+                             r.iteration, r.energy, r.geometric, r.discretization, r.v, r.moves, r.swaps, el,
+                             left.c_str()));
+      };
+      VimResult<dim> result = optimize<dim>(img.image, std::move(initial), vo, progress);
+      t.stop();
+      if (result.ed0 == 0.0)
+        Log::warning("vim", "the image is constant inside the box (E_D0 = 0): the mesh is optimised for E_G only");
+      model.mesh = std::move(result.mesh);
+      model.values = std::move(result.values);
+      report["optimization"] = {{"iterations", result.history.empty() ? 0 : result.history.back().iteration},
+                                {"converged", result.converged},
+                                {"eg0", result.eg0},
+                                {"ed0", result.ed0},
+                                {"history", history_json(result.history)}};
+    }
+
+    // 4. Segmentation (§VI-B).
+    if (o.threshold) {
+      StageTimer t(report, "segment");
+      const Segmentation seg = segment<dim>(model.mesh, model.values, *o.threshold);
+      model.segment = seg.component;
+      model.object.assign(seg.object.begin(), seg.object.end());
+      double volume = 0.0;
+      long voxels = 0;
+      for (std::size_t c = 0; c < model.mesh.n_cells(); ++c)
+        if (seg.object[c]) {
+          volume += std::abs(signed_volume(model.mesh, c));
+          voxels += model.values[c].voxels;
+        }
+      report["segmentation"] = {{"threshold", *o.threshold},    {"components", seg.n_components},
+                                {"object_elements", seg.largest_size}, {"object_volume", volume},
+                                {"object_voxels", voxels}};
+      t.stop();
+    }
+
+    report["mesh"] = {{"mesher", to_string(o.mesher)},
+                      {"nodes", model.mesh.n_points()},
+                      {"elements", model.mesh.n_cells()},
+                      {"nodes_per_axis", per_axis},
+                      {"quality", quality_json(model.mesh)}};
+
+    // 5. PLUG-IN (engineer D): needle simulation.
+    //    if (!o.simulate.empty()) run_simulation<dim>(img, model, o, out, report);
+    //    (it may fill model.youngs_modulus, which mesh.vtu then carries as "youngs_modulus").
+
+    grid = simplex_grid(model.mesh, model.transform);
+    const std::size_t nc = model.mesh.n_cells();
+    Field mean{1, {}}, variance{1, {}}, voxels{1, {}}, quality{1, {}};
+    for (std::size_t c = 0; c < nc; ++c) {
+      mean.values.push_back(model.values[c].mean);
+      variance.values.push_back(model.values[c].variance);
+      voxels.values.push_back(static_cast<double>(model.values[c].voxels));
+      const auto x = cell_points(model.mesh, c);
+      quality.values.push_back(dim == 3 ? max_dihedral_deg<dim>(x) : min_dihedral_deg<dim>(x));
+    }
+    grid.cell_data["mean"] = std::move(mean);
+    grid.cell_data["variance"] = std::move(variance);
+    grid.cell_data["voxels"] = std::move(voxels);
+    grid.cell_data["quality"] = std::move(quality);
+    if (!model.segment.empty()) {
+      grid.cell_data["segment"] = Field{1, std::vector<double>(model.segment.begin(), model.segment.end())};
+      grid.cell_data["object"] = Field{1, std::vector<double>(model.object.begin(), model.object.end())};
+    }
+    if (model.youngs_modulus.size() == nc) grid.cell_data["youngs_modulus"] = Field{1, model.youngs_modulus};
+    double diag = (bmax - bmin).norm();
+    const auto kind = boundary_kind<dim>(model.mesh, bmin, bmax, 1e-9 * diag);
+    grid.point_data["boundary"] = Field{1, std::vector<double>(kind.begin(), kind.end())};
+  }
+
+  // 6. Writers.
+  StageTimer t_write(report, "write");
+  write_vtu(out.file("mesh.vtu"), grid);
+  // PLUG-IN (engineer E): exports and figures, e.g.
+  //    write_exports<dim>(model, o, out, report);   (exports.hpp; o.exports lists the formats)
+  //    write_figures<dim>(img, model, o, out, report);   (figures.hpp)
+  t_write.stop();
+
+  report["timing"]["total"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_total).count();
+  out.file("report.json");
+  report["outputs"] = out.files();
+  write_text_atomically(out.path() / "report.json", [&](std::ostream& s) { s << report.dump(2) << "\n"; });
+  out.commit();
+  if (o.verbosity != Verbosity::quiet) print_summary(std::cout, report);
+  return 0;
+}
+
+int run_info(const RunOptions& o) {
+  const int d = image_dimension(o.image);
+  json j = d == 2 ? image_json(read_image<2>(o.image), o.image) : image_json(read_image<3>(o.image), o.image);
+  std::cout << o.image << " (" << d << "D)\n";
+  print_image_info(std::cout, j);
+  return 0;
+}
+
+void print_error(std::string msg) {
+  for (char& c : msg)
+    if (c == '\n' || c == '\r') c = ' ';
+  std::cerr << "vim-pipeline: error: " << msg << "\n";
+}
+
+}  // namespace
+
+int run(const RunOptions& o) {
+  Log::set_verbosity(o.verbosity);
+  try {
+    if (o.info) return run_info(o);
+    return image_dimension(o.image) == 2 ? run_dim<2>(o) : run_dim<3>(o);
+  } catch (const InputError& e) {
+    print_error(e.what());
+  } catch (const std::invalid_argument& e) {
+    print_error(e.what());
+  } catch (const std::bad_alloc&) {
+    print_error("out of memory (try a smaller image or fewer --nodes)");
+  } catch (const std::exception& e) {
+    print_error(e.what());
+  }
+  return 1;
+}
+
+int main_cli(int argc, char** argv) {
+  int code = 0;
+  const auto options = parse_command_line(argc, argv, code);
+  if (!options) return code;
+  return run(*options);
+}
+
+}  // namespace vim::pipeline

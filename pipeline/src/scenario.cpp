@@ -1,0 +1,547 @@
+// Scenario YAML parsing and validation (issue 6). yaml-cpp gives no position for missing keys or
+// bad conversions, so every access goes through the small checkers below, which name the key path,
+// the YAML line and the valid values.
+#include <vim/pipeline/scenario.hpp>
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <regex>
+#include <set>
+#include <sstream>
+
+namespace vim::pipeline {
+
+namespace {
+
+const char* const kFaceNames[] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};
+
+std::string join(const std::vector<std::string>& v, const char* sep = ", ") {
+  std::string s;
+  for (std::size_t i = 0; i < v.size(); ++i) s += (i ? sep : "") + v[i];
+  return s;
+}
+
+std::string fmt(double x) {
+  std::ostringstream s;
+  s << x;
+  return s.str();
+}
+
+std::string scalar_text(const YAML::Node& n) {
+  if (n.IsScalar()) return "'" + n.Scalar() + "'";
+  if (n.IsSequence()) return "a list";
+  if (n.IsMap()) return "a mapping";
+  return "nothing";
+}
+
+class Reader {
+ public:
+  explicit Reader(const Scenario& s) : s_(s) {}
+
+  [[noreturn]] void fail(const YAML::Node& n, const std::string& msg) const {
+    throw ScenarioError(s_.where(line(n)) + msg);
+  }
+  static int line(const YAML::Node& n) {
+    if (!n.IsDefined()) return 0;
+    const auto m = n.Mark();
+    return m.line >= 0 ? m.line + 1 : 0;
+  }
+
+  void expect_map(const YAML::Node& n, const std::string& path) const {
+    if (!n.IsMap()) fail(n, path + " must be a mapping, got " + scalar_text(n));
+  }
+  void check_keys(const YAML::Node& n, const std::string& path, const std::vector<std::string>& valid) const {
+    expect_map(n, path);
+    for (const auto& kv : n) {
+      const std::string k = kv.first.Scalar();
+      if (std::find(valid.begin(), valid.end(), k) == valid.end())
+        fail(kv.first, "unknown key '" + (path.empty() ? k : path + "." + k) + "'; valid keys" +
+                           (path.empty() ? "" : " of " + path) + ": " + join(valid));
+    }
+  }
+  YAML::Node require(const YAML::Node& parent, const std::string& key, const std::string& path) const {
+    YAML::Node n = parent[key];
+    if (!n) fail(parent, "missing key '" + path + "'");
+    return n;
+  }
+
+  double number(const YAML::Node& n, const std::string& path) const {
+    if (!n.IsScalar()) fail(n, path + " must be a number, got " + scalar_text(n));
+    double v = 0.0;
+    try {
+      v = n.as<double>();
+    } catch (const YAML::Exception&) {
+      fail(n, path + " must be a number, got " + scalar_text(n));
+    }
+    if (!std::isfinite(v)) fail(n, path + " must be a finite number, got " + scalar_text(n));
+    return v;
+  }
+  double positive(const YAML::Node& n, const std::string& path) const {
+    const double v = number(n, path);
+    if (!(v > 0.0)) fail(n, path + " must be > 0, got " + fmt(v));
+    return v;
+  }
+  long integer(const YAML::Node& n, const std::string& path) const {
+    if (!n.IsScalar()) fail(n, path + " must be an integer, got " + scalar_text(n));
+    static const std::regex re("[+-]?[0-9]+");
+    if (!std::regex_match(n.Scalar(), re)) fail(n, path + " must be an integer, got " + scalar_text(n));
+    try {
+      return n.as<long>();
+    } catch (const YAML::Exception&) {
+      fail(n, path + " must be an integer, got " + scalar_text(n));
+    }
+  }
+  std::string string(const YAML::Node& n, const std::string& path) const {
+    if (!n.IsScalar()) fail(n, path + " must be a string, got " + scalar_text(n));
+    return n.Scalar();
+  }
+  std::string choice(const YAML::Node& n, const std::string& path, const std::vector<std::string>& valid) const {
+    const std::string v = string(n, path);
+    if (std::find(valid.begin(), valid.end(), v) == valid.end())
+      fail(n, path + " = '" + v + "' is not valid; use one of: " + join(valid));
+    return v;
+  }
+  bool boolean(const YAML::Node& n, const std::string& path) const {
+    if (!n.IsScalar()) fail(n, path + " must be true or false, got " + scalar_text(n));
+    try {
+      return n.as<bool>();
+    } catch (const YAML::Exception&) {
+      fail(n, path + " must be true or false, got " + scalar_text(n));
+    }
+  }
+  std::vector<double> vector(const YAML::Node& n, const std::string& path, int dim) const {
+    if (!n.IsSequence() || static_cast<int>(n.size()) != dim)
+      fail(n, path + " must be a list of " + std::to_string(dim) + " numbers ([" + (dim == 3 ? "x, y, z" : "x, y") +
+                  "]) for a " + std::to_string(dim) + "D image, got " +
+                  (n.IsSequence() ? "a list of " + std::to_string(n.size()) : scalar_text(n)));
+    std::vector<double> v;
+    for (std::size_t i = 0; i < n.size(); ++i) v.push_back(number(n[i], path + "[" + std::to_string(i) + "]"));
+    return v;
+  }
+  std::vector<double> nonzero_vector(const YAML::Node& n, const std::string& path, int dim) const {
+    std::vector<double> v = vector(n, path, dim);
+    double s = 0.0;
+    for (double x : v) s += x * x;
+    if (!(std::sqrt(s) > 1e-12)) fail(n, path + " must be a non-zero vector, got [" + join_numbers(v) + "]");
+    for (double& x : v) x /= std::sqrt(s);
+    return v;
+  }
+  static std::string join_numbers(const std::vector<double>& v) {
+    std::vector<std::string> s;
+    for (double x : v) s.push_back(fmt(x));
+    return join(s);
+  }
+
+ private:
+  const Scenario& s_;
+};
+
+RegionSpec parse_region(const Reader& r, const YAML::Node& n, const std::string& path, int dim) {
+  r.check_keys(n, path, {"box_face", "box", "sphere", "cylinder"});
+  if (n.size() != 1) r.fail(n, path + " must have exactly one of: box_face, box, sphere, cylinder");
+  RegionSpec reg;
+  const auto kv = *n.begin();
+  const std::string kind = kv.first.Scalar();
+  const YAML::Node v = kv.second;
+  const std::string p = path + "." + kind;
+  if (kind == "box_face") {
+    std::vector<std::string> valid(kFaceNames, kFaceNames + 2 * dim);
+    reg.kind = RegionSpec::Kind::box_face;
+    reg.face = r.string(v, p);
+    const auto it = std::find(valid.begin(), valid.end(), reg.face);
+    if (it == valid.end())
+      r.fail(v, p + " = '" + reg.face + "' is not a face of the " + std::to_string(dim) + "D image box; use one of: " + join(valid));
+    const int k = static_cast<int>(it - valid.begin());
+    reg.axis = k / 2;
+    reg.upper = (k % 2) == 1;
+  } else if (kind == "box") {
+    r.check_keys(v, p, {"min", "max"});
+    reg.kind = RegionSpec::Kind::box;
+    reg.lo = r.vector(r.require(v, "min", p + ".min"), p + ".min", dim);
+    reg.hi = r.vector(r.require(v, "max", p + ".max"), p + ".max", dim);
+    for (int d = 0; d < dim; ++d)
+      if (!(reg.lo[d] <= reg.hi[d])) r.fail(v, p + ": min must be <= max on every axis (axis " + std::to_string(d) + ")");
+  } else if (kind == "sphere") {
+    r.check_keys(v, p, {"center", "radius"});
+    reg.kind = RegionSpec::Kind::sphere;
+    reg.center = r.vector(r.require(v, "center", p + ".center"), p + ".center", dim);
+    reg.radius = r.positive(r.require(v, "radius", p + ".radius"), p + ".radius");
+  } else {
+    r.check_keys(v, p, {"center", "axis", "radius"});
+    reg.kind = RegionSpec::Kind::cylinder;
+    reg.center = r.vector(r.require(v, "center", p + ".center"), p + ".center", dim);
+    reg.axis_vector = r.nonzero_vector(r.require(v, "axis", p + ".axis"), p + ".axis", dim);
+    reg.radius = r.positive(r.require(v, "radius", p + ".radius"), p + ".radius");
+  }
+  return reg;
+}
+
+NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string& path, int dim) {
+  r.check_keys(n, path, {"name", "entry", "direction", "depth", "steps", "diameter", "model", "friction", "sample_spacing",
+                         "tip_force", "friction_per_length"});
+  NeedleSpec s;
+  s.line = Reader::line(n);
+  if (n["name"]) {
+    s.name = r.string(n["name"], path + ".name");
+    static const std::regex re("[A-Za-z0-9_-]+");
+    if (!std::regex_match(s.name, re))
+      r.fail(n["name"], path + ".name = '" + s.name + "' must use only letters, digits, '_' and '-' (it names a folder)");
+  }
+  s.entry = r.vector(r.require(n, "entry", path + ".entry"), path + ".entry", dim);
+  s.direction = r.nonzero_vector(r.require(n, "direction", path + ".direction"), path + ".direction", dim);
+  s.depth = r.positive(r.require(n, "depth", path + ".depth"), path + ".depth");
+  {
+    const YAML::Node st = r.require(n, "steps", path + ".steps");
+    const long steps = r.integer(st, path + ".steps");
+    if (steps <= 0) r.fail(st, path + ".steps must be > 0, got " + std::to_string(steps));
+    if (steps > 1000000) r.fail(st, path + ".steps must be <= 1000000, got " + std::to_string(steps));
+    s.steps = static_cast<int>(steps);
+  }
+  s.diameter = r.positive(r.require(n, "diameter", path + ".diameter"), path + ".diameter");
+  if (n["model"]) s.model = r.choice(n["model"], path + ".model", {"kinematic", "force"}) == "force" ? NeedleSpec::Model::force : NeedleSpec::Model::kinematic;
+  if (n["friction"]) {
+    const YAML::Node f = n["friction"];
+    const std::string fp = path + ".friction";
+    r.check_keys(f, fp, {"model", "max_shear_per_length"});
+    const std::string m = r.choice(r.require(f, "model", fp + ".model"), fp + ".model", {"stick", "stick-slip"});
+    s.friction = m == "stick" ? NeedleSpec::Friction::stick : NeedleSpec::Friction::stick_slip;
+    if (s.friction == NeedleSpec::Friction::stick_slip) {
+      if (!f["max_shear_per_length"])
+        r.fail(f, "missing key '" + fp + ".max_shear_per_length' (required for friction model stick-slip; force per unit length, > 0)");
+      s.max_shear_per_length = r.positive(f["max_shear_per_length"], fp + ".max_shear_per_length");
+    } else if (f["max_shear_per_length"]) {
+      r.fail(f["max_shear_per_length"], fp + ".max_shear_per_length applies only to model stick-slip");
+    }
+  }
+  if (n["sample_spacing"]) s.sample_spacing = r.positive(n["sample_spacing"], path + ".sample_spacing");
+  const bool force = s.model == NeedleSpec::Model::force;
+  for (const char* k : {"tip_force", "friction_per_length"}) {
+    if (!n[k]) continue;
+    if (!force) r.fail(n[k], path + "." + k + " applies only to needle model 'force'");
+    const double v = r.number(n[k], path + "." + k);
+    if (v < 0.0) r.fail(n[k], path + "." + k + " must be >= 0, got " + fmt(v));
+    (std::string(k) == "tip_force" ? s.tip_force : s.friction_per_length) = v;
+  }
+  if (force && !(s.tip_force > 0.0 || s.friction_per_length > 0.0))
+    r.fail(n, path + ": needle model 'force' needs tip_force and/or friction_per_length > 0");
+  return s;
+}
+
+}  // namespace
+
+std::string RegionSpec::describe() const {
+  std::ostringstream s;
+  auto v = [](const std::vector<double>& x) {
+    std::ostringstream o;
+    o << "[";
+    for (std::size_t i = 0; i < x.size(); ++i) o << (i ? ", " : "") << x[i];
+    o << "]";
+    return o.str();
+  };
+  switch (kind) {
+    case Kind::box_face: s << "box_face " << face; break;
+    case Kind::box: s << "box " << v(lo) << ".." << v(hi); break;
+    case Kind::sphere: s << "sphere center " << v(center) << " radius " << radius; break;
+    case Kind::cylinder: s << "cylinder center " << v(center) << " axis " << v(axis_vector) << " radius " << radius; break;
+  }
+  return s.str();
+}
+
+bool Scenario::wants(const std::string& field) const {
+  return std::find(output_fields.begin(), output_fields.end(), field) != output_fields.end();
+}
+
+std::string Scenario::where(int line) const {
+  return line > 0 ? source + ":" + std::to_string(line) + ": " : source + ": ";
+}
+
+Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::string& source_name) {
+  Scenario s;
+  s.source = source_name;
+  s.text = yaml_text;
+  s.dim = dim;
+  if (dim != 2 && dim != 3) throw ScenarioError(s.where(0) + "only 2D and 3D images are supported");
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw ScenarioError(s.where(e.mark.line >= 0 ? e.mark.line + 1 : 0) + "YAML syntax error: " + e.msg);
+  }
+  const Reader r(s);
+  if (!root || root.IsNull()) throw ScenarioError(s.where(0) + "the scenario file is empty");
+  r.check_keys(root, "", {"units", "material", "mesh", "boundary_conditions", "needle", "needles", "targets", "output", "solver"});
+
+  if (const YAML::Node u = root["units"]) {
+    r.check_keys(u, "units", {"length", "modulus"});
+    if (u["length"]) s.length_unit = r.string(u["length"], "units.length");
+    if (u["modulus"]) s.modulus_unit = r.string(u["modulus"], "units.modulus");
+  }
+
+  if (const YAML::Node m = root["material"]) {
+    r.check_keys(m, "material", {"youngs_modulus", "scale", "clamp", "poisson_ratio"});
+    if (const YAML::Node e = m["youngs_modulus"]) {
+      if (e.IsScalar() && e.Scalar() == "image") {
+        s.modulus_from_image = true;
+      } else {
+        if (!e.IsScalar()) r.fail(e, "material.youngs_modulus must be 'image' or a number > 0, got " + scalar_text(e));
+        double v = 0.0;
+        try {
+          v = e.as<double>();
+        } catch (const YAML::Exception&) {
+          r.fail(e, "material.youngs_modulus must be 'image' or a number > 0, got " + scalar_text(e));
+        }
+        if (!(v > 0.0) || !std::isfinite(v)) r.fail(e, "material.youngs_modulus must be 'image' or a number > 0, got " + fmt(v));
+        s.modulus_from_image = false;
+        s.youngs_modulus = v;
+      }
+    }
+    if (m["scale"]) s.scale = r.positive(m["scale"], "material.scale");
+    if (const YAML::Node c = m["clamp"]) {
+      if (!c.IsSequence() || c.size() != 2) r.fail(c, "material.clamp must be a list [min, max], got " + scalar_text(c));
+      const double lo = r.number(c[0], "material.clamp[0]"), hi = r.number(c[1], "material.clamp[1]");
+      if (!(lo > 0.0)) r.fail(c, "material.clamp min must be > 0 (a Young's modulus), got " + fmt(lo));
+      if (!(hi >= lo)) r.fail(c, "material.clamp must have min <= max, got [" + fmt(lo) + ", " + fmt(hi) + "]");
+      s.clamp = std::make_pair(lo, hi);
+    }
+    if (const YAML::Node nu = m["poisson_ratio"]) {
+      const double v = r.number(nu, "material.poisson_ratio");
+      if (v >= 0.5)
+        r.fail(nu, "material.poisson_ratio = " + fmt(v) + " is not valid: it must be < 0.5 (0.5 is incompressible; use e.g. 0.49 with mesh.degree 2)");
+      if (!(v > -1.0)) r.fail(nu, "material.poisson_ratio = " + fmt(v) + " is not valid: it must be in (-1, 0.5)");
+      s.poisson_ratio = v;
+    }
+  }
+
+  if (const YAML::Node m = root["mesh"]) {
+    r.check_keys(m, "mesh", {"nodes", "lambda", "degree"});
+    if (m["nodes"]) {
+      const long v = r.integer(m["nodes"], "mesh.nodes");
+      if (v < 8) r.fail(m["nodes"], "mesh.nodes must be >= 8, got " + std::to_string(v));
+      s.nodes = v;
+    }
+    if (m["lambda"]) {
+      const double v = r.number(m["lambda"], "mesh.lambda");
+      if (!(v >= 0.0 && v < 1.0)) r.fail(m["lambda"], "mesh.lambda must be in [0, 1), got " + fmt(v));
+      s.lambda = v;
+    }
+    if (m["degree"]) {
+      const long v = r.integer(m["degree"], "mesh.degree");
+      if (v != 1 && v != 2) r.fail(m["degree"], "mesh.degree must be 1 or 2, got " + std::to_string(v));
+      s.degree = static_cast<unsigned>(v);
+    }
+  }
+
+  {
+    const YAML::Node bcs = r.require(root, "boundary_conditions", "boundary_conditions");
+    if (!bcs.IsSequence() || bcs.size() == 0)
+      r.fail(bcs, "boundary_conditions must be a non-empty list (at least one fixed or displacement condition)");
+    for (std::size_t i = 0; i < bcs.size(); ++i) {
+      const std::string p = "boundary_conditions[" + std::to_string(i) + "]";
+      const YAML::Node b = bcs[i];
+      r.check_keys(b, p, {"type", "region", "value", "components"});
+      BoundaryConditionSpec bc;
+      bc.line = Reader::line(b);
+      const std::string t = r.choice(r.require(b, "type", p + ".type"), p + ".type", {"fixed", "displacement", "pressure", "traction"});
+      bc.type = t == "fixed" ? BoundaryConditionSpec::Type::fixed
+                : t == "displacement" ? BoundaryConditionSpec::Type::displacement
+                : t == "pressure" ? BoundaryConditionSpec::Type::pressure
+                                  : BoundaryConditionSpec::Type::traction;
+      bc.region = parse_region(r, r.require(b, "region", p + ".region"), p + ".region", dim);
+      if (bc.type == BoundaryConditionSpec::Type::fixed) {
+        if (b["value"]) r.fail(b["value"], p + ".value is not used by type fixed (use type displacement)");
+      } else if (bc.type == BoundaryConditionSpec::Type::pressure) {
+        bc.value = {r.number(r.require(b, "value", p + ".value"), p + ".value")};
+      } else {
+        bc.value = r.vector(r.require(b, "value", p + ".value"), p + ".value", dim);
+      }
+      bc.components.assign(dim, true);
+      if (const YAML::Node c = b["components"]) {
+        if (!bc.is_dirichlet()) r.fail(c, p + ".components applies only to fixed and displacement conditions");
+        if (!c.IsSequence() || c.size() == 0) r.fail(c, p + ".components must be a non-empty list of axis names (x, y" + (dim == 3 ? ", z)" : ")"));
+        bc.components.assign(dim, false);
+        for (std::size_t k = 0; k < c.size(); ++k) {
+          const std::string a = r.choice(c[k], p + ".components[" + std::to_string(k) + "]",
+                                         dim == 3 ? std::vector<std::string>{"x", "y", "z"} : std::vector<std::string>{"x", "y"});
+          bc.components[a[0] - 'x'] = true;
+        }
+      }
+      s.boundary_conditions.push_back(bc);
+    }
+    bool dirichlet = false;
+    for (const auto& bc : s.boundary_conditions) dirichlet = dirichlet || bc.is_dirichlet();
+    if (!dirichlet)
+      r.fail(bcs, "boundary_conditions has no 'fixed' or 'displacement' condition: the model would be free to move "
+                  "(singular); fix at least one region, e.g. {type: fixed, region: {box_face: y_min}}");
+  }
+
+  {
+    const YAML::Node one = root["needle"], many = root["needles"];
+    if (one && many) r.fail(many, "give either 'needle' or 'needles', not both");
+    if (!one && !many) r.fail(root, "missing key 'needle' (or 'needles' with a list of needles)");
+    if (one) {
+      s.needles.push_back(parse_needle(r, one, "needle", dim));
+    } else {
+      s.needle_list = true;
+      if (!many.IsSequence() || many.size() == 0) r.fail(many, "needles must be a non-empty list of needle mappings");
+      std::set<std::string> names;
+      for (std::size_t i = 0; i < many.size(); ++i) {
+        NeedleSpec n = parse_needle(r, many[i], "needles[" + std::to_string(i) + "]", dim);
+        if (!many[i]["name"]) n.name = "needle_" + std::to_string(i + 1);
+        if (!names.insert(n.name).second)
+          r.fail(many[i], "needles[" + std::to_string(i) + "].name = '" + n.name + "' is used twice; names must be unique");
+        s.needles.push_back(n);
+      }
+    }
+  }
+
+  if (const YAML::Node t = root["targets"]) {
+    if (!t.IsSequence()) r.fail(t, "targets must be a list of {name, position}");
+    std::set<std::string> names;
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      const std::string p = "targets[" + std::to_string(i) + "]";
+      r.check_keys(t[i], p, {"name", "position"});
+      TargetSpec ts;
+      ts.line = Reader::line(t[i]);
+      const YAML::Node nn = r.require(t[i], "name", p + ".name");
+      ts.name = r.string(nn, p + ".name");
+      static const std::regex re("[A-Za-z_][A-Za-z0-9_]*");
+      if (!std::regex_match(ts.name, re))
+        r.fail(nn, p + ".name = '" + ts.name + "' must be an identifier (letters, digits, '_'; it names CSV columns)");
+      if (!names.insert(ts.name).second) r.fail(nn, p + ".name = '" + ts.name + "' is used twice; names must be unique");
+      ts.position = r.vector(r.require(t[i], "position", p + ".position"), p + ".position", dim);
+      s.targets.push_back(ts);
+    }
+  }
+
+  if (const YAML::Node o = root["output"]) {
+    r.check_keys(o, "output", {"every", "fields"});
+    if (o["every"]) {
+      const long v = r.integer(o["every"], "output.every");
+      if (v < 0) r.fail(o["every"], "output.every must be >= 0 (0 = no step files), got " + std::to_string(v));
+      s.output_every = static_cast<int>(v);
+    }
+    if (const YAML::Node f = o["fields"]) {
+      if (!f.IsSequence()) r.fail(f, "output.fields must be a list");
+      s.output_fields.clear();
+      for (std::size_t i = 0; i < f.size(); ++i)
+        s.output_fields.push_back(r.choice(f[i], "output.fields[" + std::to_string(i) + "]",
+                                           {"displacement", "strain", "stress", "von_mises", "youngs_modulus"}));
+    }
+  }
+
+  if (const YAML::Node v = root["solver"]) {
+    r.check_keys(v, "solver", {"type", "tolerance"});
+    if (v["type"]) s.solver_type = r.choice(v["type"], "solver.type", {"auto", "direct", "amg"});
+    if (v["tolerance"]) s.solver_tolerance = r.positive(v["tolerance"], "solver.tolerance");
+  }
+  return s;
+}
+
+Scenario read_scenario(const std::string& path, int dim) {
+  std::ifstream in(path);
+  if (!in) throw ScenarioError(path + ": cannot open the scenario file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_scenario_text(ss.str(), dim, path);
+}
+
+template <int dim>
+void check_scenario_geometry(const Scenario& s, const Eigen::Matrix<double, dim, 1>& box_min,
+                             const Eigen::Matrix<double, dim, 1>& box_max, const WorldTransform<dim>& tf) {
+  using V = Eigen::Matrix<double, dim, 1>;
+  const double tol = 1e-6 * (box_max - box_min).norm();
+  auto inside = [&](const V& p) {
+    for (int d = 0; d < dim; ++d)
+      if (p[d] < box_min[d] - tol || p[d] > box_max[d] + tol) return false;
+    return true;
+  };
+  auto vec = [](const std::vector<double>& x) {
+    V v;
+    for (int d = 0; d < dim; ++d) v[d] = x[d];
+    return v;
+  };
+  auto str = [](const V& w) {
+    std::ostringstream o;
+    o << "[";
+    for (int d = 0; d < dim; ++d) o << (d ? ", " : "") << w[d];
+    o << "]";
+    return o.str();
+  };
+  // The image box in world coordinates, for the messages (its corners for a rotated image).
+  V wlo = V::Constant(std::numeric_limits<double>::max()), whi = -wlo;
+  for (int c = 0; c < (1 << dim); ++c) {
+    V p;
+    for (int d = 0; d < dim; ++d) p[d] = ((c >> d) & 1) ? box_max[d] : box_min[d];
+    const V w = tf.to_world(p);
+    wlo = wlo.cwiseMin(w);
+    whi = whi.cwiseMax(w);
+  }
+  const std::string box = "the image box (world " + str(wlo) + " .. " + str(whi) + ")";
+  for (std::size_t i = 0; i < s.needles.size(); ++i) {
+    const auto& n = s.needles[i];
+    const std::string p = s.needle_list ? "needles[" + std::to_string(i) + "]" : "needle";
+    const V entry = tf.to_frame(vec(n.entry));
+    if (!inside(entry))
+      throw ScenarioError(s.where(n.line) + p + ".entry " + str(vec(n.entry)) + " is outside " + box +
+                          "; the entry must be inside the image or on its surface");
+    const V dir = tf.vector_to_frame(vec(n.direction));
+    // Largest travel that stays in the box.
+    double tmax = std::numeric_limits<double>::infinity();
+    for (int d = 0; d < dim; ++d) {
+      if (dir[d] > 1e-12) tmax = std::min(tmax, (box_max[d] - entry[d]) / dir[d]);
+      if (dir[d] < -1e-12) tmax = std::min(tmax, (box_min[d] - entry[d]) / dir[d]);
+    }
+    if (!(tmax > tol))
+      throw ScenarioError(s.where(n.line) + p + ".direction " + str(vec(n.direction)) + " points out of " + box +
+                          " at the entry " + str(vec(n.entry)));
+    if (n.depth > tmax + tol)
+      throw ScenarioError(s.where(n.line) + p + ".depth = " + fmt(n.depth) + " takes the tip out of " + box +
+                          "; the largest depth from this entry along this direction is " + fmt(tmax));
+  }
+  for (const auto& t : s.targets)
+    if (!inside(tf.to_frame(vec(t.position))))
+      throw ScenarioError(s.where(t.line) + "target '" + t.name + "' position " + str(vec(t.position)) + " is outside " + box);
+  // Geometric regions that cannot touch the box are caught later (selects no node), with the BC index.
+}
+
+template <int dim>
+void check_modulus_image(const Scenario& s, const Image<dim>& image) {
+  if (!s.modulus_from_image || s.clamp) return;
+  std::size_t bad = 0;
+  double lo = std::numeric_limits<double>::infinity();
+  for (float v : image.data) {
+    const double e = static_cast<double>(v) * s.scale;
+    if (!(e > 0.0)) {
+      ++bad;
+      if (e < lo || std::isnan(e)) lo = e;
+    }
+  }
+  if (bad)
+    throw ScenarioError(s.where(0) + "material.youngs_modulus: image has " + std::to_string(bad) +
+                        " voxels with a modulus that is negative, zero or NaN (e.g. " + fmt(lo) +
+                        "); add material.clamp: [min, max] with min > 0 to use it");
+}
+
+std::vector<double> scenario_modulus(const Scenario& s, const std::vector<double>& mean) {
+  std::vector<double> e(mean.size());
+  for (std::size_t j = 0; j < mean.size(); ++j) {
+    double v = s.modulus_from_image ? mean[j] * s.scale : s.youngs_modulus;
+    if (s.clamp && !std::isnan(v)) v = std::min(std::max(v, s.clamp->first), s.clamp->second);
+    if (!(v > 0.0) || !std::isfinite(v))
+      throw ScenarioError(s.where(0) + "material.youngs_modulus: element " + std::to_string(j) + " gets modulus " + fmt(v) +
+                          " (mean " + fmt(mean[j]) + " x scale " + fmt(s.scale) + "); add material.clamp: [min, max] with min > 0");
+    e[j] = v;
+  }
+  return e;
+}
+
+template void check_scenario_geometry<2>(const Scenario&, const Eigen::Matrix<double, 2, 1>&, const Eigen::Matrix<double, 2, 1>&, const WorldTransform<2>&);
+template void check_scenario_geometry<3>(const Scenario&, const Eigen::Matrix<double, 3, 1>&, const Eigen::Matrix<double, 3, 1>&, const WorldTransform<3>&);
+template void check_modulus_image<2>(const Scenario&, const Image<2>&);
+template void check_modulus_image<3>(const Scenario&, const Image<3>&);
+
+}  // namespace vim::pipeline

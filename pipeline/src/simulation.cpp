@@ -1,0 +1,595 @@
+// Needle-insertion driver (issue 6, DESIGN.md §5): scenario → ElasticModel (frame coordinates) →
+// steps of the kinematic / stick-slip / force needle model → VTU/PVD, needle.csv, report JSON.
+// The models are described in simulation.hpp.
+#include <vim/pipeline/simulation.hpp>
+
+#include <vim/pipeline/atomic_file.hpp>
+#include <vim/pipeline/needle.hpp>
+#include <vim/pipeline/progress.hpp>
+#include <vim/pipeline/vtk_output.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+
+namespace vim::pipeline {
+
+namespace {
+
+using json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+template <int dim>
+Eigen::Matrix<double, dim, 1> vec(const std::vector<double>& x) {
+  Eigen::Matrix<double, dim, 1> v;
+  for (int d = 0; d < dim; ++d) v[d] = x[d];
+  return v;
+}
+
+template <int dim>
+json to_json(const Eigen::Matrix<double, dim, 1>& v) {
+  json j = json::array();
+  for (int d = 0; d < dim; ++d) j.push_back(v[d]);
+  return j;
+}
+
+std::string step_file(int k) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "step_%04d.vtu", k);
+  return buf;
+}
+
+}  // namespace
+
+template <int dim>
+struct NeedleSimulation<dim>::Impl {
+  using Mat = Eigen::Matrix<double, dim, dim>;
+  Scenario sc;
+  SimulationOptions opt;
+  WorldTransform<dim> tf;
+  std::optional<fem::ElasticModel<dim>> model;
+  CellLocator<dim> locator;
+  std::vector<double> E;
+  Vec box_min, box_max;  // frame
+  UnstructuredGrid grid;  // world, no fields
+  std::vector<bool> blocked;
+  bool voxel = false;
+  unsigned degree = 1;
+  double build_seconds = 0.0;
+  fem::SolverOptions solver;
+
+  void setup(const std::vector<Vec>& vertices);
+  fem::Region<dim> region(const RegionSpec& r) const;
+  NeedleRun<dim> run_needle(const NeedleSpec& spec, const std::string& prefix, json& needle_report);
+  void write_step(const std::string& path, const fem::Solution<dim>* s) const;
+};
+
+template <int dim>
+fem::Region<dim> NeedleSimulation<dim>::Impl::region(const RegionSpec& r) const {
+  if (r.kind == RegionSpec::Kind::box_face) {
+    const double tol = 1e-6 * (box_max - box_min).norm();
+    return fem::box_face_region<dim>(box_min, box_max, r.axis, r.upper, tol);
+  }
+  std::function<bool(const Vec&)> world;
+  if (r.kind == RegionSpec::Kind::box) {
+    world = fem::box_region<dim>(vec<dim>(r.lo), vec<dim>(r.hi)).contains;
+  } else if (r.kind == RegionSpec::Kind::sphere) {
+    world = fem::sphere_region<dim>(vec<dim>(r.center), r.radius).contains;
+  } else {
+    world = fem::cylinder_region<dim>(vec<dim>(r.center), vec<dim>(r.axis_vector), r.radius).contains;
+  }
+  const WorldTransform<dim> t = tf;
+  return {r.describe(), [world, t](const Vec& x) { return world(t.to_world(x)); }};
+}
+
+template <int dim>
+void NeedleSimulation<dim>::Impl::setup(const std::vector<Vec>& vertices) {
+  // Geometry checks against the model's box (the image box), then the boundary conditions.
+  check_scenario_geometry<dim>(sc, box_min, box_max, tf);
+  solver.type = sc.solver_type == "direct" ? fem::SolverOptions::Type::direct
+                : sc.solver_type == "amg"  ? fem::SolverOptions::Type::amg
+                                           : fem::SolverOptions::Type::automatic;
+  solver.tolerance = sc.solver_tolerance;
+  blocked.assign(vertices.size(), false);
+  const Mat D = tf.direction;
+  for (std::size_t i = 0; i < sc.boundary_conditions.size(); ++i) {
+    const auto& bc = sc.boundary_conditions[i];
+    const std::string where = sc.where(bc.line) + "boundary_conditions[" + std::to_string(i) + "]";
+    const fem::Region<dim> reg = region(bc.region);
+    std::size_t hits = 0;
+    for (const auto& v : vertices) hits += reg.contains(v) ? 1 : 0;
+    if (hits == 0)
+      throw ScenarioError(where + ": region " + bc.region.describe() +
+                          " selects no mesh node (regions are in world coordinates; box faces name the image box)");
+    if (bc.is_dirichlet()) {
+      fem::DirichletBC<dim> d;
+      d.region = reg;
+      const bool all = std::all_of(bc.components.begin(), bc.components.end(), [](bool b) { return b; });
+      if (!all) {
+        // World components map to frame components only for a (signed) permutation direction matrix.
+        for (int c = 0; c < dim; ++c) {
+          int w = -1;
+          for (int a = 0; a < dim; ++a)
+            if (std::abs(std::abs(D(a, c)) - 1.0) < 1e-9) w = a;
+          if (w < 0)
+            throw ScenarioError(where + ".components: selecting components needs an image direction matrix that is a "
+                                        "permutation of the axes (this image is rotated); remove 'components'");
+          d.components[c] = bc.components[w];
+        }
+      }
+      if (bc.type == BoundaryConditionSpec::Type::displacement) d.value = tf.vector_to_frame(vec<dim>(bc.value));
+      model->add_dirichlet(d);
+      if (all)
+        for (std::size_t v = 0; v < vertices.size(); ++v) blocked[v] = blocked[v] || reg.contains(vertices[v]);
+    } else {
+      fem::SurfaceLoad<dim> load;
+      load.region = reg;
+      if (bc.type == BoundaryConditionSpec::Type::pressure)
+        load.pressure = bc.value[0];
+      else
+        load.traction = tf.vector_to_frame(vec<dim>(bc.value));
+      model->add_surface_load(load);
+    }
+  }
+  for (const auto& t : sc.targets)
+    if (locator.locate(tf.to_frame(vec<dim>(t.position))) < 0)
+      throw ScenarioError(sc.where(t.line) + "target '" + t.name + "' is outside the meshed domain");
+}
+
+template <int dim>
+NeedleSimulation<dim>::NeedleSimulation() : impl_(std::make_unique<Impl>()) {}
+template <int dim>
+NeedleSimulation<dim>::~NeedleSimulation() = default;
+template <int dim>
+NeedleSimulation<dim>::NeedleSimulation(NeedleSimulation&&) noexcept = default;
+
+template <int dim>
+NeedleSimulation<dim>::NeedleSimulation(const MeshModel<dim>& mm, const Scenario& scenario, SimulationOptions options)
+    : impl_(std::make_unique<Impl>()) {
+  Impl& m = *impl_;
+  const auto t0 = Clock::now();
+  m.sc = scenario;
+  m.opt = std::move(options);
+  m.tf = mm.transform;
+  if (scenario.dim != dim) throw ScenarioError(scenario.where(0) + "scenario was parsed for a " + std::to_string(scenario.dim) + "D image");
+  if (mm.mesh.n_cells() == 0) throw std::invalid_argument("needle simulation: the mesh has no cells");
+  if (scenario.modulus_from_image && mm.values.size() != mm.mesh.n_cells())
+    throw std::invalid_argument("needle simulation: the mesh has no per-element values (voxel means)");
+  std::vector<double> mean(mm.mesh.n_cells(), 0.0);
+  if (scenario.modulus_from_image)
+    for (std::size_t c = 0; c < mean.size(); ++c) mean[c] = mm.values[c].mean;
+  m.E = scenario_modulus(scenario, mean);
+  m.degree = m.opt.degree ? *m.opt.degree : scenario.degree ? *scenario.degree : 1u;
+  m.box_min = mm.mesh.points[0];
+  m.box_max = mm.mesh.points[0];
+  for (const auto& p : mm.mesh.points) {
+    m.box_min = m.box_min.cwiseMin(p);
+    m.box_max = m.box_max.cwiseMax(p);
+  }
+  m.locator = CellLocator<dim>::simplex(mm.mesh);
+  m.model.emplace(mm.mesh, m.E, scenario.poisson_ratio, m.degree);
+  m.grid = simplex_grid(mm.mesh, mm.transform);
+  m.setup(m.model->vertices());
+  m.build_seconds = seconds_since(t0);
+}
+
+template <int dim>
+NeedleSimulation<dim> NeedleSimulation<dim>::voxel(const Image<dim>& image, const WorldTransform<dim>& transform,
+                                                   const Scenario& scenario, SimulationOptions options) {
+  NeedleSimulation sim;
+  Impl& m = *sim.impl_;
+  const auto t0 = Clock::now();
+  m.sc = scenario;
+  m.opt = std::move(options);
+  m.tf = transform;
+  m.voxel = true;
+  if (scenario.dim != dim) throw ScenarioError(scenario.where(0) + "scenario was parsed for a " + std::to_string(scenario.dim) + "D image");
+  check_modulus_image(scenario, image);
+  std::vector<double> values(image.data.begin(), image.data.end());
+  m.E = scenario_modulus(scenario, values);
+  m.box_min = image.box_min();
+  m.box_max = image.box_max();
+  m.model.emplace(fem::ElasticModel<dim>::voxel_grid(image.size, m.box_min, m.box_max, m.E, scenario.poisson_ratio));
+  const auto& verts = m.model->vertices();
+  m.locator = CellLocator<dim>::grid(image.size, m.box_min, m.box_max, verts);
+  // Hexahedra (quads) in VTK corner order, vertices in the model's numbering.
+  UnstructuredGrid& g = m.grid;
+  g.vtk_cell_type = dim == 3 ? 12 : 9;
+  g.nodes_per_cell = 1 << dim;
+  for (const auto& v : verts) {
+    const Vec w = transform.to_world(v);
+    std::array<double, 3> q{0, 0, 0};
+    for (int d = 0; d < dim; ++d) q[d] = w[d];
+    g.points.push_back(q);
+  }
+  Vec h;
+  for (int d = 0; d < dim; ++d) h[d] = image.spacing[d];
+  const int order2[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  std::vector<int> sup;
+  for (std::size_t k = 0; k < image.voxel_count(); ++k) {
+    const auto idx = image.index_of(k);
+    for (int z = 0; z < (dim == 3 ? 2 : 1); ++z)
+      for (const auto& c : order2) {
+        Vec corner;
+        for (int a = 0; a < dim; ++a) {
+          const long off = a == 0 ? c[0] : a == 1 ? c[1] : z;
+          corner[a] = m.box_min[a] + static_cast<double>(idx[a] + off) * h[a];
+        }
+        m.locator.locate(corner, &sup);  // a lattice point: its support is the vertex itself
+        if (sup.size() != 1) throw std::logic_error("voxel grid: lattice point without a unique vertex");
+        g.connectivity.push_back(sup[0]);
+      }
+  }
+  m.setup(verts);
+  m.build_seconds = seconds_since(t0);
+  return sim;
+}
+
+template <int dim>
+const std::vector<double>& NeedleSimulation<dim>::youngs_modulus() const {
+  return impl_->E;
+}
+template <int dim>
+fem::ElasticModel<dim>& NeedleSimulation<dim>::model() {
+  return *impl_->model;
+}
+
+template <int dim>
+void NeedleSimulation<dim>::Impl::write_step(const std::string& rel, const fem::Solution<dim>* s) const {
+  UnstructuredGrid g = grid;
+  const Mat D = tf.direction;
+  const std::size_t nc = E.size();
+  if (sc.wants("displacement")) {
+    Field f{dim, {}};
+    f.values.reserve(g.points.size() * dim);
+    for (std::size_t v = 0; v < g.points.size(); ++v) {
+      const Vec u = s ? Vec(D * s->vertex_displacement[v]) : Vec::Zero();
+      for (int d = 0; d < dim; ++d) f.values.push_back(u[d]);
+    }
+    g.point_data["displacement"] = std::move(f);
+  }
+  auto tensor = [&](const std::vector<Mat>* t) {
+    Field f{9, {}};
+    f.values.reserve(nc * 9);
+    for (std::size_t c = 0; c < nc; ++c) {
+      Eigen::Matrix3d w = Eigen::Matrix3d::Zero();
+      if (t) w.topLeftCorner<dim, dim>() = D * (*t)[c] * D.transpose();
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) f.values.push_back(w(a, b));
+    }
+    return f;
+  };
+  if (sc.wants("strain")) g.cell_data["strain"] = tensor(s ? &s->cell_strain : nullptr);
+  if (sc.wants("stress")) g.cell_data["stress"] = tensor(s ? &s->cell_stress : nullptr);
+  if (sc.wants("von_mises")) g.cell_data["von_mises"] = Field{1, s ? s->von_mises : std::vector<double>(nc, 0.0)};
+  if (sc.wants("youngs_modulus")) g.cell_data["youngs_modulus"] = Field{1, E};
+  write_vtu(opt.output_file(rel), g);
+}
+
+template <int dim>
+NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, const std::string& prefix, json& rep) {
+  NeedleRun<dim> run;
+  run.name = spec.name;
+  const Vec a_world = vec<dim>(spec.direction).normalized();
+  run.axis = a_world;
+  const Vec entry_w = vec<dim>(spec.entry);
+  const Vec entry = tf.to_frame(entry_w);
+  const Vec a = tf.vector_to_frame(a_world).normalized();
+  const double pitch = spec.sample_spacing > 0.0 ? spec.sample_spacing : 0.5 * locator.mean_edge_length();
+  const std::vector<ShaftPoint<dim>> shaft = sample_shaft<dim>(locator, entry, a, spec.depth, pitch, blocked);
+  if (shaft.empty())
+    throw ScenarioError(sc.where(spec.line) + "needle '" + spec.name +
+                        "': no point of its path lies in the free part of the mesh (is it inside a fixed region?)");
+  const std::size_t np = shaft.size();
+  const bool force_model = spec.model == NeedleSpec::Model::force;
+  const bool slip = !force_model && spec.friction == NeedleSpec::Friction::stick_slip;
+
+  std::vector<Vec> target_f;
+  for (const auto& t : sc.targets) target_f.push_back(tf.to_frame(vec<dim>(t.position)));
+  const bool write = static_cast<bool>(opt.output_file) && sc.output_every > 0;
+  std::vector<std::pair<double, std::string>> pvd;
+
+  auto record = [&](double depth, const fem::Solution<dim>* s, int n_active, int solves) {
+    run.depth.push_back(depth);
+    run.tip.push_back(entry_w + depth * a_world);
+    Vec f = Vec::Zero();
+    if (s)
+      for (const auto& pf : s->point_force) f -= pf;
+    f = tf.vector_to_world(f);
+    run.force.push_back(f);
+    const double ax = f.dot(a_world);
+    run.axial_force.push_back(-ax);
+    run.lateral_force.push_back((f - ax * a_world).norm());
+    std::vector<Vec> td(target_f.size(), Vec::Zero());
+    if (s && !target_f.empty()) {
+      const auto u = model->sample(target_f);
+      for (std::size_t t = 0; t < u.size(); ++t) td[t] = tf.vector_to_world(u[t]);
+    }
+    run.target_displacement.push_back(td);
+    std::vector<Vec> vd;
+    if (s) {
+      vd.reserve(s->vertex_displacement.size());
+      for (const auto& u : s->vertex_displacement) {
+        vd.push_back(tf.vector_to_world(u));
+        run.max_displacement = std::max(run.max_displacement, u.norm());
+      }
+    } else {
+      vd.assign(model->vertices().size(), Vec::Zero());
+    }
+    if (opt.keep_step_fields || run.vertex_displacement.empty())
+      run.vertex_displacement.push_back(std::move(vd));
+    else
+      run.vertex_displacement.back() = std::move(vd);
+    run.active_points.push_back(n_active);
+    run.solves.push_back(solves);
+  };
+
+  // Step 0: rest.
+  record(0.0, nullptr, 0, 0);
+  if (write) {
+    write_step(prefix + "steps/" + step_file(0), nullptr);
+    pvd.emplace_back(0.0, "steps/" + step_file(0));
+  }
+
+  std::vector<double> w(np, 0.0);       // axial constraint values (displacement along a)
+  std::vector<bool> picked(np, false);  // passed by the tip
+  std::vector<bool> sliding(np, false); // stick-slip: force-controlled at ±limit
+  std::vector<double> sign(np, 1.0);
+  std::vector<double> limit(np, 0.0);
+  for (std::size_t j = 0; j < np; ++j) limit[j] = spec.max_shear_per_length * shaft[j].length;
+  int solves_total = 0;
+  double solve_time = 0.0;
+  fem::Solution<dim> sol;
+
+  // Solve with axial values `vals` on the picked points; returns the axial force on the body per point.
+  std::vector<std::size_t> active;
+  auto solve_with = [&](const std::vector<double>& vals) {
+    std::vector<fem::PointConstraint<dim>> pts;
+    pts.reserve(active.size());
+    for (std::size_t j : active) {
+      fem::PointConstraint<dim> p;
+      p.position = shaft[j].position;
+      p.displacement = vals[j] * a;
+      pts.push_back(p);
+    }
+    const auto t = Clock::now();
+    sol = opt.monolithic ? model->solve_monolithic(pts, solver) : model->solve(pts, solver);
+    solve_time += seconds_since(t);
+    ++solves_total;
+    std::vector<double> fa(np, 0.0);
+    for (std::size_t i = 0; i < active.size(); ++i) fa[active[i]] = sol.point_force[i].dot(a);
+    return fa;
+  };
+
+  Progress progress("needle " + spec.name, spec.steps);
+  const auto t_run = Clock::now();
+  double d_prev = 0.0;
+  const double force_tol = 1e-8;
+  for (int k = 1; k <= spec.steps; ++k) {
+    const double d = spec.depth * static_cast<double>(k) / static_cast<double>(spec.steps);
+    const double dd = d - d_prev;
+    d_prev = d;
+    const int solves_before = solves_total;
+    std::vector<double> w_stick(np, 0.0);
+    std::size_t last = np;
+    active.clear();
+    for (std::size_t j = 0; j < np; ++j) {
+      if (shaft[j].s < d - 1e-9 * spec.depth) {
+        w_stick[j] = picked[j] ? w[j] + dd : d - shaft[j].s;
+        if (!picked[j]) w[j] = w_stick[j];
+        else if (!sliding[j]) w[j] = w_stick[j];
+        picked[j] = true;
+        active.push_back(j);
+        last = j;
+      }
+    }
+    if (active.empty()) {
+      // The tip has not reached the first embedded point yet: nothing touches the tissue.
+      sol = fem::Solution<dim>{};
+      record(d, nullptr, 0, 0);
+    } else if (force_model) {
+      std::vector<bool> fr(np, false);
+      std::vector<double> target(np, 0.0);
+      for (std::size_t j : active) {
+        fr[j] = true;
+        target[j] = spec.friction_per_length * shaft[j].length + (j == last ? spec.tip_force : 0.0);
+      }
+      solve_axial_forces(w, fr, target, solve_with, pitch, force_tol, 200);
+      solve_with(w);
+      record(d, &sol, static_cast<int>(active.size()), solves_total - solves_before);
+    } else if (!slip) {
+      solve_with(w);
+      record(d, &sol, static_cast<int>(active.size()), solves_total - solves_before);
+    } else {
+      // Stick-slip active set: sliding points carry ±limit, stuck points move with the needle.
+      for (int iter = 0; iter < 50; ++iter) {
+        std::vector<double> target(np, 0.0);
+        bool any = false;
+        for (std::size_t j : active) {
+          target[j] = sign[j] * limit[j];
+          any = any || sliding[j];
+        }
+        if (any) solve_axial_forces(w, sliding, target, solve_with, pitch, force_tol, 200);
+        const std::vector<double> fa = solve_with(w);
+        bool changed = false;
+        for (std::size_t j : active) {
+          if (!sliding[j] && std::abs(fa[j]) > limit[j] * (1.0 + 1e-6)) {
+            sliding[j] = true;
+            sign[j] = fa[j] > 0.0 ? 1.0 : -1.0;
+            changed = true;
+          } else if (sliding[j] && (w[j] - w_stick[j]) * sign[j] > 1e-12 * std::max(1.0, std::abs(w_stick[j]))) {
+            // Holding the limit would need the point to move ahead of the needle: it sticks again.
+            sliding[j] = false;
+            w[j] = w_stick[j];
+            changed = true;
+          }
+        }
+        if (!changed) break;
+      }
+      record(d, &sol, static_cast<int>(active.size()), solves_total - solves_before);
+    }
+    run.stats = sol.stats;
+    if (write && (k % sc.output_every == 0 || k == spec.steps)) {
+      write_step(prefix + "steps/" + step_file(k), active.empty() ? nullptr : &sol);
+      pvd.emplace_back(d, "steps/" + step_file(k));
+    }
+    if (opt.progress) {
+      std::ostringstream msg;
+      msg << "step " << k << "/" << spec.steps << ", depth " << d << " " << sc.length_unit << ", axial force "
+          << run.axial_force.back() << ", " << active.size() << " shaft points";
+      progress.report(k, msg.str());
+    }
+  }
+  const double run_seconds = seconds_since(t_run);
+  run.solve_seconds = solve_time;
+  run.steps_per_second = run_seconds > 0.0 ? spec.steps / run_seconds : 0.0;
+
+  if (opt.output_file) {
+    if (write) write_pvd(opt.output_file(prefix + "simulation.pvd"), pvd);
+    write_text_atomically(opt.output_file(prefix + "needle.csv"), [&](std::ostream& o) {
+      const char* axes = "xyz";
+      o << "step,depth";
+      for (int d = 0; d < dim; ++d) o << ",tip_" << axes[d];
+      o << ",axial_force,lateral_force";
+      for (const auto& t : sc.targets) {
+        for (int d = 0; d < dim; ++d) o << "," << t.name << "_d" << axes[d];
+        o << "," << t.name << "_norm";
+      }
+      o << "\n" << std::setprecision(10);
+      for (std::size_t k = 0; k < run.depth.size(); ++k) {
+        o << k << "," << run.depth[k];
+        for (int d = 0; d < dim; ++d) o << "," << run.tip[k][d];
+        o << "," << run.axial_force[k] << "," << run.lateral_force[k];
+        for (const auto& u : run.target_displacement[k]) {
+          for (int d = 0; d < dim; ++d) o << "," << u[d];
+          o << "," << u.norm();
+        }
+        o << "\n";
+      }
+    });
+  }
+
+  // Report.
+  rep["name"] = spec.name;
+  rep["entry"] = spec.entry;
+  rep["direction"] = spec.direction;
+  rep["depth"] = spec.depth;
+  rep["steps"] = spec.steps;
+  rep["diameter"] = spec.diameter;
+  rep["model"] = force_model ? "force" : "kinematic";
+  rep["friction"] = slip ? "stick-slip" : "stick";
+  if (slip) rep["max_shear_per_length"] = spec.max_shear_per_length;
+  if (force_model) {
+    rep["tip_force"] = spec.tip_force;
+    rep["friction_per_length"] = spec.friction_per_length;
+  }
+  rep["shaft_points"] = np;
+  rep["shaft_pitch"] = pitch;
+  if (!prefix.empty()) rep["folder"] = prefix;
+  json per = json::object();
+  per["depth"] = run.depth;
+  per["axial_force"] = run.axial_force;
+  per["lateral_force"] = run.lateral_force;
+  per["active_points"] = run.active_points;
+  per["solves"] = run.solves;
+  json forces = json::array();
+  for (const auto& f : run.force) forces.push_back(to_json<dim>(f));
+  per["force"] = forces;
+  json targets = json::object();
+  for (std::size_t t = 0; t < sc.targets.size(); ++t) {
+    json arr = json::array();
+    for (const auto& step : run.target_displacement) arr.push_back(to_json<dim>(step[t]));
+    targets[sc.targets[t].name] = arr;
+  }
+  per["target_displacement"] = targets;
+  rep["per_step"] = per;
+  json final_targets = json::object();
+  for (std::size_t t = 0; t < sc.targets.size(); ++t) {
+    const Vec u = run.target_displacement.back()[t];
+    final_targets[sc.targets[t].name] = {{"displacement", to_json<dim>(u)}, {"norm", u.norm()}};
+  }
+  rep["final"] = {{"axial_force", run.axial_force.back()},
+                  {"lateral_force", run.lateral_force.back()},
+                  {"force", to_json<dim>(run.force.back())},
+                  {"targets", final_targets}};
+  rep["max_displacement"] = run.max_displacement;
+  rep["solver"] = {{"method", run.stats.method}, {"n_dofs", run.stats.n_dofs}, {"assemble_seconds", run.stats.assemble_seconds},
+                   {"solves", solves_total}, {"monolithic", opt.monolithic}};
+  rep["timing"] = {{"run_seconds", run_seconds}, {"solve_seconds", solve_time}, {"steps_per_second", run.steps_per_second}};
+  return run;
+}
+
+template <int dim>
+SimulationResult<dim> NeedleSimulation<dim>::run() {
+  Impl& m = *impl_;
+  SimulationResult<dim> res;
+  json& rep = res.report;
+  rep["scenario"] = {{"file", m.sc.source}, {"yaml", m.sc.text}};
+  rep["units"] = {{"length", m.sc.length_unit}, {"modulus", m.sc.modulus_unit}};
+  double emin = std::numeric_limits<double>::infinity(), emax = -emin, esum = 0.0;
+  for (double e : m.E) {
+    emin = std::min(emin, e);
+    emax = std::max(emax, e);
+    esum += e;
+  }
+  rep["model"] = {{"kind", m.voxel ? "voxel" : "simplex"},
+                  {"cells", m.E.size()},
+                  {"vertices", m.model->vertices().size()},
+                  {"dofs", m.model->n_dofs()},
+                  {"degree", m.voxel ? 1u : m.degree},
+                  {"poisson_ratio", m.sc.poisson_ratio},
+                  {"youngs_modulus", {{"min", emin}, {"max", emax}, {"mean", esum / static_cast<double>(m.E.size())}}},
+                  {"source", m.sc.modulus_from_image ? "image" : "constant"},
+                  {"scale", m.sc.scale}};
+  if (m.sc.clamp) rep["model"]["clamp"] = {m.sc.clamp->first, m.sc.clamp->second};
+  rep["boundary_conditions"] = m.sc.boundary_conditions.size();
+  json needles = json::array();
+  for (const auto& spec : m.sc.needles) {
+    json nr;
+    const std::string prefix = m.sc.needle_list ? spec.name + "/" : "";
+    res.needles.push_back(m.run_needle(spec, prefix, nr));
+    needles.push_back(nr);
+  }
+  rep["needles"] = needles;
+  if (!res.needles.empty()) {
+    // The first needle's headline numbers at the top level (summary / README).
+    const auto& r = res.needles.front();
+    rep["final_axial_force"] = r.axial_force.back();
+    rep["max_displacement"] = r.max_displacement;
+    rep["steps_per_second"] = r.steps_per_second;
+  }
+  rep["timing"] = {{"build_seconds", m.build_seconds}};
+  if (m.sc.needle_list && m.opt.output_file) {
+    write_text_atomically(m.opt.output_file("summary.csv"), [&](std::ostream& o) {
+      o << "name,depth,steps,axial_force,lateral_force,max_displacement,steps_per_second";
+      for (const auto& t : m.sc.targets) o << "," << t.name << "_norm";
+      o << "\n" << std::setprecision(10);
+      for (const auto& r : res.needles) {
+        o << r.name << "," << r.depth.back() << "," << r.depth.size() - 1 << "," << r.axial_force.back() << ","
+          << r.lateral_force.back() << "," << r.max_displacement << "," << r.steps_per_second;
+        for (const auto& u : r.target_displacement.back()) o << "," << u.norm();
+        o << "\n";
+      }
+    });
+  }
+  return res;
+}
+
+template <int dim>
+SimulationResult<dim> run_simulation(const MeshModel<dim>& model, const Scenario& scenario, SimulationOptions options) {
+  NeedleSimulation<dim> sim(model, scenario, std::move(options));
+  return sim.run();
+}
+
+template class NeedleSimulation<2>;
+template class NeedleSimulation<3>;
+template SimulationResult<2> run_simulation<2>(const MeshModel<2>&, const Scenario&, SimulationOptions);
+template SimulationResult<3> run_simulation<3>(const MeshModel<3>&, const Scenario&, SimulationOptions);
+
+}  // namespace vim::pipeline

@@ -1,0 +1,134 @@
+// VTK XML writers (see vtk_output.hpp): vtkUnstructuredGrid with double-precision points and
+// data arrays, written by vtkXMLUnstructuredGridWriter (appended binary, zlib) under a temporary
+// name; the .pvd collection is a few lines of XML written by hand.
+#include <vim/pipeline/atomic_file.hpp>
+#include <vim/pipeline/vtk_output.hpp>
+
+#include <vtkCellArray.h>
+#include <vtkCellData.h>
+#include <vtkDoubleArray.h>
+#include <vtkIdTypeArray.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkPoints.h>
+#include <vtkUnstructuredGrid.h>
+#include <vtkXMLUnstructuredGridWriter.h>
+
+#include <stdexcept>
+
+namespace vim::pipeline {
+
+namespace fs = std::filesystem;
+
+template <int dim>
+UnstructuredGrid simplex_grid(const SimplexMesh<dim>& frame_mesh, const WorldTransform<dim>& transform) {
+  UnstructuredGrid g;
+  g.vtk_cell_type = dim == 3 ? 10 : 5;
+  g.nodes_per_cell = dim + 1;
+  g.points.reserve(frame_mesh.n_points());
+  for (const auto& p : frame_mesh.points) {
+    const auto w = transform.to_world(p);
+    std::array<double, 3> q{0.0, 0.0, 0.0};
+    for (int a = 0; a < dim; ++a) q[a] = w[a];
+    g.points.push_back(q);
+  }
+  g.connectivity.reserve(frame_mesh.n_cells() * (dim + 1));
+  for (const auto& c : frame_mesh.cells)
+    for (int k = 0; k <= dim; ++k) g.connectivity.push_back(c[k]);
+  return g;
+}
+
+template UnstructuredGrid simplex_grid<2>(const SimplexMesh<2>&, const WorldTransform<2>&);
+template UnstructuredGrid simplex_grid<3>(const SimplexMesh<3>&, const WorldTransform<3>&);
+
+namespace {
+
+void add_arrays(vtkDataSetAttributes* attributes, const FieldMap& fields, std::size_t n, const char* where,
+                const fs::path& path) {
+  for (const auto& [name, f] : fields) {
+    if (f.components < 1 || f.values.size() != n * static_cast<std::size_t>(f.components))
+      throw std::invalid_argument(path.string() + ": " + where + " field '" + name + "' has " +
+                                  std::to_string(f.values.size()) + " values; expected " + std::to_string(n) +
+                                  " × " + std::to_string(f.components));
+    const int out_components = f.components == 2 ? 3 : f.components;  // ParaView wants 3D vectors
+    vtkNew<vtkDoubleArray> a;
+    a->SetName(name.c_str());
+    a->SetNumberOfComponents(out_components);
+    a->SetNumberOfTuples(static_cast<vtkIdType>(n));
+    for (std::size_t i = 0; i < n; ++i)
+      for (int c = 0; c < out_components; ++c)
+        a->SetComponent(static_cast<vtkIdType>(i), c, c < f.components ? f.values[i * f.components + c] : 0.0);
+    attributes->AddArray(a);
+  }
+}
+
+}  // namespace
+
+void write_vtu(const fs::path& path, const UnstructuredGrid& grid) {
+  if (grid.nodes_per_cell <= 0 || grid.connectivity.size() % grid.nodes_per_cell != 0)
+    throw std::invalid_argument(path.string() + ": connectivity length is not a multiple of nodes_per_cell");
+  const std::size_t np = grid.points.size();
+  const std::size_t nc = grid.n_cells();
+
+  vtkNew<vtkPoints> points;
+  points->SetDataTypeToDouble();
+  points->SetNumberOfPoints(static_cast<vtkIdType>(np));
+  for (std::size_t i = 0; i < np; ++i) points->SetPoint(static_cast<vtkIdType>(i), grid.points[i].data());
+
+  vtkNew<vtkIdTypeArray> offsets, conn;
+  offsets->SetNumberOfValues(static_cast<vtkIdType>(nc + 1));
+  conn->SetNumberOfValues(static_cast<vtkIdType>(grid.connectivity.size()));
+  for (std::size_t c = 0; c <= nc; ++c)
+    offsets->SetValue(static_cast<vtkIdType>(c), static_cast<vtkIdType>(c * grid.nodes_per_cell));
+  for (std::size_t k = 0; k < grid.connectivity.size(); ++k) {
+    const long v = grid.connectivity[k];
+    if (v < 0 || static_cast<std::size_t>(v) >= np)
+      throw std::invalid_argument(path.string() + ": cell " + std::to_string(k / grid.nodes_per_cell) +
+                                  " refers to point " + std::to_string(v) + " of " + std::to_string(np));
+    conn->SetValue(static_cast<vtkIdType>(k), static_cast<vtkIdType>(v));
+  }
+  vtkNew<vtkCellArray> cells;
+  cells->SetData(offsets, conn);
+
+  vtkNew<vtkUnstructuredGrid> ug;
+  ug->SetPoints(points);
+  ug->SetCells(grid.vtk_cell_type, cells);
+  add_arrays(ug->GetPointData(), grid.point_data, np, "point", path);
+  add_arrays(ug->GetCellData(), grid.cell_data, nc, "cell", path);
+
+  write_atomically(path, [&](const fs::path& tmp) {
+    vtkNew<vtkXMLUnstructuredGridWriter> w;
+    w->SetFileName(tmp.string().c_str());
+    w->SetInputData(ug);
+    w->SetDataModeToAppended();
+    w->SetCompressorTypeToZLib();
+    w->SetHeaderTypeToUInt64();
+    if (w->Write() != 1) throw std::runtime_error("cannot write " + path.string());
+  });
+}
+
+void write_pvd(const fs::path& path, const std::vector<std::pair<double, std::string>>& entries) {
+  auto escape = [](const std::string& s) {
+    std::string r;
+    for (char c : s) {
+      switch (c) {
+        case '&': r += "&amp;"; break;
+        case '<': r += "&lt;"; break;
+        case '>': r += "&gt;"; break;
+        case '"': r += "&quot;"; break;
+        default: r += c;
+      }
+    }
+    return r;
+  };
+  write_text_atomically(path, [&](std::ostream& out) {
+    out << "<?xml version=\"1.0\"?>\n"
+        << "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
+        << "  <Collection>\n";
+    for (const auto& [t, file] : entries)
+      out << "    <DataSet timestep=\"" << t << "\" group=\"\" part=\"0\" file=\"" << escape(file) << "\"/>\n";
+    out << "  </Collection>\n</VTKFile>\n";
+  });
+}
+
+}  // namespace vim::pipeline

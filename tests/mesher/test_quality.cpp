@@ -1,0 +1,105 @@
+// Tests of the element quality measures behind the paper's quality bound (§IV) and statistics (§VI):
+// hand-computed dihedral / interior angles and normalised radius ratios, the acceptability rule,
+// and the mesh summary on a Kuhn grid.
+#include <vim/initial_mesh.hpp>
+#include <vim/quality.hpp>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace vim {
+namespace {
+
+using T2 = std::array<Eigen::Vector2d, 3>;
+using T3 = std::array<Eigen::Vector3d, 4>;
+
+const double kRad = 180.0 / M_PI;
+
+TEST(Quality, RegularTetrahedron) {
+  const T3 x{Eigen::Vector3d(1, 1, 1), Eigen::Vector3d(1, -1, -1), Eigen::Vector3d(-1, 1, -1),
+             Eigen::Vector3d(-1, -1, 1)};
+  for (double a : dihedral_angles_deg<3>(x)) EXPECT_NEAR(a, std::acos(1.0 / 3.0) * kRad, 1e-10);  // 70.5288°
+  EXPECT_NEAR(max_dihedral_deg<3>(x), 70.528779365509308, 1e-9);
+  EXPECT_NEAR(normalized_radius_ratio<3>(x), 1.0, 1e-12);
+}
+
+TEST(Quality, KuhnTetrahedron) {
+  // Path 0 → e_x → e_x+e_y → e_x+e_y+e_z. Outward face normals (by hand): opp 0: (1,0,0);
+  // opp 1: (−1,1,0)/√2; opp 2: (0,−1,1)/√2; opp 3: (0,0,−1). Dihedral at edge (i,j) = 180° − the
+  // angle between the normals of the two other faces: 45, 90, 60, 90, 90, 45.
+  const T3 x{Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(1, 1, 0), Eigen::Vector3d(1, 1, 1)};
+  const std::array<double, 6> expected{45, 90, 60, 90, 90, 45};
+  const auto a = dihedral_angles_deg<3>(x);
+  for (int e = 0; e < 6; ++e) EXPECT_NEAR(a[e], expected[e], 1e-10) << "edge " << e;
+  EXPECT_NEAR(max_dihedral_deg<3>(x), 90.0, 1e-10);
+  EXPECT_NEAR(min_dihedral_deg<3>(x), 45.0, 1e-10);
+  // r_in = 3V/ΣA = (1/2)/(1+√2); R = √3/2 (the cube's circumsphere): NRR = √3/(1+√2).
+  EXPECT_NEAR(normalized_radius_ratio<3>(x), std::sqrt(3.0) / (1.0 + std::sqrt(2.0)), 1e-12);
+  // Orientation does not matter for angles.
+  T3 y = x;
+  std::swap(y[0], y[1]);
+  EXPECT_NEAR(max_dihedral_deg<3>(y), 90.0, 1e-10);
+}
+
+TEST(Quality, Triangles) {
+  const T2 eq{Eigen::Vector2d(0, 0), Eigen::Vector2d(2, 0), Eigen::Vector2d(1, std::sqrt(3.0))};
+  for (double a : dihedral_angles_deg<2>(eq)) EXPECT_NEAR(a, 60.0, 1e-10);
+  EXPECT_NEAR(normalized_radius_ratio<2>(eq), 1.0, 1e-12);
+  // Right isosceles: angles 90/45/45, r_in = (2−√2)/2, R = √2/2 → NRR = 2√2 − 2.
+  const T2 right{Eigen::Vector2d(0, 0), Eigen::Vector2d(1, 0), Eigen::Vector2d(0, 1)};
+  const auto a = dihedral_angles_deg<2>(right);
+  EXPECT_NEAR(a[0], 90.0, 1e-10);
+  EXPECT_NEAR(a[1], 45.0, 1e-10);
+  EXPECT_NEAR(a[2], 45.0, 1e-10);
+  EXPECT_NEAR(normalized_radius_ratio<2>(right), 2.0 * std::sqrt(2.0) - 2.0, 1e-12);
+  // Angles sum to 180° for any triangle.
+  const T2 odd{Eigen::Vector2d(0.3, -1), Eigen::Vector2d(4, 0.2), Eigen::Vector2d(-2, 3)};
+  const auto b = dihedral_angles_deg<2>(odd);
+  EXPECT_NEAR(b[0] + b[1] + b[2], 180.0, 1e-10);
+}
+
+TEST(Quality, Acceptable) {
+  const T3 kuhn{Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(1, 1, 0), Eigen::Vector3d(1, 1, 1)};
+  QualityBound b;
+  EXPECT_TRUE(acceptable<3>(kuhn, b));
+  T3 inverted = kuhn;
+  std::swap(inverted[0], inverted[1]);
+  EXPECT_FALSE(acceptable<3>(inverted, b));
+  T3 flat = kuhn;
+  flat[3] = Eigen::Vector3d(1, 1, 0) + 1e-14 * Eigen::Vector3d(0, 0, 1);
+  EXPECT_FALSE(acceptable<3>(flat, b));
+  b.max_dihedral_deg = 89.0;
+  EXPECT_FALSE(acceptable<3>(kuhn, b));
+  b = QualityBound{};
+  b.min_dihedral_deg = 50.0;
+  EXPECT_FALSE(acceptable<3>(kuhn, b));
+  b = QualityBound{};
+  b.min_radius_ratio = 0.75;  // Kuhn NRR ≈ 0.717
+  EXPECT_FALSE(acceptable<3>(kuhn, b));
+  b.min_radius_ratio = 0.7;
+  EXPECT_TRUE(acceptable<3>(kuhn, b));
+  // 2D: a needle triangle with a 170° angle violates the default 150° bound.
+  const T2 needle{Eigen::Vector2d(0, 0), Eigen::Vector2d(2, 0), Eigen::Vector2d(1, std::tan(5.0 / kRad))};
+  EXPECT_FALSE(acceptable<2>(needle, QualityBound{}));
+  const T2 right{Eigen::Vector2d(0, 0), Eigen::Vector2d(1, 0), Eigen::Vector2d(0, 1)};
+  EXPECT_TRUE(acceptable<2>(right, QualityBound{}));
+}
+
+TEST(Quality, MeshSummaryOfKuhnGrid) {
+  auto mesh = regular_grid_mesh<3>(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(2, 2, 2), {3, 3, 3});
+  auto q = mesh_quality<3>(mesh);
+  EXPECT_EQ(q.inverted, 0);
+  EXPECT_NEAR(q.max_dihedral_deg, 90.0, 1e-9);
+  EXPECT_NEAR(q.min_dihedral_deg, 45.0, 1e-9);
+  EXPECT_NEAR(q.min_nrr, std::sqrt(3.0) / (1.0 + std::sqrt(2.0)), 1e-12);
+  std::swap(mesh.cells[5][0], mesh.cells[5][1]);
+  EXPECT_EQ(mesh_quality<3>(mesh).inverted, 1);
+  const auto q2 = mesh_quality<2>(regular_grid_mesh<2>(Eigen::Vector2d(0, 0), Eigen::Vector2d(1, 1), {4, 4}));
+  EXPECT_NEAR(q2.max_dihedral_deg, 90.0, 1e-9);
+  EXPECT_NEAR(q2.min_dihedral_deg, 45.0, 1e-9);
+}
+
+}  // namespace
+}  // namespace vim
