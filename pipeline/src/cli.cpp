@@ -9,6 +9,8 @@
 #include <vim/pipeline/image_io.hpp>
 #include <vim/pipeline/model.hpp>
 #include <vim/pipeline/report.hpp>
+#include <vim/pipeline/scenario.hpp>
+#include <vim/pipeline/simulation.hpp>
 #include <vim/pipeline/vtk_output.hpp>
 #include <vim/quality.hpp>
 #include <vim/segmentation.hpp>
@@ -385,8 +387,26 @@ UnstructuredGrid voxel_grid(const OrientedImage<dim>& img) {
   return g;
 }
 
+// Scenario mesh keys (nodes, lambda, degree) apply unless the option was given on the command line.
+RunOptions with_scenario_mesh(const RunOptions& given, const Scenario& sc) {
+  auto on_command_line = [&](const std::string& flag) {
+    for (const auto& a : given.command_line)
+      if (a == flag || a.rfind(flag + "=", 0) == 0) return true;
+    return false;
+  };
+  RunOptions o = given;
+  if (sc.nodes && !on_command_line("--nodes") && !on_command_line("--spacing")) o.nodes = *sc.nodes;
+  if (sc.lambda && !on_command_line("--lambda")) o.lambda = *sc.lambda;
+  if (sc.degree && !on_command_line("--degree")) o.degree = static_cast<int>(*sc.degree);
+  return o;
+}
+
 template <int dim>
-int run_dim(const RunOptions& o) {
+int run_dim(const RunOptions& given) {
+  // The scenario is read and checked before anything is written.
+  std::optional<Scenario> scenario;
+  if (!given.simulate.empty()) scenario = read_scenario(given.simulate, dim);
+  const RunOptions o = scenario ? with_scenario_mesh(given, *scenario) : given;
   json report;
   report["tool"] = {{"name", "vim-pipeline"}, {"version", VIM_VERSION_STRING}};
   report["command_line"] = o.command_line;
@@ -395,8 +415,6 @@ int run_dim(const RunOptions& o) {
   const auto t_total = std::chrono::steady_clock::now();
 
   OutputDirectory out(o.out, o.overwrite);  // refuses a non-empty DIR before any work
-  if (!o.simulate.empty())  // remove when run_simulation is wired at the PLUG-IN below
-    throw InputError("--simulate " + o.simulate + ": the simulation stage is not available in this build");
 
   // 1. Image
   StageTimer t_read(report, "read_image");
@@ -426,6 +444,13 @@ int run_dim(const RunOptions& o) {
   model.transform.origin = img.origin();
   model.transform.direction = img.direction;
   const auto bmin = img.image.box_min(), bmax = img.image.box_max();
+  SimulationOptions sim_options;
+  if (scenario) {
+    check_scenario_geometry<dim>(*scenario, bmin, bmax, model.transform);
+    check_modulus_image<dim>(*scenario, img.image);
+    sim_options.output_file = [&out](const std::string& rel) { return out.file(rel); };
+    sim_options.degree = static_cast<unsigned>(o.degree);
+  }
 
   UnstructuredGrid grid;
   if (o.mesher == MesherKind::voxel) {
@@ -435,6 +460,12 @@ int run_dim(const RunOptions& o) {
     grid = voxel_grid(img);
     t.stop();
     report["mesh"] = {{"mesher", "voxel"}, {"nodes", grid.points.size()}, {"elements", grid.n_cells()}};
+    if (scenario) {
+      StageTimer ts(report, "simulate");
+      NeedleSimulation<dim> sim = NeedleSimulation<dim>::voxel(img.image, model.transform, *scenario, sim_options);
+      report["simulation"] = sim.run().report;
+      ts.stop();
+    }
   } else {
     // 2. Initial mesh: Kuhn/Freudenthal grid with the node budget (or spacing).
     StageTimer t_init(report, "initial_mesh");
@@ -512,9 +543,14 @@ int run_dim(const RunOptions& o) {
                       {"nodes_per_axis", per_axis},
                       {"quality", quality_json(model.mesh)}};
 
-    // 5. PLUG-IN (engineer D): needle simulation.
-    //    if (!o.simulate.empty()) run_simulation<dim>(img, model, o, out, report);
-    //    (it may fill model.youngs_modulus, which mesh.vtu then carries as "youngs_modulus").
+    // 5. Needle simulation (simulation.hpp); mesh.vtu then carries the modulus used.
+    if (scenario) {
+      StageTimer t(report, "simulate");
+      NeedleSimulation<dim> sim(model, *scenario, sim_options);  // validates against the mesh first
+      model.youngs_modulus = sim.youngs_modulus();
+      report["simulation"] = sim.run().report;
+      t.stop();
+    }
 
     grid = simplex_grid(model.mesh, model.transform);
     const std::size_t nc = model.mesh.n_cells();

@@ -204,7 +204,7 @@ NeedleSimulation<dim> NeedleSimulation<dim>::voxel(const Image<dim>& image, cons
   g.nodes_per_cell = 1 << dim;
   for (const auto& v : verts) {
     const Vec w = transform.to_world(v);
-    std::array<double, 3> q{0, 0, 0};
+    std::array<double, 3> q{{0, 0, 0}};
     for (int d = 0; d < dim; ++d) q[d] = w[d];
     g.points.push_back(q);
   }
@@ -290,6 +290,11 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
   const bool force_model = spec.model == NeedleSpec::Model::force;
   const bool slip = !force_model && spec.friction == NeedleSpec::Friction::stick_slip;
 
+  std::vector<std::size_t> active;  // shaft points constrained in the current step
+  for (const auto& p : shaft) {
+    run.point_s.push_back(p.s);
+    run.point_length.push_back(p.length);
+  }
   std::vector<Vec> target_f;
   for (const auto& t : sc.targets) target_f.push_back(tf.to_frame(vec<dim>(t.position)));
   const bool write = static_cast<bool>(opt.output_file) && sc.output_every > 0;
@@ -326,6 +331,10 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
       run.vertex_displacement.push_back(std::move(vd));
     else
       run.vertex_displacement.back() = std::move(vd);
+    std::vector<double> pa(np, 0.0);
+    if (s)
+      for (std::size_t i = 0; i < active.size() && i < s->point_force.size(); ++i) pa[active[i]] = s->point_force[i].dot(a);
+    run.point_axial_force.push_back(std::move(pa));
     run.active_points.push_back(n_active);
     run.solves.push_back(solves);
   };
@@ -348,7 +357,6 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
   fem::Solution<dim> sol;
 
   // Solve with axial values `vals` on the picked points; returns the axial force on the body per point.
-  std::vector<std::size_t> active;
   auto solve_with = [&](const std::vector<double>& vals) {
     std::vector<fem::PointConstraint<dim>> pts;
     pts.reserve(active.size());

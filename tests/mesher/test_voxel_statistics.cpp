@@ -141,6 +141,46 @@ TEST(VoxelStatistics, MatchesBruteForce3D) {
   expect_matches_bruteforce<3>({17, 13, 11}, {0.5, 0.5, 3.0}, {2.0, -7.0, 1.0}, 150, 12);
 }
 
+// Row clipping (fast crossing + exact tie path) against the per-voxel scan with the same predicate,
+// on simplices whose vertices snap to quarter-voxel positions: many centres lie exactly on faces.
+template <int dim>
+void expect_rows_match_per_voxel_on_ties(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::array<long, dim> size;
+  std::array<double, dim> sp, org;
+  for (int a = 0; a < dim; ++a) {
+    size[a] = 9 + 2 * a;
+    sp[a] = 0.4 + 0.3 * a;
+    org[a] = 1.0 - a;
+  }
+  const auto img = random_image<dim>(size, sp, org, rng);
+  const VoxelStatistics<dim> stats(img);
+  std::uniform_int_distribution<int> q(-6, 4 * static_cast<int>(size[0]) + 6);
+  long ties = 0;
+  for (int t = 0; t < 400; ++t) {
+    typename VoxelStatistics<dim>::Simplex x;
+    for (auto& p : x)
+      for (int a = 0; a < dim; ++a) p[a] = org[a] + sp[a] * 0.25 * q(rng);
+    if (std::abs(signed_volume<dim>(x)) < 1e-9) continue;
+    const auto s = stats.sums(x), r = stats.sums_per_voxel(x);
+    ASSERT_EQ(s.n, r.n) << "trial " << t;
+    EXPECT_NEAR(s.s, r.s, 1e-9 * (1.0 + std::abs(r.s)));
+    for (std::size_t k = 0; k < img.voxel_count(); ++k) {  // count centres on a face (ties)
+      const auto c = img.continuous_index(img.point_of(img.index_of(k)));
+      Eigen::Matrix<double, dim, dim> m;
+      for (int d = 0; d < dim; ++d) m.col(d) = img.continuous_index(x[d + 1]) - img.continuous_index(x[0]);
+      const Eigen::Matrix<double, dim, 1> l = m.fullPivLu().solve(c - img.continuous_index(x[0]));
+      const double l0 = 1.0 - l.sum();
+      const bool inside = l.minCoeff() >= -1e-12 && l0 >= -1e-12;
+      ties += inside && (std::abs(l.minCoeff()) < 1e-12 || std::abs(l0) < 1e-12);
+    }
+  }
+  EXPECT_GT(ties, 20);  // the case is really tie-heavy
+}
+
+TEST(VoxelStatistics, RowsMatchPerVoxelScanOnTies2D) { expect_rows_match_per_voxel_on_ties<2>(21); }
+TEST(VoxelStatistics, RowsMatchPerVoxelScanOnTies3D) { expect_rows_match_per_voxel_on_ties<3>(22); }
+
 TEST(VoxelStatistics, EmptyElementTakesCentroidValue) {
   // Linear image h = 1 + 2i + 3j: the centroid sample is exact.
   Image<2> img({5, 5}, {1.0, 2.0}, {0.0, 0.0});

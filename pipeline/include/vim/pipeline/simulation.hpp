@@ -58,6 +58,8 @@ struct NeedleRun {
   std::vector<std::vector<Vec>> vertex_displacement;  // world axes: every step if keep_step_fields, else the last
   std::vector<int> active_points;                  // shaft points constrained at each step
   std::vector<int> solves;                         // model solves per step (> 1 with sliding points)
+  std::vector<double> point_s, point_length;       // shaft points: travel at pick-up, shaft length each stands for
+  std::vector<std::vector<double>> point_axial_force;  // [step][point]: axial force on the body (0 if not active)
   double max_displacement = 0.0;                   // largest vertex displacement norm over all steps
   double solve_seconds = 0.0;                      // total time in solves
   double steps_per_second = 0.0;

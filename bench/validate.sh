@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# Full validation sweep of issue 8 (CI runs the small subset: ctest -L validation):
+#   1. paper Table I at 125, 343, 4096 nodes (bench/table1.cpp, independent TF% metric);
+#   2. deformation error vs the fine voxel reference, VIM vs grid at 125, 343, 1000, 4096 nodes,
+#      for the 3D sphere (10x stiffer) and the 2D two-inclusion phantom (bench/bench_fem_validate.cpp);
+#   3. the prostate needle scenario through the CLI with --mesher vim|grid|voxel, when the CLI and
+#      the example scenario exist.
+# Usage: bench/validate.sh [build-dir] > docs-tables.md
+set -euo pipefail
+BUILD=${1:-build}
+SRC=$(cd "$(dirname "$0")/.." && pwd)
+cmake -S "$SRC" -B "$BUILD" -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build "$BUILD" -j"${JOBS:-2}" --target table1 bench_fem_validate >/dev/null
+echo "# vim-pipeline validation — commit $(git -C "$SRC" rev-parse --short HEAD 2>/dev/null || echo unknown)," \
+     "$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(nproc) cores, $(date -u +%F)"
+echo
+echo '## Table I'
+echo '```'
+"$BUILD/bench/table1" 125 343 4096
+echo '```'
+"$BUILD/bench/bench_fem_validate" --scenario all 125 343 1000 4096
+
+SCENARIO="$SRC/examples/prostate_needle.yaml"
+prostate() {
+  cmake --build "$BUILD" -j"${JOBS:-2}" --target vim-pipeline vim-make-phantom >/dev/null 2>&1 || return 1
+  local tmp
+  tmp=$(mktemp -d)
+  "$BUILD/examples/vim-make-phantom" prostate --out "$tmp/prostate.mha" >/dev/null || return 1
+  echo
+  echo '## Prostate needle insertion (CLI, 1000 nodes; target displacements from report.json)'
+  for mesher in vim grid voxel; do
+    "$BUILD/pipeline/vim-pipeline" "$tmp/prostate.mha" --mesher "$mesher" --nodes 1000 --quiet \
+      --simulate "$SCENARIO" --out "$tmp/$mesher" || return 1
+    echo "- $mesher: $(tr -d '\n ' < "$tmp/$mesher/report.json" | grep -o '"targets":[^]]*]' | head -c 600)"
+  done
+}
+if ! prostate; then
+  echo
+  echo "Prostate needle scenario skipped: the CLI (vim-make-phantom prostate; vim-pipeline --mesher/--simulate) is not ready."
+fi

@@ -1,0 +1,312 @@
+// Scenario parsing and validation (scenario.hpp): every key of issue 6 is read with its value, and
+// every malformed input gives a ScenarioError that names the key, the value and the YAML line.
+#include <vim/pipeline/scenario.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+using namespace vim;
+using namespace vim::pipeline;
+
+namespace {
+
+const char* kFull = R"(units: {length: mm, modulus: kPa}
+material:
+  youngs_modulus: image
+  scale: 2.5
+  clamp: [1.0, 1000.0]
+  poisson_ratio: 0.45
+mesh: {nodes: 3000, lambda: 0.3, degree: 2}
+boundary_conditions:
+  - {type: fixed, region: {box_face: y_min}}
+  - {type: fixed, region: {cylinder: {center: [0, -20, 0], axis: [0, 0, 2], radius: 10}}}
+  - {type: displacement, region: {box_face: z_max}, value: [0, 0, -2.0]}
+  - {type: pressure, region: {box_face: z_max}, value: 1.5}
+  - {type: traction, region: {sphere: {center: [1, 2, 3], radius: 4}}, value: [0.1, 0, 0]}
+  - {type: displacement, region: {box: {min: [-1, -1, -1], max: [1, 1, 1]}}, value: [0, 0, 0], components: [x, z]}
+needle:
+  entry: [0, 0, -30]
+  direction: [0, 0, 3]
+  depth: 45.0
+  steps: 45
+  diameter: 1.27
+  model: kinematic
+  friction: {model: stick-slip, max_shear_per_length: 0.5}
+  sample_spacing: 2.0
+targets:
+  - {name: lesion, position: [5, 2, 10]}
+  - {name: apex, position: [0, 0, -20]}
+output: {every: 3, fields: [displacement, strain]}
+solver: {type: amg, tolerance: 1.0e-8}
+)";
+
+// The message of the ScenarioError thrown by parsing `yaml` (fails the test if none is thrown).
+std::string error_of(const std::string& yaml, int dim = 3) {
+  try {
+    parse_scenario_text(yaml, dim, "s.yaml");
+  } catch (const ScenarioError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "no error for:\n" << yaml;
+  return "";
+}
+
+std::string replace(std::string s, const std::string& from, const std::string& to) {
+  const auto k = s.find(from);
+  EXPECT_NE(k, std::string::npos) << from;
+  if (k != std::string::npos) s.replace(k, from.size(), to);
+  return s;
+}
+
+const char* kMinimal = R"(boundary_conditions:
+  - {type: fixed, region: {box_face: z_max}}
+needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 1}
+)";
+
+}  // namespace
+
+TEST(Scenario, EveryKeyIsParsed) {
+  const Scenario s = parse_scenario_text(kFull, 3, "full.yaml");
+  EXPECT_EQ(s.length_unit, "mm");
+  EXPECT_EQ(s.modulus_unit, "kPa");
+  EXPECT_TRUE(s.modulus_from_image);
+  EXPECT_DOUBLE_EQ(s.scale, 2.5);
+  ASSERT_TRUE(s.clamp);
+  EXPECT_DOUBLE_EQ(s.clamp->first, 1.0);
+  EXPECT_DOUBLE_EQ(s.clamp->second, 1000.0);
+  EXPECT_DOUBLE_EQ(s.poisson_ratio, 0.45);
+  EXPECT_EQ(*s.nodes, 3000);
+  EXPECT_DOUBLE_EQ(*s.lambda, 0.3);
+  EXPECT_EQ(*s.degree, 2u);
+
+  ASSERT_EQ(s.boundary_conditions.size(), 6u);
+  const auto& b = s.boundary_conditions;
+  EXPECT_EQ(b[0].type, BoundaryConditionSpec::Type::fixed);
+  EXPECT_EQ(b[0].region.kind, RegionSpec::Kind::box_face);
+  EXPECT_EQ(b[0].region.axis, 1);
+  EXPECT_FALSE(b[0].region.upper);
+  EXPECT_EQ(b[0].line, 9);
+  EXPECT_EQ(b[1].region.kind, RegionSpec::Kind::cylinder);
+  EXPECT_DOUBLE_EQ(b[1].region.center[1], -20.0);
+  EXPECT_DOUBLE_EQ(b[1].region.axis_vector[2], 1.0);  // normalised
+  EXPECT_DOUBLE_EQ(b[1].region.radius, 10.0);
+  EXPECT_EQ(b[2].type, BoundaryConditionSpec::Type::displacement);
+  EXPECT_EQ(b[2].region.axis, 2);
+  EXPECT_TRUE(b[2].region.upper);
+  EXPECT_DOUBLE_EQ(b[2].value[2], -2.0);
+  EXPECT_EQ(b[3].type, BoundaryConditionSpec::Type::pressure);
+  EXPECT_DOUBLE_EQ(b[3].value[0], 1.5);
+  EXPECT_EQ(b[4].type, BoundaryConditionSpec::Type::traction);
+  EXPECT_EQ(b[4].region.kind, RegionSpec::Kind::sphere);
+  EXPECT_DOUBLE_EQ(b[4].region.radius, 4.0);
+  EXPECT_DOUBLE_EQ(b[4].value[0], 0.1);
+  EXPECT_EQ(b[5].region.kind, RegionSpec::Kind::box);
+  EXPECT_DOUBLE_EQ(b[5].region.lo[0], -1.0);
+  EXPECT_DOUBLE_EQ(b[5].region.hi[2], 1.0);
+  EXPECT_EQ(b[5].components, (std::vector<bool>{true, false, true}));
+
+  ASSERT_EQ(s.needles.size(), 1u);
+  EXPECT_FALSE(s.needle_list);
+  const auto& n = s.needles[0];
+  EXPECT_DOUBLE_EQ(n.entry[2], -30.0);
+  EXPECT_DOUBLE_EQ(n.direction[2], 1.0);  // normalised
+  EXPECT_DOUBLE_EQ(n.depth, 45.0);
+  EXPECT_EQ(n.steps, 45);
+  EXPECT_DOUBLE_EQ(n.diameter, 1.27);
+  EXPECT_EQ(n.model, NeedleSpec::Model::kinematic);
+  EXPECT_EQ(n.friction, NeedleSpec::Friction::stick_slip);
+  EXPECT_DOUBLE_EQ(n.max_shear_per_length, 0.5);
+  EXPECT_DOUBLE_EQ(n.sample_spacing, 2.0);
+
+  ASSERT_EQ(s.targets.size(), 2u);
+  EXPECT_EQ(s.targets[0].name, "lesion");
+  EXPECT_DOUBLE_EQ(s.targets[0].position[1], 2.0);
+  EXPECT_EQ(s.targets[1].name, "apex");
+  EXPECT_EQ(s.output_every, 3);
+  EXPECT_EQ(s.output_fields, (std::vector<std::string>{"displacement", "strain"}));
+  EXPECT_TRUE(s.wants("strain"));
+  EXPECT_FALSE(s.wants("stress"));
+  EXPECT_EQ(s.solver_type, "amg");
+  EXPECT_DOUBLE_EQ(s.solver_tolerance, 1e-8);
+  EXPECT_EQ(s.text, kFull);
+}
+
+TEST(Scenario, DefaultsAndNumberModulus) {
+  const Scenario s = parse_scenario_text(std::string(kMinimal) + "material: {youngs_modulus: 12.5}\n", 3);
+  EXPECT_FALSE(s.modulus_from_image);
+  EXPECT_DOUBLE_EQ(s.youngs_modulus, 12.5);
+  EXPECT_DOUBLE_EQ(s.poisson_ratio, 0.49);
+  EXPECT_FALSE(s.nodes);
+  EXPECT_EQ(s.output_every, 1);
+  EXPECT_EQ(s.solver_type, "auto");
+  EXPECT_EQ(s.needles[0].model, NeedleSpec::Model::kinematic);
+  EXPECT_EQ(s.needles[0].friction, NeedleSpec::Friction::stick);
+  const auto e = scenario_modulus(s, {1.0, 2.0});
+  EXPECT_EQ(e, (std::vector<double>{12.5, 12.5}));
+}
+
+TEST(Scenario, NeedlesList) {
+  const std::string y = R"(boundary_conditions: [{type: fixed, region: {box_face: x_min}}]
+needles:
+  - {name: a, entry: [0, 0], direction: [1, 0], depth: 5, steps: 2, diameter: 1}
+  - {entry: [0, 1], direction: [1, 1], depth: 5, steps: 2, diameter: 1, model: force, tip_force: 3}
+)";
+  const Scenario s = parse_scenario_text(y, 2);
+  ASSERT_EQ(s.needles.size(), 2u);
+  EXPECT_TRUE(s.needle_list);
+  EXPECT_EQ(s.needles[0].name, "a");
+  EXPECT_EQ(s.needles[1].name, "needle_2");
+  EXPECT_NEAR(s.needles[1].direction[0], std::sqrt(0.5), 1e-15);
+  EXPECT_EQ(s.needles[1].model, NeedleSpec::Model::force);
+  EXPECT_DOUBLE_EQ(s.needles[1].tip_force, 3.0);
+}
+
+TEST(Scenario, ModulusFromImageScaleAndClamp) {
+  Scenario s = parse_scenario_text(std::string(kMinimal) + "material: {scale: 2, clamp: [3, 10]}\n", 3);
+  EXPECT_EQ(scenario_modulus(s, {1.0, 2.0, 4.0, 100.0, -5.0}), (std::vector<double>{3.0, 4.0, 8.0, 10.0, 3.0}));
+  s.clamp.reset();
+  EXPECT_THROW(scenario_modulus(s, {1.0, -1.0}), ScenarioError);
+  EXPECT_THROW(scenario_modulus(s, {std::nan("")}), ScenarioError);
+}
+
+struct BadCase {
+  const char* from;
+  const char* to;
+  std::vector<const char*> expect;  // substrings of the message
+};
+
+TEST(Scenario, BadInputsNameKeyValueAndLine) {
+  const std::vector<BadCase> cases = {
+      {"units:", "unit:", {"unknown key 'unit'", "valid keys", "boundary_conditions", "s.yaml:1:"}},
+      {"scale: 2.5", "scael: 2.5", {"unknown key 'material.scael'", "poisson_ratio", "s.yaml:4:"}},
+      {"poisson_ratio: 0.45", "poisson_ratio: 0.5", {"material.poisson_ratio", "0.5", "< 0.5", "s.yaml:6:"}},
+      {"poisson_ratio: 0.45", "poisson_ratio: -1.5", {"material.poisson_ratio", "(-1, 0.5)"}},
+      {"poisson_ratio: 0.45", "poisson_ratio: soft", {"material.poisson_ratio must be a number", "'soft'"}},
+      {"youngs_modulus: image", "youngs_modulus: picture", {"material.youngs_modulus", "'image' or a number", "'picture'"}},
+      {"youngs_modulus: image", "youngs_modulus: -3", {"material.youngs_modulus", "-3"}},
+      {"clamp: [1.0, 1000.0]", "clamp: [10, 1]", {"material.clamp", "min <= max"}},
+      {"clamp: [1.0, 1000.0]", "clamp: 5", {"material.clamp must be a list"}},
+      {"degree: 2", "degree: 3", {"mesh.degree must be 1 or 2", "3"}},
+      {"nodes: 3000", "nodes: 1.5", {"mesh.nodes must be an integer", "'1.5'"}},
+      {"lambda: 0.3", "lambda: 1.0", {"mesh.lambda", "[0, 1)"}},
+      {"box_face: y_min", "box_face: y_low", {"box_face = 'y_low'", "x_min, x_max, y_min, y_max, z_min, z_max", "s.yaml:9:"}},
+      {"{type: fixed, region: {box_face: y_min}}", "{type: clamped, region: {box_face: y_min}}",
+       {"boundary_conditions[0].type = 'clamped'", "fixed, displacement, pressure, traction"}},
+      {"radius: 10}", "radius: 0}", {"boundary_conditions[1].region.cylinder.radius must be > 0", "0"}},
+      {"axis: [0, 0, 2]", "axis: [0, 0, 0]", {"boundary_conditions[1].region.cylinder.axis must be a non-zero vector"}},
+      {"value: [0, 0, -2.0]", "value: [0, -2.0]", {"boundary_conditions[2].value must be a list of 3 numbers", "list of 2"}},
+      {", value: 1.5}", "}", {"missing key 'boundary_conditions[3].value'"}},
+      {"components: [x, z]", "components: [x, w]", {"components[1] = 'w'", "x, y, z"}},
+      {"entry: [0, 0, -30]", "entry: [0, 0]", {"needle.entry must be a list of 3 numbers"}},
+      {"entry: [0, 0, -30]", "entry: [0, zero, -30]", {"needle.entry[1] must be a number", "'zero'"}},
+      {"direction: [0, 0, 3]", "direction: [0, 0, 0]", {"needle.direction must be a non-zero vector", "s.yaml:17:"}},
+      {"depth: 45.0", "depth: -45", {"needle.depth must be > 0", "-45", "s.yaml:18:"}},
+      {"depth: 45.0", "depth: 0", {"needle.depth must be > 0"}},
+      {"steps: 45", "steps: 0", {"needle.steps must be > 0", "0"}},
+      {"steps: 45", "steps: 4.5", {"needle.steps must be an integer", "'4.5'"}},
+      {"diameter: 1.27", "diameter: -1", {"needle.diameter must be > 0", "-1"}},
+      {"diameter: 1.27", "diameter: [1]", {"needle.diameter must be a number", "a list"}},
+      {"  diameter: 1.27\n", "", {"missing key 'needle.diameter'"}},
+      {"model: kinematic", "model: spring", {"needle.model = 'spring'", "kinematic, force"}},
+      {"model: stick-slip", "model: glue", {"needle.friction.model = 'glue'", "stick, stick-slip"}},
+      {"max_shear_per_length: 0.5", "max_shear: 0.5", {"unknown key 'needle.friction.max_shear'", "max_shear_per_length"}},
+      {"every: 3", "every: -1", {"output.every must be >= 0"}},
+      {"fields: [displacement, strain]", "fields: [displacement, pressure]", {"output.fields[1] = 'pressure'", "von_mises"}},
+      {"type: amg", "type: gauss", {"solver.type = 'gauss'", "auto, direct, amg"}},
+      {"tolerance: 1.0e-8", "tolerance: 0", {"solver.tolerance must be > 0"}},
+      {"{name: apex,", "{name: lesion,", {"targets[1].name = 'lesion' is used twice"}},
+      {"{name: apex,", "{name: 2apex,", {"targets[1].name = '2apex' must be an identifier"}},
+      {"position: [5, 2, 10]", "position: [5, 2, 10, 1]", {"targets[0].position must be a list of 3 numbers"}},
+      {"needle:", "needel:", {"unknown key 'needel'"}},
+      {"mesh: {nodes: 3000, lambda: 0.3, degree: 2}", "mesh: [3000]", {"mesh must be a mapping, got a list", "s.yaml:7:"}},
+  };
+  for (const auto& c : cases) {
+    const std::string msg = error_of(replace(kFull, c.from, c.to));
+    for (const char* e : c.expect) EXPECT_NE(msg.find(e), std::string::npos) << "case '" << c.to << "': message: " << msg << "\n  lacks: " << e;
+  }
+}
+
+TEST(Scenario, MissingTopLevelKeysAndSyntax) {
+  EXPECT_NE(error_of("boundary_conditions: [{type: fixed, region: {box_face: x_min}}]\n").find("missing key 'needle'"), std::string::npos);
+  EXPECT_NE(error_of("needle: {entry: [0,0,0], direction: [0,0,1], depth: 1, steps: 1, diameter: 1}\n").find("missing key 'boundary_conditions'"),
+            std::string::npos);
+  EXPECT_NE(error_of("").find("empty"), std::string::npos);
+  EXPECT_NE(error_of("needle: [1, 2\n").find("YAML syntax error"), std::string::npos);
+  const std::string both = std::string(kMinimal) + "needles: []\n";
+  EXPECT_NE(error_of(both).find("either 'needle' or 'needles'"), std::string::npos);
+  // 2D: only x/y faces and 2-vectors.
+  const std::string y2 = R"(boundary_conditions: [{type: fixed, region: {box_face: z_min}}]
+needle: {entry: [0, 0], direction: [0, 1], depth: 1, steps: 1, diameter: 1}
+)";
+  EXPECT_NE(error_of(y2, 2).find("box_face = 'z_min' is not a face of the 2D image box; use one of: x_min, x_max, y_min, y_max"),
+            std::string::npos);
+  EXPECT_NE(error_of(kMinimal, 2).find("needle.entry must be a list of 2 numbers"), std::string::npos);
+  EXPECT_THROW(read_scenario("/nonexistent/dir/s.yaml", 3), ScenarioError);
+  // Only loads, no fixed or displacement condition: singular.
+  const std::string loads = R"(boundary_conditions:
+  - {type: pressure, region: {box_face: z_max}, value: 1.5}
+needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 1}
+)";
+  const std::string m = error_of(loads);
+  EXPECT_NE(m.find("boundary_conditions has no 'fixed' or 'displacement' condition"), std::string::npos) << m;
+  EXPECT_NE(m.find("singular"), std::string::npos) << m;
+}
+
+TEST(Scenario, GeometryAgainstTheImageBox) {
+  using V = Eigen::Vector3d;
+  const V lo(-10, -10, 0), hi(10, 10, 40);
+  WorldTransform<3> id;
+  auto scen = [](const std::string& needle, const std::string& target) {
+    return parse_scenario_text("boundary_conditions: [{type: fixed, region: {box_face: z_max}}]\nneedle: " + needle +
+                                   "\ntargets: [{name: t, position: " + target + "}]\n",
+                               3, "g.yaml");
+  };
+  const std::string ok = "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 40, steps: 4, diameter: 1}";
+  EXPECT_NO_THROW(check_scenario_geometry<3>(scen(ok, "[0, 0, 39]"), lo, hi, id));  // entry on the surface, tip at the far face
+  auto msg = [&](const std::string& needle, const std::string& target, const WorldTransform<3>& t) {
+    try {
+      check_scenario_geometry<3>(scen(needle, target), lo, hi, t);
+    } catch (const ScenarioError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(msg("{entry: [0, 0, -1], direction: [0, 0, 1], depth: 5, steps: 4, diameter: 1}", "[0, 0, 1]", id)
+                .find("needle.entry [0, 0, -1] is outside the image box (world [-10, -10, 0] .. [10, 10, 40])"),
+            std::string::npos);
+  EXPECT_NE(msg("{entry: [0, 0, 0], direction: [0, 0, 1], depth: 41, steps: 4, diameter: 1}", "[0, 0, 1]", id)
+                .find("needle.depth = 41 takes the tip out of the image box"),
+            std::string::npos);
+  EXPECT_NE(msg("{entry: [0, 0, 0], direction: [0, 0, -1], depth: 1, steps: 4, diameter: 1}", "[0, 0, 1]", id)
+                .find("points out of the image box"),
+            std::string::npos);
+  EXPECT_NE(msg(ok, "[0, 11, 5]", id).find("target 't' position [0, 11, 5] is outside the image box"), std::string::npos);
+  // A rotated image: world = origin + D (p - origin); frame box [-10,10]x[-10,10]x[0,40] about origin 0, D = Rz(90°).
+  WorldTransform<3> rot;
+  rot.direction << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+  EXPECT_EQ(msg("{entry: [-10, 5, 20], direction: [1, 0, 0], depth: 20, steps: 2, diameter: 1}", "[5, 0, 1]", rot), "no error");
+  EXPECT_NE(msg("{entry: [-10, 5, 20], direction: [1, 0, 0], depth: 21, steps: 2, diameter: 1}", "[5, 0, 1]", rot).find("largest depth"),
+            std::string::npos);
+}
+
+TEST(Scenario, ModulusImageNeedsClampForNegativeOrNaN) {
+  Image<3> img({4, 4, 4}, {1, 1, 1}, {0, 0, 0}, 10.0f);
+  const Scenario plain = parse_scenario_text(kMinimal, 3);
+  EXPECT_NO_THROW(check_modulus_image(plain, img));
+  img.data[5] = -2.0f;
+  try {
+    check_modulus_image(plain, img);
+    ADD_FAILURE() << "negative voxel accepted";
+  } catch (const ScenarioError& e) {
+    EXPECT_NE(std::string(e.what()).find("material.youngs_modulus: image has 1 voxels"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("material.clamp"), std::string::npos);
+  }
+  img.data[5] = std::nanf("");
+  EXPECT_THROW(check_modulus_image(plain, img), ScenarioError);
+  const Scenario clamped = parse_scenario_text(std::string(kMinimal) + "material: {clamp: [1, 100]}\n", 3);
+  EXPECT_NO_THROW(check_modulus_image(clamped, img));
+  const Scenario constant = parse_scenario_text(std::string(kMinimal) + "material: {youngs_modulus: 5}\n", 3);
+  EXPECT_NO_THROW(check_modulus_image(constant, img));
+}
