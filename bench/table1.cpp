@@ -3,7 +3,7 @@
 // counts of the thresholded sphere (§VI-B), computed by the independent code in metrics.hpp,
 // printed beside the paper's VIM rows.
 //
-//   table1 [--n 100] [--lambda 0.3] [--max-iterations 50] [--threads 0] [nodes ...]
+//   table1 [--n 100] [--lambda 0.3] [--max-iterations 50] [--convergence 1e-3] [--threads 0] [nodes ...]
 #include "metrics.hpp"
 
 #include <vim/initial_mesh.hpp>
@@ -59,6 +59,7 @@ int main(int argc, char** argv) try {
     if (!std::strcmp(argv[i], "--n")) n = std::atol(value("--n"));
     else if (!std::strcmp(argv[i], "--lambda")) options.lambda = std::atof(value("--lambda"));
     else if (!std::strcmp(argv[i], "--max-iterations")) options.max_iterations = std::atoi(value("--max-iterations"));
+    else if (!std::strcmp(argv[i], "--convergence")) options.convergence = std::atof(value("--convergence"));
     else if (!std::strcmp(argv[i], "--threads")) options.threads = std::atoi(value("--threads"));
     else budgets.push_back(std::atol(argv[i]));
   }
@@ -67,8 +68,8 @@ int main(int argc, char** argv) try {
 
   const vim::Image<3> image = vim::metrics::table1_phantom(n);
   const Eigen::Vector3d centre(1.5, 1.5, 1.5), lo = image.box_min(), hi = image.box_max();
-  std::printf("Table I phantom: %ld^3 voxels, cube [0,3]^3, sphere r=1 (2.0 in / 1.0 out); lambda=%g\n", n,
-              options.lambda);
+  std::printf("Table I phantom: %ld^3 voxels, cube [0,3]^3, sphere r=1 (2.0 in / 1.0 out); lambda=%g, convergence=%g\n",
+              n, options.lambda, options.convergence);
   print_header();
   for (long budget : budgets) {
     const auto axis = vim::nodes_per_axis_for_budget<3>(lo, hi, budget);

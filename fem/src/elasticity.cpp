@@ -11,6 +11,7 @@
 // Both satisfy K u + Cᵀ μ = f; the force of the constraint on the body is −Cᵀμ (point_force = −μ).
 #include "elasticity_impl.hpp"
 
+#include <deal.II/base/mpi.h>
 #include <deal.II/base/timer.h>
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_q.h>
@@ -30,6 +31,7 @@
 #include <Teuchos_ParameterList.hpp>
 
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
@@ -344,9 +346,10 @@ int ElasticModel<dim>::Impl::dirichlet_owner(const Point<dim>& x, unsigned c, do
 // The conditions remove every rigid motion iff no rigid mode r ≠ 0 vanishes on all constrained
 // DoFs, i.e. the Gram matrix Σ_i r_k(i) r_l(i) over constrained DoFs is non-singular.
 template <int dim>
-void ElasticModel<dim>::Impl::check_rigid_modes_removed(
-    const std::vector<std::pair<Point<dim>, unsigned>>& constrained, std::size_t) const {
-  if (constrained.empty()) {
+void ElasticModel<dim>::Impl::check_rigid_modes_removed(const std::vector<std::pair<Point<dim>, unsigned>>& constrained,
+                                                        MPI_Comm comm) const {
+  const auto n_constrained = Utilities::MPI::sum(static_cast<unsigned long long>(constrained.size()), comm);
+  if (n_constrained == 0) {
     std::ostringstream m;
     m << "no Dirichlet condition constrains any node (";
     if (bcs.empty()) m << "none was added";
@@ -359,12 +362,11 @@ void ElasticModel<dim>::Impl::check_rigid_modes_removed(
     throw std::runtime_error(m.str());
   }
   constexpr int nm = dim == 2 ? 3 : 6;
-  Point<dim> c0;
-  double scale = 0.0;
-  for (const auto& [x, comp] : constrained) c0 += x;
-  c0 /= static_cast<double>(constrained.size());
-  for (const auto& v : vertices) scale = std::max(scale, (to_point<dim>(v) - c0).norm());
-  if (scale == 0.0) scale = 1.0;
+  // rotations about the bounding-box centre, scaled to unit size (the same on every rank)
+  Vec<dim> lo = vertices[0], hi = vertices[0];
+  for (const auto& v : vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+  const Point<dim> c0 = to_point<dim>(0.5 * (lo + hi));
+  const double scale = std::max(0.5 * (hi - lo).norm(), std::numeric_limits<double>::min());
   Eigen::Matrix<double, nm, nm> G = Eigen::Matrix<double, nm, nm>::Zero();
   for (const auto& [x, comp] : constrained) {
     const Tensor<1, dim> r = (x - c0) / scale;
@@ -380,10 +382,12 @@ void ElasticModel<dim>::Impl::check_rigid_modes_removed(
     }
     G += row * row.transpose();
   }
+  Utilities::MPI::sum(ArrayView<const double>(G.data(), nm * nm), comm, ArrayView<double>(G.data(), nm * nm));
+  const auto constrained_size = n_constrained;
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, nm, nm>> es(G);
   if (!(es.eigenvalues()[0] > 1e-10 * std::max(1.0, es.eigenvalues()[nm - 1]))) {
     std::ostringstream m;
-    m << "the Dirichlet conditions constrain " << constrained.size()
+    m << "the Dirichlet conditions constrain " << constrained_size
       << " DoFs but leave a rigid-body motion free (e.g. only one component or one line fixed): "
          "the stiffness matrix is singular; constrain enough components/nodes";
     throw std::runtime_error(m.str());
@@ -493,7 +497,7 @@ void assemble(Impl& m) {
     constrained.emplace_back(m.support_points[i], component[i]);
   }
   m.constraints.close();
-  m.check_rigid_modes_removed(constrained, n);
+  m.check_rigid_modes_removed(constrained);
 
   DynamicSparsityPattern dsp(n, n);
   DoFTools::make_sparsity_pattern(m.dof, dsp);
@@ -630,12 +634,51 @@ unsigned apply_inverse(const Impl& m, const Vector<double>& b, Vector<double>& x
   return control.last_step();
 }
 
+// The cell containing x and x's reference coordinates, or (end, ·) if x is outside the mesh.
+// find_active_cell_around_point's answer is verified (reference coordinates inside the reference
+// cell, and mapping back to x); if it fails, all cells are searched (as a last resort only).
+template <int dim, class Impl>
+std::pair<typename Triangulation<dim>::active_cell_iterator, Point<dim>> locate(const Impl& m, const Point<dim>& x,
+                                                                             bool* verified_first = nullptr) {
+  const double tol = 1e-10;
+  auto ok = [&](const typename Triangulation<dim>::active_cell_iterator& cell, const Point<dim>& xi) {
+    if (!cell->reference_cell().contains_point(xi, tol)) return false;
+    const Point<dim> back = m.mapping->transform_unit_to_real_cell(cell, xi);
+    return back.distance(x) <= 1e-9 * std::max(1.0, cell->diameter());
+  };
+  try {
+    const auto found = GridTools::find_active_cell_around_point(*m.cache, x);
+    if (found.first.state() == IteratorState::valid && found.first != m.tria.end() && ok(found.first, found.second)) {
+      if (verified_first) *verified_first = true;
+      return found;
+    }
+  } catch (...) {
+  }
+  if (verified_first) *verified_first = false;
+  for (const auto& cell : m.tria.active_cell_iterators()) {
+    // cheap bounding-box rejection first
+    const auto box = cell->bounding_box();
+    bool in = true;
+    for (int d = 0; d < dim; ++d) {
+      const double pad = 1e-9 * cell->diameter();
+      in = in && x[d] >= box.get_boundary_points().first[d] - pad && x[d] <= box.get_boundary_points().second[d] + pad;
+    }
+    if (!in) continue;
+    try {
+      const Point<dim> xi = m.mapping->transform_real_to_unit_cell(cell, x);
+      if (ok(cell, xi)) return {cell, xi};
+    } catch (...) {
+    }
+  }
+  return {m.tria.end(), Point<dim>()};
+}
+
 // Row of C for component c of the point x: shape-function values of the containing cell,
 // Dirichlet DoFs moved to the right-hand side.
 template <int dim, class Impl>
 ConstraintRow constraint_row(const Impl& m, const Vec<dim>& x, unsigned c, double g, std::size_t which) {
-  const auto found = GridTools::find_active_cell_around_point(*m.cache, to_point<dim>(x));
-  if (found.first == m.tria.end() || found.first.state() != IteratorState::valid) {
+  const auto found = locate<dim>(m, to_point<dim>(x));
+  if (found.first == m.tria.end()) {
     std::ostringstream s;
     s << "point constraint " << which << " at " << fmt_point(x.data(), dim) << " lies outside the mesh";
     throw std::invalid_argument(s.str());
@@ -656,6 +699,8 @@ ConstraintRow constraint_row(const Impl& m, const Vec<dim>& x, unsigned c, doubl
     if (v == 0.0) continue;
     if (m.constraints.is_constrained(idx[i])) {
       row.g -= v * m.constraints.get_inhomogeneity(idx[i]);
+      row.dirichlet_dofs.push_back(idx[i]);
+      row.dirichlet_values.push_back(v);
     } else {
       row.dofs.push_back(idx[i]);
       row.values.push_back(v);
@@ -673,6 +718,48 @@ ConstraintRow constraint_row(const Impl& m, const Vec<dim>& x, unsigned c, doubl
     row.active = false;
   }
   return row;
+}
+
+// Greedy, in the given order: a row numerically in the span of earlier kept rows is not kept.
+std::vector<bool> independent_rows(const std::vector<const ConstraintRow*>& rows) {
+  std::unordered_map<types::global_dof_index, int> col;
+  for (const auto* r : rows)
+    for (auto d : r->dofs) col.emplace(d, static_cast<int>(col.size()));
+  std::vector<Eigen::VectorXd> basis;
+  std::vector<bool> keep(rows.size(), false);
+  for (std::size_t a = 0; a < rows.size(); ++a) {
+    Eigen::VectorXd v = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(col.size()));
+    for (std::size_t i = 0; i < rows[a]->dofs.size(); ++i) v[col[rows[a]->dofs[i]]] += rows[a]->values[i];
+    const double n0 = v.norm();
+    for (int pass = 0; pass < 2; ++pass)
+      for (const auto& b : basis) v -= b.dot(v) * b;
+    if (v.norm() > 1e-9 * n0) {
+      keep[a] = true;
+      basis.push_back(v / v.norm());
+    }
+  }
+  return keep;
+}
+
+// Dropped (dependent) rows must hold for the solution anyway; otherwise they conflict.
+void check_dropped_rows(const std::vector<const ConstraintRow*>& rows, const std::vector<double>& g,
+                        const std::vector<bool>& keep, const std::vector<std::pair<std::size_t, unsigned>>& which,
+                        const Vector<double>& u) {
+  double scale = u.linfty_norm();
+  for (double v : g) scale = std::max(scale, std::abs(v));
+  for (std::size_t a = 0; a < rows.size(); ++a) {
+    if (keep[a]) continue;
+    double cu = 0.0;
+    for (std::size_t i = 0; i < rows[a]->dofs.size(); ++i) cu += rows[a]->values[i] * u[rows[a]->dofs[i]];
+    if (std::abs(cu - g[a]) > 1e-8 * scale) {
+      std::ostringstream s;
+      s << "point constraint " << which[a].first << " (component " << which[a].second
+        << ") conflicts with earlier point constraints: it is a linear combination of them (e.g. a third point "
+           "on a line inside one P1 element, or a repeated point) but asks for a different displacement "
+           "(misfit " << cu - g[a] << ")";
+      throw std::runtime_error(s.str());
+    }
+  }
 }
 
 template <int dim>
@@ -724,6 +811,16 @@ Solution<dim> postprocess(const Impl& m) {
   s.stats.n_dofs = m.dof.n_dofs();
   s.stats.assemble_seconds = m.assemble_seconds;
   return s;
+}
+
+// The full system reads K u = f + r − Cᵀμ on every DoF (r: support reactions), so on Dirichlet
+// DoFs r = K u − f + C_Dᵀ μ: add the constraint rows' Dirichlet parts to the reactions.
+template <int dim, class Impl>
+void add_constraint_reactions(const Impl& m, const ConstraintRow& row, unsigned comp, double mu, Solution<dim>& s) {
+  for (std::size_t i = 0; i < row.dirichlet_dofs.size(); ++i) {
+    const int b = m.dof_bc[row.dirichlet_dofs[i]];
+    if (b >= 0) s.dirichlet_reaction[b][comp] += mu * row.dirichlet_values[i];
+  }
 }
 
 }  // namespace
@@ -806,6 +903,16 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
       }
       rows.push_back({&it->second.first, &it->second.second, g, k, c});
     }
+  std::vector<const ConstraintRow*> all_rows;
+  std::vector<double> all_g;
+  std::vector<std::pair<std::size_t, unsigned>> all_which;
+  for (const auto& r : rows) all_rows.push_back(r.row), all_g.push_back(r.g), all_which.emplace_back(r.point, r.comp);
+  const std::vector<bool> keep = independent_rows(all_rows);
+  std::vector<Active> used;
+  for (std::size_t a = 0; a < rows.size(); ++a)
+    if (keep[a]) used.push_back(rows[a]);
+  const std::size_t n_all = rows.size();
+  rows.swap(used);
   const std::size_t nr = rows.size();
   m.u = m.u0;
   std::vector<double> mu(nr, 0.0);
@@ -824,27 +931,31 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
       }
     }
     S = 0.5 * (S + S.transpose()).eval();
-    Eigen::FullPivLU<Eigen::MatrixXd> lu(S);
-    lu.setThreshold(1e-11);
-    if (lu.rank() < static_cast<Eigen::Index>(nr)) {
+    Eigen::LLT<Eigen::MatrixXd> llt(S);  // S = C K⁻¹ Cᵀ is SPD for independent rows
+    if (llt.info() != Eigen::Success) {
       std::ostringstream s;
-      s << "the " << nr << " point-constraint rows are linearly dependent (rank " << lu.rank()
-        << "): two constraints on the same point/component, or too many points in one element";
+      s << "the Schur complement of the " << nr << " point-constraint rows is not positive definite (nearly dependent rows)";
       throw std::runtime_error(s.str());
     }
-    const Eigen::VectorXd x = lu.solve(r);
+    const Eigen::VectorXd x = llt.solve(r);
     for (std::size_t a = 0; a < nr; ++a) {
       mu[a] = x[a];
       m.u.add(-x[a], *rows[a].col);
     }
   }
+  check_dropped_rows(all_rows, all_g, keep, all_which, m.u);
   m.constraints.distribute(m.u);
   m.have_solution = true;
   const double solve_seconds = timer.wall_time();
   Solution<dim> s = postprocess<dim>(m);
   s.point_force.assign(points.size(), Vec<dim>::Zero());
-  for (std::size_t a = 0; a < nr; ++a) s.point_force[rows[a].point][rows[a].comp] = -mu[a];
+  for (std::size_t a = 0; a < nr; ++a) {
+    s.point_force[rows[a].point][rows[a].comp] = -mu[a];
+    add_constraint_reactions<dim>(m, *rows[a].row, rows[a].comp, mu[a], s);
+  }
   s.stats.method = m.method;
+  s.stats.constraint_rows = static_cast<unsigned>(nr);
+  s.stats.dependent_rows_dropped = static_cast<unsigned>(n_all - nr);
   s.stats.iterations = iterations;
   s.stats.residual = residual;
   s.stats.solve_seconds = solve_seconds + m.prepare_seconds;
@@ -872,12 +983,21 @@ Solution<dim> ElasticModel<dim>::solve_monolithic(const std::vector<PointConstra
         ConstraintRow row = constraint_row<dim>(m, points[k].position, c, points[k].displacement[c], k);
         if (row.active) rows.push_back({std::move(row), k, c});
       }
-  const unsigned nr = static_cast<unsigned>(rows.size());
+  std::vector<const ConstraintRow*> all_rows;
+  std::vector<double> all_g;
+  std::vector<std::pair<std::size_t, unsigned>> all_which;
+  for (const auto& r : rows) all_rows.push_back(&r.row), all_g.push_back(r.row.g), all_which.emplace_back(r.point, r.comp);
+  const std::vector<bool> keep = independent_rows(all_rows);
+  std::vector<R> used;
+  for (std::size_t a = 0; a < rows.size(); ++a)
+    if (keep[a]) used.push_back(rows[a]);
+  const std::size_t n_all = rows.size();
+  const unsigned nr = static_cast<unsigned>(used.size());
   DynamicSparsityPattern dsp(n + nr, n + nr);
   for (unsigned i = 0; i < n; ++i)
     for (auto it = m.sparsity.begin(i); it != m.sparsity.end(i); ++it) dsp.add(i, it->column());
   for (unsigned a = 0; a < nr; ++a)
-    for (auto d : rows[a].row.dofs) dsp.add(n + a, d), dsp.add(d, n + a);
+    for (auto d : used[a].row.dofs) dsp.add(n + a, d), dsp.add(d, n + a);
   SparsityPattern sp;
   sp.copy_from(dsp);
   SparseMatrix<double> A(sp);
@@ -886,24 +1006,30 @@ Solution<dim> ElasticModel<dim>::solve_monolithic(const std::vector<PointConstra
   Vector<double> x(n + nr);
   for (unsigned i = 0; i < n; ++i) x[i] = m.f[i];
   for (unsigned a = 0; a < nr; ++a) {
-    for (std::size_t i = 0; i < rows[a].row.dofs.size(); ++i) {
-      A.set(n + a, rows[a].row.dofs[i], rows[a].row.values[i]);
-      A.set(rows[a].row.dofs[i], n + a, rows[a].row.values[i]);
+    for (std::size_t i = 0; i < used[a].row.dofs.size(); ++i) {
+      A.set(n + a, used[a].row.dofs[i], used[a].row.values[i]);
+      A.set(used[a].row.dofs[i], n + a, used[a].row.values[i]);
     }
-    x[n + a] = rows[a].row.g;
+    x[n + a] = used[a].row.g;
   }
   SparseDirectUMFPACK direct;
   direct.initialize(A);
   direct.solve(x);
   m.u.reinit(n);
   for (unsigned i = 0; i < n; ++i) m.u[i] = x[i];
+  check_dropped_rows(all_rows, all_g, keep, all_which, m.u);
   m.constraints.distribute(m.u);
   m.have_solution = true;
   const double solve_seconds = timer.wall_time();
   Solution<dim> s = postprocess<dim>(m);
   s.point_force.assign(points.size(), Vec<dim>::Zero());
-  for (unsigned a = 0; a < nr; ++a) s.point_force[rows[a].point][rows[a].comp] = -x[n + a];
+  for (unsigned a = 0; a < nr; ++a) {
+    s.point_force[used[a].point][used[a].comp] = -x[n + a];
+    add_constraint_reactions<dim>(m, used[a].row, used[a].comp, x[n + a], s);
+  }
   s.stats.method = "umfpack-monolithic";
+  s.stats.constraint_rows = nr;
+  s.stats.dependent_rows_dropped = static_cast<unsigned>(n_all - nr);
   s.stats.solve_seconds = solve_seconds;
   (void)opt;
   return s;
@@ -923,20 +1049,32 @@ std::vector<Vec<dim>> ElasticModel<dim>::sample(const std::vector<Vec<dim>>& poi
   }
   std::vector<Vec<dim>> out(points.size(), Vec<dim>::Zero());
   std::vector<bool> inside(points.size(), false);
+  // compute_point_locations answers in bulk; each answer is verified (see locate) and points it
+  // dropped or misplaced are located again one by one.
   const auto [cells, qpoints, maps] = GridTools::compute_point_locations(*m.cache, pts);
+  std::vector<std::pair<typename Triangulation<dim>::active_cell_iterator, Point<dim>>> where(
+      pts.size(), {m.tria.end(), Point<dim>()});
+  for (std::size_t k = 0; k < cells.size(); ++k)
+    for (unsigned p = 0; p < qpoints[k].size(); ++p) {
+      const unsigned i = maps[k][p];
+      const auto& xi = qpoints[k][p];
+      if (cells[k]->reference_cell().contains_point(xi, 1e-10) &&
+          m.mapping->transform_unit_to_real_cell(cells[k], xi).distance(pts[i]) <= 1e-9 * std::max(1.0, cells[k]->diameter()))
+        where[i] = {cells[k], xi};
+    }
   std::vector<types::global_dof_index> idx(m.fe->n_dofs_per_cell());
-  for (std::size_t k = 0; k < cells.size(); ++k) {
-    const typename DoFHandler<dim>::active_cell_iterator cell(&m.tria, cells[k]->level(), cells[k]->index(), &m.dof);
-    Quadrature<dim> q(qpoints[k]);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    if (where[i].first == m.tria.end()) where[i] = locate<dim>(m, pts[i]);
+    if (where[i].first == m.tria.end()) continue;
+    const typename DoFHandler<dim>::active_cell_iterator cell(&m.tria, where[i].first->level(), where[i].first->index(), &m.dof);
+    Quadrature<dim> q(std::vector<Point<dim>>{where[i].second});
     FEValues<dim> fv(*m.mapping, *m.fe, q, update_values);
     fv.reinit(cell);
     cell->get_dof_indices(idx);
-    for (unsigned p = 0; p < q.size(); ++p) {
-      Vec<dim> v = Vec<dim>::Zero();
-      for (unsigned i = 0; i < idx.size(); ++i) v[m.fe->system_to_component_index(i).first] += m.u[idx[i]] * fv.shape_value(i, p);
-      out[maps[k][p]] = v;
-      inside[maps[k][p]] = true;
-    }
+    Vec<dim> v = Vec<dim>::Zero();
+    for (unsigned j = 0; j < idx.size(); ++j) v[m.fe->system_to_component_index(j).first] += m.u[idx[j]] * fv.shape_value(j, 0);
+    out[i] = v;
+    inside[i] = true;
   }
   if (info) {
     info->inside = inside;

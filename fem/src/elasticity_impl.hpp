@@ -32,6 +32,8 @@ namespace vim::fem {
 struct ConstraintRow {
   std::vector<dealii::types::global_dof_index> dofs;
   std::vector<double> values;
+  std::vector<dealii::types::global_dof_index> dirichlet_dofs;  // the part moved to g (for reactions)
+  std::vector<double> dirichlet_values;
   double g = 0.0;      // right-hand side after moving Dirichlet contributions over
   bool active = true;  // false: the point sits on Dirichlet DoFs only (the row is void)
 };
@@ -91,8 +93,9 @@ struct ElasticModel<dim>::Impl {
   void setup_dofs();
   // Per-DoF support points over the cells given by `cells` (all active cells in serial).
   int dirichlet_owner(const dealii::Point<dim>& x, unsigned component, double* value) const;
+  // Throws unless the constrained DoFs (this rank's share; summed over `comm`) remove every rigid motion.
   void check_rigid_modes_removed(const std::vector<std::pair<dealii::Point<dim>, unsigned>>& constrained,
-                                 std::size_t n_selected_total) const;
+                                 MPI_Comm comm = MPI_COMM_SELF) const;
   // Local stiffness and load of one cell (fe_values/fe_face_values reinit'ed inside).
   void local_system(const typename dealii::DoFHandler<dim>::active_cell_iterator& cell,
                     dealii::FEValues<dim>& fe_values, dealii::FEFaceValues<dim>& fe_face_values,

@@ -42,6 +42,7 @@ long VimOptimizer<dim>::insert_nodes(long k) {
     const int m = static_cast<int>(mesh_.points.size());
     mesh_.points.push_back(mid);
     fixed_.push_back(classify(mid));
+    dirty_.push_back(1);
     adj_.add_point();
     std::vector<Cell> split;
     for (int rc : ring) {
@@ -58,6 +59,7 @@ long VimOptimizer<dim>::insert_nodes(long k) {
     } else {
       mesh_.points.pop_back();
       fixed_.pop_back();
+      dirty_.pop_back();
       adj_.pop_point();
     }
   }

@@ -1,12 +1,14 @@
 // Node updates of paper §IV-B / §VI-D: for node i, golden-section line searches toward the
 // centroid of each 1-ring element (or a random walk inside the 1-ring), evaluating only the
 // 1-ring's energy; the best candidate is taken iff E drops and the quality bound holds.
+#include <vim/energy.hpp>
 #include <vim/optimizer.hpp>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -38,28 +40,47 @@ constexpr double kGolden = 0.61803398874989484820;
 }  // namespace
 
 // Energy of the 1-ring with the node at p (written to s.trial); +inf if an element would be
-// inverted or violate the quality bound. Stops early once the partial sum reaches `bound`.
+// inverted or violate the quality bound. The cheap E_G terms are summed first; the voxel sums are
+// only taken if `image` and stop as soon as the partial sum exceeds `bound` (the caller then only
+// learns "worse than bound"). With image == false the E_D terms are taken as zero.
 template <int dim>
-double VimOptimizer<dim>::evaluate_candidate(const Point& p, Scratch& s, double bound) const {
+double VimOptimizer<dim>::evaluate_candidate(const Point& p, Scratch& s, double bound, bool image) const {
   const std::size_t m = s.ring.size();
-  // Cheap rejections first: orientation of every element, then the quality bound.
+  // Cheapest first: orientation, then the E_G terms (a candidate already worse than `bound` needs no
+  // quality check: infeasible or not, the caller discards it), then the quality bound, then E_D.
+  double total = 0.0;
   for (std::size_t k = 0; k < m; ++k) {
     Simplex x = s.base[k];
     x[s.local[k]] = p;
-    if (!(signed_volume<dim>(x) > 0.0)) return kInf;
+    CellCache& c = s.trial[k];
+    c = CellCache{};
+    c.volume = signed_volume<dim>(x);
+    if (!(c.volume > 0.0)) return kInf;
+    c.eg = geometric_energy<dim>(x);
+    if (density_) c.eg *= density_->interpolate(centroid<dim>(x));
+    c.cost = wg_ * c.eg;
+    total += c.cost;
   }
+  if (total > bound) return total;
   for (std::size_t k = 0; k < m; ++k) {
     Simplex x = s.base[k];
     x[s.local[k]] = p;
     if (!acceptable(x)) return kInf;
   }
-  double total = 0.0;
+  if (!image) return total;
   for (std::size_t k = 0; k < m; ++k) {
     Simplex x = s.base[k];
     x[s.local[k]] = p;
-    s.trial[k] = evaluate(x);
-    total += s.trial[k].cost;
-    if (total >= bound) return total;
+    CellCache& c = s.trial[k];
+    const auto sum = stats_->sums(x);
+    c.n = sum.n;
+    c.s = sum.s;
+    c.q = sum.q;
+    c.ed = discretization_energy(c.volume, element_variance(sum.n, sum.s, sum.q));
+    const double d = wd_ * c.ed;
+    c.cost += d;
+    total += d;
+    if (total > bound) return total;
   }
   return total;
 }
@@ -77,15 +98,26 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
   s.trial.resize(m);
   s.best.resize(m);
   double c0 = 0.0;
+  long ring_n = 0;
+  double ring_s = 0.0, ring_q = 0.0;
   for (std::size_t k = 0; k < m; ++k) {
     const int c = s.ring[k];
     s.base[k] = simplex(c);
     for (int j = 0; j <= dim; ++j)
       if (mesh_.cells[c][j] == node) s.local[k] = j;
     c0 += cache_[c].cost;
+    ring_n += cache_[c].n;
+    ring_s += cache_[c].s;
+    ring_q += cache_[c].q;
   }
   if (!(c0 > 0.0)) return false;
   const Point x0 = mesh_.points[node];
+
+  // Moving the node keeps the 1-ring's union fixed, so if the voxels in it are all equal (variance
+  // zero up to round-off), E_D is zero for every candidate and the search skips the voxel sums.
+  bool image = stats_ != nullptr && wd_ > 0.0;
+  if (image && element_variance(ring_n, ring_s, ring_q) == 0.0) image = false;
+  const bool exact = image || stats_ == nullptr;  // otherwise the winner is re-evaluated exactly
 
   // A candidate must beat the current 1-ring energy by a relative margin far above round-off, so
   // accepted moves strictly lower E and the recorded history never increases.
@@ -94,7 +126,7 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
   Point best_p = x0;
   bool found = false;
   auto consider = [&](const Point& p, double bound) {
-    const double f = evaluate_candidate(p, s, bound);
+    const double f = evaluate_candidate(p, s, bound, image);
     if (f < best) {
       best = f;
       best_p = p;
@@ -117,23 +149,26 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
       if (len <= tiny) continue;
       // Golden-section search on t ∈ [0, 1] along x0 + t·d, from the centroid (t = 1) down to a
       // bracket shorter than the minimum step; infeasible points count as +inf (shrink toward x0).
-      consider(x0 + d, kInf);
+      // Each new point is evaluated with the retained point's value as bound: if it is worse, the
+      // (partial) value only decides the comparison and is discarded, so the search is exact.
+      consider(x0 + d, best);
       double a = 0.0, b = 1.0;
       double t1 = b - kGolden * (b - a), t2 = a + kGolden * (b - a);
-      double f1 = consider(x0 + t1 * d, kInf), f2 = consider(x0 + t2 * d, kInf);
+      double f1 = consider(x0 + t1 * d, kInf);
+      double f2 = consider(x0 + t2 * d, f1);
       while ((b - a) * len > min_step_) {
         if (f1 <= f2) {
           b = t2;
           t2 = t1;
           f2 = f1;
           t1 = b - kGolden * (b - a);
-          f1 = consider(x0 + t1 * d, kInf);
+          f1 = consider(x0 + t1 * d, f2);
         } else {
           a = t1;
           t1 = t2;
           f1 = f2;
           t2 = a + kGolden * (b - a);
-          f2 = consider(x0 + t2 * d, kInf);
+          f2 = consider(x0 + t2 * d, f1);
         }
       }
     }
@@ -153,6 +188,17 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
   }
 
   if (!found) return false;
+  if (!exact) {
+    // The search skipped the voxel sums: evaluate the winner exactly and re-check the decrease.
+    double total = 0.0;
+    for (std::size_t k = 0; k < m; ++k) {
+      Simplex x = s.base[k];
+      x[s.local[k]] = best_p;
+      s.best[k] = evaluate(x);
+      total += s.best[k].cost;
+    }
+    if (!(total < threshold)) return false;
+  }
   mesh_.points[node] = best_p;
   for (std::size_t k = 0; k < m; ++k) cache_[s.ring[k]] = s.best[k];
   if (moved_sq) *moved_sq = (best_p - x0).squaredNorm();
@@ -161,7 +207,10 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
 
 template <int dim>
 bool VimOptimizer<dim>::update_node(int node, int iteration) {
-  return update_node_impl(node, iteration, scratch_.local(), nullptr);
+  dirty_[node] = 0;
+  const bool moved = update_node_impl(node, iteration, scratch_.local(), nullptr);
+  if (moved) mark_ring_dirty(node);
+  return moved;
 }
 
 // One sweep: colour classes in order; nodes of a class in parallel (their 1-rings are disjoint, so
@@ -171,6 +220,7 @@ long VimOptimizer<dim>::update_nodes(int iteration, double* sum_sq) {
   const std::size_t n = mesh_.points.size();
   std::vector<double> moved(n, 0.0);
   std::vector<char> did(n, 0);
+  const bool line_search = options_.strategy == VimOptions::NodeStrategy::centroid_line_search;
   tbb::task_arena arena(options_.threads > 0 ? options_.threads : tbb::task_arena::automatic);
   arena.execute([&] {
     for (const auto& cls : colours_) {
@@ -178,6 +228,8 @@ long VimOptimizer<dim>::update_nodes(int iteration, double* sum_sq) {
         Scratch& s = scratch_.local();
         for (std::size_t j = r.begin(); j != r.end(); ++j) {
           const int node = cls[j];
+          if (line_search && !dirty_[node]) continue;  // would repeat its last, unsuccessful search
+          dirty_[node] = 0;  // only this task touches this node's flag during the class
           double sq = 0.0;
           if (update_node_impl(node, iteration, s, &sq)) {
             did[node] = 1;
@@ -185,6 +237,8 @@ long VimOptimizer<dim>::update_nodes(int iteration, double* sum_sq) {
           }
         }
       });
+      for (int node : cls)  // sequential: neighbours of moved nodes must search again
+        if (did[node]) mark_ring_dirty(node);
     }
   });
   long moves = 0;
@@ -197,8 +251,8 @@ long VimOptimizer<dim>::update_nodes(int iteration, double* sum_sq) {
   return moves;
 }
 
-template double VimOptimizer<2>::evaluate_candidate(const Point&, Scratch&, double) const;
-template double VimOptimizer<3>::evaluate_candidate(const Point&, Scratch&, double) const;
+template double VimOptimizer<2>::evaluate_candidate(const Point&, Scratch&, double, bool) const;
+template double VimOptimizer<3>::evaluate_candidate(const Point&, Scratch&, double, bool) const;
 template bool VimOptimizer<2>::update_node_impl(int, int, Scratch&, double*);
 template bool VimOptimizer<3>::update_node_impl(int, int, Scratch&, double*);
 template bool VimOptimizer<2>::update_node(int, int);

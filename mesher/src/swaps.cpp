@@ -1,6 +1,7 @@
 // Connectivity updates of paper §IV-B (GRUMMP-style, ref. [37]): 2D edge flips; 3D 2-3, 3-2 and
 // 4-4 swaps. A swap is taken iff every new element passes the quality bound, the new elements tile
 // exactly the region of the old ones, and E (Eq. 7) drops. Boundary facets are never swapped.
+#include <vim/energy.hpp>
 #include <vim/optimizer.hpp>
 
 #include <algorithm>
@@ -43,6 +44,14 @@ bool VimOptimizer<dim>::try_replace(const std::vector<int>& old_cells,
       volume += vol;
     }
     if (!ok || std::abs(volume - old_volume) > 1e-9 * old_volume) continue;
+    // Lower bound first: the E_G share alone (cheap) already at or above the best → skip the sums.
+    double geometric = 0.0;
+    for (const Cell& v : cells) {
+      Simplex x;
+      for (int j = 0; j <= dim; ++j) x[j] = mesh_.points[v[j]];
+      geometric += wg_ * geometric_energy<dim>(x) * (density_ ? density_->interpolate(centroid<dim>(x)) : 1.0);
+    }
+    if (geometric >= best) continue;
     caches.clear();
     double total = 0.0;
     for (const Cell& v : cells) {
@@ -62,7 +71,10 @@ bool VimOptimizer<dim>::try_replace(const std::vector<int>& old_cells,
 
   std::vector<int> slots = old_cells;
   std::sort(slots.begin(), slots.end());
-  for (int c : slots) adj_.remove_cell(c, mesh_.cells[c]);
+  for (int c : slots) {
+    for (int w : mesh_.cells[c]) dirty_[w] = 1;
+    adj_.remove_cell(c, mesh_.cells[c]);
+  }
   while (slots.size() > best_cells.size()) {
     const int c = slots.back();
     slots.pop_back();

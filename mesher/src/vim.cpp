@@ -6,6 +6,8 @@
 #include <vim/optimizer.hpp>
 #include <vim/vim.hpp>
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -27,6 +29,9 @@ VimOptimizer<dim>::VimOptimizer(SimplexMesh<dim> mesh, const VoxelStatistics<dim
   bound_.max_dihedral_deg = options_.max_dihedral_deg;
   bound_.min_dihedral_deg = options_.min_dihedral_deg;
   bound_.min_radius_ratio = options_.min_radius_ratio;
+  constexpr double kPi = 3.14159265358979323846;
+  cos_max_ = std::cos(bound_.max_dihedral_deg * kPi / 180.0);
+  cos_min_ = std::cos(bound_.min_dihedral_deg * kPi / 180.0);
 
   box_min_ = mesh_.points[0];
   box_max_ = mesh_.points[0];
@@ -39,6 +44,7 @@ VimOptimizer<dim>::VimOptimizer(SimplexMesh<dim> mesh, const VoxelStatistics<dim
   const double voxel = img ? img->min_spacing() : (box_max_ - box_min_).minCoeff() / 100.0;
   min_step_ = options_.line_search_step * voxel;
 
+  dirty_.assign(mesh_.points.size(), 1);
   fixed_.resize(mesh_.points.size());
   for (std::size_t i = 0; i < mesh_.points.size(); ++i) fixed_[i] = classify(mesh_.points[i]);
 
@@ -85,19 +91,63 @@ CellCache VimOptimizer<dim>::evaluate(const Simplex& x) const {
     c.n = s.n;
     c.s = s.s;
     c.q = s.q;
-    if (s.n > 0) {
-      const double mean = s.s / static_cast<double>(s.n);
-      const double var = std::max(0.0, s.q / static_cast<double>(s.n) - mean * mean);
-      c.ed = discretization_energy(std::abs(c.volume), var);
-    }
+    c.ed = discretization_energy(std::abs(c.volume), element_variance(s.n, s.s, s.q));
   }
   c.cost = cost_of(c);
   return c;
 }
 
+namespace {
+// Cosines of the dihedral angles (3D: between outward facet normals n_i, n_j the angle at their
+// shared edge has cos = −n_i·n_j / |n_i||n_j|) or interior angles (2D); no allocation, no acos.
+inline int angle_cosines(const std::array<Eigen::Vector2d, 3>& x, std::array<double, 6>& c) {
+  for (int i = 0; i < 3; ++i) {
+    const Eigen::Vector2d u = x[(i + 1) % 3] - x[i], v = x[(i + 2) % 3] - x[i];
+    c[i] = u.dot(v) / std::sqrt(u.squaredNorm() * v.squaredNorm());
+  }
+  return 3;
+}
+inline int angle_cosines(const std::array<Eigen::Vector3d, 4>& x, std::array<double, 6>& c) {
+  std::array<Eigen::Vector3d, 4> n;
+  std::array<double, 4> len;
+  for (int i = 0; i < 4; ++i) {
+    const int j = (i + 1) % 4, k = (i + 2) % 4, l = (i + 3) % 4;
+    n[i] = (x[k] - x[j]).cross(x[l] - x[j]);
+    if (n[i].dot(x[i] - x[j]) > 0.0) n[i] = -n[i];
+    len[i] = n[i].norm();
+  }
+  int m = 0;
+  for (int i = 0; i < 4; ++i)
+    for (int j = i + 1; j < 4; ++j) c[m++] = -n[i].dot(n[j]) / (len[i] * len[j]);
+  return 6;
+}
+}  // namespace
+
+// The quality bound of §IV-B. Fast path: when every angle is clearly (1e-9 in cosine) within the
+// bound, or one is clearly outside it, decide from the cosines; otherwise (and for radius-ratio
+// bounds) defer to vim::acceptable, which defines the bound.
 template <int dim>
 bool VimOptimizer<dim>::acceptable(const Simplex& x) const {
-  return vim::acceptable<dim>(x, bound_);
+  if (bound_.min_radius_ratio > 0.0) return vim::acceptable<dim>(x, bound_);
+  double longest2 = 0.0;
+  for (int i = 0; i <= dim; ++i)
+    for (int k = i + 1; k <= dim; ++k) longest2 = std::max(longest2, (x[i] - x[k]).squaredNorm());
+  const double vol = signed_volume<dim>(x);
+  if (!(vol > 0.0)) return false;
+  const double scale = dim == 3 ? longest2 * std::sqrt(longest2) : longest2;  // longest^dim
+  bool defer = !(vol > 2e-12 * scale);
+  std::array<double, 6> c;
+  const int m = angle_cosines(x, c);
+  constexpr double eps = 1e-9;
+  for (int i = 0; i < m; ++i) {
+    if (!(c[i] >= cos_max_ - eps)) return false;  // angle clearly above the max bound (or NaN)
+    if (c[i] < cos_max_ + eps) defer = true;
+    if (bound_.min_dihedral_deg > 0.0) {
+      if (c[i] > cos_min_ + eps) return false;
+      if (c[i] > cos_min_ - eps) defer = true;
+    }
+  }
+  return defer ? vim::acceptable<dim>(x, bound_) : true;
 }
 
 template <int dim>
@@ -191,9 +241,17 @@ template <int dim>
 void VimOptimizer<dim>::set_cell(int c, const Cell& v, const CellCache& cache) {
   mesh_.cells[c] = v;
   cache_[c] = cache;
+  for (int w : v) dirty_[w] = 1;
   if (!alive_[c]) ++n_live_;
   alive_[c] = 1;
   adj_.add_cell(c, v);
+}
+
+template <int dim>
+void VimOptimizer<dim>::mark_ring_dirty(int node) {
+  dirty_[node] = 1;
+  for (int c : adj_.cells_of(node))
+    for (int w : mesh_.cells[c]) dirty_[w] = 1;
 }
 
 template class VimOptimizer<2>;

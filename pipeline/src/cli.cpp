@@ -361,7 +361,7 @@ UnstructuredGrid voxel_grid(const OrientedImage<dim>& img) {
       r /= np[a];
     }
     const auto w = img.to_world(p);
-    std::array<double, 3> q{0, 0, 0};
+    std::array<double, 3> q{};
     for (int a = 0; a < dim; ++a) q[a] = w[a];
     g.points.push_back(q);
   }

@@ -162,7 +162,7 @@ std::array<SliceView, 2> mesh_figure_views(const Image<dim>& image, int axis) {
   left.y_offset = kMargin;
   SliceView right = left;
   if constexpr (dim == 3) right.x_offset = 2 * kMargin + left.width;
-  return {left, right};
+  return {{left, right}};
 }
 
 template <int dim>
@@ -371,9 +371,9 @@ nlohmann::json write_deformed_slice(const MeshModel<dim>& model,
   for (std::size_t i = 0; i < mesh.n_points(); ++i) {
     deformed[i] = mesh.points[i] + displacement[i];
     umax = std::max(umax, displacement[i].norm());
-    for (const Point* p : {&mesh.points[i], &deformed[i]}) {
-      lo = lo.cwiseMin(Eigen::Vector2d((*p)[u], (*p)[v]));
-      hi = hi.cwiseMax(Eigen::Vector2d((*p)[u], (*p)[v]));
+    for (const Point& p : {mesh.points[i], deformed[i]}) {
+      lo = lo.cwiseMin(Eigen::Vector2d(p[u], p[v]));
+      hi = hi.cwiseMax(Eigen::Vector2d(p[u], p[v]));
     }
   }
   const double pad = 0.02 * (hi - lo).maxCoeff() + 1e-12;

@@ -1,147 +1,30 @@
-// Image IO through ITK (see image_io.hpp). The header is read first through the ImageIO factory so
-// that the dimension, pixel type and spacing are checked before any voxel is allocated; the voxels
-// are then read as float by ImageFileReader (ITK converts any scalar component type).
+// Image IO (see image_io.hpp): converts between the ITK side (itk_image_io.cpp, plain arrays, no
+// Eigen) and OrientedImage<dim>, and checks what needs the voxels (NaN/Inf) or the geometry
+// (an orthonormal direction matrix).
 #include <vim/pipeline/image_io.hpp>
 
-#include <itkImage.h>
-#include <itkImageFileReader.h>
-#include <itkImageFileWriter.h>
-#include <itkImageIOBase.h>
-#include <itkImageIOFactory.h>
+#include "itk_image_io.hpp"
 
 #include <cmath>
-#include <filesystem>
 #include <sstream>
-#include <unistd.h>
 
 namespace vim::pipeline {
 
-namespace fs = std::filesystem;
-
-namespace {
-
-constexpr double max_voxels = 2.0e9;  // refuse headers that declare absurd sizes before allocating
-
-// ITK messages span several lines ("file:line: ... Description: ..."); keep the description only.
-std::string one_line(const std::string& text) {
-  std::string s = text;
-  const auto d = s.find("Description:");
-  if (d != std::string::npos) s = s.substr(d + 12);
-  for (char& c : s)
-    if (c == '\n' || c == '\r' || c == '\t') c = ' ';
-  const auto b = s.find_first_not_of(' ');
-  const auto e = s.find_last_not_of(' ');
-  return b == std::string::npos ? std::string() : s.substr(b, e - b + 1);
-}
-
-const char* supported_formats() { return "MetaImage (.mha/.mhd), NRRD (.nrrd/.nhdr) or NIfTI (.nii/.nii.gz)"; }
-
-void quiet_itk() {
-  static const bool done = [] {
-    itk::Object::GlobalWarningDisplayOff();  // warnings would break the one-line error contract
-    return true;
-  }();
-  (void)done;
-}
-
-// Opens the header and checks everything that can be checked without reading voxels.
-itk::ImageIOBase::Pointer open_header(const std::string& path) {
-  quiet_itk();
-  std::error_code ec;
-  if (!fs::exists(path, ec)) throw InputError(path + ": file does not exist");
-  if (fs::is_directory(path, ec)) throw InputError(path + ": is a directory, not an image file");
-  if (::access(path.c_str(), R_OK) != 0) throw InputError(path + ": file is not readable (permission denied)");
-  if (fs::file_size(path, ec) == 0) throw InputError(path + ": file is empty (0 bytes)");
-
-  itk::ImageIOBase::Pointer io =
-      itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::ImageIOFactory::IOFileModeEnum::ReadMode);
-  if (!io)
-    throw InputError(path + ": not a readable image (unknown format or corrupt header); expected " +
-                     supported_formats());
-  io->SetFileName(path);
-  try {
-    io->ReadImageInformation();
-  } catch (const itk::ExceptionObject& e) {
-    throw InputError(path + ": cannot read the image header: " + one_line(e.GetDescription()));
-  }
-  const unsigned d = io->GetNumberOfDimensions();
-  if (d != 2 && d != 3)
-    throw InputError(path + ": image has " + std::to_string(d) + " dimensions; expected 2 or 3");
-  if (io->GetNumberOfComponents() != 1)
-    throw InputError(path + ": pixels have " + std::to_string(io->GetNumberOfComponents()) +
-                     " components (vector/RGB/complex image); expected a scalar image (1 component)");
-  if (io->GetComponentType() == itk::IOComponentEnum::UNKNOWNCOMPONENTTYPE)
-    throw InputError(path + ": unknown voxel component type; expected an integer or floating-point scalar type");
-  double n = 1.0;
-  for (unsigned a = 0; a < d; ++a) {
-    if (io->GetDimensions(a) == 0)
-      throw InputError(path + ": image is empty (size 0 along axis " + std::to_string(a) + ")");
-    n *= static_cast<double>(io->GetDimensions(a));
-    const double s = io->GetSpacing(a);
-    if (!(s > 0.0) || !std::isfinite(s)) {
-      std::ostringstream m;
-      m << path << ": spacing along axis " << a << " is " << s << "; spacing must be positive and finite";
-      throw InputError(m.str());
-    }
-    if (!std::isfinite(io->GetOrigin(a)))
-      throw InputError(path + ": origin along axis " + std::to_string(a) + " is not finite");
-  }
-  if (n > max_voxels) {
-    std::ostringstream m;
-    m << path << ": header declares " << n << " voxels, more than the supported " << max_voxels;
-    throw InputError(m.str());
-  }
-  return io;
-}
-
-// Temporary sibling that keeps the extension (ITK picks the writer from it): .NAME.tmpPID.EXT
-fs::path temporary_image_path(const fs::path& final_path) {
-  static int counter = 0;
-  const std::string name = final_path.filename().string();
-  std::string ext = final_path.extension().string();
-  if (ext == ".gz") ext = fs::path(final_path.stem()).extension().string() + ext;  // .nii.gz
-  const std::string stem = name.substr(0, name.size() - ext.size());
-  return final_path.parent_path() /
-         ("." + stem + ".tmp" + std::to_string(::getpid()) + "_" + std::to_string(counter++) + ext);
-}
-
-}  // namespace
-
-int image_dimension(const std::string& path) {
-  return static_cast<int>(open_header(path)->GetNumberOfDimensions());
-}
+int image_dimension(const std::string& path) { return itk_io::header_dimension(path); }
 
 template <int dim>
 OrientedImage<dim> read_image(const std::string& path) {
-  itk::ImageIOBase::Pointer io = open_header(path);
-  if (static_cast<int>(io->GetNumberOfDimensions()) != dim)
-    throw InputError(path + ": image has " + std::to_string(io->GetNumberOfDimensions()) +
-                     " dimensions; expected " + std::to_string(dim));
-
-  using ItkImage = itk::Image<float, dim>;
-  auto reader = itk::ImageFileReader<ItkImage>::New();
-  reader->SetImageIO(io);
-  reader->SetFileName(path);
-  try {
-    reader->Update();
-  } catch (const itk::ExceptionObject& e) {
-    throw InputError(path + ": cannot read the voxel data (truncated or corrupt file?): " +
-                     one_line(e.GetDescription()));
-  }
-  typename ItkImage::Pointer img = reader->GetOutput();
-
+  itk_io::RawImage raw = itk_io::read(path, dim);
   OrientedImage<dim> out;
-  const auto region = img->GetLargestPossibleRegion();
   for (int a = 0; a < dim; ++a) {
-    out.image.size[a] = static_cast<long>(region.GetSize()[a]);
-    out.image.spacing[a] = img->GetSpacing()[a];
-    out.image.origin[a] = img->GetOrigin()[a];
-    for (int b = 0; b < dim; ++b) out.direction(a, b) = img->GetDirection()(a, b);
+    out.image.size[a] = raw.size[a];
+    out.image.spacing[a] = raw.spacing[a];
+    out.image.origin[a] = raw.origin[a];
+    for (int b = 0; b < dim; ++b) out.direction(a, b) = raw.direction[a * dim + b];
   }
-  const std::size_t n = out.image.voxel_count();
-  const float* buf = img->GetBufferPointer();
-  out.image.data.assign(buf, buf + n);  // ITK buffers are axis-0-fastest, as Image<dim>
+  out.image.data = std::move(raw.data);
 
+  const std::size_t n = out.image.data.size();
   long bad = 0;
   std::size_t first = 0;
   for (std::size_t k = 0; k < n; ++k)
@@ -156,59 +39,28 @@ OrientedImage<dim> read_image(const std::string& path) {
   }
 
   const double det = out.direction.determinant();
-  const double orth = (out.direction.transpose() * out.direction -
-                       Eigen::Matrix<double, dim, dim>::Identity()).cwiseAbs().maxCoeff();
-  if (!std::isfinite(det) || std::abs(std::abs(det) - 1.0) > 1e-3 || orth > 1e-3)
-    throw InputError(path + ": direction matrix is not orthonormal (|det| = " + std::to_string(std::abs(det)) +
-                     "); expected a rotation or reflection");
+  const double orth =
+      (out.direction.transpose() * out.direction - Eigen::Matrix<double, dim, dim>::Identity()).cwiseAbs().maxCoeff();
+  if (!std::isfinite(det) || std::abs(std::abs(det) - 1.0) > 1e-3 || orth > 1e-3) {
+    std::ostringstream m;
+    m << path << ": direction matrix is not orthonormal (|det| = " << std::abs(det)
+      << "); expected a rotation or reflection";
+    throw InputError(m.str());
+  }
   return out;
 }
 
 template <int dim>
 void write_image(const OrientedImage<dim>& image, const std::string& path) {
-  quiet_itk();
-  using ItkImage = itk::Image<float, dim>;
-  auto img = ItkImage::New();
-  typename ItkImage::SizeType size;
-  typename ItkImage::SpacingType spacing;
-  typename ItkImage::PointType origin;
-  typename ItkImage::DirectionType direction;
+  itk_io::RawImage raw;
   for (int a = 0; a < dim; ++a) {
-    size[a] = static_cast<itk::SizeValueType>(image.image.size[a]);
-    spacing[a] = image.image.spacing[a];
-    origin[a] = image.image.origin[a];
-    for (int b = 0; b < dim; ++b) direction(a, b) = image.direction(a, b);
+    raw.size.push_back(image.image.size[a]);
+    raw.spacing.push_back(image.image.spacing[a]);
+    raw.origin.push_back(image.image.origin[a]);
+    for (int b = 0; b < dim; ++b) raw.direction.push_back(image.direction(a, b));
   }
-  if (image.image.data.size() != image.image.voxel_count())
-    throw std::invalid_argument("write_image: data size does not match the image size");
-  img->SetRegions(typename ItkImage::RegionType(size));
-  img->SetSpacing(spacing);
-  img->SetOrigin(origin);
-  img->SetDirection(direction);
-  img->Allocate();
-  std::copy(image.image.data.begin(), image.image.data.end(), img->GetBufferPointer());
-
-  const fs::path final_path(path);
-  const std::string ext = final_path.extension().string();
-  if (ext == ".mhd" || ext == ".nhdr")
-    throw std::invalid_argument(path + ": detached-header formats cannot be written atomically; use .mha, .nrrd, .nii or .nii.gz");
-  const fs::path tmp = temporary_image_path(final_path);
-  try {
-    auto writer = itk::ImageFileWriter<ItkImage>::New();
-    writer->SetFileName(tmp.string());
-    writer->SetInput(img);
-    writer->SetUseCompression(true);
-    writer->Update();
-    fs::rename(tmp, final_path);
-  } catch (const itk::ExceptionObject& e) {
-    std::error_code ec;
-    fs::remove(tmp, ec);
-    throw std::runtime_error(path + ": cannot write image: " + one_line(e.GetDescription()));
-  } catch (...) {
-    std::error_code ec;
-    fs::remove(tmp, ec);
-    throw;
-  }
+  raw.data = image.image.data;
+  itk_io::write(raw, path);
 }
 
 template OrientedImage<2> read_image<2>(const std::string&);

@@ -21,11 +21,11 @@ template <class F>
 OrientedImage<2> raster2d(int n, double lo, double length, F f) {
   const double h = length / n;
   OrientedImage<2> out;
-  out.image = Image<2>({n, n}, {h, h}, {lo + 0.5 * h, lo + 0.5 * h});
+  out.image = Image<2>({{n, n}}, {{h, h}}, {{lo + 0.5 * h, lo + 0.5 * h}});
   for (long j = 0; j < n; ++j)
     for (long i = 0; i < n; ++i) {
-      const auto p = out.image.point_of({i, j});
-      out.image.at({i, j}) = static_cast<float>(f(p[0], p[1]));
+      const auto p = out.image.point_of({{i, j}});
+      out.image.at({{i, j}}) = static_cast<float>(f(p[0], p[1]));
     }
   return out;
 }
@@ -88,13 +88,13 @@ OrientedImage<3> table1(int n) {
   require_size(n, 2, "table1");
   const double h = 3.0 / n;
   OrientedImage<3> out;
-  out.image = Image<3>({n, n, n}, {h, h, h}, {0.5 * h, 0.5 * h, 0.5 * h}, 1.0f);
+  out.image = Image<3>({{n, n, n}}, {{h, h, h}}, {{0.5 * h, 0.5 * h, 0.5 * h}}, 1.0f);
   const long lim = 4L * n * n;
   for (long k = 0; k < n; ++k)
     for (long j = 0; j < n; ++j)
       for (long i = 0; i < n; ++i) {
         const long a = 2 * i + 1 - n, b = 2 * j + 1 - n, c = 2 * k + 1 - n;
-        if (9 * (a * a + b * b + c * c) <= lim) out.image.at({i, j, k}) = 2.0f;
+        if (9 * (a * a + b * b + c * c) <= lim) out.image.at({{i, j, k}}) = 2.0f;
       }
   return out;
 }

@@ -1,12 +1,7 @@
 // Raster canvas and PNG output for the figures (see png.hpp).
-#include <vim/pipeline/atomic_file.hpp>
+// The ITK PNG IO lives in png_io.cpp: ITK's bundled Eigen (itkeigen) must not share a TU with
+// the system Eigen that png.hpp uses.
 #include <vim/pipeline/png.hpp>
-
-#include <itkImage.h>
-#include <itkImageFileReader.h>
-#include <itkImageFileWriter.h>
-#include <itkPNGImageIO.h>
-#include <itkRGBPixel.h>
 
 #include <algorithm>
 #include <cmath>
@@ -14,9 +9,11 @@
 
 namespace vim::pipeline {
 
-namespace {
+// png_io.cpp
+void write_rgb_png(const std::filesystem::path& path, int width, int height, const std::vector<std::uint8_t>& rgb);
+std::vector<std::uint8_t> read_rgb_png(const std::filesystem::path& path, int& width, int& height);
 
-using RgbImage = itk::Image<itk::RGBPixel<unsigned char>, 2>;
+namespace {
 
 std::uint8_t lerp8(double a, double b, double t) {
   return static_cast<std::uint8_t>(std::lround(a + (b - a) * t));
@@ -118,53 +115,17 @@ void Canvas::fill_rect(int x0, int y0, int x1, int y1, Rgb c) {
 }
 
 void Canvas::write_png(const std::filesystem::path& path) const {
-  auto image = RgbImage::New();
-  RgbImage::RegionType region;
-  region.SetSize({{static_cast<itk::SizeValueType>(width_), static_cast<itk::SizeValueType>(height_)}});
-  image->SetRegions(region);
-  image->Allocate();
-  for (int y = 0; y < height_; ++y)
-    for (int x = 0; x < width_; ++x) {
-      const Rgb c = at(x, y);
-      itk::RGBPixel<unsigned char> p;
-      p.Set(c.r, c.g, c.b);
-      image->SetPixel({{x, y}}, p);
-    }
-  write_atomically(path, [&](const std::filesystem::path& tmp) {
-    // The PNG IO is set explicitly; the temporary still ends in .png for tools that look at it.
-    const std::filesystem::path tmp_png = tmp.string() + ".png";
-    try {
-      auto writer = itk::ImageFileWriter<RgbImage>::New();
-      writer->SetImageIO(itk::PNGImageIO::New());
-      writer->SetFileName(tmp_png.string());
-      writer->SetInput(image);
-      writer->Update();
-    } catch (const itk::ExceptionObject& e) {
-      std::error_code ec;
-      std::filesystem::remove(tmp_png, ec);
-      throw std::runtime_error("cannot write " + path.string() + ": " + e.GetDescription());
-    }
-    std::filesystem::rename(tmp_png, tmp);
-  });
+  std::vector<std::uint8_t> rgb;
+  rgb.reserve(pixels_.size() * 3);
+  for (const Rgb& c : pixels_) rgb.insert(rgb.end(), {c.r, c.g, c.b});
+  write_rgb_png(path, width_, height_, rgb);
 }
 
 Canvas Canvas::read_png(const std::filesystem::path& path) {
-  auto reader = itk::ImageFileReader<RgbImage>::New();
-  reader->SetImageIO(itk::PNGImageIO::New());
-  reader->SetFileName(path.string());
-  try {
-    reader->Update();
-  } catch (const itk::ExceptionObject& e) {
-    throw std::runtime_error("cannot read " + path.string() + ": " + e.GetDescription());
-  }
-  const auto image = reader->GetOutput();
-  const auto size = image->GetLargestPossibleRegion().GetSize();
-  Canvas c(static_cast<int>(size[0]), static_cast<int>(size[1]));
-  for (int y = 0; y < c.height_; ++y)
-    for (int x = 0; x < c.width_; ++x) {
-      const auto p = image->GetPixel({{x, y}});
-      c.set(x, y, {p.GetRed(), p.GetGreen(), p.GetBlue()});
-    }
+  int w = 0, h = 0;
+  const std::vector<std::uint8_t> rgb = read_rgb_png(path, w, h);
+  Canvas c(w, h);
+  for (std::size_t k = 0; k < c.pixels_.size(); ++k) c.pixels_[k] = {rgb[3 * k], rgb[3 * k + 1], rgb[3 * k + 2]};
   return c;
 }
 

@@ -341,6 +341,7 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
 
   // Step 0: rest.
   record(0.0, nullptr, 0, 0);
+  run.step_seconds.push_back(0.0);
   if (write) {
     write_step(prefix + "steps/" + step_file(0), nullptr);
     pvd.emplace_back(0.0, "steps/" + step_file(0));
@@ -384,6 +385,7 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
     const double dd = d - d_prev;
     d_prev = d;
     const int solves_before = solves_total;
+    const auto t_step = Clock::now();
     std::vector<double> w_stick(np, 0.0);
     std::size_t last = np;
     active.clear();
@@ -443,6 +445,7 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
       record(d, &sol, static_cast<int>(active.size()), solves_total - solves_before);
     }
     run.stats = sol.stats;
+    run.step_seconds.push_back(seconds_since(t_step));
     if (write && (k % sc.output_every == 0 || k == spec.steps)) {
       write_step(prefix + "steps/" + step_file(k), active.empty() ? nullptr : &sol);
       pvd.emplace_back(d, "steps/" + step_file(k));
@@ -569,6 +572,9 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
     // The first needle's headline numbers at the top level (summary / README).
     const auto& r = res.needles.front();
     rep["final_axial_force"] = r.axial_force.back();
+    rep["final_lateral_force"] = r.lateral_force.back();
+    for (std::size_t t = 0; t < m.sc.targets.size(); ++t)
+      rep["final_displacement_" + m.sc.targets[t].name] = r.target_displacement.back()[t].norm();
     rep["max_displacement"] = r.max_displacement;
     rep["steps_per_second"] = r.steps_per_second;
   }

@@ -28,7 +28,7 @@ UnstructuredGrid simplex_grid(const SimplexMesh<dim>& frame_mesh, const WorldTra
   g.points.reserve(frame_mesh.n_points());
   for (const auto& p : frame_mesh.points) {
     const auto w = transform.to_world(p);
-    std::array<double, 3> q{0.0, 0.0, 0.0};
+    std::array<double, 3> q{};
     for (int a = 0; a < dim; ++a) q[a] = w[a];
     g.points.push_back(q);
   }

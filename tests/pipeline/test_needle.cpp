@@ -29,7 +29,7 @@ bool contains(const SimplexMesh<3>& m, long c, const V3& p) {
 }  // namespace
 
 TEST(CellLocator, SimplexFindsTheContainingCell) {
-  const SimplexMesh<3> mesh = regular_grid_mesh<3>(V3(-1, -2, 0), V3(3, 2, 5), {4, 5, 6});
+  const SimplexMesh<3> mesh = regular_grid_mesh<3>(V3(-1, -2, 0), V3(3, 2, 5), {{4, 5, 6}});
   const auto loc = CellLocator<3>::simplex(mesh);
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> ux(-1, 3), uy(-2, 2), uz(0, 5);
@@ -66,7 +66,7 @@ TEST(CellLocator, GridSupportAndNumbering) {
       for (int i = 0; i <= 3; ++i) verts.emplace_back(i, j, k);
   std::mt19937 rng(1);
   std::shuffle(verts.begin(), verts.end(), rng);
-  const auto loc = CellLocator<3>::grid({3, 2, 2}, V3(0, 0, 0), V3(3, 2, 2), verts);
+  const auto loc = CellLocator<3>::grid({{3, 2, 2}}, V3(0, 0, 0), V3(3, 2, 2), verts);
   std::vector<int> sup;
   EXPECT_EQ(loc.locate(V3(2.5, 0.5, 1.5), &sup), 2 + 3 * (0 + 2 * 1));
   EXPECT_EQ(sup.size(), 8u);
@@ -78,11 +78,11 @@ TEST(CellLocator, GridSupportAndNumbering) {
   for (int s : sup) EXPECT_DOUBLE_EQ(verts[s][2], 2.0);
   EXPECT_EQ(loc.locate(V3(3.5, 1, 1)), -1);
   verts.pop_back();
-  EXPECT_THROW(CellLocator<3>::grid({3, 2, 2}, V3(0, 0, 0), V3(3, 2, 2), verts), std::invalid_argument);
+  EXPECT_THROW(CellLocator<3>::grid({{3, 2, 2}}, V3(0, 0, 0), V3(3, 2, 2), verts), std::invalid_argument);
 }
 
 TEST(ShaftSampling, SpacingLengthsAndDistinctSupports) {
-  const SimplexMesh<3> mesh = regular_grid_mesh<3>(V3(-2, -2, 0), V3(2, 2, 10), {5, 5, 11});
+  const SimplexMesh<3> mesh = regular_grid_mesh<3>(V3(-2, -2, 0), V3(2, 2, 10), {{5, 5, 11}});
   const auto loc = CellLocator<3>::simplex(mesh);
   const V3 entry(0.3, -0.2, 0.0), axis = V3(0.1, 0.2, 1.0).normalized();
   const double depth = 8.0, pitch = 0.25;
@@ -93,7 +93,9 @@ TEST(ShaftSampling, SpacingLengthsAndDistinctSupports) {
   std::vector<int> prev, sup;
   for (std::size_t j = 0; j < pts.size(); ++j) {
     EXPECT_NEAR((pts[j].position - (entry + pts[j].s * axis)).norm(), 0.0, 1e-12);
-    if (j) EXPECT_GE(pts[j].s - pts[j - 1].s, pitch - 1e-12);
+    if (j) {
+      EXPECT_GE(pts[j].s - pts[j - 1].s, pitch - 1e-12);
+    }
     EXPECT_LT(pts[j].s, depth);
     total += pts[j].length;
     loc.locate(pts[j].position, &sup);

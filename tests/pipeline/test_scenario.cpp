@@ -242,7 +242,10 @@ needle: {entry: [0, 0], direction: [0, 1], depth: 1, steps: 1, diameter: 1}
 )";
   EXPECT_NE(error_of(y2, 2).find("box_face = 'z_min' is not a face of the 2D image box; use one of: x_min, x_max, y_min, y_max"),
             std::string::npos);
-  EXPECT_NE(error_of(kMinimal, 2).find("needle.entry must be a list of 2 numbers"), std::string::npos);
+  const std::string y3 = R"(boundary_conditions: [{type: fixed, region: {box_face: y_max}}]
+needle: {entry: [0, 0, 0], direction: [0, 1], depth: 1, steps: 1, diameter: 1}
+)";
+  EXPECT_NE(error_of(y3, 2).find("needle.entry must be a list of 2 numbers ([x, y]) for a 2D image, got a list of 3"), std::string::npos);
   EXPECT_THROW(read_scenario("/nonexistent/dir/s.yaml", 3), ScenarioError);
   // Only loads, no fixed or displacement condition: singular.
   const std::string loads = R"(boundary_conditions:
@@ -292,7 +295,7 @@ TEST(Scenario, GeometryAgainstTheImageBox) {
 }
 
 TEST(Scenario, ModulusImageNeedsClampForNegativeOrNaN) {
-  Image<3> img({4, 4, 4}, {1, 1, 1}, {0, 0, 0}, 10.0f);
+  Image<3> img({{4, 4, 4}}, {{1, 1, 1}}, {{0, 0, 0}}, 10.0f);
   const Scenario plain = parse_scenario_text(kMinimal, 3);
   EXPECT_NO_THROW(check_modulus_image(plain, img));
   img.data[5] = -2.0f;

@@ -42,11 +42,11 @@ Errors errors_at(const vim::Image<2>& image, const vim::validation::Reference<2>
 }
 
 TEST(Deformation, TwoInclusion2dVimBeatsGridAndConverges) {
-  const auto image = two_inclusion_phantom(64);
+  const auto image = two_inclusion_phantom(128);
   const auto ref = vim::validation::solve_reference<2>(image, kNu, kStrain);
-  ASSERT_GT(ref.points.size(), 4000u);
+  ASSERT_GT(ref.points.size(), 16000u);
   std::vector<Errors> e;
-  for (long budget : {49L, 121L, 289L}) e.push_back(errors_at(image, ref, budget));
+  for (long budget : {121L, 289L, 625L}) e.push_back(errors_at(image, ref, budget));
   for (std::size_t k = 0; k < e.size(); ++k) EXPECT_LT(e[k].vim, e[k].grid) << "budget index " << k;
   for (std::size_t k = 1; k < e.size(); ++k) {
     EXPECT_LT(e[k].vim, e[k - 1].vim * 1.05) << "VIM error does not fall, step " << k;

@@ -28,6 +28,15 @@ struct CellCache {
   double volume = 0.0, eg = 0.0, ed = 0.0, cost = 0.0;
 };
 
+// Population variance from shifted sums; round-off of a constant set (below 1e-10 of the second
+// moment) is snapped to exactly 0, so a constant image gives E_D0 = 0 and switches the term off.
+inline double element_variance(long n, double s, double q) {
+  if (n <= 0) return 0.0;
+  const double m2 = q / static_cast<double>(n), mean = s / static_cast<double>(n);
+  const double var = m2 - mean * mean;
+  return var > 1e-10 * m2 ? var : 0.0;
+}
+
 struct EnergyTotals {
   double geometric = 0.0, discretization = 0.0, energy = 0.0;
 };
@@ -104,7 +113,7 @@ class VimOptimizer {
     std::vector<CellCache> trial, best;
   };
   bool update_node_impl(int node, int iteration, Scratch& s, double* moved_sq);
-  double evaluate_candidate(const Point& p, Scratch& s, double bound) const;
+  double evaluate_candidate(const Point& p, Scratch& s, double bound, bool image) const;
   double cost_of(const CellCache& c) const;
   // Replaces old_cells by the best of the alternatives (lists of vertex tuples) that lowers E.
   bool try_replace(const std::vector<int>& old_cells, const std::vector<std::vector<Cell>>& alternatives);
@@ -120,11 +129,16 @@ class VimOptimizer {
   std::vector<std::uint8_t> fixed_;  // bit a set: coordinate a is fixed (node on an axis-a face)
   Adjacency<dim> adj_;
   std::vector<std::vector<int>> colours_;
+  // Per node: its 1-ring changed since its last (unsuccessful) line search. A clean node would
+  // repeat exactly the same search, so update_nodes skips it (line-search strategy only).
+  std::vector<char> dirty_;
+  void mark_ring_dirty(int node);
 
   const VoxelStatistics<dim>* stats_;
   const Image<dim>* density_;
   VimOptions options_;
   QualityBound bound_;
+  double cos_max_ = -1.0, cos_min_ = 1.0;  // cosines of the dihedral bounds
   Point box_min_, box_max_;
   double boundary_tol_ = 0.0;
   double min_step_ = 0.0;        // line-search stopping step (physical)

@@ -94,6 +94,9 @@ struct SolverStats {
   double residual = 0.0;
   unsigned n_dofs = 0;
   double assemble_seconds = 0.0, solve_seconds = 0.0;
+  // Point-constraint rows (one per selected component): used, and dropped because they are linear
+  // combinations of earlier rows (e.g. >2 collinear points in one P1 element) but consistent with them.
+  unsigned constraint_rows = 0, dependent_rows_dropped = 0;
 };
 
 template <int dim>
@@ -142,7 +145,12 @@ class ElasticModel {
   const std::vector<Vec<dim>>& vertices() const;
 
   // Solve with the given embedded point constraints (may be empty). Throws std::runtime_error
-  // if no Dirichlet condition removes the rigid-body modes.
+  // if no Dirichlet condition removes the rigid-body modes. A constraint row that depends linearly on
+  // earlier rows (P1 is affine in an element, so three collinear points in one element are redundant)
+  // is dropped if the solution satisfies it anyway (its force is then carried by the earlier rows),
+  // otherwise std::runtime_error names it as conflicting. A point outside the mesh, or on Dirichlet
+  // nodes with a different value → std::invalid_argument. Rows and columns K⁻¹cᵀ are cached by
+  // (position, component) until a condition is added.
   Solution<dim> solve(const std::vector<PointConstraint<dim>>& points = {}, const SolverOptions& options = {});
   // The same, as one monolithic saddle-point solve [K Cᵀ; C 0] (reference for the fast path).
   Solution<dim> solve_monolithic(const std::vector<PointConstraint<dim>>& points, const SolverOptions& options = {});

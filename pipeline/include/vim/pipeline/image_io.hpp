@@ -4,6 +4,7 @@
 #pragma once
 
 #include <vim/image.hpp>
+#include <vim/pipeline/input_error.hpp>
 
 #include <Eigen/Core>
 
@@ -12,10 +13,9 @@
 
 namespace vim::pipeline {
 
-// One clear message naming the file and the problem (the CLI prints it and exits with 1).
-struct InputError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
+// InputError (input_error.hpp): one clear message naming the file and the problem (exit 1).
+// Note: ITK headers bundle Eigen 3.3 and clash with the system Eigen 3.4 that this header pulls in;
+// ITK code lives in Eigen-free translation units (src/itk_image_io.cpp).
 
 template <int dim>
 struct OrientedImage {

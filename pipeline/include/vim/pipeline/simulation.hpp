@@ -62,6 +62,7 @@ struct NeedleRun {
   std::vector<std::vector<double>> point_axial_force;  // [step][point]: axial force on the body (0 if not active)
   double max_displacement = 0.0;                   // largest vertex displacement norm over all steps
   double solve_seconds = 0.0;                      // total time in solves
+  std::vector<double> step_seconds;                // wall time per step (step 0 = 0; step 1 includes assembly + factorisation)
   double steps_per_second = 0.0;
   fem::SolverStats stats;                          // of the last solve
 };

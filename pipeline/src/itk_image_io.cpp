@@ -1,0 +1,211 @@
+// The ITK side of image IO (see itk_image_io.hpp). The header is read first through the ImageIO
+// factory so that the dimension, pixel type and spacing are checked before any voxel is allocated;
+// the voxels are then read as float by ImageFileReader (ITK converts any scalar component type).
+// No Eigen header may be included here (ITK bundles its own, older Eigen).
+#include "itk_image_io.hpp"
+
+#include <vim/pipeline/input_error.hpp>
+
+#include <itkImage.h>
+#include <itkImageFileReader.h>
+#include <itkImageFileWriter.h>
+#include <itkImageIOBase.h>
+#include <itkImageIOFactory.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+#include <unistd.h>
+
+namespace vim::pipeline::itk_io {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double max_voxels = 2.0e9;  // refuse headers that declare absurd sizes before allocating
+
+// ITK messages span several lines ("file:line: ... Description: ..."); keep the description only.
+std::string one_line(const std::string& text) {
+  std::string s = text;
+  const auto d = s.find("Description:");
+  if (d != std::string::npos) s = s.substr(d + 12);
+  for (char& c : s)
+    if (c == '\n' || c == '\r' || c == '\t') c = ' ';
+  const auto b = s.find_first_not_of(' ');
+  const auto e = s.find_last_not_of(' ');
+  return b == std::string::npos ? std::string() : s.substr(b, e - b + 1);
+}
+
+const char* supported_formats() { return "MetaImage (.mha/.mhd), NRRD (.nrrd/.nhdr) or NIfTI (.nii/.nii.gz)"; }
+
+void quiet_itk() {
+  static const bool done = [] {
+    itk::Object::GlobalWarningDisplayOff();  // warnings would break the one-line error contract
+    return true;
+  }();
+  (void)done;
+}
+
+// Opens the header and checks everything that can be checked without reading voxels.
+itk::ImageIOBase::Pointer open_header(const std::string& path) {
+  quiet_itk();
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw InputError(path + ": file does not exist");
+  if (fs::is_directory(path, ec)) throw InputError(path + ": is a directory, not an image file");
+  if (::access(path.c_str(), R_OK) != 0) throw InputError(path + ": file is not readable (permission denied)");
+  if (fs::file_size(path, ec) == 0) throw InputError(path + ": file is empty (0 bytes)");
+
+  itk::ImageIOBase::Pointer io =
+      itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::ImageIOFactory::IOFileModeEnum::ReadMode);
+  if (!io)
+    throw InputError(path + ": not a readable image (unknown format or corrupt header); expected " +
+                     supported_formats());
+  io->SetFileName(path);
+  try {
+    io->ReadImageInformation();
+  } catch (const itk::ExceptionObject& e) {
+    throw InputError(path + ": cannot read the image header: " + one_line(e.GetDescription()));
+  }
+  const unsigned d = io->GetNumberOfDimensions();
+  if (d != 2 && d != 3)
+    throw InputError(path + ": image has " + std::to_string(d) + " dimensions; expected 2 or 3");
+  if (io->GetNumberOfComponents() != 1)
+    throw InputError(path + ": pixels have " + std::to_string(io->GetNumberOfComponents()) +
+                     " components (vector/RGB/complex image); expected a scalar image (1 component)");
+  if (io->GetComponentType() == itk::IOComponentEnum::UNKNOWNCOMPONENTTYPE)
+    throw InputError(path + ": unknown voxel component type; expected an integer or floating-point scalar type");
+  double n = 1.0;
+  for (unsigned a = 0; a < d; ++a) {
+    if (io->GetDimensions(a) == 0)
+      throw InputError(path + ": image is empty (size 0 along axis " + std::to_string(a) + ")");
+    n *= static_cast<double>(io->GetDimensions(a));
+    const double s = io->GetSpacing(a);
+    if (!(s > 0.0) || !std::isfinite(s)) {
+      std::ostringstream m;
+      m << path << ": spacing along axis " << a << " is " << s << "; spacing must be positive and finite";
+      throw InputError(m.str());
+    }
+    if (!std::isfinite(io->GetOrigin(a)))
+      throw InputError(path + ": origin along axis " + std::to_string(a) + " is not finite");
+  }
+  if (n > max_voxels) {
+    std::ostringstream m;
+    m << path << ": header declares " << n << " voxels, more than the supported " << max_voxels;
+    throw InputError(m.str());
+  }
+  return io;
+}
+
+// Temporary sibling that keeps the extension (ITK picks the writer from it): .NAME.tmpPID_K.EXT
+fs::path temporary_image_path(const fs::path& final_path) {
+  static int counter = 0;
+  const std::string name = final_path.filename().string();
+  std::string ext = final_path.extension().string();
+  if (ext == ".gz") ext = fs::path(final_path.stem()).extension().string() + ext;  // .nii.gz
+  const std::string stem = name.substr(0, name.size() - ext.size());
+  return final_path.parent_path() /
+         ("." + stem + ".tmp" + std::to_string(::getpid()) + "_" + std::to_string(counter++) + ext);
+}
+
+template <unsigned dim>
+RawImage read_dim(const std::string& path, itk::ImageIOBase::Pointer io) {
+  using ItkImage = itk::Image<float, dim>;
+  auto reader = itk::ImageFileReader<ItkImage>::New();
+  reader->SetImageIO(io);
+  reader->SetFileName(path);
+  try {
+    reader->Update();
+  } catch (const itk::ExceptionObject& e) {
+    throw InputError(path + ": cannot read the voxel data (truncated or corrupt file?): " +
+                     one_line(e.GetDescription()));
+  }
+  typename ItkImage::Pointer img = reader->GetOutput();
+  RawImage out;
+  const auto region = img->GetLargestPossibleRegion();
+  std::size_t n = 1;
+  for (unsigned a = 0; a < dim; ++a) {
+    out.size.push_back(static_cast<long>(region.GetSize()[a]));
+    n *= region.GetSize()[a];
+    out.spacing.push_back(img->GetSpacing()[a]);
+    out.origin.push_back(img->GetOrigin()[a]);
+    for (unsigned b = 0; b < dim; ++b) out.direction.push_back(img->GetDirection()(a, b));
+  }
+  const float* buf = img->GetBufferPointer();
+  out.data.assign(buf, buf + n);  // ITK buffers are axis-0-fastest, as Image<dim>
+  return out;
+}
+
+template <unsigned dim>
+void write_dim(const RawImage& image, const std::string& tmp) {
+  using ItkImage = itk::Image<float, dim>;
+  auto img = ItkImage::New();
+  typename ItkImage::SizeType size;
+  typename ItkImage::SpacingType spacing;
+  typename ItkImage::PointType origin;
+  typename ItkImage::DirectionType direction;
+  for (unsigned a = 0; a < dim; ++a) {
+    size[a] = static_cast<itk::SizeValueType>(image.size[a]);
+    spacing[a] = image.spacing[a];
+    origin[a] = image.origin[a];
+    for (unsigned b = 0; b < dim; ++b) direction(a, b) = image.direction[a * dim + b];
+  }
+  img->SetRegions(typename ItkImage::RegionType(size));
+  img->SetSpacing(spacing);
+  img->SetOrigin(origin);
+  img->SetDirection(direction);
+  img->Allocate();
+  std::copy(image.data.begin(), image.data.end(), img->GetBufferPointer());
+  auto writer = itk::ImageFileWriter<ItkImage>::New();
+  writer->SetFileName(tmp);
+  writer->SetInput(img);
+  writer->SetUseCompression(true);
+  writer->Update();
+}
+
+}  // namespace
+
+int header_dimension(const std::string& path) { return static_cast<int>(open_header(path)->GetNumberOfDimensions()); }
+
+RawImage read(const std::string& path, int dim) {
+  itk::ImageIOBase::Pointer io = open_header(path);
+  if (static_cast<int>(io->GetNumberOfDimensions()) != dim)
+    throw InputError(path + ": image has " + std::to_string(io->GetNumberOfDimensions()) + " dimensions; expected " +
+                     std::to_string(dim));
+  return dim == 2 ? read_dim<2>(path, io) : read_dim<3>(path, io);
+}
+
+void write(const RawImage& image, const std::string& path) {
+  quiet_itk();
+  const std::size_t dim = image.size.size();
+  if ((dim != 2 && dim != 3) || image.spacing.size() != dim || image.origin.size() != dim ||
+      image.direction.size() != dim * dim)
+    throw std::invalid_argument(path + ": write_image: inconsistent image geometry");
+  std::size_t n = 1;
+  for (long s : image.size) n *= static_cast<std::size_t>(s);
+  if (image.data.size() != n) throw std::invalid_argument(path + ": write_image: data size does not match the image size");
+
+  const fs::path final_path(path);
+  const std::string ext = final_path.extension().string();
+  if (ext == ".mhd" || ext == ".nhdr")
+    throw std::invalid_argument(path + ": detached-header formats cannot be written atomically; use .mha, .nrrd, .nii or .nii.gz");
+  const fs::path tmp = temporary_image_path(final_path);
+  try {
+    if (dim == 2)
+      write_dim<2>(image, tmp.string());
+    else
+      write_dim<3>(image, tmp.string());
+    fs::rename(tmp, final_path);
+  } catch (const itk::ExceptionObject& e) {
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    throw std::runtime_error(path + ": cannot write image: " + one_line(e.GetDescription()));
+  } catch (...) {
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    throw;
+  }
+}
+
+}  // namespace vim::pipeline::itk_io

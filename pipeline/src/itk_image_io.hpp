@@ -1,0 +1,27 @@
+// Private to image_io.cpp: the ITK side of image IO on plain arrays. ITK bundles Eigen 3.3 in its
+// headers, which clashes with the system Eigen 3.4 of the rest of the project, so the ITK code is
+// compiled in its own translation unit (itk_image_io.cpp) that never includes Eigen.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace vim::pipeline::itk_io {
+
+struct RawImage {
+  std::vector<long> size;          // voxels per axis (axis 0 fastest in data)
+  std::vector<double> spacing;
+  std::vector<double> origin;
+  std::vector<double> direction;   // row-major dim × dim
+  std::vector<float> data;
+};
+
+// Reads and checks the header (existence, format, dimension 2/3, scalar pixels, size, spacing,
+// origin); returns the dimension. Throws InputError naming the file.
+int header_dimension(const std::string& path);
+// Header checks, then the voxels as float. Throws InputError.
+RawImage read(const std::string& path, int dim);
+// Writes through a temporary name that keeps the extension, then renames.
+void write(const RawImage& image, const std::string& path);
+
+}  // namespace vim::pipeline::itk_io

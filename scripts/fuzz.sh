@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer targets in fuzz/ (a standalone clang project, not part of the normal build)
+# and runs each for SECONDS seconds on a copy of the seed corpus fuzz/corpus/<target>/.
+#   scripts/fuzz.sh [SECONDS] [BUILD_DIR]      (defaults: 60, ../build-fuzz next to the checkout)
+# Environment: JOBS (build parallelism, default 2), FUZZ_TARGETS (default "scenario image_header").
+# Crash reproducers are left in BUILD_DIR/artifacts/; exit status 1 if any target found one.
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+seconds=${1:-60}
+build=${2:-$root/../build-fuzz}
+jobs=${JOBS:-2}
+targets=${FUZZ_TARGETS:-"scenario image_header"}
+cxx=${CXX_FUZZ:-$(command -v clang++ || command -v clang++-14)}
+cc=${CC_FUZZ:-$(command -v clang || command -v clang-14)}
+
+cmake -S "$root/fuzz" -B "$build" -DCMAKE_BUILD_TYPE=Release \
+  -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_C_COMPILER="$cc" >/dev/null
+for t in $targets; do cmake --build "$build" -j"$jobs" --target "fuzz_$t"; done
+
+mkdir -p "$build/artifacts"
+status=0
+summary=""
+for t in $targets; do
+  seeds="$root/fuzz/corpus/${t%_header}"
+  corpus="$build/corpus/$t"
+  mkdir -p "$corpus"
+  cp -n "$seeds"/* "$corpus"/ 2>/dev/null || true
+  log="$build/fuzz_$t.log"
+  echo "== fuzz_$t for ${seconds}s (log: $log)"
+  set +e
+  ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
+    "$build/fuzz_$t" -max_total_time="$seconds" -timeout=20 -rss_limit_mb=2048 -max_len=4096 \
+    -print_final_stats=1 -artifact_prefix="$build/artifacts/${t}-" "$corpus" >"$log" 2>&1
+  rc=$?
+  set -e
+  execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")
+  speed=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")
+  crashes=$(ls "$build/artifacts" | grep -c "^${t}-" || true)
+  [ "$rc" -ne 0 ] && status=1
+  summary+=$(printf '%-20s exit %-3s executions %-10s exec/s %-7s artifacts %s' "fuzz_$t" "$rc" "$execs" "$speed" "$crashes")$'\n'
+done
+echo "== summary"
+printf '%s' "$summary"
+exit $status

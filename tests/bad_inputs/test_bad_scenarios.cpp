@@ -1,0 +1,165 @@
+// Bad --simulate scenarios through the real CLI (issue 6): exit code 1, one `vim-pipeline: error:`
+// line naming the key/value, and nothing left in --out. The unmodified base scenario must succeed,
+// so every failure below is caused by its one change.
+#include <vim/pipeline/image_io.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <unistd.h>
+
+using namespace vim;
+using namespace vim::pipeline;
+namespace fs = std::filesystem;
+
+namespace {
+
+const char* kBase = R"(material: {youngs_modulus: image, poisson_ratio: 0.45}
+boundary_conditions:
+  - {type: fixed, region: {box_face: x_max}}
+  - {type: fixed, region: {cylinder: {center: [0, -6, 0], axis: [1, 0, 0], radius: 2}}}
+needle:
+  entry: [-8, 0, 1]
+  direction: [1, 0, 0]
+  depth: 8
+  steps: 2
+  diameter: 1
+targets:
+  - {name: lesion, position: [2, 0, 1]}
+output: {every: 1}
+)";
+
+struct Run {
+  int code = -1;
+  std::string err;
+};
+
+class BadScenario : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("vim_bad_scen_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    image_ = (dir_ / "block.mha").string();
+    write_block(image_, 10.0f);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // 16 x 12 x 12 voxels of 1 mm, box [-8,8] x [-6,6] x [-6,6].
+  static void write_block(const std::string& path, float value, float special = 0.0f) {
+    OrientedImage<3> img;
+    img.image = Image<3>({{16, 12, 12}}, {{1, 1, 1}}, {{-7.5, -5.5, -5.5}}, value);
+    if (special != 0.0f) img.image.data[100] = special;
+    write_image<3>(img, path);
+  }
+
+  Run run(const std::string& yaml, const std::string& image = "") {
+    const fs::path scen = dir_ / "s.yaml", out = dir_ / "out", err = dir_ / "err.txt";
+    fs::remove_all(out);
+    std::ofstream(scen) << yaml;
+    const std::string cmd = std::string(VIM_PIPELINE_EXE) + " " + (image.empty() ? image_ : image) + " --simulate " +
+                            scen.string() + " --mesher grid --nodes 300 --export none -q --out " + out.string() + " 2> " +
+                            err.string() + " > /dev/null";
+    Run r;
+    const int s = std::system(cmd.c_str());
+    r.code = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
+    std::ifstream e(err);
+    std::stringstream ss;
+    ss << e.rdbuf();
+    r.err = ss.str();
+    return r;
+  }
+
+  bool out_is_empty() const {
+    const fs::path out = dir_ / "out";
+    return !fs::exists(out) || fs::is_empty(out);
+  }
+
+  void expect_error(const std::string& yaml, const std::vector<std::string>& parts, const std::string& image = "") {
+    const Run r = run(yaml, image);
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_EQ(r.err.rfind("vim-pipeline: error: ", 0), 0u) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line only: " << r.err;
+    for (const auto& p : parts) EXPECT_NE(r.err.find(p), std::string::npos) << "message lacks '" << p << "': " << r.err;
+    EXPECT_TRUE(out_is_empty()) << "files left in --out";
+  }
+
+  static std::string with(const std::string& from, const std::string& to) {
+    std::string s = kBase;
+    const auto k = s.find(from);
+    EXPECT_NE(k, std::string::npos) << from;
+    if (k != std::string::npos) s.replace(k, from.size(), to);
+    return s;
+  }
+
+  fs::path dir_;
+  std::string image_;
+};
+
+}  // namespace
+
+TEST_F(BadScenario, BaseScenarioRuns) {
+  const Run r = run(kBase);
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (const char* f : {"mesh.vtu", "report.json", "needle.csv", "simulation.pvd", "steps/step_0002.vtu"})
+    EXPECT_TRUE(fs::exists(dir_ / "out" / f)) << f;
+}
+
+TEST_F(BadScenario, MissingKey) { expect_error(with("  diameter: 1\n", ""), {"s.yaml", "missing key 'needle.diameter'"}); }
+TEST_F(BadScenario, UnknownKey) {
+  expect_error(with("  steps: 2\n", "  steps: 2\n  speed: 3\n"), {"s.yaml:10:", "unknown key 'needle.speed'", "valid keys", "direction"});
+}
+TEST_F(BadScenario, WrongType) { expect_error(with("depth: 8", "depth: deep"), {"s.yaml:8:", "needle.depth must be a number", "'deep'"}); }
+TEST_F(BadScenario, EntryOutsideTheImageBox) {
+  expect_error(with("entry: [-8, 0, 1]", "entry: [-12, 0, 1]"), {"needle.entry [-12, 0, 1] is outside the image box", "[-8, -6, -6] .. [8, 6, 6]"});
+}
+TEST_F(BadScenario, ZeroDirection) { expect_error(with("direction: [1, 0, 0]", "direction: [0, 0, 0]"), {"needle.direction must be a non-zero vector"}); }
+TEST_F(BadScenario, NonPositiveDepth) { expect_error(with("depth: 8", "depth: 0"), {"needle.depth must be > 0, got 0"}); }
+TEST_F(BadScenario, NonPositiveSteps) { expect_error(with("steps: 2", "steps: -3"), {"needle.steps must be > 0, got -3"}); }
+TEST_F(BadScenario, NonPositiveDiameter) { expect_error(with("diameter: 1", "diameter: 0"), {"needle.diameter must be > 0, got 0"}); }
+TEST_F(BadScenario, BoxFaceThatDoesNotExist) {
+  expect_error(with("box_face: x_max", "box_face: top"), {"s.yaml:3:", "box_face = 'top'", "x_min, x_max, y_min, y_max, z_min, z_max"});
+}
+TEST_F(BadScenario, TargetOutsideTheDomain) {
+  expect_error(with("position: [2, 0, 1]", "position: [2, 0, 9]"), {"target 'lesion' position [2, 0, 9] is outside the image box"});
+}
+TEST_F(BadScenario, NoFixedBoundaryIsSingular) {
+  expect_error(with("  - {type: fixed, region: {box_face: x_max}}\n  - {type: fixed, region: {cylinder: {center: [0, -6, 0], axis: [1, 0, 0], radius: 2}}}\n",
+                    "  - {type: pressure, region: {box_face: x_max}, value: 1}\n"),
+               {"boundary_conditions has no 'fixed' or 'displacement' condition", "singular"});
+}
+TEST_F(BadScenario, PoissonRatioHalf) {
+  expect_error(with("poisson_ratio: 0.45", "poisson_ratio: 0.5"), {"s.yaml:1:", "material.poisson_ratio = 0.5", "< 0.5"});
+}
+TEST_F(BadScenario, NegativeModulusImageWithoutClamp) {
+  const std::string img = (dir_ / "negative.mha").string();
+  write_block(img, 10.0f, -4.0f);
+  expect_error(kBase, {"material.youngs_modulus: image has 1 voxels", "-4", "material.clamp"}, img);
+  // With a clamp the same image is accepted.
+  const Run r = run(with("poisson_ratio: 0.45}", "poisson_ratio: 0.45, clamp: [1, 100]}"), img);
+  EXPECT_EQ(r.code, 0) << r.err;
+}
+TEST_F(BadScenario, NaNModulusImage) {
+  const std::string img = (dir_ / "nan.mha").string();
+  write_block(img, 10.0f, std::nanf(""));
+  expect_error(kBase, {"nan.mha"}, img);  // refused when the image is read (image_io), with or without clamp
+}
+TEST_F(BadScenario, RegionThatSelectsNoNode) {
+  expect_error(with("center: [0, -6, 0], axis: [1, 0, 0], radius: 2", "center: [0, -30, 0], axis: [1, 0, 0], radius: 2"),
+               {"s.yaml:4:", "boundary_conditions[1]", "selects no mesh node"});
+}
+TEST_F(BadScenario, MissingScenarioFile) {
+  const fs::path out = dir_ / "out";
+  const std::string cmd = std::string(VIM_PIPELINE_EXE) + " " + image_ + " --simulate " + (dir_ / "nope.yaml").string() +
+                          " --out " + out.string() + " 2> /dev/null > /dev/null";
+  const int s = std::system(cmd.c_str());
+  EXPECT_EQ(WIFEXITED(s) ? WEXITSTATUS(s) : -1, 1);
+  EXPECT_TRUE(out_is_empty());
+}

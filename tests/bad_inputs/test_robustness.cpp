@@ -1,0 +1,429 @@
+// Robustness of the real CLI (issue 10): a non-empty --out is refused unless --overwrite, option
+// values out of range are usage errors naming the option, hand-written broken MetaImage files fail
+// with one line naming the file, and SIGKILL during a run never leaves an incomplete file under a
+// final name (every file is written to a hidden temporary name and renamed, atomic_file.hpp).
+#include <vim/pipeline/image_io.hpp>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <vtkNew.h>
+#include <vtkUnstructuredGrid.h>
+#include <vtkXMLUnstructuredGridReader.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+using namespace vim;
+using namespace vim::pipeline;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct CliResult {
+  int code = -1;    // exit status, or -1 when killed by a signal
+  int signal = 0;   // terminating signal, if any
+  std::string err;  // everything the CLI wrote to stderr
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// fork/exec of vim-pipeline with stdout to /dev/null and stderr to `err_file`.
+pid_t spawn_cli(const std::vector<std::string>& args, const fs::path& err_file) {
+  std::vector<std::string> argv_s{VIM_PIPELINE_EXE};
+  argv_s.insert(argv_s.end(), args.begin(), args.end());
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    const int out = ::open("/dev/null", O_WRONLY);
+    const int err = ::open(err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (out >= 0) ::dup2(out, 1);
+    if (err >= 0) ::dup2(err, 2);
+    std::vector<char*> argv;
+    for (auto& s : argv_s) argv.push_back(s.data());
+    argv.push_back(nullptr);
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  return pid;
+}
+
+CliResult wait_cli(pid_t pid, const fs::path& err_file) {
+  CliResult r;
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  if (WIFEXITED(status)) r.code = WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) r.signal = WTERMSIG(status);
+  r.err = slurp(err_file);
+  return r;
+}
+
+// Files in `dir` (recursively) with a final name: not hidden temporaries (".NAME.PID.N.partial",
+// ".NAME.tmpPID_N.EXT").
+std::vector<fs::path> final_files(const fs::path& dir) {
+  std::vector<fs::path> files;
+  if (!fs::exists(dir)) return files;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    if (!e.is_regular_file()) continue;
+    const std::string name = e.path().filename().string();
+    if (name.empty() || name[0] == '.' || e.path().extension() == ".partial") continue;
+    files.push_back(e.path());
+  }
+  return files;
+}
+
+std::string rtrim(std::string s) {
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
+  return s;
+}
+
+bool ends_with(const std::string& s, const std::string& tail) {
+  return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
+}
+
+// Empty string when `p` is a complete file of its kind, else what is wrong with it.
+std::string incomplete_reason(const fs::path& p) {
+  const std::string text = slurp(p);
+  const std::string ext = p.extension().string();
+  if (rtrim(text).empty()) return "empty";
+  if (ext == ".json") {
+    try {
+      const auto parsed = nlohmann::json::parse(text);
+      if (parsed.is_discarded()) return "json discarded";
+    } catch (const std::exception& e) {
+      return std::string("json does not parse: ") + e.what();
+    }
+  } else if (ext == ".vtu") {
+    if (!ends_with(rtrim(text), "</VTKFile>")) return "vtu does not end with </VTKFile>";
+    vtkNew<vtkXMLUnstructuredGridReader> reader;
+    reader->SetFileName(p.c_str());
+    reader->Update();
+    if (reader->GetErrorCode() != 0 || reader->GetOutput() == nullptr) return "vtkXMLUnstructuredGridReader fails";
+  } else if (ext == ".pvd" || ext == ".feb" || ext == ".xml") {
+    if (rtrim(text).back() != '>') return "xml file ends mid-element";
+  } else if (ext == ".csv") {
+    if (text.back() != '\n') return "csv ends in the middle of a line";
+    std::istringstream in(text);
+    std::string line;
+    std::size_t columns = 0;
+    while (std::getline(in, line)) {
+      const std::size_t c = std::count(line.begin(), line.end(), ',') + 1;
+      if (columns == 0) columns = c;
+      if (c != columns) return "csv line with " + std::to_string(c) + " columns, header has " + std::to_string(columns);
+    }
+  } else if (ext == ".msh") {
+    const std::string t = rtrim(text);
+    if (t.compare(t.rfind('\n') + 1, 4, "$End") != 0) return "msh does not end with an $End* line";
+  }
+  return "";
+}
+
+// Hand-written MetaImage: `header` lines (without ElementDataFile) then raw float data.
+void write_mha(const fs::path& path, const std::string& header, const std::vector<float>& data) {
+  std::ofstream out(path, std::ios::binary);
+  out << header << "ElementDataFile = LOCAL\n";
+  out.write(reinterpret_cast<const char*>(data.data()), static_cast<std::streamsize>(data.size() * sizeof(float)));
+}
+
+std::string mha_header(const std::string& dims, const std::string& spacing = "1 1 1", const std::string& extra = "") {
+  const int n = static_cast<int>(std::count(dims.begin(), dims.end(), ' ')) + 1;
+  std::string origin = "0";
+  for (int a = 1; a < n; ++a) origin += " 0";
+  return "ObjectType = Image\nNDims = " + std::to_string(n) + "\nBinaryData = True\nBinaryDataByteOrderMSB = False\n"
+         "DimSize = " + dims + "\nElementSpacing = " + spacing + "\nOffset = " + origin + "\n" + extra +
+         "ElementType = MET_FLOAT\n";
+}
+
+// A 3D block with a stiff sphere so VIM has work to do: n×n×n voxels of 1 mm centred at 0.
+void write_sphere_block(const fs::path& path, int n) {
+  OrientedImage<3> img;
+  const double o = -0.5 * (n - 1);
+  img.image = Image<3>({{n, n, n}}, {{1, 1, 1}}, {{o, o, o}}, 10.0f);
+  for (long k = 0; k < n; ++k)
+    for (long j = 0; j < n; ++j)
+      for (long i = 0; i < n; ++i) {
+        const double x = o + i, y = o + j, z = o + k, r = 0.3 * n;
+        if (x * x + y * y + z * z < r * r) img.image.data[i + n * (j + n * k)] = 40.0f;
+      }
+  write_image<3>(img, path.string());
+}
+
+class Robustness : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("vim_robust_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    out_ = dir_ / "out";
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  CliResult run(std::vector<std::string> args) {
+    const fs::path err = dir_ / "stderr.txt";
+    return wait_cli(spawn_cli(args, err), err);
+  }
+
+  // A small image that meshes in well under a second.
+  std::string small_image() {
+    const fs::path p = dir_ / "small.mha";
+    if (!fs::exists(p)) write_sphere_block(p, 10);
+    return p.string();
+  }
+
+  // The one-line error contract: `code`, one "vim-pipeline: error:" line containing every part.
+  static void expect_one_line_error(const CliResult& r, int code, const std::vector<std::string>& parts) {
+    EXPECT_EQ(r.signal, 0) << "killed by signal " << r.signal << ": " << r.err;
+    EXPECT_EQ(r.code, code) << r.err;
+    EXPECT_EQ(r.err.rfind("vim-pipeline: error: ", 0), 0u) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line only: " << r.err;
+    for (const auto& p : parts) EXPECT_NE(r.err.find(p), std::string::npos) << "message lacks '" << p << "': " << r.err;
+  }
+
+  bool out_is_empty() const { return !fs::exists(out_) || fs::is_empty(out_); }
+
+  // A bad image: exit 1, one line naming the file and `problem`, nothing in --out.
+  void expect_bad_image(const fs::path& image, const std::vector<std::string>& problem) {
+    std::vector<std::string> parts{image.filename().string()};
+    parts.insert(parts.end(), problem.begin(), problem.end());
+    const CliResult r = run({image.string(), "--nodes", "64", "--out", out_.string(), "-q"});
+    expect_one_line_error(r, 1, parts);
+    EXPECT_TRUE(out_is_empty()) << "files left in --out";
+  }
+
+  fs::path dir_, out_;
+};
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// --out DIR and --overwrite
+
+TEST_F(Robustness, RerunIntoNonEmptyOutRefusesUnlessOverwrite) {
+  const std::string img = small_image();
+  const std::vector<std::string> args{img, "--nodes", "64", "--max-iterations", "2", "--export", "none", "--out", out_.string()};
+  CliResult r = run(args);
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_TRUE(fs::exists(out_ / "report.json"));
+  const auto before = fs::last_write_time(out_ / "report.json");
+
+  r = run(args);
+  expect_one_line_error(r, 1, {out_.string(), "not empty", "--overwrite"});
+  EXPECT_EQ(fs::last_write_time(out_ / "report.json"), before) << "a refused run touched the old outputs";
+
+  auto with_overwrite = args;
+  with_overwrite.push_back("--overwrite");
+  r = run(with_overwrite);
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(incomplete_reason(out_ / "report.json"), "");
+}
+
+TEST_F(Robustness, StrayFileInOutIsRefusedAndKept) {
+  fs::create_directories(out_);
+  std::ofstream(out_ / "notes.txt") << "mine\n";
+  const CliResult r = run({small_image(), "--nodes", "64", "--out", out_.string()});
+  expect_one_line_error(r, 1, {out_.string(), "--overwrite"});
+  EXPECT_EQ(slurp(out_ / "notes.txt"), "mine\n");
+  EXPECT_EQ(std::distance(fs::directory_iterator(out_), fs::directory_iterator{}), 1);
+}
+
+TEST_F(Robustness, OutIsARegularFile) {
+  std::ofstream(out_) << "x";
+  const CliResult r = run({small_image(), "--nodes", "64", "--out", out_.string()});
+  expect_one_line_error(r, 1, {out_.string(), "not a directory"});
+  EXPECT_EQ(slurp(out_), "x");
+}
+
+TEST_F(Robustness, FailedRunLeavesNewOutAbsent) {
+  // Fails after the output directory is validated (a 3D mesh needs 8 nodes).
+  const CliResult r = run({small_image(), "--nodes", "5", "--out", out_.string()});
+  expect_one_line_error(r, 1, {"--nodes", "5"});
+  EXPECT_FALSE(fs::exists(out_));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Option values out of range: usage error (exit 2) naming the option, nothing created.
+
+struct BadOption {
+  std::vector<std::string> args;
+  std::string option;
+};
+
+TEST_F(Robustness, OptionValuesOutOfRange) {
+  const std::vector<BadOption> cases = {
+      {{"--lambda", "1.5"}, "--lambda"},           {{"--lambda", "-0.1"}, "--lambda"},
+      {{"--lambda", "nan"}, "--lambda"},           {{"--lambda", "0.5x"}, "--lambda"},
+      {{"--max-dihedral", "80"}, "--max-dihedral"}, {{"--max-dihedral", "180"}, "--max-dihedral"},
+      {{"--nodes", "3"}, "--nodes"},               {{"--nodes", "1000000000"}, "--nodes"},
+      {{"--nodes", "many"}, "--nodes"},            {{"--threads", "-1"}, "--threads"},
+      {{"--threads", "5000"}, "--threads"},        {{"--degree", "3"}, "--degree"},
+      {{"--degree", "0"}, "--degree"},             {{"--max-iterations", "-1"}, "--max-iterations"},
+      {{"--spacing", "0"}, "--spacing"},           {{"--spacing", "-2"}, "--spacing"},
+      {{"--mesher", "delaunay"}, "--mesher"},      {{"--export", "stl"}, "--export"},
+      {{"--nodes", "100", "--spacing", "1"}, "--spacing"},
+  };
+  const std::string img = small_image();
+  for (const auto& c : cases) {
+    std::vector<std::string> args{img, "--out", out_.string()};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    std::string shown;
+    for (const auto& a : c.args) shown += a + " ";
+    SCOPED_TRACE(shown);
+    const CliResult r = run(args);
+    expect_one_line_error(r, 2, {c.option});
+    EXPECT_FALSE(fs::exists(out_)) << "a usage error created --out";
+  }
+}
+
+TEST_F(Robustness, MissingOutIsAUsageError) {
+  const CliResult r = run({small_image(), "--nodes", "64"});
+  expect_one_line_error(r, 2, {"--out"});
+}
+
+// ---------------------------------------------------------------------------------------------
+// Hand-written MetaImage files that ITK's own writer would never produce.
+
+TEST_F(Robustness, MhaTruncatedVoxelData) {
+  const fs::path p = dir_ / "truncated.mha";
+  write_mha(p, mha_header("8 8 8"), std::vector<float>(100, 1.0f));  // 512 declared
+  expect_bad_image(p, {"voxel data"});
+}
+
+TEST_F(Robustness, MhaGarbageHeader) {
+  const fs::path p = dir_ / "garbage.mha";
+  std::ofstream(p, std::ios::binary) << "this is not a MetaImage header\n\x01\x02\x03 rubbish\n";
+  expect_bad_image(p, {});
+}
+
+TEST_F(Robustness, MhaHeaderWithoutDimSize) {
+  const fs::path p = dir_ / "nodims.mha";
+  write_mha(p, "ObjectType = Image\nNDims = 3\nElementType = MET_FLOAT\n", std::vector<float>(8, 1.0f));
+  expect_bad_image(p, {});
+}
+
+TEST_F(Robustness, MhaHugeDimSizeIsRefusedBeforeAllocating) {
+  const fs::path p = dir_ / "huge.mha";
+  write_mha(p, mha_header("100000 100000 100000"), std::vector<float>(8, 1.0f));
+  const auto t0 = std::chrono::steady_clock::now();
+  expect_bad_image(p, {"voxels"});
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 10.0);
+}
+
+TEST_F(Robustness, MhaZeroSpacing) {
+  const fs::path p = dir_ / "zero_spacing.mha";
+  write_mha(p, mha_header("4 4 4", "1 0 1"), std::vector<float>(64, 1.0f));
+  expect_bad_image(p, {"spacing", "axis 1"});
+}
+
+TEST_F(Robustness, MhaNegativeSpacing) {
+  const fs::path p = dir_ / "negative_spacing.mha";
+  write_mha(p, mha_header("4 4 4", "1 1 -2"), std::vector<float>(64, 1.0f));
+  expect_bad_image(p, {"spacing"});
+}
+
+TEST_F(Robustness, MhaVectorPixels) {
+  const fs::path p = dir_ / "rgb.mha";
+  write_mha(p, mha_header("4 4 4", "1 1 1", "ElementNumberOfChannels = 3\n"), std::vector<float>(3 * 64, 1.0f));
+  expect_bad_image(p, {"3 components"});
+}
+
+TEST_F(Robustness, MhaNaNPatch) {
+  const fs::path p = dir_ / "nan_patch.mha";
+  std::vector<float> v(6 * 6 * 6, 5.0f);
+  for (int k = 2; k < 4; ++k)
+    for (int j = 2; j < 4; ++j)
+      for (int i = 2; i < 4; ++i) v[i + 6 * (j + 6 * k)] = std::numeric_limits<float>::quiet_NaN();
+  write_mha(p, mha_header("6 6 6"), v);
+  expect_bad_image(p, {"8 voxels are NaN or Inf", "(2,2,2)"});
+}
+
+TEST_F(Robustness, MhaOneVoxelThick) {
+  const fs::path p = dir_ / "slab.mha";
+  write_mha(p, mha_header("6 6 1"), std::vector<float>(36, 1.0f));
+  expect_bad_image(p, {"1 voxel thick", "axis 2"});
+}
+
+TEST_F(Robustness, MhaFourDimensions) {
+  const fs::path p = dir_ / "four_d.mha";
+  write_mha(p, mha_header("2 2 2 2", "1 1 1 1"), std::vector<float>(16, 1.0f));
+  expect_bad_image(p, {"4 dimensions"});
+}
+
+TEST_F(Robustness, MhaTwoByTwoByTwoMeshesOrFailsCleanly) {
+  // The smallest meshable image: must either mesh (every output complete) or fail on one line.
+  const fs::path p = dir_ / "tiny.mha";
+  write_mha(p, mha_header("2 2 2"), {1, 2, 3, 4, 5, 6, 7, 8});
+  const CliResult r = run({p.string(), "--nodes", "8", "--out", out_.string(), "-q"});
+  ASSERT_EQ(r.signal, 0) << r.err;
+  if (r.code == 0) {
+    EXPECT_EQ(r.err, "");
+    for (const auto& f : final_files(out_)) EXPECT_EQ(incomplete_reason(f), "") << f;
+    EXPECT_TRUE(fs::exists(out_ / "mesh.vtu"));
+  } else {
+    expect_one_line_error(r, 1, {"tiny.mha"});
+    EXPECT_TRUE(out_is_empty());
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// SIGKILL during a run: whatever is left under a final name is complete.
+
+TEST_F(Robustness, SigkillNeverLeavesAnIncompleteFinalFile) {
+  const fs::path img = dir_ / "sphere.mha";
+  write_sphere_block(img, 24);
+  const std::vector<std::string> base{img.string(), "--nodes", "1500", "--max-iterations", "6", "--threshold", "20",
+                                      "--threads", "1"};
+
+  // Uninterrupted run: measures the duration and checks the checker accepts a complete output.
+  auto args = base;
+  args.insert(args.end(), {"--out", out_.string(), "-q"});
+  const auto t0 = std::chrono::steady_clock::now();
+  const CliResult full = run(args);
+  const double duration = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_EQ(full.code, 0) << full.err;
+  const auto complete = final_files(out_);
+  ASSERT_FALSE(complete.empty());
+  for (const auto& f : complete) EXPECT_EQ(incomplete_reason(f), "") << f;
+
+  // Kills spread over the run, the last ones close to its end (the write phase).
+  const std::vector<double> fractions{0.15, 0.5, 0.8, 0.9, 0.95, 0.98};
+  int left_files = 0;
+  for (std::size_t k = 0; k < fractions.size(); ++k) {
+    const fs::path out = dir_ / ("killed" + std::to_string(k));
+    auto a = base;
+    a.insert(a.end(), {"--out", out.string(), "-q"});
+    const fs::path err = dir_ / "stderr_killed.txt";
+    const pid_t pid = spawn_cli(a, err);
+    const auto delay = std::chrono::duration<double>(std::max(0.05, fractions[k] * duration));
+    std::this_thread::sleep_for(delay);
+    ::kill(pid, SIGKILL);
+    const CliResult r = wait_cli(pid, err);
+    SCOPED_TRACE("killed after " + std::to_string(delay.count()) + " s");
+    for (const auto& f : final_files(out)) {
+      ++left_files;
+      EXPECT_EQ(incomplete_reason(f), "") << f;
+    }
+    (void)r;
+  }
+  std::cout << "[ info ] run " << duration << " s; " << left_files << " final-named files left by " << fractions.size()
+            << " killed runs, all complete\n";
+}

@@ -1,0 +1,510 @@
+// Tests for fem/include/vim/fem/elasticity.hpp against independent truth: patch tests (linear
+// fields reproduced exactly), the two-material bar in series (σ(L1/E1 + L2/E2)), a near-incompressible
+// cantilever vs Euler–Bernoulli, fast (Schur, cached) vs monolithic point constraints, and bad input.
+#include "box_mesh.hpp"
+
+#include <vim/fem/elasticity.hpp>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+using namespace vim;
+using namespace vim::fem;
+using ::testing::HasSubstr;
+
+namespace {
+
+template <int dim>
+Region<dim> boundary_of_unit_box(double tol = 1e-12) {
+  return {"boundary", [tol](const Vec<dim>& x) {
+            for (int d = 0; d < dim; ++d)
+              if (std::abs(x[d]) < tol || std::abs(x[d] - 1.0) < tol) return true;
+            return false;
+          }};
+}
+
+// Unit-box Kuhn mesh with interior nodes moved randomly (still valid), so the patch is irregular.
+template <int dim>
+SimplexMesh<dim> perturbed_unit_box(int n, unsigned seed) {
+  std::array<int, dim> cells;
+  std::array<double, dim> lo, hi;
+  cells.fill(n), lo.fill(0.0), hi.fill(1.0);
+  auto mesh = test::kuhn_box<dim>(cells, lo, hi);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> U(-0.2 / n, 0.2 / n);
+  for (auto& p : mesh.points) {
+    bool interior = true;
+    for (int d = 0; d < dim; ++d) interior = interior && p[d] > 1e-9 && p[d] < 1 - 1e-9;
+    if (interior)
+      for (int d = 0; d < dim; ++d) p[d] += U(rng);
+  }
+  return mesh;
+}
+
+template <int dim>
+void patch_test(unsigned degree) {
+  const auto mesh = perturbed_unit_box<dim>(dim == 2 ? 6 : 3, 7 + degree);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> U(-1.0, 1.0), P(1.0, 5.0);
+  // one modulus: with per-cell moduli a linear field is not in equilibrium (traction jumps)
+  const std::vector<double> E(mesh.n_cells(), P(rng));
+  const double nu = 0.3;
+  Eigen::Matrix<double, dim, dim> A;
+  Vec<dim> b;
+  for (int i = 0; i < dim; ++i) {
+    b[i] = U(rng);
+    for (int j = 0; j < dim; ++j) A(i, j) = 0.01 * U(rng);
+  }
+  ElasticModel<dim> model(mesh, E, nu, degree);
+  DirichletBC<dim> bc;
+  bc.region = boundary_of_unit_box<dim>();
+  bc.function = [&](const Vec<dim>& x) -> Vec<dim> { return A * x + b; };
+  model.add_dirichlet(bc);
+  const auto sol = model.solve();
+  double umax = 0;
+  for (std::size_t i = 0; i < mesh.n_points(); ++i) umax = std::max(umax, (A * mesh.points[i] + b).norm());
+  for (std::size_t i = 0; i < mesh.n_points(); ++i)
+    ASSERT_LT((sol.vertex_displacement[i] - (A * mesh.points[i] + b)).norm(), 1e-11 * umax) << "vertex " << i;
+  const Eigen::Matrix<double, dim, dim> eps = 0.5 * (A + A.transpose());
+  double energy = 0.0;
+  for (std::size_t j = 0; j < mesh.n_cells(); ++j) {
+    ASSERT_LT((sol.cell_strain[j] - eps).norm(), 1e-10 * eps.norm()) << "cell " << j;
+    const auto [lambda, mu] = lame_parameters(E[j], nu);
+    Eigen::Matrix<double, dim, dim> sigma = 2 * mu * eps + lambda * eps.trace() * Eigen::Matrix<double, dim, dim>::Identity();
+    ASSERT_LT((sol.cell_stress[j] - sigma).norm(), 1e-9 * sigma.norm()) << "cell " << j;
+    energy += 0.5 * (sigma.array() * eps.array()).sum() * std::abs(signed_volume(mesh, j));
+  }
+  EXPECT_NEAR(sol.strain_energy, energy, 1e-10 * energy);
+  // interior points (not nodes): for P2 these exercise the quadratic basis
+  std::vector<Vec<dim>> pts;
+  std::uniform_real_distribution<double> I(0.05, 0.95);
+  for (int k = 0; k < 20; ++k) {
+    Vec<dim> x;
+    for (int d = 0; d < dim; ++d) x[d] = I(rng);
+    pts.push_back(x);
+  }
+  PointSample info;
+  const auto vals = model.sample(pts, &info);
+  EXPECT_EQ(info.n_outside, 0u);
+  for (std::size_t k = 0; k < pts.size(); ++k) EXPECT_LT((vals[k] - (A * pts[k] + b)).norm(), 1e-11 * umax);
+}
+
+}  // namespace
+
+TEST(PatchTest, P1_2D) { patch_test<2>(1); }
+TEST(PatchTest, P2_2D) { patch_test<2>(2); }
+TEST(PatchTest, P1_3D) { patch_test<3>(1); }
+TEST(PatchTest, P2_3D) { patch_test<3>(2); }
+
+// ---------------------------------------------------------------------------------------------
+// Layered bar, ν = 0, lateral faces sliding: u_tip = σ (L1/E1 + L2/E2), reaction = −σ A.
+
+namespace {
+constexpr double L1 = 0.6, L2 = 1.4, E1 = 3.0, E2 = 11.0, SIGMA = 0.25;
+
+template <int dim>
+void bar_conditions(ElasticModel<dim>& model, const Vec<dim>& lo, const Vec<dim>& hi) {
+  for (int d = 0; d < dim; ++d) {
+    DirichletBC<dim> bc;
+    bc.region = box_face_region<dim>(lo, hi, d, false, 1e-9);
+    bc.components = DirichletBC<dim>::filled(false);
+    bc.components[d] = true;
+    model.add_dirichlet(bc);
+  }
+  SurfaceLoad<dim> load;
+  load.region = box_face_region<dim>(lo, hi, 0, true, 1e-9);
+  load.traction[0] = SIGMA;
+  model.add_surface_load(load);
+}
+
+template <int dim>
+void check_bar(const ElasticModel<dim>& model, const Solution<dim>& sol, double area) {
+  const double expected = SIGMA * (L1 / E1 + L2 / E2);
+  int tip = 0;
+  for (std::size_t i = 0; i < model.vertices().size(); ++i) {
+    const double x = model.vertices()[i][0];
+    const double exact_x = x <= L1 ? SIGMA * x / E1 : SIGMA * (L1 / E1 + (x - L1) / E2);
+    EXPECT_NEAR(sol.vertex_displacement[i][0], exact_x, 1e-10 * expected) << "vertex " << i;
+    for (int d = 1; d < dim; ++d) EXPECT_NEAR(sol.vertex_displacement[i][d], 0.0, 1e-10 * expected);
+    if (std::abs(x - (L1 + L2)) < 1e-12) {
+      ++tip;
+      EXPECT_NEAR(sol.vertex_displacement[i][0], expected, 1e-10 * expected);
+    }
+  }
+  EXPECT_GT(tip, 0);
+  EXPECT_NEAR(sol.dirichlet_reaction[0][0], -SIGMA * area, 1e-10 * SIGMA * area);
+  // energy = ½ F u_tip
+  EXPECT_NEAR(sol.strain_energy, 0.5 * SIGMA * area * expected, 1e-10 * SIGMA * area * expected);
+}
+}  // namespace
+
+TEST(LayeredBar, SimplexConformingInterface3D) {
+  std::array<std::vector<double>, 3> c;
+  c[0] = test::linspace(0, L1, 3);
+  const auto right = test::linspace(L1, L1 + L2, 5);
+  c[0].insert(c[0].end(), right.begin() + 1, right.end());
+  c[1] = test::linspace(0, 0.5, 2);
+  c[2] = test::linspace(0, 0.8, 2);
+  const auto mesh = test::kuhn_mesh<3>(c);
+  std::vector<double> E(mesh.n_cells());
+  for (std::size_t j = 0; j < E.size(); ++j) E[j] = centroid<3>(cell_points(mesh, j))[0] < L1 ? E1 : E2;
+  for (unsigned degree : {1u, 2u}) {
+    ElasticModel<3> model(mesh, E, 0.0, degree);
+    bar_conditions<3>(model, Vec<3>(0, 0, 0), Vec<3>(L1 + L2, 0.5, 0.8));
+    check_bar<3>(model, model.solve(), 0.5 * 0.8);
+  }
+}
+
+TEST(LayeredBar, Simplex2D) {
+  std::array<std::vector<double>, 2> c;
+  c[0] = {0.0, 0.3, L1, 1.0, 1.5, L1 + L2};
+  c[1] = test::linspace(0, 0.7, 3);
+  const auto mesh = test::kuhn_mesh<2>(c);
+  std::vector<double> E(mesh.n_cells());
+  for (std::size_t j = 0; j < E.size(); ++j) E[j] = centroid<2>(cell_points(mesh, j))[0] < L1 ? E1 : E2;
+  ElasticModel<2> model(mesh, E, 0.0, 1);
+  bar_conditions<2>(model, Vec<2>(0, 0), Vec<2>(L1 + L2, 0.7));
+  check_bar<2>(model, model.solve(), 0.7);
+}
+
+// The bar as a voxel image: element moduli through element_modulus (Eq. 15) from voxel-centre
+// means computed by brute force, with a unit scale (image in Pa, model in kPa).
+TEST(LayeredBar, FromVoxelImageThroughElementModulus) {
+  const int nx = 20, ny = 4, nz = 4;  // voxel size 0.1 × 0.125 × 0.2
+  const double Lx = L1 + L2, Ly = 0.5, Lz = 0.8;
+  std::vector<double> image(nx * ny * nz);
+  auto centre = [&](int i, int j, int k) { return Vec<3>((i + 0.5) * Lx / nx, (j + 0.5) * Ly / ny, (k + 0.5) * Lz / nz); };
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) image[i + nx * (j + ny * k)] = 1000.0 * (centre(i, j, k)[0] < L1 ? E1 : E2);
+  // mesh nodes on every second voxel boundary: the interface x = L1 = 6 voxels is a node plane
+  std::array<int, 3> cells{{10, 2, 2}};
+  const auto mesh = test::kuhn_box<3>(cells, {{0, 0, 0}}, {{Lx, Ly, Lz}});
+  std::vector<double> mean(mesh.n_cells());
+  for (std::size_t t = 0; t < mesh.n_cells(); ++t) {
+    const auto x = cell_points(mesh, t);
+    Eigen::Matrix3d T;
+    for (int d = 0; d < 3; ++d) T.col(d) = x[d + 1] - x[0];
+    const Eigen::Matrix3d Ti = T.inverse();
+    double s = 0;
+    int n = 0;
+    for (int k = 0; k < nz; ++k)
+      for (int j = 0; j < ny; ++j)
+        for (int i = 0; i < nx; ++i) {
+          const Eigen::Vector3d l = Ti * (centre(i, j, k) - x[0]);
+          if (l.minCoeff() >= -1e-12 && l.sum() <= 1 + 1e-12) s += image[i + nx * (j + ny * k)], ++n;
+        }
+    ASSERT_GT(n, 0) << "tet " << t << " encloses no voxel centre";
+    mean[t] = s / n;
+  }
+  const auto E = element_modulus(mean, 1e-3);
+  ElasticModel<3> model(mesh, E, 0.0, 1);
+  bar_conditions<3>(model, Vec<3>(0, 0, 0), Vec<3>(Lx, Ly, Lz));
+  check_bar<3>(model, model.solve(), Ly * Lz);
+}
+
+TEST(LayeredBar, VoxelGridModel) {
+  const std::array<long, 3> cells{{20, 3, 2}};
+  std::vector<double> E(20 * 3 * 2);
+  for (int k = 0; k < 2; ++k)
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 20; ++i) E[i + 20 * (j + 3 * k)] = (i + 0.5) * 0.1 < L1 ? E1 : E2;
+  auto model = ElasticModel<3>::voxel_grid(cells, Vec<3>(0, 0, 0), Vec<3>(L1 + L2, 0.5, 0.8), E, 0.0);
+  EXPECT_EQ(model.n_cells(), 120u);
+  bar_conditions<3>(model, Vec<3>(0, 0, 0), Vec<3>(L1 + L2, 0.5, 0.8));
+  check_bar<3>(model, model.solve(), 0.5 * 0.8);
+}
+
+// Voxel ordering: moduli vary along y only (axis 1); a bar loaded along y must see them in order.
+TEST(LayeredBar, VoxelGridOrderingAlongSecondAxis) {
+  const std::array<long, 2> cells{{2, 10}};
+  std::vector<double> E(20);
+  for (int j = 0; j < 10; ++j)
+    for (int i = 0; i < 2; ++i) E[i + 2 * j] = 1.0 + j;
+  auto model = ElasticModel<2>::voxel_grid(cells, Vec<2>(0, 0), Vec<2>(1, 5), E, 0.0);
+  for (int d = 0; d < 2; ++d) {
+    DirichletBC<2> bc;
+    bc.region = box_face_region<2>(Vec<2>(0, 0), Vec<2>(1, 5), d, false, 1e-9);
+    bc.components = {{d == 0, d == 1}};
+    model.add_dirichlet(bc);
+  }
+  SurfaceLoad<2> load;
+  load.region = box_face_region<2>(Vec<2>(0, 0), Vec<2>(1, 5), 1, true, 1e-9);
+  load.pressure = -2.0;  // negative pressure = tension along +y (outward normal)
+  model.add_surface_load(load);
+  const auto sol = model.solve();
+  for (std::size_t i = 0; i < model.vertices().size(); ++i) {
+    const double y = model.vertices()[i][1];
+    double exact = 0;
+    for (int j = 0; j < 10; ++j) exact += 2.0 * std::clamp(y - 0.5 * j, 0.0, 0.5) / (1.0 + j);
+    EXPECT_NEAR(sol.vertex_displacement[i][1], exact, 1e-10);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// ν = 0.49 cantilever, clamped at x = 0, shear load P at x = L: EB deflection P L³ / (3 E I).
+
+namespace {
+double cantilever_tip(unsigned degree, int nx, int nyz) {
+  const double L = 10.0, h = 1.0, E = 1000.0, P = 1.0;
+  const auto mesh = test::kuhn_box<3>({{nx, nyz, nyz}}, {{0, 0, 0}}, {{L, h, h}});
+  ElasticModel<3> model(mesh, std::vector<double>(mesh.n_cells(), E), 0.49, degree);
+  DirichletBC<3> clamp;
+  clamp.region = box_face_region<3>(Vec<3>(0, 0, 0), Vec<3>(L, h, h), 0, false, 1e-9);
+  model.add_dirichlet(clamp);
+  SurfaceLoad<3> load;
+  load.region = box_face_region<3>(Vec<3>(0, 0, 0), Vec<3>(L, h, h), 0, true, 1e-9);
+  load.traction[2] = -P / (h * h);
+  model.add_surface_load(load);
+  const auto sol = model.solve();
+  const double I = h * h * h * h / 12.0, eb = P * L * L * L / (3 * E * I);
+  const auto tip = model.sample({Vec<3>(L, 0.5 * h, 0.5 * h)});
+  return -tip[0][2] / eb;
+}
+}  // namespace
+
+TEST(Cantilever, NearIncompressibleP2ConvergesP1Locks) {
+  const double p1 = cantilever_tip(1, 20, 2), p2 = cantilever_tip(2, 20, 2);
+  const double p1_fine = cantilever_tip(1, 40, 4);
+  std::printf("cantilever nu=0.49 tip/EB: P1(20x2x2) %.4f  P1(40x4x4) %.4f  P2(20x2x2) %.4f\n", p1, p1_fine, p2);
+  EXPECT_GT(p2, 0.93);
+  EXPECT_LT(p2, 1.05);
+  EXPECT_LT(p1, 0.5);  // locking: far too stiff
+  EXPECT_LT(p1_fine, 0.8);
+  EXPECT_GT(p2 / p1, 2.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Embedded point constraints: fast path (factorise once, cached K⁻¹cᵀ, Schur) vs monolithic.
+
+namespace {
+template <int dim>
+ElasticModel<dim> needle_block(unsigned degree, SimplexMesh<dim>* mesh_out = nullptr) {
+  std::array<int, dim> cells;
+  std::array<double, dim> lo, hi;
+  cells.fill(dim == 2 ? 10 : 5), lo.fill(0.0), hi.fill(1.0);
+  const auto mesh = test::kuhn_box<dim>(cells, lo, hi);
+  std::vector<double> E(mesh.n_cells());
+  for (std::size_t j = 0; j < E.size(); ++j) E[j] = 1.0 + 3.0 * centroid<dim>(cell_points(mesh, j))[0];
+  ElasticModel<dim> model(mesh, E, 0.45, degree);
+  DirichletBC<dim> fixed;
+  Vec<dim> vlo = Vec<dim>::Zero(), vhi = Vec<dim>::Ones();
+  fixed.region = box_face_region<dim>(vlo, vhi, dim - 1, false, 1e-9);
+  model.add_dirichlet(fixed);
+  DirichletBC<dim> pushed;  // an inhomogeneous condition too, so condensation into g is exercised
+  pushed.region = box_face_region<dim>(vlo, vhi, 0, false, 1e-9);
+  pushed.components = DirichletBC<dim>::filled(false);
+  pushed.components[0] = true;
+  pushed.value[0] = 0.01;
+  model.add_dirichlet(pushed);
+  model.set_body_force(Vec<dim>::Constant(-0.1));
+  if (mesh_out) *mesh_out = mesh;
+  return model;
+}
+
+template <int dim>
+void fast_vs_monolithic(unsigned degree) {
+  auto model = needle_block<dim>(degree);
+  std::vector<PointConstraint<dim>> points;
+  for (int step = 0; step < 6; ++step) {
+    // the needle advances along the top-down diagonal; passed points stick and move with the shaft
+    PointConstraint<dim> p;
+    p.position = Vec<dim>::Constant(0.5);
+    p.position[dim - 1] = 0.95 - 0.18 * step;  // the last ones sit in cells touching the fixed face
+    p.position[0] = 0.31 + 0.013 * step;
+    points.push_back(p);
+    for (auto& q : points)
+      if (q.position[dim - 1] > 0.01) q.displacement[dim - 1] = -0.01 * (step + 1);
+    if (step == 3) points[0].components = DirichletBC<dim>::filled(false), points[0].components[dim - 1] = true;
+    if (step == 2) points.push_back({Vec<dim>::Constant(0.0), Vec<dim>::Constant(0.0)});  // on the fixed corner: void row
+    const auto fast = model.solve(points);
+    const auto ref = model.solve_monolithic(points);
+    double umax = 0, fmax = 0;
+    for (const auto& u : ref.vertex_displacement) umax = std::max(umax, u.norm());
+    for (const auto& f : ref.point_force) fmax = std::max(fmax, f.norm());
+    ASSERT_GT(umax, 0);
+    ASSERT_GT(fmax, 0);
+    for (std::size_t i = 0; i < ref.vertex_displacement.size(); ++i)
+      ASSERT_LT((fast.vertex_displacement[i] - ref.vertex_displacement[i]).norm(), 1e-8 * umax) << "step " << step;
+    for (std::size_t k = 0; k < points.size(); ++k)
+      ASSERT_LT((fast.point_force[k] - ref.point_force[k]).norm(), 1e-8 * fmax) << "step " << step << " point " << k;
+    EXPECT_NEAR(fast.strain_energy, ref.strain_energy, 1e-8 * ref.strain_energy);
+    // the constraints hold at the embedded points
+    std::vector<Vec<dim>> pos;
+    for (const auto& q : points) pos.push_back(q.position);
+    const auto at = model.sample(pos);
+    for (std::size_t k = 0; k < points.size(); ++k)
+      for (int c = 0; c < dim; ++c)
+        if (points[k].components[c]) {
+          EXPECT_NEAR(at[k][c], points[k].displacement[c], 1e-10) << "step " << step << " point " << k << " comp " << c;
+        }
+    // global equilibrium: reactions + point forces + body force = 0 (per component)
+    Vec<dim> total = Vec<dim>::Constant(-0.1);  // body force × unit volume
+    for (const auto& r : fast.dirichlet_reaction) total += r;
+    for (const auto& f : fast.point_force) total += f;
+    EXPECT_LT(total.norm(), 1e-9 * (fmax + 0.1)) << "step " << step;
+  }
+}
+}  // namespace
+
+TEST(PointConstraints, FastPathMatchesMonolithicP1_3D) { fast_vs_monolithic<3>(1); }
+TEST(PointConstraints, FastPathMatchesMonolithicP2_2D) { fast_vs_monolithic<2>(2); }
+
+// The sign convention: pulling a point in +z needs a force on the body in +z.
+TEST(PointConstraints, ForceSignAndLinearity) {
+  auto model = needle_block<3>(1);
+  PointConstraint<3> p{Vec<3>(0.5, 0.5, 0.5), Vec<3>(0, 0, 0.02)};
+  const auto a = model.solve({p});
+  p.displacement *= 2;
+  const auto b = model.solve({p});
+  EXPECT_GT(a.point_force[0][2], 0.0);
+  // linearity: force(2δ) − force(δ) = force(δ) − force(0)
+  const auto z = model.solve({PointConstraint<3>{Vec<3>(0.5, 0.5, 0.5), Vec<3>::Zero()}});
+  EXPECT_NEAR(b.point_force[0][2] - a.point_force[0][2], a.point_force[0][2] - z.point_force[0][2],
+              1e-9 * std::abs(a.point_force[0][2]));
+}
+
+// A needle steps more finely than the mesh: several collinear points in one P1 element are linearly
+// dependent (P1 is affine along the line). With consistent displacements (rigid shaft motion) the
+// dependent rows are dropped, both paths agree, and every point still moves as prescribed.
+TEST(PointConstraints, RedundantCollinearPointsInOneElement) {
+  auto model = needle_block<3>(1);
+  std::vector<PointConstraint<3>> pts;
+  for (int k = 0; k < 6; ++k) pts.push_back({Vec<3>(0.503, 0.497, 0.78 - 0.03 * k), Vec<3>(0.001, 0, -0.01)});
+  const auto fast = model.solve(pts);
+  const auto ref = model.solve_monolithic(pts);
+  EXPECT_GT(fast.stats.dependent_rows_dropped, 0u);
+  EXPECT_EQ(fast.stats.dependent_rows_dropped, ref.stats.dependent_rows_dropped);
+  EXPECT_EQ(fast.stats.constraint_rows + fast.stats.dependent_rows_dropped, 18u);
+  double umax = 0;
+  for (const auto& u : ref.vertex_displacement) umax = std::max(umax, u.norm());
+  for (std::size_t i = 0; i < ref.vertex_displacement.size(); ++i)
+    ASSERT_LT((fast.vertex_displacement[i] - ref.vertex_displacement[i]).norm(), 1e-8 * umax);
+  for (std::size_t k = 0; k < pts.size(); ++k) EXPECT_LT((fast.point_force[k] - ref.point_force[k]).norm(), 1e-8);
+  std::vector<Vec<3>> pos;
+  for (const auto& p : pts) pos.push_back(p.position);
+  const auto at = model.sample(pos);
+  for (std::size_t k = 0; k < pts.size(); ++k) EXPECT_LT((at[k] - pts[k].displacement).norm(), 1e-10);
+  // bending the shaft inside one element is not representable: conflicting rows are reported
+  pts[3].displacement[0] = 0.01;
+  EXPECT_THROW(model.solve(pts), std::runtime_error);
+}
+
+TEST(Sample, CountsPointsOutside) {
+  auto model = needle_block<3>(1);
+  model.solve();
+  PointSample info;
+  const auto v = model.sample({Vec<3>(0.5, 0.5, 0.5), Vec<3>(2, 0, 0), Vec<3>(1, 1, 1), Vec<3>(-0.1, 0.5, 0.5)}, &info);
+  EXPECT_EQ(info.n_outside, 2u);
+  EXPECT_EQ(info.inside, (std::vector<bool>{true, false, true, false}));
+  EXPECT_EQ(v[1], Vec<3>::Zero());
+  EXPECT_NE(v[0], Vec<3>::Zero());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bad input: each case throws before solving, with a message naming the value.
+
+namespace {
+SimplexMesh<3> unit_tets() { return test::kuhn_box<3>({{2, 2, 2}}, {{0, 0, 0}}, {{1, 1, 1}}); }
+template <class F>
+std::string message_of(F&& f) {
+  try {
+    f();
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "(no exception)";
+}
+}  // namespace
+
+TEST(BadInput, PoissonRatio) {
+  const auto mesh = unit_tets();
+  const std::vector<double> E(mesh.n_cells(), 1.0);
+  for (double nu : {0.5, 0.7, -1.0, std::nan("")}) {
+    EXPECT_THROW(ElasticModel<3>(mesh, E, nu), std::invalid_argument);
+    EXPECT_THAT(message_of([&] { ElasticModel<3>(mesh, E, nu); }), HasSubstr("outside (-1, 0.5)"));
+  }
+  EXPECT_THAT(message_of([&] { ElasticModel<3>(mesh, E, 0.5); }), HasSubstr("Poisson ratio 0.5"));
+}
+
+TEST(BadInput, Modulus) {
+  const auto mesh = unit_tets();
+  std::vector<double> E(mesh.n_cells(), 1.0);
+  E[7] = -2.0;
+  EXPECT_THAT(message_of([&] { ElasticModel<3>(mesh, E, 0.3); }), HasSubstr("cell 7 is -2"));
+  E[7] = std::nan("");
+  EXPECT_THAT(message_of([&] { ElasticModel<3>(mesh, E, 0.3); }), HasSubstr("cell 7 is nan"));
+  E[7] = 0.0;
+  EXPECT_THROW(ElasticModel<3>(mesh, E, 0.3), std::invalid_argument);
+  E.pop_back();
+  EXPECT_THAT(message_of([&] { ElasticModel<3>(mesh, E, 0.3); }), HasSubstr("47 Young's moduli given for 48 cells"));
+  EXPECT_THAT(message_of([&] { ElasticModel<3>(mesh, std::vector<double>(48, 1.0), 0.3, 3); }), HasSubstr("degree 3"));
+}
+
+TEST(BadInput, InvertedAndDegenerateCells) {
+  auto mesh = unit_tets();
+  const std::vector<double> E(mesh.n_cells(), 1.0);
+  // cells listed with the other orientation are fine (deal.II reorders them)...
+  auto flipped = mesh;
+  for (std::size_t c = 0; c < flipped.n_cells(); c += 2) std::swap(flipped.cells[c][0], flipped.cells[c][1]);
+  EXPECT_NO_THROW(ElasticModel<3>(flipped, E, 0.3));
+  // ...but a node pushed through its neighbours tangles the mesh
+  auto tangled = mesh;
+  for (auto& p : tangled.points)
+    if ((p - Eigen::Vector3d(0.5, 0.5, 0.5)).norm() < 1e-12) p = Eigen::Vector3d(0.5, 0.5, 1.3);
+  const std::string msg = message_of([&] { ElasticModel<3>(tangled, E, 0.3); });
+  EXPECT_THAT(msg, HasSubstr("is inverted"));
+  auto flat = mesh;
+  flat.points[flat.cells[5][3]] = flat.points[flat.cells[5][0]] + 0.5 * (flat.points[flat.cells[5][1]] - flat.points[flat.cells[5][0]]);
+  EXPECT_THROW(ElasticModel<3>(flat, E, 0.3), std::invalid_argument);
+  SimplexMesh<2> tri;
+  tri.points = {Eigen::Vector2d(0, 0), Eigen::Vector2d(1, 0), Eigen::Vector2d(2, 0)};
+  tri.cells = {{{0, 1, 2}}};
+  EXPECT_THAT(message_of([&] { ElasticModel<2>(tri, {1.0}, 0.3); }), HasSubstr("cell 0 is degenerate"));
+  tri.cells = {{{0, 1, 5}}};
+  EXPECT_THAT(message_of([&] { ElasticModel<2>(tri, {1.0}, 0.3); }), HasSubstr("refers to vertex 5"));
+}
+
+TEST(BadInput, SingularSystems) {
+  const auto mesh = unit_tets();
+  ElasticModel<3> model(mesh, std::vector<double>(mesh.n_cells(), 1.0), 0.3);
+  EXPECT_THAT(message_of([&] { model.solve(); }), HasSubstr("no Dirichlet condition constrains any node"));
+  DirichletBC<3> nowhere;
+  nowhere.region = sphere_region<3>(Vec<3>(5, 5, 5), 0.1);
+  model.add_dirichlet(nowhere);
+  EXPECT_THAT(message_of([&] { model.solve(); }), HasSubstr("'sphere' select no node"));
+  DirichletBC<3> only_z;  // one component on one face: sliding and in-plane rotation stay free
+  only_z.region = box_face_region<3>(Vec<3>(0, 0, 0), Vec<3>(1, 1, 1), 2, false, 1e-9);
+  only_z.components = {{false, false, true}};
+  model.add_dirichlet(only_z);
+  EXPECT_THAT(message_of([&] { model.solve(); }), HasSubstr("rigid-body motion"));
+  EXPECT_THROW(model.solve_monolithic({}), std::runtime_error);
+  DirichletBC<3> line;  // plus one fixed edge: now determinate
+  line.region = {"edge", [](const Vec<3>& x) { return x[1] < 1e-9 && x[2] < 1e-9; }};
+  model.add_dirichlet(line);
+  EXPECT_NO_THROW(model.solve());
+}
+
+TEST(BadInput, PointConstraintsAndOptions) {
+  auto model = needle_block<3>(1);
+  EXPECT_THAT(message_of([&] { model.solve({PointConstraint<3>{Vec<3>(0.5, 0.5, 1.5)}}); }),
+              HasSubstr("point constraint 0 at (0.5, 0.5, 1.5) lies outside the mesh"));
+  PointConstraint<3> p{Vec<3>(0.5, 0.5, 0.5)}, q{Vec<3>(0.5, 0.5, 0.5), Vec<3>(0, 0, 0.01)};
+  EXPECT_THAT(message_of([&] { model.solve({p, q}); }),
+              HasSubstr("point constraint 1 (component 2) conflicts with earlier point constraints"));
+  EXPECT_THROW(model.solve_monolithic({p, q}), std::runtime_error);
+  PointConstraint<3> on_fixed{Vec<3>(0.5, 0.5, 0.0), Vec<3>(0, 0, 0.1)};
+  EXPECT_THAT(message_of([&] { model.solve({on_fixed}); }), HasSubstr("lies on Dirichlet-constrained nodes"));
+  SolverOptions bad;
+  bad.tolerance = -1;
+  EXPECT_THAT(message_of([&] { model.solve({}, bad); }), HasSubstr("tolerance"));
+  EXPECT_THAT(message_of([&] { ElasticModel<3>::voxel_grid({{2, 0, 2}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1), {}, 0.3); }),
+              HasSubstr("0 cells along axis 1"));
+  EXPECT_THAT(message_of([&] { ElasticModel<3>::voxel_grid({{2, 2, 2}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1), std::vector<double>(7, 1.0), 0.3); }),
+              HasSubstr("7 Young's moduli given for 8 cells"));
+  ElasticModel<3> fresh(unit_tets(), std::vector<double>(48, 1.0), 0.3);
+  EXPECT_THAT(message_of([&] { fresh.sample({Vec<3>(0.5, 0.5, 0.5)}); }), HasSubstr("no solution yet"));
+}

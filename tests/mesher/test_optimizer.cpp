@@ -1,0 +1,263 @@
+// Tests of the VIM optimiser (paper §IV, DESIGN.md §3): E (Eq. 7) never increases, the quality
+// bound holds and no element inverts after every iteration, corners stay fixed and boundary nodes
+// on their face/edge, the caches equal a fresh evaluation, the final E equals a brute-force
+// per-voxel recomputation, E_D drops on the two-circle phantom, random walk, insertion, sizing
+// (§VI-E) and the documented errors.
+#include "optimizer_test_util.hpp"
+
+#include <vim/initial_mesh.hpp>
+#include <vim/optimizer.hpp>
+#include <vim/quality.hpp>
+#include <vim/sizing.hpp>
+#include <vim/vim.hpp>
+
+#include <gtest/gtest.h>
+
+#include <set>
+
+namespace vim {
+namespace {
+
+using testing::brute_force_energy;
+using testing::sphere_phantom;
+using testing::two_circle_phantom;
+
+template <int dim>
+SimplexMesh<dim> grid_for(const Image<dim>& img, int n) {
+  std::array<int, dim> nodes;
+  nodes.fill(n);
+  return regular_grid_mesh<dim>(img.box_min(), img.box_max(), nodes);
+}
+
+// Drives the optimiser's iteration by hand and checks every invariant after each node sweep and
+// each swap pass.
+template <int dim>
+void check_invariants(const Image<dim>& img, int nodes, double lambda, int iterations) {
+  const SimplexMesh<dim> initial = grid_for(img, nodes);
+  const VoxelStatistics<dim> stats(img);
+  VimOptions o;
+  o.lambda = lambda;
+  VimOptimizer<dim> opt(initial, &stats, nullptr, o);
+  const auto lo = img.box_min(), hi = img.box_max();
+  const double tol = 1e-9 * (hi - lo).norm();
+  const auto kind = boundary_kind<dim>(initial, lo, hi, tol);
+  double previous = opt.totals().energy;
+  long total_moves = 0, total_swaps = 0;
+  auto check = [&](const char* stage, int it) {
+    SCOPED_TRACE(std::string(stage) + " of iteration " + std::to_string(it));
+    const double e = opt.totals().energy;
+    EXPECT_LE(e, previous) << "E increased";
+    previous = e;
+    const auto fresh = opt.recompute_totals();
+    EXPECT_NEAR(e, fresh.energy, 1e-12 * fresh.energy) << "stale per-element caches";
+    const auto mesh = opt.compact_mesh();
+    for (std::size_t c = 0; c < opt.mesh().n_cells(); ++c)
+      if (opt.alive()[c]) {
+        const auto x = opt.simplex(static_cast<int>(c));
+        ASSERT_GT(signed_volume<dim>(x), 0.0) << "inverted cell " << c;
+        ASSERT_LE(max_dihedral_deg<dim>(x), o.max_dihedral_deg + 1e-9) << "cell " << c;
+      }
+    EXPECT_NEAR(total_volume(mesh), (hi - lo).prod(), 1e-9 * (hi - lo).prod());
+    for (std::size_t i = 0; i < initial.n_points(); ++i)
+      for (int a = 0; a < dim; ++a) {
+        const double x0 = initial.points[i][a], x = opt.mesh().points[i][a];
+        const bool on_face = std::abs(x0 - lo[a]) <= tol || std::abs(x0 - hi[a]) <= tol;
+        if (on_face) {
+          ASSERT_EQ(x, x0) << "boundary node " << i << " left its face (kind " << int(kind[i]) << ")";
+        }
+        ASSERT_GE(x, lo[a] - tol);
+        ASSERT_LE(x, hi[a] + tol);
+      }
+    EXPECT_TRUE(opt.adjacency().consistent(opt.mesh().n_points(), opt.mesh().cells, opt.alive()));
+  };
+  for (int it = 1; it <= iterations; ++it) {
+    // Colour classes: no two nodes of a class share a cell.
+    for (const auto& cls : opt.colour_classes()) {
+      std::set<int> members(cls.begin(), cls.end());
+      for (int v : cls)
+        for (int c : opt.adjacency().cells_of(v))
+          for (int w : opt.mesh().cells[c]) ASSERT_TRUE(w == v || !members.count(w));
+    }
+    double sq = 0.0;
+    total_moves += opt.update_nodes(it, &sq);
+    check("node update", it);
+    const long s = opt.swap_pass();
+    total_swaps += s;
+    if (s > 0) opt.recolour();
+    check("swaps", it);
+  }
+  EXPECT_GT(total_moves, 0);
+  EXPECT_GT(total_swaps, 0);
+  // Corners (kind == dim) never moved.
+  for (std::size_t i = 0; i < initial.n_points(); ++i)
+    if (kind[i] == dim) {
+      EXPECT_EQ(opt.mesh().points[i], initial.points[i]);
+    }
+}
+
+TEST(Optimizer, InvariantsHoldEveryIteration2D) { check_invariants<2>(two_circle_phantom(80), 7, 0.6, 4); }
+TEST(Optimizer, InvariantsHoldEveryIteration3D) { check_invariants<3>(sphere_phantom(24), 4, 0.5, 3); }
+
+// optimize(): history starts at the initial mesh with E = 1, never increases, and the final E
+// equals a brute-force recomputation with the reported normalisation.
+template <int dim>
+void check_optimize(const Image<dim>& img, int nodes) {
+  VimOptions o;
+  o.max_iterations = 8;
+  std::vector<IterationRecord> seen;
+  const auto r = optimize<dim>(img, grid_for(img, nodes), o, [&](const IterationRecord& rec) { seen.push_back(rec); });
+  ASSERT_EQ(seen.size(), r.history.size());
+  ASSERT_GE(r.history.size(), 2u);
+  EXPECT_EQ(r.history[0].iteration, 0);
+  EXPECT_NEAR(r.history[0].energy, 1.0, 1e-12);
+  EXPECT_DOUBLE_EQ(r.history[0].geometric, r.eg0);
+  EXPECT_DOUBLE_EQ(r.history[0].discretization, r.ed0);
+  for (std::size_t t = 1; t < r.history.size(); ++t) {
+    EXPECT_EQ(r.history[t].iteration, static_cast<int>(t));
+    EXPECT_LE(r.history[t].energy, r.history[t - 1].energy) << "iteration " << t;
+  }
+  EXPECT_LT(r.history.back().energy, 0.95);
+  const auto brute = brute_force_energy(img, r.mesh);
+  EXPECT_NEAR(brute.eg, r.history.back().geometric, 1e-9 * brute.eg);
+  EXPECT_NEAR(brute.combined(r.eg0, r.ed0, o.lambda), r.history.back().energy, 2e-3);
+  ASSERT_EQ(r.values.size(), r.mesh.n_cells());
+  ASSERT_EQ(r.boundary_kind.size(), r.mesh.n_points());
+  for (std::size_t c = 0; c < r.mesh.n_cells(); ++c) EXPECT_GT(signed_volume(r.mesh, c), 0.0);
+  const auto q = mesh_quality<dim>(r.mesh);
+  EXPECT_EQ(q.inverted, 0);
+  EXPECT_LE(q.max_dihedral_deg, o.max_dihedral_deg + 1e-9);
+  if (r.converged) {
+    EXPECT_LT(r.history.back().v, o.convergence);
+  }
+}
+
+TEST(Optimizer, OptimizeHistory2D) { check_optimize<2>(two_circle_phantom(64), 6); }
+TEST(Optimizer, OptimizeHistory3D) { check_optimize<3>(sphere_phantom(20), 4); }
+
+// Paper Fig. 13(b)-(c): on the two-circle phantom the optimised mesh discretises the image with
+// less than half the initial E_D (brute-force per-voxel variance, independent of the optimiser).
+TEST(Optimizer, TwoCirclePhantomHalvesDiscretizationEnergy) {
+  const auto img = two_circle_phantom(160);
+  const auto initial = grid_for(img, 9);
+  VimOptions o;
+  o.max_iterations = 30;
+  const auto r = optimize<2>(img, initial, o);
+  const double before = brute_force_energy(img, initial).ed, after = brute_force_energy(img, r.mesh).ed;
+  EXPECT_LT(after, 0.5 * before) << "E_D " << before << " -> " << after;
+  EXPECT_EQ(r.mesh.n_points(), initial.n_points());
+}
+
+TEST(Optimizer, RandomWalkLowersEnergyAndIsReproducible) {
+  const auto img = two_circle_phantom(64);
+  VimOptions o;
+  o.strategy = VimOptions::NodeStrategy::random_walk;
+  o.max_iterations = 6;
+  const auto a = optimize<2>(img, grid_for(img, 6), o);
+  const auto b = optimize<2>(img, grid_for(img, 6), o);
+  o.seed = 99;
+  const auto c = optimize<2>(img, grid_for(img, 6), o);
+  EXPECT_LT(a.history.back().energy, 0.95);
+  for (std::size_t t = 1; t < a.history.size(); ++t) EXPECT_LE(a.history[t].energy, a.history[t - 1].energy);
+  ASSERT_EQ(a.mesh.points.size(), b.mesh.points.size());
+  for (std::size_t i = 0; i < a.mesh.n_points(); ++i) EXPECT_EQ(a.mesh.points[i], b.mesh.points[i]);
+  EXPECT_EQ(a.mesh.cells, b.mesh.cells);
+  bool differs = false;
+  for (std::size_t i = 0; i < a.mesh.n_points(); ++i) differs = differs || a.mesh.points[i] != c.mesh.points[i];
+  EXPECT_TRUE(differs) << "the seed has no effect";
+}
+
+// A constant image has E_D0 = 0: the image term is switched off (documented) and VIM reduces to
+// the normalised geometric energy.
+TEST(Optimizer, ConstantImageSwitchesImageTermOff) {
+  Image<2> img({40, 30}, {0.1, 0.1}, {0.05, 0.05}, 3.0f);
+  VimOptions o;
+  o.max_iterations = 5;
+  const auto r = optimize<2>(img, grid_for(img, 5), o);
+  EXPECT_EQ(r.ed0, 0.0);
+  for (const auto& h : r.history) {
+    EXPECT_EQ(h.discretization, 0.0);
+    EXPECT_NEAR(h.energy, (1.0 - o.lambda) * h.geometric / r.eg0, 1e-12);
+  }
+  for (const auto& v : r.values) EXPECT_FLOAT_EQ(static_cast<float>(v.mean), 3.0f);
+}
+
+TEST(Optimizer, InsertionAddsNodesUpToTheBudget) {
+  const auto img = two_circle_phantom(80);
+  const auto initial = grid_for(img, 5);
+  VimOptions o;
+  o.max_iterations = 10;
+  o.insert_nodes = 100;
+  o.node_budget = static_cast<long>(initial.n_points()) + 12;
+  const auto r = optimize<2>(img, initial, o);
+  EXPECT_GT(r.mesh.n_points(), initial.n_points());
+  EXPECT_LE(static_cast<long>(r.mesh.n_points()), o.node_budget);
+  for (std::size_t t = 1; t < r.history.size(); ++t) EXPECT_LE(r.history[t].energy, r.history[t - 1].energy);
+  const auto q = mesh_quality<2>(r.mesh);
+  EXPECT_EQ(q.inverted, 0);
+  EXPECT_LE(q.max_dihedral_deg, o.max_dihedral_deg + 1e-9);
+  EXPECT_NEAR(total_volume(r.mesh), 1.0, 1e-12);
+  const auto brute = brute_force_energy(img, r.mesh);
+  EXPECT_NEAR(brute.eg, r.history.back().geometric, 1e-9 * brute.eg);
+}
+
+// §VI-E: a density peaked at the centre pulls nodes toward it; corners stay fixed.
+TEST(Sizing, DensityConcentratesNodes) {
+  Image<2> density({50, 50}, {0.02, 0.02}, {0.01, 0.01}, 1.0f);
+  const Eigen::Vector2d centre(0.5, 0.5);
+  for (std::size_t k = 0; k < density.voxel_count(); ++k)
+    density.data[k] = static_cast<float>(1.0 + 30.0 * std::exp(-(density.point_of(density.index_of(k)) - centre).squaredNorm() / 0.02));
+  const auto initial = grid_for(density, 9);
+  const auto sized = size_initial_mesh<2>(density, initial, 20);
+  ASSERT_EQ(sized.n_points(), initial.n_points());
+  const auto kind = boundary_kind<2>(initial, density.box_min(), density.box_max(), 1e-9);
+  auto mean_distance = [&](const SimplexMesh<2>& m) {  // over the interior nodes
+    double d = 0.0;
+    int n = 0;
+    for (std::size_t i = 0; i < m.n_points(); ++i)
+      if (kind[i] == 0) {
+        d += (m.points[i] - centre).norm();
+        ++n;
+      }
+    return d / n;
+  };
+  EXPECT_LT(mean_distance(sized), 0.9 * mean_distance(initial)) << mean_distance(initial);
+  for (std::size_t i = 0; i < initial.n_points(); ++i)
+    if (kind[i] == 2) {
+      EXPECT_EQ(sized.points[i], initial.points[i]);
+    }
+  const auto q = mesh_quality<2>(sized);
+  EXPECT_EQ(q.inverted, 0);
+  EXPECT_LE(q.max_dihedral_deg, 150.0 + 1e-9);
+  Image<2> bad = density;
+  bad.data[3] = 0.0f;
+  EXPECT_THROW(size_initial_mesh<2>(bad, initial, 2), std::invalid_argument);
+}
+
+TEST(Optimizer, RejectsBadInput) {
+  const auto img = two_circle_phantom(20);
+  const auto mesh = grid_for(img, 3);
+  VimOptions o;
+  o.lambda = 1.0;
+  try {
+    optimize<2>(img, mesh, o);
+    FAIL() << "lambda = 1 accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("lambda"), std::string::npos) << e.what();
+  }
+  Image<2> thin({1, 20}, {0.05, 0.05}, {0.025, 0.025}, 1.0f);
+  try {
+    optimize<2>(thin, regular_grid_mesh<2>(thin.box_min(), thin.box_max(), {2, 3}), VimOptions{});
+    FAIL() << "1-voxel-thick image accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("axis 0"), std::string::npos) << e.what();
+  }
+  auto inverted = mesh;
+  std::swap(inverted.cells[0][0], inverted.cells[0][1]);
+  EXPECT_THROW(optimize<2>(img, inverted, VimOptions{}), std::invalid_argument);
+  VimOptions bad_dihedral;
+  bad_dihedral.max_dihedral_deg = 80.0;
+  EXPECT_THROW(optimize<2>(img, mesh, bad_dihedral), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace vim

@@ -1,0 +1,103 @@
+// solve_distributed on 2 ranks (parallel::fullydistributed::Triangulation, Trilinos CG + AMG) vs
+// the serial direct solve each rank also runs: simplex (P1, P2, 2D) and voxel models.
+#include "../fem/box_mesh.hpp"
+
+#include <vim/fem/elasticity.hpp>
+
+#include <deal.II/base/mpi.h>
+#include <gtest/gtest.h>
+
+#include <random>
+
+using namespace vim;
+using namespace vim::fem;
+
+namespace {
+template <int dim>
+void add_conditions(ElasticModel<dim>& model) {
+  const Vec<dim> lo = Vec<dim>::Zero(), hi = Vec<dim>::Ones();
+  DirichletBC<dim> fixed;
+  fixed.region = box_face_region<dim>(lo, hi, dim - 1, false, 1e-9);
+  model.add_dirichlet(fixed);
+  DirichletBC<dim> pushed;
+  pushed.region = box_face_region<dim>(lo, hi, 0, true, 1e-9);
+  pushed.components = DirichletBC<dim>::filled(false);
+  pushed.components[0] = true;
+  pushed.value[0] = -0.01;
+  model.add_dirichlet(pushed);
+  SurfaceLoad<dim> load;
+  load.region = box_face_region<dim>(lo, hi, dim - 1, true, 1e-9);
+  load.pressure = 0.3;
+  load.traction[0] = 0.05;
+  model.add_surface_load(load);
+  model.set_body_force(Vec<dim>::Constant(-0.1));
+}
+
+template <int dim>
+void compare(ElasticModel<dim>& model) {
+  const int ranks = dealii::Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD);
+  SolverOptions direct;
+  direct.type = SolverOptions::Type::direct;
+  const auto ref = model.solve({}, direct);
+  SolverOptions amg;
+  amg.tolerance = 1e-13;
+  const auto sol = model.solve_distributed(MPI_COMM_WORLD, amg);
+  EXPECT_EQ(sol.stats.method, "cg+amg (mpi, " + std::to_string(ranks) + " ranks)");
+  double d = 0, s = 0;
+  for (std::size_t i = 0; i < ref.vertex_displacement.size(); ++i)
+    d = std::max(d, (sol.vertex_displacement[i] - ref.vertex_displacement[i]).norm()),
+    s = std::max(s, ref.vertex_displacement[i].norm());
+  ASSERT_GT(s, 0);
+  EXPECT_LT(d / s, 1e-8);
+  EXPECT_NEAR(sol.strain_energy, ref.strain_energy, 1e-8 * ref.strain_energy);
+  double sd = 0, ss = 0;
+  for (std::size_t j = 0; j < ref.cell_stress.size(); ++j)
+    sd = std::max(sd, (sol.cell_stress[j] - ref.cell_stress[j]).norm()), ss = std::max(ss, ref.cell_stress[j].norm());
+  EXPECT_LT(sd / ss, 1e-7);
+  for (std::size_t b = 0; b < ref.dirichlet_reaction.size(); ++b)
+    EXPECT_LT((sol.dirichlet_reaction[b] - ref.dirichlet_reaction[b]).norm(), 1e-7 * (1 + ref.dirichlet_reaction[b].norm()));
+}
+
+template <int dim>
+std::vector<double> random_moduli(std::size_t n) {
+  std::mt19937 rng(42);  // same on every rank
+  std::uniform_real_distribution<double> U(1.0, 8.0);
+  std::vector<double> E(n);
+  for (auto& e : E) e = U(rng);
+  return E;
+}
+}  // namespace
+
+TEST(Distributed, SimplexP1_3D) {
+  const auto mesh = test::kuhn_box<3>({{10, 10, 10}}, {{0, 0, 0}}, {{1, 1, 1}});
+  ElasticModel<3> model(mesh, random_moduli<3>(mesh.n_cells()), 0.35, 1);
+  add_conditions(model);
+  compare(model);
+}
+
+TEST(Distributed, SimplexP2_3D) {
+  const auto mesh = test::kuhn_box<3>({{5, 5, 5}}, {{0, 0, 0}}, {{1, 1, 1}});
+  ElasticModel<3> model(mesh, random_moduli<3>(mesh.n_cells()), 0.45, 2);
+  add_conditions(model);
+  compare(model);
+}
+
+TEST(Distributed, SimplexP1_2D) {
+  const auto mesh = test::kuhn_box<2>({{30, 30}}, {{0, 0}}, {{1, 1}});
+  ElasticModel<2> model(mesh, random_moduli<2>(mesh.n_cells()), 0.3, 1);
+  add_conditions(model);
+  compare(model);
+}
+
+TEST(Distributed, VoxelModel3D) {
+  auto model = ElasticModel<3>::voxel_grid({{12, 10, 8}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1),
+                                           random_moduli<3>(12 * 10 * 8), 0.4);
+  add_conditions(model);
+  compare(model);
+}
+
+TEST(Distributed, SingularThrowsOnEveryRank) {
+  const auto mesh = test::kuhn_box<3>({{3, 3, 3}}, {{0, 0, 0}}, {{1, 1, 1}});
+  ElasticModel<3> model(mesh, std::vector<double>(mesh.n_cells(), 1.0), 0.3, 1);
+  EXPECT_THROW(model.solve_distributed(MPI_COMM_WORLD), std::runtime_error);
+}

@@ -1,0 +1,249 @@
+// The vim-pipeline CLI in mesh-only mode, run as a separate process on small 2D and 3D phantoms
+// with anisotropic spacing and an oblique direction: mesh.vtu read back with VTK (world
+// coordinates, cell data, conservation of voxels and of the image's integral), report.json fields,
+// usage errors (exit 2), refusal of a non-empty --out, --help/--version/--info.
+#include <vim/pipeline/image_io.hpp>
+#include <vim/pipeline/phantoms.hpp>
+
+#include "run_cli.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <vtkCellData.h>
+#include <vtkDataArray.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkUnstructuredGrid.h>
+#include <vtkXMLUnstructuredGridReader.h>
+
+#include <cmath>
+
+using namespace vim;
+using namespace vim::pipeline;
+using vim::test::quote;
+using vim::test::run_pipeline;
+
+namespace {
+
+Eigen::Matrix3d rotation3() {
+  const Eigen::Vector3d k = Eigen::Vector3d(2, -1, 1).normalized();
+  Eigen::Matrix3d K;
+  K << 0, -k.z(), k.y(), k.z(), 0, -k.x(), -k.y(), k.x(), 0;
+  return Eigen::Matrix3d::Identity() + std::sin(0.5) * K + (1 - std::cos(0.5)) * K * K;
+}
+
+vtkSmartPointer<vtkUnstructuredGrid> read_vtu(const std::string& path) {
+  vtkNew<vtkXMLUnstructuredGridReader> r;
+  r->SetFileName(path.c_str());
+  r->Update();
+  vtkSmartPointer<vtkUnstructuredGrid> g = r->GetOutput();
+  return g;
+}
+
+// World position of continuous index `idx` (voxel centres at integers), computed from the
+// definition world = origin + D·(idx ⊙ spacing), independently of the pipeline's transform code.
+template <int dim>
+Eigen::Matrix<double, dim, 1> world_of_index(const OrientedImage<dim>& im, const Eigen::Matrix<double, dim, 1>& idx) {
+  Eigen::Matrix<double, dim, 1> o, s;
+  for (int a = 0; a < dim; ++a) o[a] = im.image.origin[a], s[a] = im.image.spacing[a];
+  return o + im.direction * idx.cwiseProduct(s);
+}
+
+// Checks shared by the 2D and 3D runs.
+template <int dim>
+void check_mesh_output(const OrientedImage<dim>& im, const std::filesystem::path& out, bool with_segments) {
+  auto g = read_vtu((out / "mesh.vtu").string());
+  ASSERT_GT(g->GetNumberOfCells(), 0);
+  EXPECT_EQ(g->GetCellType(0), dim == 3 ? 10 : 5);
+
+  // Every corner of the voxel box (continuous index −½ or size−½) is a mesh node in world
+  // coordinates (corners are fixed), and every node maps back inside the box.
+  for (int corner = 0; corner < (1 << dim); ++corner) {
+    Eigen::Matrix<double, dim, 1> idx;
+    for (int a = 0; a < dim; ++a) idx[a] = (corner >> a) & 1 ? im.image.size[a] - 0.5 : -0.5;
+    const auto w = world_of_index(im, idx);
+    double best = 1e30;
+    for (vtkIdType i = 0; i < g->GetNumberOfPoints(); ++i) {
+      double p[3];
+      g->GetPoint(i, p);
+      double d2 = 0;
+      for (int a = 0; a < dim; ++a) d2 += (p[a] - w[a]) * (p[a] - w[a]);
+      best = std::min(best, d2);
+    }
+    EXPECT_LT(std::sqrt(best), 1e-9) << "corner " << corner << " not found in world coordinates";
+  }
+  for (vtkIdType i = 0; i < g->GetNumberOfPoints(); ++i) {
+    double p[3];
+    g->GetPoint(i, p);
+    Eigen::Matrix<double, dim, 1> w, o;
+    for (int a = 0; a < dim; ++a) w[a] = p[a], o[a] = im.image.origin[a];
+    const Eigen::Matrix<double, dim, 1> frame = im.direction.transpose() * (w - o);
+    for (int a = 0; a < dim; ++a) {
+      const double c = frame[a] / im.image.spacing[a];
+      EXPECT_GE(c, -0.5 - 1e-9);
+      EXPECT_LE(c, im.image.size[a] - 0.5 + 1e-9);
+    }
+    if (dim == 2) EXPECT_EQ(p[2], 0.0);
+  }
+
+  // Cell data: every voxel centre in exactly one element, and Σ n·mean = Σ voxel values.
+  vtkDataArray* mean = g->GetCellData()->GetArray("mean");
+  vtkDataArray* var = g->GetCellData()->GetArray("variance");
+  vtkDataArray* vox = g->GetCellData()->GetArray("voxels");
+  vtkDataArray* quality = g->GetCellData()->GetArray("quality");
+  ASSERT_TRUE(mean && var && vox && quality);
+  ASSERT_NE(g->GetPointData()->GetArray("boundary"), nullptr);
+  double n = 0, integral = 0;
+  for (vtkIdType c = 0; c < g->GetNumberOfCells(); ++c) {
+    n += vox->GetTuple1(c);
+    integral += vox->GetTuple1(c) * mean->GetTuple1(c);
+    EXPECT_GE(var->GetTuple1(c), 0.0);
+    if (dim == 3)
+      EXPECT_LE(quality->GetTuple1(c), 150.0 + 1e-9);
+    else
+      EXPECT_GT(quality->GetTuple1(c), 0.0);
+  }
+  double total = 0;
+  for (float v : im.image.data) total += v;
+  EXPECT_EQ(n, static_cast<double>(im.image.voxel_count()));
+  EXPECT_NEAR(integral, total, 1e-6 * std::abs(total));
+  if (with_segments) {
+    vtkDataArray* seg = g->GetCellData()->GetArray("segment");
+    vtkDataArray* obj = g->GetCellData()->GetArray("object");
+    ASSERT_TRUE(seg && obj);
+    long in_object = 0;
+    for (vtkIdType c = 0; c < g->GetNumberOfCells(); ++c) in_object += obj->GetTuple1(c) == 1.0;
+    EXPECT_GT(in_object, 0);
+  }
+
+  // report.json
+  const auto report = nlohmann::json::parse(vim::test::slurp(out / "report.json"));
+  EXPECT_FALSE(report["tool"]["version"].get<std::string>().empty());
+  EXPECT_TRUE(report["command_line"].is_array());
+  EXPECT_EQ(report["input"]["dimension"].get<int>(), dim);
+  for (int a = 0; a < dim; ++a) {
+    EXPECT_EQ(report["input"]["size"][a].get<long>(), im.image.size[a]);
+    EXPECT_DOUBLE_EQ(report["input"]["spacing"][a].get<double>(), im.image.spacing[a]);
+    EXPECT_DOUBLE_EQ(report["input"]["origin"][a].get<double>(), im.image.origin[a]);
+    for (int b = 0; b < dim; ++b)
+      EXPECT_NEAR(report["input"]["direction"][a * dim + b].get<double>(), im.direction(a, b), 1e-12);
+  }
+  EXPECT_EQ(report["mesh"]["nodes"].get<long>(), g->GetNumberOfPoints());
+  EXPECT_EQ(report["mesh"]["elements"].get<long>(), g->GetNumberOfCells());
+  EXPECT_TRUE(report["mesh"]["quality"].contains("max_dihedral_deg"));
+  EXPECT_TRUE(report["mesh"]["quality"].contains("min_nrr"));
+  EXPECT_EQ(report["mesh"]["quality"]["inverted"].get<long>(), 0);
+  EXPECT_TRUE(report["options"].contains("lambda"));
+  const auto& h = report["optimization"]["history"];
+  ASSERT_GE(h.size(), 1u);
+  for (const char* k : {"E", "E_G", "E_D", "v", "moves", "swaps"}) EXPECT_TRUE(h[0].contains(k)) << k;
+  EXPECT_TRUE(report["optimization"].contains("converged"));
+  EXPECT_TRUE(report["timing"].contains("read_image"));
+  EXPECT_TRUE(report["timing"].contains("total"));
+  if (with_segments) EXPECT_GT(report["segmentation"]["object_elements"].get<long>(), 0);
+}
+
+}  // namespace
+
+TEST(CliMesh, TwoDimensionalObliqueAnisotropic) {
+  vim::test::TempDir dir("cli2");
+  auto im = phantoms::two_inclusions(40);
+  im.image.spacing = {1.5, 1.1};
+  im.image.origin = {-20.0, 7.5};
+  const double t = 0.6;
+  im.direction << std::cos(t), -std::sin(t), std::sin(t), std::cos(t);
+  write_image(im, dir / "in.nrrd");
+  const auto out = dir.path / "out";
+  const auto r = run_pipeline(quote(dir / "in.nrrd") + " --nodes 60 --max-iterations 3 --threshold 40 --out " +
+                              quote(out.string()));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("iteration"), std::string::npos) << "no progress lines: " << r.err;
+  EXPECT_NE(r.out.find("summary"), std::string::npos) << r.out;
+  check_mesh_output(im, out, true);
+
+  // The unoptimised grid has the same node count and the same conservation properties.
+  const auto grid_out = dir.path / "grid";
+  const auto g = run_pipeline(quote(dir / "in.nrrd") + " --nodes 60 --mesher grid -q --out " + quote(grid_out.string()));
+  ASSERT_EQ(g.code, 0) << g.err;
+  EXPECT_TRUE(g.err.empty()) << "--quiet printed: " << g.err;
+  check_mesh_output(im, grid_out, false);
+  const auto a = nlohmann::json::parse(vim::test::slurp(out / "report.json"));
+  const auto b = nlohmann::json::parse(vim::test::slurp(grid_out / "report.json"));
+  EXPECT_EQ(a["mesh"]["nodes"], b["mesh"]["nodes"]);
+  EXPECT_EQ(b["mesh"]["mesher"], "grid");
+}
+
+TEST(CliMesh, ThreeDimensionalObliqueAnisotropic) {
+  vim::test::TempDir dir("cli3");
+  auto im = phantoms::table1(16);
+  im.image.spacing = {0.2, 0.15, 0.25};
+  im.image.origin = {3.0, -1.0, 12.0};
+  im.direction = rotation3();
+  write_image(im, dir / "in.mha");
+  const auto out = dir.path / "out";
+  const auto r = run_pipeline(quote(dir / "in.mha") + " --nodes 64 --max-iterations 2 --threshold 1.5 --out " +
+                              quote(out.string()));
+  ASSERT_EQ(r.code, 0) << r.err;
+  check_mesh_output(im, out, true);
+
+  // A second run into the same (now non-empty) folder is refused and changes nothing.
+  const auto before = vim::test::slurp(out / "report.json");
+  const auto again = run_pipeline(quote(dir / "in.mha") + " --nodes 64 --out " + quote(out.string()));
+  EXPECT_EQ(again.code, 1);
+  EXPECT_EQ(vim::test::count_lines(again.err), 1) << again.err;
+  EXPECT_NE(again.err.find(out.string()), std::string::npos) << again.err;
+  EXPECT_NE(again.err.find("not empty"), std::string::npos) << again.err;
+  EXPECT_EQ(vim::test::slurp(out / "report.json"), before);
+  // ... unless --overwrite.
+  const auto over = run_pipeline(quote(dir / "in.mha") + " --nodes 27 --mesher grid --overwrite -q --out " +
+                                 quote(out.string()));
+  EXPECT_EQ(over.code, 0) << over.err;
+  EXPECT_EQ(nlohmann::json::parse(vim::test::slurp(out / "report.json"))["mesh"]["nodes"].get<long>(), 27);
+}
+
+TEST(CliMesh, UsageErrorsExitWithTwo) {
+  vim::test::TempDir dir("usage");
+  write_image(phantoms::diamond(20), dir / "d.mha");
+  const std::string img = quote(dir / "d.mha");
+  const std::string out = " --out " + quote(dir / "o");
+  struct Case {
+    std::string args, needle;
+  };
+  for (const Case& c : {Case{img + out + " --lambda 1", "--lambda"}, Case{img + out + " --lambda -0.1", "--lambda"},
+                        Case{img + out + " --max-dihedral 90", "--max-dihedral"},
+                        Case{img + out + " --max-dihedral 200", "--max-dihedral"},
+                        Case{img + out + " --nodes 2", "--nodes"}, Case{img + out + " --mesher tetgen", "--mesher"},
+                        Case{img + out + " --degree 3", "--degree"}, Case{img + out + " --export stl", "--export"},
+                        Case{img, "--out"}, Case{out, "image"}, Case{img + out + " --bogus", "--bogus"},
+                        Case{img + out + " --nodes 10 --spacing 2", "--spacing"}}) {
+    const auto r = run_pipeline(c.args);
+    EXPECT_EQ(r.code, 2) << c.args << "\n" << r.err;
+    EXPECT_EQ(r.err.rfind("vim-pipeline: error:", 0), 0u) << r.err;
+    EXPECT_EQ(vim::test::count_lines(r.err), 1) << r.err;
+    EXPECT_NE(r.err.find(c.needle), std::string::npos) << c.args << " → " << r.err;
+    EXPECT_EQ(vim::test::count_files(dir.path / "o"), 0);
+  }
+}
+
+TEST(CliMesh, HelpVersionInfo) {
+  const auto h = run_pipeline("--help");
+  EXPECT_EQ(h.code, 0);
+  for (const char* opt : {"--out", "--nodes", "--spacing", "--lambda", "--max-dihedral", "--max-iterations",
+                          "--threads", "--seed", "--sizing", "--threshold", "--mesher", "--degree", "--simulate",
+                          "--export", "--overwrite", "--quiet", "--verbose", "--version", "--info", "Examples:"})
+    EXPECT_NE(h.out.find(opt), std::string::npos) << opt;
+  EXPECT_NE(h.out.find("default 0.3"), std::string::npos);
+  EXPECT_NE(h.out.find("(90, 180)"), std::string::npos);
+  const auto v = run_pipeline("--version");
+  EXPECT_EQ(v.code, 0);
+  EXPECT_NE(v.out.find("vim-pipeline 0."), std::string::npos) << v.out;
+
+  vim::test::TempDir dir("info");
+  write_image(phantoms::table1(10), dir / "t.mha");
+  const auto i = run_pipeline("--info " + quote(dir / "t.mha"));
+  EXPECT_EQ(i.code, 0) << i.err;
+  EXPECT_NE(i.out.find("10 x 10 x 10"), std::string::npos) << i.out;
+  EXPECT_NE(i.out.find("extent:     3 x 3 x 3"), std::string::npos) << i.out;
+  EXPECT_NE(i.out.find("min 1  max 2"), std::string::npos) << i.out;
+}

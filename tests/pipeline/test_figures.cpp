@@ -1,0 +1,311 @@
+// Figures (figures.hpp, png.hpp): the PNGs exist with the expected size, are not blank, and the
+// drawn element outlines pass through the mesh's actual intersection with the slice plane (crossing
+// points computed here from the tetrahedra, pixel mapping recomputed from the image box).
+#include <vim/initial_mesh.hpp>
+#include <vim/pipeline/figures.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <unistd.h>
+
+namespace fs = std::filesystem;
+using namespace vim;
+using namespace vim::pipeline;
+
+namespace {
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("vim_test_figures_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+double pixel_variance(const Canvas& c) {
+  double s = 0, s2 = 0;
+  const double n = static_cast<double>(c.width()) * c.height();
+  for (int y = 0; y < c.height(); ++y)
+    for (int x = 0; x < c.width(); ++x) {
+      const Rgb p = c.at(x, y);
+      const double v = p.r + p.g + p.b;
+      s += v;
+      s2 += v * v;
+    }
+  return s2 / n - (s / n) * (s / n);
+}
+
+bool near_colour(const Canvas& c, double x, double y, Rgb colour, int radius) {
+  for (int dy = -radius; dy <= radius; ++dy)
+    for (int dx = -radius; dx <= radius; ++dx) {
+      const int px = static_cast<int>(std::floor(x)) + dx, py = static_cast<int>(std::floor(y)) + dy;
+      if (c.inside(px, py) && c.at(px, py) == colour) return true;
+    }
+  return false;
+}
+
+template <int dim>
+OrientedImage<dim> gradient_image(const std::array<long, dim>& size, const std::array<double, dim>& spacing) {
+  OrientedImage<dim> im;
+  std::array<double, dim> origin{};
+  im.image = Image<dim>(size, spacing, origin);
+  for (std::size_t k = 0; k < im.image.voxel_count(); ++k) {
+    const auto i = im.image.index_of(k);
+    double v = 0;
+    for (int a = 0; a < dim; ++a) v += (a + 1) * i[a];
+    im.image.data[k] = static_cast<float>(v);
+  }
+  return im;
+}
+
+template <int dim>
+MeshModel<dim> grid_model_over(const Image<dim>& image, const std::array<int, dim>& nodes) {
+  MeshModel<dim> m;
+  m.mesh = regular_grid_mesh<dim>(image.box_min(), image.box_max(), nodes);
+  for (std::size_t c = 0; c < m.mesh.n_cells(); ++c) {
+    ElementValue v;
+    v.mean = image.interpolate(centroid<dim>(cell_points(m.mesh, c)));
+    v.voxels = 1;
+    m.values.push_back(v);
+  }
+  return m;
+}
+
+// Crossing points of tetrahedron edges with x[axis] = s (edges strictly across the plane).
+std::vector<Eigen::Vector3d> crossings(const std::array<Eigen::Vector3d, 4>& x, int axis, double s) {
+  std::vector<Eigen::Vector3d> out;
+  for (int i = 0; i < 4; ++i)
+    for (int j = i + 1; j < 4; ++j) {
+      const double di = x[i][axis] - s, dj = x[j][axis] - s;
+      if (di * dj < 0) out.push_back(x[i] + di / (di - dj) * (x[j] - x[i]));
+    }
+  return out;
+}
+
+}  // namespace
+
+TEST(Canvas, PrimitivesAndPngRoundTrip) {
+  const auto dir = fresh_dir("canvas");
+  Canvas c(30, 20);
+  c.fill_polygon({{2, 2}, {12, 2}, {12, 8}, {2, 8}}, {10, 20, 30});
+  EXPECT_EQ(c.at(2, 2), (Rgb{10, 20, 30}));
+  EXPECT_EQ(c.at(11, 7), (Rgb{10, 20, 30}));
+  EXPECT_EQ(c.at(12, 7), colors::white);  // pixel centre 12.5 is outside
+  EXPECT_EQ(c.at(1, 5), colors::white);
+  c.line(0.2, 15.7, 29.9, 15.1, colors::black);
+  for (int x = 0; x < 30; ++x) EXPECT_EQ(c.at(x, 15), colors::black) << x;
+  c.write_png(dir / "c.png");
+  const Canvas r = Canvas::read_png(dir / "c.png");
+  ASSERT_EQ(r.width(), 30);
+  ASSERT_EQ(r.height(), 20);
+  for (int y = 0; y < 20; ++y)
+    for (int x = 0; x < 30; ++x) ASSERT_EQ(r.at(x, y), c.at(x, y));
+  for (const auto& e : fs::directory_iterator(dir)) EXPECT_EQ(e.path().filename(), "c.png");
+  EXPECT_NE(viridis(0.0), viridis(1.0));
+  EXPECT_EQ(grey(1.0), colors::white);
+}
+
+TEST(Figures, TetSlicePolygonIsTheCrossSection) {
+  const std::array<Eigen::Vector3d, 4> x = {{Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(2, 0, 0),
+                                             Eigen::Vector3d(0, 2, 0), Eigen::Vector3d(0, 0, 2)}};
+  const auto p = tet_slice_polygon(x, 2, 1.0);  // triangle (0,0),(1,0),(0,1)
+  ASSERT_EQ(p.size(), 3u);
+  double area = 0;
+  for (std::size_t k = 0; k < 3; ++k) area += p[k].x() * p[(k + 1) % 3].y() - p[(k + 1) % 3].x() * p[k].y();
+  EXPECT_NEAR(std::abs(area) / 2, 0.5, 1e-12);
+  EXPECT_TRUE(tet_slice_polygon(x, 2, 3.0).empty());
+  EXPECT_EQ(tet_slice_polygon(x, 0, 1.0).size(), 3u);
+}
+
+TEST(Figures, ThreeSlicesShowImageAndMeshCrossSection) {
+  const auto dir = fresh_dir("slices");
+  const auto im = gradient_image<3>({{20, 16, 12}}, {{1.0, 1.5, 2.0}});
+  const auto model = grid_model_over<3>(im.image, {{4, 4, 4}});
+  const Eigen::Vector3d slice(7.0, 6.0, 10.0);  // voxel centre (7, 4, 5), off every node plane
+  nlohmann::json report;
+  write_mesh_figures<3>(im, model, dir, &slice, report);
+  const auto& info = report["figures"]["mesh"];
+  ASSERT_EQ(info["slices"].size(), 3u);
+  const double lo = 0.0, hi = 19 + 2 * 15 + 3 * 11;  // image value range
+
+  const char* names[3] = {"sagittal", "coronal", "axial"};
+  for (int axis = 0; axis < 3; ++axis) {
+    const fs::path file = dir / "figures" / (std::string("slice_") + names[axis] + ".png");
+    ASSERT_TRUE(fs::exists(file)) << file;
+    const Canvas c = Canvas::read_png(file);
+    // Pixel mapping recomputed from the image box: 360 px on the longer in-plane side.
+    const int u = axis == 0 ? 1 : 0, v = axis == 2 ? 1 : 2;
+    const auto bmin = im.image.box_min(), bmax = im.image.box_max();
+    const double eu = bmax[u] - bmin[u], ev = bmax[v] - bmin[v];
+    const double scale = 360.0 / std::max(eu, ev);
+    const int w = static_cast<int>(std::ceil(eu * scale - 1e-9)), h = static_cast<int>(std::ceil(ev * scale - 1e-9));
+    const int right_x0 = 24 + w;
+    EXPECT_EQ(c.width(), right_x0 + w + 12);
+    EXPECT_EQ(c.height(), h + 3 * 12 + 14);
+    EXPECT_GT(pixel_variance(c), 0.0);
+    auto left_px = [&](const Eigen::Vector3d& p) {
+      return Eigen::Vector2d(12 + (p[u] - bmin[u]) * scale, 12 + (p[v] - bmin[v]) * scale);
+    };
+
+    long cut = 0, checked = 0, mean_coloured = 0;
+    for (std::size_t cell = 0; cell < model.mesh.n_cells(); ++cell) {
+      const auto pts = crossings(cell_points(model.mesh, cell), axis, slice[axis]);
+      if (pts.size() < 3) continue;
+      ++cut;
+      Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+      for (const auto& p : pts) {
+        const Eigen::Vector2d q = left_px(p);
+        EXPECT_EQ(c.at(static_cast<int>(std::floor(q.x())), static_cast<int>(std::floor(q.y()))), colors::outline)
+            << names[axis] << " cell " << cell;
+        EXPECT_EQ(c.at(static_cast<int>(std::floor(q.x())) + right_x0 - 12, static_cast<int>(std::floor(q.y()))),
+                  colors::black)
+            << names[axis] << " cell " << cell;
+        centre += p / static_cast<double>(pts.size());
+        ++checked;
+      }
+      // Inside the section (away from outlines) the right panel shows the element mean.
+      const Eigen::Vector2d q = left_px(centre);
+      const Rgb inside = c.at(static_cast<int>(std::floor(q.x())) + right_x0 - 12, static_cast<int>(std::floor(q.y())));
+      const Rgb expected = viridis((model.values[cell].mean - lo) / (hi - lo));
+      EXPECT_TRUE(inside == expected || inside == colors::black);
+      mean_coloured += inside == expected;
+    }
+    EXPECT_EQ(info["slices"][axis]["cut_elements"].get<long>(), cut);
+    EXPECT_GT(checked, 20);
+    EXPECT_GT(mean_coloured, cut / 2);
+    // The image itself: pixel centres away from outlines show the nearest voxel's grey value.
+    long grey_ok = 0, grey_seen = 0;
+    for (int py = 0; py < h; py += 7)
+      for (int px = 0; px < w; px += 7) {
+        const Rgb got = c.at(12 + px, 12 + py);
+        if (got == colors::outline) continue;
+        std::array<long, 3> i = {{7, 4, 5}};
+        i[u] = std::lround((bmin[u] + (px + 0.5) / scale - im.image.origin[u]) / im.image.spacing[u]);
+        i[v] = std::lround((bmin[v] + (py + 0.5) / scale - im.image.origin[v]) / im.image.spacing[v]);
+        i[u] = std::clamp(i[u], 0L, im.image.size[u] - 1);
+        i[v] = std::clamp(i[v], 0L, im.image.size[v] - 1);
+        ++grey_seen;
+        grey_ok += got == grey((im.image.at(i) - lo) / (hi - lo));
+      }
+    EXPECT_GT(grey_seen, 100);
+    EXPECT_GE(grey_ok, grey_seen * 95 / 100);  // ties at exact voxel borders may round either way
+  }
+  for (const auto& e : fs::directory_iterator(dir / "figures"))
+    EXPECT_EQ(e.path().string().find(".partial"), std::string::npos);
+}
+
+TEST(Figures, DefaultSlicePointIsTheImageCentre) {
+  const auto dir = fresh_dir("centre");
+  const auto im = gradient_image<3>({{6, 5, 4}}, {{1.0, 1.0, 3.0}});
+  const auto model = grid_model_over<3>(im.image, {{2, 2, 2}});
+  nlohmann::json report;
+  write_mesh_figures<3>(im, model, dir, nullptr, report);
+  const auto p = report["figures"]["mesh"]["slice_point_frame"].get<std::vector<double>>();
+  ASSERT_EQ(p.size(), 3u);
+  EXPECT_EQ(p[0], 3.0);  // voxel lround(2.5) = 3
+  EXPECT_EQ(p[1], 2.0);
+  EXPECT_EQ(p[2], 6.0);  // voxel lround(1.5) = 2, spacing 3
+}
+
+TEST(Figures, TwoDimensionalOverlayAndDiscretizedImage) {
+  const auto dir = fresh_dir("2d");
+  const auto im = gradient_image<2>({{24, 18}}, {{1.0, 0.5}});
+  const auto model = grid_model_over<2>(im.image, {{5, 4}});
+  nlohmann::json report;
+  write_mesh_figures<2>(im, model, dir, nullptr, report);
+  const Canvas overlay = Canvas::read_png(dir / "figures" / "mesh_overlay.png");
+  const Canvas disc = Canvas::read_png(dir / "figures" / "discretized.png");
+  const auto bmin = im.image.box_min(), bmax = im.image.box_max();
+  const double scale = 512.0 / std::max(bmax[0] - bmin[0], bmax[1] - bmin[1]);
+  const int w = static_cast<int>(std::ceil((bmax[0] - bmin[0]) * scale - 1e-9));
+  const int h = static_cast<int>(std::ceil((bmax[1] - bmin[1]) * scale - 1e-9));
+  for (const Canvas* c : {&overlay, &disc}) {
+    EXPECT_EQ(c->width(), w + 24);
+    EXPECT_EQ(c->height(), h + 24);
+    EXPECT_GT(pixel_variance(*c), 0.0);
+  }
+  auto px = [&](const Eigen::Vector2d& p) { return Eigen::Vector2d(12 + (p[0] - bmin[0]) * scale, 12 + (p[1] - bmin[1]) * scale); };
+  const double lo = 0.0, hi = 23 + 2 * 17;
+  long red = 0;
+  for (int y = 12; y < 12 + h; ++y)
+    for (int x = 12; x < 12 + w; ++x) red += overlay.at(x, y) == colors::outline;
+  EXPECT_LT(red, static_cast<long>(w) * h / 5);  // outlines, not a red blob
+  for (std::size_t cell = 0; cell < model.mesh.n_cells(); ++cell) {
+    const auto x = cell_points(model.mesh, cell);
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector2d a = px(x[k]), b = px(x[(k + 1) % 3]);
+      EXPECT_EQ(overlay.at(static_cast<int>(std::floor(a.x())), static_cast<int>(std::floor(a.y()))), colors::outline);
+      EXPECT_TRUE(near_colour(overlay, 0.5 * (a.x() + b.x()), 0.5 * (a.y() + b.y()), colors::outline, 1));
+    }
+    const Eigen::Vector2d m = px(centroid<2>(x));
+    EXPECT_EQ(disc.at(static_cast<int>(std::floor(m.x())), static_cast<int>(std::floor(m.y()))),
+              grey((model.values[cell].mean - lo) / (hi - lo)))
+        << "cell " << cell;
+  }
+}
+
+TEST(Figures, EnergyPlotIsNormalisedToTheFirstIteration) {
+  const auto dir = fresh_dir("energy");
+  std::vector<IterationRecord> h(4);
+  const double e[] = {2.0, 1.6, 1.4, 1.3}, g[] = {10, 9, 8.5, 8.4}, d[] = {5, 3, 2, 1.5};
+  for (int k = 0; k < 4; ++k) h[k].iteration = k, h[k].energy = e[k], h[k].geometric = g[k], h[k].discretization = d[k];
+  const auto j = write_energy_plot(h, dir / "energy.png");
+  const Canvas c = Canvas::read_png(dir / "energy.png");
+  EXPECT_EQ(c.width(), 640);
+  EXPECT_EQ(c.height(), 420);
+  EXPECT_GT(pixel_variance(c), 0.0);
+  const auto xr = j["x_range"].get<std::vector<double>>(), yr = j["y_range"].get<std::vector<double>>();
+  EXPECT_LE(xr[0], 0.0);
+  EXPECT_GE(xr[1], 3.0);
+  EXPECT_LE(yr[0], 0.3);  // E_D/E_D0 at the last iteration
+  EXPECT_GE(yr[1], 1.0);
+  EXPECT_LT(yr[1] - yr[0], 2.0);  // normalised, not absolute (E_G would reach 10)
+  auto px = [&](double x) { return 60 + (x - xr[0]) / (xr[1] - xr[0]) * 560; };
+  auto py = [&](double y) { return 380 - (y - yr[0]) / (yr[1] - yr[0]) * 360; };
+  for (int k = 1; k < 4; ++k) {
+    EXPECT_TRUE(near_colour(c, px(k), py(e[k] / e[0]), series_color(0), 2)) << k;
+    EXPECT_TRUE(near_colour(c, px(k), py(g[k] / g[0]), series_color(1), 2)) << k;
+    EXPECT_TRUE(near_colour(c, px(k), py(d[k] / d[0]), series_color(2), 2)) << k;
+  }
+  EXPECT_FALSE(near_colour(c, px(3), py(0.95), series_color(2), 2));  // no E_D curve up there at the end
+}
+
+TEST(Figures, LinePlotSkipsNonFiniteValues) {
+  const auto dir = fresh_dir("line");
+  const auto j = write_line_plot(dir / "force.png", {0, 1, 2, 3}, {{0.0, NAN, 2.0, 3.0}}, {"force"});
+  EXPECT_TRUE(fs::exists(dir / "force.png"));
+  EXPECT_EQ(j["y_range"][1].get<double>(), 3.0);
+  EXPECT_EQ(j["series"][0]["name"], "force");
+}
+
+TEST(Figures, DeformedSliceFollowsTheDisplacement) {
+  const auto dir = fresh_dir("deformed");
+  const auto im = gradient_image<3>({{8, 8, 8}}, {{1.0, 1.0, 1.0}});
+  const auto model = grid_model_over<3>(im.image, {{3, 3, 3}});
+  const Eigen::Vector3d shift(2.0, 1.0, 0.0);
+  std::vector<Eigen::Vector3d> u(model.mesh.n_points(), shift);
+  const Eigen::Vector3d slice(3.0, 3.0, 3.3);
+  const auto j = write_deformed_slice<3>(model, u, dir / "deformed.png", slice, 2);
+  EXPECT_NEAR(j["displacement_range"][1].get<double>(), shift.norm(), 1e-12);
+  const Canvas c = Canvas::read_png(dir / "deformed.png");
+  EXPECT_GT(pixel_variance(c), 0.0);
+  // Bounds of undeformed + deformed nodes in (x, y), padded by 2 % of the larger extent.
+  const auto bmin = im.image.box_min(), bmax = im.image.box_max();
+  const Eigen::Vector2d lo(bmin[0], bmin[1]), hi(bmax[0] + shift[0], bmax[1] + shift[1]);
+  const double pad = 0.02 * (hi - lo).maxCoeff() + 1e-12;
+  const double scale = 480.0 / ((hi - lo).maxCoeff() + 2 * pad);
+  EXPECT_NEAR(j["pixels_per_unit"].get<double>(), scale, 1e-9);
+  long checked = 0;
+  for (std::size_t cell = 0; cell < model.mesh.n_cells(); ++cell) {
+    auto x = cell_points(model.mesh, cell);
+    for (auto& p : x) p += shift;
+    for (const auto& p : crossings(x, 2, slice[2])) {
+      const int px = static_cast<int>(std::floor(12 + (p[0] - lo[0] + pad) * scale));
+      const int py = static_cast<int>(std::floor(12 + (p[1] - lo[1] + pad) * scale));
+      EXPECT_EQ(c.at(px, py), colors::black);
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 10);
+}

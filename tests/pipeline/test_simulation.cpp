@@ -1,0 +1,363 @@
+// Needle-insertion simulation (simulation.hpp) against independent truths: symmetry of the mesh
+// and the load about the needle axis, linearity in the modulus, the monolithic constrained solve,
+// the friction limit, the prescribed force sums, invariance under the image's direction matrix, and
+// the files it writes.
+#include <vim/initial_mesh.hpp>
+#include <vim/pipeline/simulation.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include <unistd.h>
+
+using namespace vim;
+using namespace vim::pipeline;
+namespace fs = std::filesystem;
+
+namespace {
+using V3 = Eigen::Vector3d;
+
+// A block meshed with the Kuhn grid (frame coordinates), element means from E(centroid).
+MeshModel<3> block(const V3& lo, const V3& hi, const std::array<int, 3>& n, const std::function<double(const V3&)>& E) {
+  MeshModel<3> m;
+  m.mesh = regular_grid_mesh<3>(lo, hi, n);
+  for (std::size_t c = 0; c < m.mesh.n_cells(); ++c) {
+    ElementValue v;
+    v.voxels = 1;
+    v.mean = E(centroid<3>(cell_points(m.mesh, c)));
+    m.values.push_back(v);
+  }
+  return m;
+}
+
+// Block [-6,6]x[-6,6]x[0,24] with 7x7x13 nodes, needle along +z on the axis x = y = 0: the Kuhn
+// grid of the quadrant [0,6]x[0,6]x[0,24] mirrored into the four quadrants, so that the mesh (and
+// the problem) is exactly symmetric under x -> -x, y -> -y and x <-> y.
+MeshModel<3> axis_block(double E = 10.0) {
+  const SimplexMesh<3> q = regular_grid_mesh<3>(V3(0, 0, 0), V3(6, 6, 24), {{4, 4, 13}});
+  MeshModel<3> m;
+  std::map<std::tuple<long, long, long>, int> ids;
+  auto id = [&](const V3& p) {
+    const auto key = std::make_tuple(std::lround(p[0] * 1e6), std::lround(p[1] * 1e6), std::lround(p[2] * 1e6));
+    const auto it = ids.find(key);
+    if (it != ids.end()) return it->second;
+    m.mesh.points.push_back(p);
+    return ids[key] = static_cast<int>(m.mesh.points.size() - 1);
+  };
+  for (const double sx : {1.0, -1.0})
+    for (const double sy : {1.0, -1.0})
+      for (const auto& c : q.cells) {
+        SimplexMesh<3>::Cell cell;
+        for (int k = 0; k < 4; ++k) cell[k] = id(V3(sx * q.points[c[k]][0], sy * q.points[c[k]][1], q.points[c[k]][2]));
+        m.mesh.cells.push_back(cell);
+      }
+  orient_positively(m.mesh);
+  m.values.assign(m.mesh.n_cells(), ElementValue{1, E, 0.0});
+  return m;
+}
+
+std::string yaml(const std::string& needle, const std::string& targets = "[]", const std::string& material = "{}",
+                 const std::string& bcs = "[{type: fixed, region: {box_face: z_max}}]") {
+  return "material: " + material + "\nboundary_conditions: " + bcs + "\nneedle: " + needle + "\ntargets: " + targets + "\n";
+}
+
+const std::string kStick = "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1}";
+
+SimulationOptions quiet() {
+  SimulationOptions o;
+  o.progress = false;
+  return o;
+}
+
+std::map<std::tuple<long, long, long>, std::size_t> vertex_index(const std::vector<V3>& pts) {
+  std::map<std::tuple<long, long, long>, std::size_t> m;
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    m[{std::lround(pts[i][0] * 1000), std::lround(pts[i][1] * 1000), std::lround(pts[i][2] * 1000)}] = i;
+  return m;
+}
+
+double max_norm(const std::vector<V3>& u) {
+  double m = 0.0;
+  for (const auto& x : u) m = std::max(m, x.norm());
+  return m;
+}
+
+}  // namespace
+
+TEST(Simulation, StickFieldIsSymmetricAboutTheNeedleAxis) {
+  const MeshModel<3> model = axis_block();
+  const Scenario sc = parse_scenario_text(yaml(kStick), 3);
+  const auto res = run_simulation<3>(model, sc, quiet());
+  const auto& u = res.needles[0].vertex_displacement.back();
+  const auto idx = vertex_index(model.mesh.points);
+  const double umax = max_norm(u);
+  ASSERT_GT(umax, 1.0);  // the stick model drags the entry by the full travel (12)
+  EXPECT_NEAR(umax, 12.0, 1e-6);
+  // The mesh and the load are invariant under x -> -x, y -> -y and x <-> y: so is the field.
+  double swap_err = 0.0, mirror_err = 0.0;
+  for (std::size_t i = 0; i < model.mesh.n_points(); ++i) {
+    const V3& p = model.mesh.points[i];
+    const std::size_t j = idx.at({std::lround(p[1] * 1000), std::lround(p[0] * 1000), std::lround(p[2] * 1000)});
+    swap_err = std::max(swap_err, (u[j] - V3(u[i][1], u[i][0], u[i][2])).norm());
+    const std::size_t k = idx.at({std::lround(-p[0] * 1000), std::lround(p[1] * 1000), std::lround(p[2] * 1000)});
+    mirror_err = std::max(mirror_err, (u[k] - V3(-u[i][0], u[i][1], u[i][2])).norm());
+    const std::size_t l = idx.at({std::lround(p[0] * 1000), std::lround(-p[1] * 1000), std::lround(p[2] * 1000)});
+    mirror_err = std::max(mirror_err, (u[l] - V3(u[i][0], -u[i][1], u[i][2])).norm());
+  }
+  EXPECT_LT(swap_err, 1e-8 * umax);
+  EXPECT_LT(mirror_err, 1e-8 * umax);
+  // Lateral displacement on the axis itself vanishes (the shaft holds it); axial is forward.
+  for (std::size_t i = 0; i < model.mesh.n_points(); ++i) {
+    const V3& p = model.mesh.points[i];
+    if (std::abs(p[0]) < 1e-9 && std::abs(p[1]) < 1e-9 && p[2] < 12.0 - 1e-9) {
+      EXPECT_LT(std::hypot(u[i][0], u[i][1]), 1e-6 * umax);
+      EXPECT_NEAR(u[i][2], 12.0 - p[2], 1e-6 * umax);  // nodes on the shaft move with the needle
+    }
+  }
+  // The needle force has no lateral part (symmetric load).
+  EXPECT_LT(res.needles[0].lateral_force.back(), 1e-8 * res.needles[0].axial_force.back());
+}
+
+TEST(Simulation, QuadraticElementsKeepTheSymmetryAndMonotonicForce) {
+  const Scenario sc = parse_scenario_text(yaml(kStick, "[{name: a, position: [1, 2, 16]}, {name: b, position: [-1, 2, 16]}]"), 3);
+  SimulationOptions o = quiet();
+  o.degree = 2;
+  NeedleSimulation<3> sim(axis_block(), sc, o);
+  EXPECT_GT(sim.model().n_dofs(), 3u * 637u);  // P2: edge DoFs too
+  const auto r = sim.run().needles[0];
+  for (std::size_t k = 1; k < r.axial_force.size(); ++k) EXPECT_GT(r.axial_force[k], r.axial_force[k - 1]);
+  const V3 a = r.target_displacement.back()[0], b = r.target_displacement.back()[1];
+  EXPECT_GT(a.norm(), 0.0);
+  EXPECT_NEAR((b - V3(-a[0], a[1], a[2])).norm(), 0.0, 1e-8 * a.norm());  // mirror x -> -x
+}
+
+TEST(Simulation, StickForceGrowsWithDepthAndTargetAheadMovesForward) {
+  const Scenario sc = parse_scenario_text(
+      yaml(kStick, "[{name: ahead, position: [0, 0, 16]}, {name: side, position: [4, 0, 6]}]"), 3);
+  const auto res = run_simulation<3>(axis_block(), sc, quiet());
+  const auto& r = res.needles[0];
+  ASSERT_EQ(r.axial_force.size(), 7u);
+  EXPECT_EQ(r.axial_force[0], 0.0);
+  for (std::size_t k = 1; k < r.axial_force.size(); ++k) EXPECT_GT(r.axial_force[k], r.axial_force[k - 1]) << "step " << k;
+  // The target on the axis ahead of the tip moves forward along the needle and not sideways.
+  const V3 ahead = r.target_displacement.back()[0];
+  EXPECT_GT(ahead[2], 0.0);
+  EXPECT_LT(std::hypot(ahead[0], ahead[1]), 1e-8 * ahead.norm());
+  // Depth, tip and step count.
+  EXPECT_DOUBLE_EQ(r.depth.back(), 12.0);
+  EXPECT_NEAR((r.tip.back() - V3(0, 0, 12)).norm(), 0.0, 1e-12);
+  EXPECT_GT(r.steps_per_second, 0.0);
+}
+
+TEST(Simulation, DoublingTheModulusDoublesTheForceNotTheDisplacement) {
+  const Scenario sc = parse_scenario_text(yaml(kStick, "[{name: t, position: [2, 1, 15]}]"), 3);
+  auto o = quiet();
+  o.keep_step_fields = true;
+  const auto a = run_simulation<3>(axis_block(10.0), sc, o);
+  const auto b = run_simulation<3>(axis_block(20.0), sc, o);
+  const auto &ra = a.needles[0], &rb = b.needles[0];
+  for (std::size_t k = 1; k < ra.depth.size(); ++k) {
+    EXPECT_NEAR(rb.axial_force[k], 2.0 * ra.axial_force[k], 1e-9 * ra.axial_force[k]);
+    EXPECT_NEAR((rb.target_displacement[k][0] - ra.target_displacement[k][0]).norm(), 0.0, 1e-9);
+    double d = 0.0;
+    for (std::size_t v = 0; v < ra.vertex_displacement[k].size(); ++v)
+      d = std::max(d, (ra.vertex_displacement[k][v] - rb.vertex_displacement[k][v]).norm());
+    EXPECT_LT(d, 1e-9);
+  }
+}
+
+TEST(Simulation, FastPathMatchesMonolithicSolveAtEveryStep) {
+  // Stick-slip too, so that the condensed path is exercised with changing constraint values.
+  for (const std::string friction : {"", ", friction: {model: stick-slip, max_shear_per_length: 3}"}) {
+    const std::string needle = "{entry: [0.5, -0.3, 0], direction: [0.1, 0.05, 1], depth: 12, steps: 5, diameter: 1" + friction + "}";
+    const Scenario sc = parse_scenario_text(yaml(needle, "[{name: t, position: [1, 1, 18]}]"), 3);
+    auto o = quiet();
+    o.keep_step_fields = true;
+    const auto fast = run_simulation<3>(axis_block(), sc, o);
+    o.monolithic = true;
+    const auto mono = run_simulation<3>(axis_block(), sc, o);
+    const auto &f = fast.needles[0], &m = mono.needles[0];
+    ASSERT_EQ(f.vertex_displacement.size(), m.vertex_displacement.size());
+    for (std::size_t k = 1; k < f.vertex_displacement.size(); ++k) {
+      const double scale = max_norm(m.vertex_displacement[k]);
+      ASSERT_GT(scale, 0.0);
+      double d = 0.0;
+      for (std::size_t v = 0; v < f.vertex_displacement[k].size(); ++v)
+        d = std::max(d, (f.vertex_displacement[k][v] - m.vertex_displacement[k][v]).norm());
+      EXPECT_LT(d / scale, 1e-8) << "step " << k << friction;
+      EXPECT_NEAR(f.axial_force[k], m.axial_force[k], 1e-8 * std::abs(m.axial_force[k])) << "step " << k;
+    }
+  }
+}
+
+TEST(Simulation, StickSlipLoadsStayWithinTheFrictionLimit) {
+  const double limit = 2.0;  // per unit length
+  const std::string needle =
+      "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, friction: {model: stick-slip, "
+      "max_shear_per_length: " + std::to_string(limit) + "}}";
+  const auto slip = run_simulation<3>(axis_block(), parse_scenario_text(yaml(needle), 3), quiet());
+  const auto stick = run_simulation<3>(axis_block(), parse_scenario_text(yaml(kStick), 3), quiet());
+  const auto& r = slip.needles[0];
+  bool some_slide = false;
+  for (std::size_t k = 1; k < r.depth.size(); ++k) {
+    double total = 0.0;
+    for (std::size_t j = 0; j < r.point_length.size(); ++j) {
+      const double L = limit * r.point_length[j];
+      EXPECT_LE(std::abs(r.point_axial_force[k][j]), L * (1.0 + 1e-5)) << "step " << k << " point " << j;
+      some_slide = some_slide || std::abs(std::abs(r.point_axial_force[k][j]) - L) < 1e-5 * L;
+      total += L;
+    }
+    EXPECT_LE(std::abs(r.axial_force[k]), total * (1.0 + 1e-6));
+  }
+  EXPECT_TRUE(some_slide);
+  EXPECT_LT(r.max_displacement, stick.needles[0].max_displacement);
+}
+
+TEST(Simulation, ForceModelAppliesTheGivenForcesTipPushesAheadNotBehind) {
+  // Entry inside the block; tip force only. Targets on the axis 4 ahead of the tip and 4 behind the entry.
+  const std::string needle =
+      "{entry: [0, 0, 8], direction: [0, 0, 1], depth: 6, steps: 3, diameter: 1, model: force, tip_force: 5, "
+      "friction_per_length: 0.1}";
+  const Scenario sc = parse_scenario_text(
+      yaml(needle, "[{name: ahead, position: [0, 0, 18]}, {name: behind, position: [0, 0, 4]}]", "{poisson_ratio: 0.3}",
+           "[{type: fixed, region: {box_face: z_max}}, {type: fixed, region: {box_face: z_min}}]"),
+      3);
+  const auto res = run_simulation<3>(axis_block(), sc, quiet());
+  const auto& r = res.needles[0];
+  for (std::size_t k = 1; k < r.depth.size(); ++k) {
+    // Σ axial point forces = tip force + friction per length × passed length (shaft points cover it).
+    double passed = 0.0;
+    for (std::size_t j = 0; j < r.point_s.size(); ++j)
+      if (r.point_axial_force[k][j] != 0.0) passed += r.point_length[j];
+    EXPECT_NEAR(r.axial_force[k], 5.0 + 0.1 * passed, 1e-6 * 5.0) << "step " << k;
+  }
+  const V3 ahead = r.target_displacement.back()[0], behind = r.target_displacement.back()[1];
+  EXPECT_GT(ahead[2], 0.0);
+  EXPECT_LT(behind.norm(), 0.5 * ahead.norm());
+}
+
+TEST(Simulation, StiffLesionMovesLessThanTheSamePointInSoftTissue) {
+  const V3 lesion(0, 0, 16);
+  auto soft = [](const V3&) { return 10.0; };
+  auto stiff = [&](const V3& x) { return (x - lesion).norm() <= 3.5 ? 100.0 : 10.0; };
+  const Scenario sc = parse_scenario_text(yaml(kStick, "[{name: lesion, position: [0, 0, 16]}]"), 3);
+  const auto a = run_simulation<3>(block(V3(-6, -6, 0), V3(6, 6, 24), {{7, 7, 13}}, soft), sc, quiet());
+  const auto b = run_simulation<3>(block(V3(-6, -6, 0), V3(6, 6, 24), {{7, 7, 13}}, stiff), sc, quiet());
+  const double us = a.needles[0].target_displacement.back()[0].norm();
+  const double ul = b.needles[0].target_displacement.back()[0].norm();
+  EXPECT_GT(us, 0.0);
+  EXPECT_LT(ul, us);
+}
+
+TEST(Simulation, WorldResultsDoNotDependOnTheImageDirection) {
+  // The same physical problem, once with an identity direction and once with the image rotated by
+  // 90° about z (frame data unchanged, world = D·frame): world displacements rotate with D.
+  MeshModel<3> a = axis_block();
+  MeshModel<3> b = axis_block();
+  b.transform.direction << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+  const std::string na = "{entry: [1, 2, 0], direction: [0.1, 0, 1], depth: 10, steps: 2, diameter: 1}";
+  const std::string nb = "{entry: [-2, 1, 0], direction: [0, 0.1, 1], depth: 10, steps: 2, diameter: 1}";
+  const std::string bc = "[{type: fixed, region: {box_face: z_max}}, {type: fixed, region: {cylinder: {center: C, axis: [0, 0, 1], radius: 2.5}}}]";
+  auto with = [&](const std::string& c) { std::string s = bc; s.replace(s.find("C"), 1, c); return s; };
+  const Scenario sa = parse_scenario_text(yaml(na, "[{name: t, position: [3, 1, 15]}]", "{}", with("[5, 5, 0]")), 3);
+  const Scenario sb = parse_scenario_text(yaml(nb, "[{name: t, position: [-1, 3, 15]}]", "{}", with("[-5, 5, 0]")), 3);
+  const auto ra = run_simulation<3>(a, sa, quiet()).needles[0];
+  const auto rb = run_simulation<3>(b, sb, quiet()).needles[0];
+  const Eigen::Matrix3d D = b.transform.direction;
+  EXPECT_NEAR((rb.target_displacement.back()[0] - D * ra.target_displacement.back()[0]).norm(), 0.0,
+              1e-9 * ra.target_displacement.back()[0].norm());
+  EXPECT_NEAR((rb.force.back() - D * ra.force.back()).norm(), 0.0, 1e-9 * ra.force.back().norm());
+  EXPECT_NEAR(rb.axial_force.back(), ra.axial_force.back(), 1e-9 * ra.axial_force.back());
+  for (std::size_t v = 0; v < ra.vertex_displacement.back().size(); v += 7)
+    EXPECT_NEAR((rb.vertex_displacement.back()[v] - D * ra.vertex_displacement.back()[v]).norm(), 0.0, 1e-9);
+}
+
+TEST(Simulation, RegionThatSelectsNoNodeIsAnError) {
+  const Scenario sc = parse_scenario_text(
+      yaml(kStick, "[]", "{}", "[{type: fixed, region: {box_face: z_max}}, {type: fixed, region: {sphere: {center: [50, 0, 0], radius: 2}}}]"), 3,
+      "s.yaml");
+  try {
+    NeedleSimulation<3> sim(axis_block(), sc, quiet());
+    ADD_FAILURE() << "no error";
+  } catch (const ScenarioError& e) {
+    EXPECT_NE(std::string(e.what()).find("boundary_conditions[1]: region sphere center [50, 0, 0] radius 2 selects no mesh node"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(Simulation, VoxelModelAgreesWithTheGridMeshInSign) {
+  Image<3> img({{6, 6, 12}}, {{2, 2, 2}}, {{-5, -5, 1}}, 10.0f);  // box [-6,6]^2 x [0,24]
+  const Scenario sc = parse_scenario_text(yaml(kStick, "[{name: ahead, position: [0, 0, 16]}]"), 3);
+  auto sim = NeedleSimulation<3>::voxel(img, WorldTransform<3>{}, sc, quiet());
+  const auto r = sim.run().needles[0];
+  EXPECT_GT(r.axial_force.back(), 0.0);
+  EXPECT_GT(r.target_displacement.back()[0][2], 0.0);
+  EXPECT_EQ(sim.youngs_modulus().size(), 432u);
+}
+
+TEST(Simulation, TwoDimensionalNeedle) {
+  MeshModel<2> m;
+  m.mesh = regular_grid_mesh<2>(Eigen::Vector2d(-5, 0), Eigen::Vector2d(5, 20), {{11, 21}});
+  m.values.assign(m.mesh.n_cells(), ElementValue{1, 10.0, 0.0});
+  const Scenario sc = parse_scenario_text(
+      "boundary_conditions: [{type: fixed, region: {box_face: y_max}}]\n"
+      "needle: {entry: [0, 0], direction: [0, 1], depth: 8, steps: 4, diameter: 1}\n"
+      "targets: [{name: ahead, position: [0, 13]}]\n",
+      2);
+  const auto r = run_simulation<2>(m, sc, quiet()).needles[0];
+  for (std::size_t k = 1; k < r.axial_force.size(); ++k) EXPECT_GT(r.axial_force[k], r.axial_force[k - 1]);
+  EXPECT_GT(r.target_displacement.back()[0][1], 0.0);
+}
+
+TEST(Simulation, WritesStepsCsvAndSummary) {
+  const fs::path dir = fs::temp_directory_path() / ("vim_sim_test_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  SimulationOptions o = quiet();
+  o.output_file = [&](const std::string& rel) {
+    const fs::path p = dir / rel;
+    fs::create_directories(p.parent_path());
+    return p;
+  };
+  const std::string y = R"(boundary_conditions: [{type: fixed, region: {box_face: z_max}}]
+needles:
+  - {name: first, entry: [0, 0, 0], direction: [0, 0, 1], depth: 8, steps: 4, diameter: 1}
+  - {name: second, entry: [2, 0, 0], direction: [0, 0, 1], depth: 6, steps: 3, diameter: 1}
+targets: [{name: t, position: [0, 0, 12]}]
+output: {every: 2}
+)";
+  const auto res = run_simulation<3>(axis_block(), parse_scenario_text(y, 3), o);
+  ASSERT_EQ(res.needles.size(), 2u);
+  for (const char* f : {"summary.csv", "first/simulation.pvd", "first/needle.csv", "first/steps/step_0000.vtu",
+                        "first/steps/step_0002.vtu", "first/steps/step_0004.vtu", "second/steps/step_0003.vtu"})
+    EXPECT_TRUE(fs::exists(dir / f)) << f;
+  EXPECT_FALSE(fs::exists(dir / "first/steps/step_0001.vtu"));
+  std::ifstream csv(dir / "first/needle.csv");
+  std::string header, line;
+  std::getline(csv, header);
+  EXPECT_EQ(header, "step,depth,tip_x,tip_y,tip_z,axial_force,lateral_force,t_dx,t_dy,t_dz,t_norm");
+  int rows = 0;
+  std::string last;
+  while (std::getline(csv, line)) {
+    ++rows;
+    last = line;
+  }
+  EXPECT_EQ(rows, 5);
+  std::stringstream ss(last);
+  std::vector<double> v;
+  for (std::string cell; std::getline(ss, cell, ',');) v.push_back(std::stod(cell));
+  ASSERT_EQ(v.size(), 11u);
+  EXPECT_NEAR(v[5], res.needles[0].axial_force.back(), 1e-8 * std::abs(v[5]));
+  EXPECT_NEAR(v[10], res.needles[0].target_displacement.back()[0].norm(), 1e-8);
+  std::ifstream sum(dir / "summary.csv");
+  std::getline(sum, header);
+  EXPECT_EQ(header, "name,depth,steps,axial_force,lateral_force,max_displacement,steps_per_second,t_norm");
+  EXPECT_EQ(res.report["needles"].size(), 2u);
+  EXPECT_EQ(res.report["needles"][1]["per_step"]["axial_force"].size(), 4u);
+  fs::remove_all(dir);
+}
