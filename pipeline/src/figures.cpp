@@ -89,6 +89,8 @@ Axis nice_axis(double lo, double hi) {
     if (t > a.hi + 1e-9 * a.step) break;
     a.ticks.push_back(std::abs(t) < 1e-12 * a.step ? 0.0 : t);
   }
+  a.lo = std::min(a.lo, lo);  // k·step may round just past the data (3·0.1 > 0.3)
+  a.hi = std::max(a.hi, hi);
   return a;
 }
 

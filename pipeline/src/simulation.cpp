@@ -309,7 +309,7 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
     f = tf.vector_to_world(f);
     run.force.push_back(f);
     const double ax = f.dot(a_world);
-    run.axial_force.push_back(-ax);
+    run.axial_force.push_back(0.0 - ax);  // +0 at rest
     run.lateral_force.push_back((f - ax * a_world).norm());
     std::vector<Vec> td(target_f.size(), Vec::Zero());
     if (s && !target_f.empty()) {
@@ -351,8 +351,10 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
   std::vector<bool> picked(np, false);  // passed by the tip
   std::vector<bool> sliding(np, false); // stick-slip: force-controlled at ±limit
   std::vector<double> sign(np, 1.0);
-  std::vector<double> limit(np, 0.0);
-  for (std::size_t j = 0; j < np; ++j) limit[j] = spec.max_shear_per_length * shaft[j].length;
+  // Shaft length each point carries at travel d: its segment [start_j, start_j + length_j) as far as the
+  // tip has reached, and for the point the tip pushes, everything up to the tip (the sum is d).
+  std::vector<double> start(np, 0.0), covered(np, 0.0), limit(np, 0.0);
+  for (std::size_t j = 1; j < np; ++j) start[j] = start[j - 1] + shaft[j - 1].length;
   int solves_total = 0;
   double solve_time = 0.0;
   fem::Solution<dim> sol;
@@ -399,6 +401,10 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
         last = j;
       }
     }
+    for (std::size_t j : active) {
+      covered[j] = j == last ? d - start[j] : std::min(shaft[j].length, d - start[j]);
+      limit[j] = spec.max_shear_per_length * covered[j];
+    }
     if (active.empty()) {
       // The tip has not reached the first embedded point yet: nothing touches the tissue.
       sol = fem::Solution<dim>{};
@@ -408,7 +414,7 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
       std::vector<double> target(np, 0.0);
       for (std::size_t j : active) {
         fr[j] = true;
-        target[j] = spec.friction_per_length * shaft[j].length + (j == last ? spec.tip_force : 0.0);
+        target[j] = spec.friction_per_length * covered[j] + (j == last ? spec.tip_force : 0.0);
       }
       solve_axial_forces(w, fr, target, solve_with, pitch, force_tol, 200);
       solve_with(w);

@@ -9,11 +9,12 @@
 //    rigid needle: u_j = (d − s_j)·a, lateral displacement 0 (it stays on the shaft). The most
 //    recently picked-up point is the one the tip pushes. Pure stick drags the shaft's tissue along
 //    with the needle; it is the upper bound of tissue drag.
-//  * kinematic / stick-slip: the same, but a point whose axial load exceeds max_shear_per_length × (its
-//    shaft length) slides: its axial value is solved (conjugate gradients on the condensed map, each
+//  * kinematic / stick-slip: the same, but a point whose axial load exceeds max_shear_per_length × (the
+//    shaft length it carries: its segment of the path as far as the tip has passed; the point the tip
+//    pushes carries everything up to the tip, so the limits sum to max_shear_per_length × depth) slides: its axial value is solved (conjugate gradients on the condensed map, each
 //    iteration one fast solve) so that its load equals the limit; slip accumulates (u_j = d − s_j − slip_j).
 //    Lateral displacement stays 0. Active set: sliding points whose load falls below the limit stick again.
-//  * force: every passed shaft point carries the axial friction force friction_per_length × length and
+//  * force: every passed shaft point carries the axial friction force friction_per_length × (carried length) and
 //    the most recently picked-up point also the tip force; lateral displacement 0 (the shaft holds the
 //    tissue). Point loads are realised as point constraints whose axial values are solved for.
 // Needle force: F = −Σ point_force (the force the tissue exerts on the needle), world axes; reported as
