@@ -476,7 +476,9 @@ void assemble(Impl& m) {
       for (unsigned i = 0; i < idx.size(); ++i) m.support_points[idx[i]] = sv.quadrature_point(i);
     }
   }
-  std::vector<unsigned> component(n);
+  std::vector<unsigned>& component = m.dof_component;
+  component.assign(n, 0);
+  m.vertex_dofs.clear();  // post-processing cache is rebuilt on next use
   {
     std::vector<types::global_dof_index> idx(fe.n_dofs_per_cell());
     for (const auto& cell : m.dof.active_cell_iterators()) {
@@ -775,39 +777,92 @@ namespace {
 
 // Vertex displacement, centroid strain/stress, energy, reactions from m.u.
 template <int dim, class Impl>
-Solution<dim> postprocess(const Impl& m) {
+void build_post_cache(Impl& m) {
+  const unsigned dpc = m.fe->n_dofs_per_cell();
+  const unsigned ns = m.fe->base_element(0).n_dofs_per_cell();
+  const std::size_t nc = m.tria.n_active_cells();
+  m.vertex_dofs.assign(m.tria.n_vertices(), {});
+  const double bytes = double(nc) * (dpc * sizeof(types::global_dof_index) + ns * dim * sizeof(double));
+  m.post_cache = bytes < 400e6;
+  if (m.post_cache) {
+    m.cell_dofs.resize(nc * dpc);
+    m.centroid_grads.resize(nc * ns * dim);
+    m.cell_index.resize(nc);
+  }
+  Quadrature<dim> cq(std::vector<Point<dim>>{m.unit_centroid});
+  FEValues<dim> cv(*m.mapping, *m.fe, cq, update_gradients);
+  std::size_t k = 0;
+  for (const auto& cell : m.dof.active_cell_iterators()) {
+    for (const unsigned v : cell->vertex_indices())
+      for (unsigned c = 0; c < unsigned(dim); ++c) m.vertex_dofs[cell->vertex_index(v)][c] = cell->vertex_dof_index(v, c);
+    if (m.post_cache) {
+      cv.reinit(cell);
+      std::vector<types::global_dof_index> idx(dpc);
+      cell->get_dof_indices(idx);
+      std::copy(idx.begin(), idx.end(), m.cell_dofs.begin() + k * dpc);
+      // the scalar basis gradient: take the component-0 copy of each scalar function
+      for (unsigned i = 0; i < dpc; ++i) {
+        const auto [c, sidx] = m.fe->system_to_component_index(i);
+        if (c != 0) continue;
+        const Tensor<1, dim> g = cv.shape_grad(i, 0);
+        for (int d = 0; d < dim; ++d) m.centroid_grads[(k * ns + sidx) * dim + d] = g[d];
+      }
+      m.cell_index[k] = cell->material_id();
+    }
+    ++k;
+  }
+}
+
+// Vertex displacement, centroid strain/stress, energy, reactions from m.u.
+template <int dim, class Impl>
+Solution<dim> postprocess(Impl& m) {
   Solution<dim> s;
   const Vector<double>& u = m.u;
-  s.vertex_displacement.assign(m.tria.n_vertices(), Vec<dim>::Zero());
+  if (m.vertex_dofs.empty()) build_post_cache<dim>(m);
+  s.vertex_displacement.resize(m.tria.n_vertices());
+  for (std::size_t v = 0; v < m.vertex_dofs.size(); ++v)
+    for (int c = 0; c < dim; ++c) s.vertex_displacement[v][c] = u[m.vertex_dofs[v][c]];
   const unsigned nc = m.tria.n_active_cells();
   s.cell_strain.assign(nc, Eigen::Matrix<double, dim, dim>::Zero());
   s.cell_stress.assign(nc, Eigen::Matrix<double, dim, dim>::Zero());
   s.von_mises.assign(nc, 0.0);
-  Quadrature<dim> cq(std::vector<Point<dim>>{m.unit_centroid});
-  FEValues<dim> cv(*m.mapping, *m.fe, cq, update_gradients);
   const unsigned dpc = m.fe->n_dofs_per_cell();
-  std::vector<types::global_dof_index> idx(dpc);
-  std::vector<double> ue(dpc);
-  for (const auto& cell : m.dof.active_cell_iterators()) {
-    cell->get_dof_indices(idx);
-    for (unsigned i = 0; i < dpc; ++i) ue[i] = u[idx[i]];
-    for (const unsigned v : cell->vertex_indices())
-      for (unsigned c = 0; c < unsigned(dim); ++c) s.vertex_displacement[cell->vertex_index(v)][c] = u[cell->vertex_dof_index(v, c)];
-    const unsigned j = cell->material_id();
-    s.cell_strain[j] = m.centroid_strain(cell, cv, ue);
-    m.stress_of(s.cell_strain[j], m.E[j], s.cell_stress[j], s.von_mises[j]);
+  const unsigned ns = m.fe->base_element(0).n_dofs_per_cell();
+  if (m.post_cache) {
+    std::vector<unsigned> comp(dpc), scalar(dpc);
+    for (unsigned i = 0; i < dpc; ++i)
+      comp[i] = m.fe->system_to_component_index(i).first, scalar[i] = m.fe->system_to_component_index(i).second;
+    for (std::size_t k = 0; k < nc; ++k) {
+      const types::global_dof_index* idx = &m.cell_dofs[k * dpc];
+      const double* G = &m.centroid_grads[k * ns * dim];
+      Eigen::Matrix<double, dim, dim> grad = Eigen::Matrix<double, dim, dim>::Zero();
+      for (unsigned i = 0; i < dpc; ++i) {
+        const double ui = u[idx[i]];
+        for (int d = 0; d < dim; ++d) grad(comp[i], d) += ui * G[scalar[i] * dim + d];
+      }
+      const unsigned j = m.cell_index[k];
+      s.cell_strain[j] = 0.5 * (grad + grad.transpose());
+      m.stress_of(s.cell_strain[j], m.E[j], s.cell_stress[j], s.von_mises[j]);
+    }
+  } else {
+    Quadrature<dim> cq(std::vector<Point<dim>>{m.unit_centroid});
+    FEValues<dim> cv(*m.mapping, *m.fe, cq, update_gradients);
+    std::vector<types::global_dof_index> idx(dpc);
+    std::vector<double> ue(dpc);
+    for (const auto& cell : m.dof.active_cell_iterators()) {
+      cell->get_dof_indices(idx);
+      for (unsigned i = 0; i < dpc; ++i) ue[i] = u[idx[i]];
+      const unsigned j = cell->material_id();
+      s.cell_strain[j] = m.centroid_strain(cell, cv, ue);
+      m.stress_of(s.cell_strain[j], m.E[j], s.cell_stress[j], s.von_mises[j]);
+    }
   }
   Vector<double> Ku(u.size());
   m.K_full.vmult(Ku, u);
   s.strain_energy = 0.5 * (u * Ku);
   s.dirichlet_reaction.assign(m.bcs.size(), Vec<dim>::Zero());
-  std::vector<unsigned> comp(u.size(), 0);
-  for (const auto& cell : m.dof.active_cell_iterators()) {
-    cell->get_dof_indices(idx);
-    for (unsigned i = 0; i < dpc; ++i) comp[idx[i]] = m.fe->system_to_component_index(i).first;
-  }
   for (unsigned i = 0; i < u.size(); ++i)
-    if (m.dof_bc[i] >= 0) s.dirichlet_reaction[m.dof_bc[i]][comp[i]] += Ku[i] - m.f_full[i];
+    if (m.dof_bc[i] >= 0) s.dirichlet_reaction[m.dof_bc[i]][m.dof_component[i]] += Ku[i] - m.f_full[i];
   s.stats.n_dofs = m.dof.n_dofs();
   s.stats.assemble_seconds = m.assemble_seconds;
   return s;
@@ -907,11 +962,47 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
   std::vector<double> all_g;
   std::vector<std::pair<std::size_t, unsigned>> all_which;
   for (const auto& r : rows) all_rows.push_back(r.row), all_g.push_back(r.g), all_which.emplace_back(r.point, r.comp);
-  const std::vector<bool> keep = independent_rows(all_rows);
-  std::vector<Active> used;
-  for (std::size_t a = 0; a < rows.size(); ++a)
-    if (keep[a]) used.push_back(rows[a]);
+  // S = C K⁻¹ Cᵀ over all rows; a row is dropped (in order) when its pivot in an ordered Cholesky
+  // of S vanishes: it is then a combination of the earlier kept rows (sin² of the angle < 1e-10 in
+  // the K⁻¹ metric). Checked for consistency after the solve.
   const std::size_t n_all = rows.size();
+  Eigen::MatrixXd S_all(n_all, n_all);
+  Eigen::VectorXd r_all(n_all);
+  for (std::size_t a = 0; a < n_all; ++a) {
+    const ConstraintRow& ra = *rows[a].row;
+    double cu = 0.0;
+    for (std::size_t i = 0; i < ra.dofs.size(); ++i) cu += ra.values[i] * m.u0[ra.dofs[i]];
+    r_all[a] = cu - rows[a].g;
+    for (std::size_t b = 0; b < n_all; ++b) {
+      double v = 0.0;
+      for (std::size_t i = 0; i < ra.dofs.size(); ++i) v += ra.values[i] * (*rows[b].col)[ra.dofs[i]];
+      S_all(a, b) = v;
+    }
+  }
+  S_all = 0.5 * (S_all + S_all.transpose()).eval();
+  std::vector<bool> keep(n_all, false);
+  std::vector<Eigen::Index> kept;
+  {
+    Eigen::MatrixXd L = Eigen::MatrixXd::Zero(n_all, n_all);  // Cholesky rows of the kept set
+    for (std::size_t a = 0; a < n_all; ++a) {
+      const Eigen::Index k = static_cast<Eigen::Index>(kept.size());
+      Eigen::VectorXd l(k);
+      for (Eigen::Index i = 0; i < k; ++i) {
+        double v = S_all(kept[i], a);
+        for (Eigen::Index j = 0; j < i; ++j) v -= L(i, j) * l[j];
+        l[i] = v / L(i, i);
+      }
+      const double d = S_all(a, a) - l.squaredNorm();
+      if (!(S_all(a, a) > 0.0) || !(d > 1e-10 * S_all(a, a))) continue;
+      keep[a] = true;
+      for (Eigen::Index j = 0; j < k; ++j) L(k, j) = l[j];
+      L(k, k) = std::sqrt(d);
+      kept.push_back(static_cast<Eigen::Index>(a));
+    }
+  }
+  std::vector<Active> used;
+  for (std::size_t a = 0; a < n_all; ++a)
+    if (keep[a]) used.push_back(rows[a]);
   rows.swap(used);
   const std::size_t nr = rows.size();
   m.u = m.u0;
@@ -920,17 +1011,9 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
     Eigen::MatrixXd S(nr, nr);
     Eigen::VectorXd r(nr);
     for (std::size_t a = 0; a < nr; ++a) {
-      const ConstraintRow& ra = *rows[a].row;
-      double cu = 0.0;
-      for (std::size_t i = 0; i < ra.dofs.size(); ++i) cu += ra.values[i] * m.u0[ra.dofs[i]];
-      r[a] = cu - rows[a].g;
-      for (std::size_t b = 0; b < nr; ++b) {
-        double v = 0.0;
-        for (std::size_t i = 0; i < ra.dofs.size(); ++i) v += ra.values[i] * (*rows[b].col)[ra.dofs[i]];
-        S(a, b) = v;
-      }
+      r[a] = r_all[kept[a]];
+      for (std::size_t b = 0; b < nr; ++b) S(a, b) = S_all(kept[a], kept[b]);
     }
-    S = 0.5 * (S + S.transpose()).eval();
     Eigen::LLT<Eigen::MatrixXd> llt(S);  // S = C K⁻¹ Cᵀ is SPD for independent rows
     if (llt.info() != Eigen::Success) {
       std::ostringstream s;

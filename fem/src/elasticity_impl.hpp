@@ -67,6 +67,14 @@ struct ElasticModel<dim>::Impl {
   bool assembled = false;
   std::vector<dealii::Point<dim>> support_points;  // per DoF
   std::vector<int> dof_bc;                          // per DoF: owning DirichletBC or -1
+  std::vector<unsigned> dof_component;              // per DoF: vector component
+  // Post-processing cache (built on first use when it fits in ~400 MB): per cell, its DoFs and the
+  // gradients of the scalar basis functions at the centroid; per vertex, its DoFs.
+  bool post_cache = false;
+  std::vector<dealii::types::global_dof_index> cell_dofs;
+  std::vector<double> centroid_grads;
+  std::vector<unsigned> cell_index;  // material id = input cell index
+  std::vector<std::array<dealii::types::global_dof_index, dim>> vertex_dofs;
   dealii::AffineConstraints<double> constraints;
   dealii::SparsityPattern sparsity;
   dealii::SparseMatrix<double> K;       // Dirichlet DoFs eliminated (symmetric)

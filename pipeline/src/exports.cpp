@@ -112,7 +112,7 @@ SimplexMesh<dim> world_mesh(const MeshModel<dim>& model) {
   w.points.reserve(model.mesh.n_points());
   for (const auto& p : model.mesh.points) w.points.push_back(model.transform.to_world(p));
   w.cells = model.mesh.cells;
-  // MUTANT orient_positively(w);  // a mirroring direction matrix (det < 0) flips every cell
+  orient_positively(w);  // a mirroring direction matrix (det < 0) flips every cell
   return w;
 }
 

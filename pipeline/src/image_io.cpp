@@ -5,6 +5,8 @@
 
 #include "itk_image_io.hpp"
 
+#include <Eigen/LU>
+
 #include <cmath>
 #include <sstream>
 
