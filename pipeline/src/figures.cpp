@@ -129,7 +129,7 @@ std::vector<Eigen::Vector2d> tet_slice_polygon(const std::array<Eigen::Vector3d,
   for (int i = 0; i < 4; ++i)
     for (int j = i + 1; j < 4; ++j)
       if ((d[i] < 0.0 && d[j] > 0.0) || (d[i] > 0.0 && d[j] < 0.0)) {
-        const double t = 0.5; // MUTANT
+        const double t = d[i] / (d[i] - d[j]);
         add(x[i] + t * (x[j] - x[i]));
       }
   if (pts.size() >= 3) {  // the section is convex: order by angle about the centroid

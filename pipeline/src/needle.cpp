@@ -184,57 +184,34 @@ std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator, const
   return pts;
 }
 
-int solve_axial_forces(std::vector<double>& w, const std::vector<bool>& free, const std::vector<double>& target,
-                       const std::function<std::vector<double>(const std::vector<double>&)>& axial_force,
-                       double length_scale, double tolerance, int max_iterations) {
-  const std::size_t m = w.size();
-  int solves = 0;
-  std::vector<double> f = axial_force(w);
-  ++solves;
-  std::vector<double> r(m, 0.0), p(m, 0.0), mp(m, 0.0);
-  double rr = 0.0, scale = 0.0;
-  for (std::size_t j = 0; j < m; ++j)
-    if (free[j]) {
-      r[j] = target[j] - f[j];
-      rr += r[j] * r[j];
-      scale = std::max({scale, std::abs(target[j]), std::abs(f[j])});
-    }
-  const double stop = tolerance * std::max(scale, 1e-300);
-  p = r;
-  for (int it = 0; it < max_iterations && std::sqrt(rr) > stop; ++it) {
-    // M p by probing with a step of size ~length_scale along p (the map is affine).
-    double pn = 0.0, wn = 0.0;
-    for (std::size_t j = 0; j < m; ++j) {
-      pn = std::max(pn, std::abs(p[j]));
-      wn = std::max(wn, std::abs(w[j]));
-    }
-    if (!(pn > 0.0)) break;
-    const double sigma = std::max(wn, length_scale) / pn;
-    std::vector<double> wt = w;
-    for (std::size_t j = 0; j < m; ++j)
-      if (free[j]) wt[j] += sigma * p[j];
-    const std::vector<double> ft = axial_force(wt);
-    ++solves;
-    double pmp = 0.0;
-    for (std::size_t j = 0; j < m; ++j) {
-      mp[j] = free[j] ? (ft[j] - f[j]) / sigma : 0.0;
-      pmp += p[j] * mp[j];
-    }
-    if (!(pmp > 0.0)) break;  // not positive definite on this subspace (should not happen)
-    const double alpha = rr / pmp;
-    double rr_new = 0.0;
-    for (std::size_t j = 0; j < m; ++j)
-      if (free[j]) {
-        w[j] += alpha * p[j];
-        f[j] += alpha * mp[j];
-        r[j] -= alpha * mp[j];
-        rr_new += r[j] * r[j];
-      }
-    const double beta = rr_new / rr;
-    rr = rr_new;
-    for (std::size_t j = 0; j < m; ++j) p[j] = free[j] ? r[j] + beta * p[j] : 0.0;
+AxialMap AxialMap::probe(Eigen::Index m, const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& forces,
+                         double sigma) {
+  if (!(sigma > 0.0)) throw std::invalid_argument("AxialMap::probe: sigma must be > 0");
+  AxialMap map;
+  map.c = forces(Eigen::VectorXd::Zero(m));
+  map.K.resize(m, m);
+  for (Eigen::Index j = 0; j < m; ++j) {
+    Eigen::VectorXd e = Eigen::VectorXd::Zero(m);
+    e[j] = sigma;
+    map.K.col(j) = (forces(e) - map.c) / sigma;
   }
-  return solves;
+  map.K = (0.5 * (map.K + map.K.transpose())).eval();  // symmetric up to round-off
+  return map;
+}
+
+void AxialMap::solve_free(Eigen::VectorXd& w, const std::vector<bool>& free, const Eigen::VectorXd& target) const {
+  std::vector<Eigen::Index> f, n;
+  for (Eigen::Index j = 0; j < w.size(); ++j) (free[j] ? f : n).push_back(j);
+  if (f.empty()) return;
+  Eigen::MatrixXd kff(f.size(), f.size());
+  Eigen::VectorXd rhs(f.size());
+  for (std::size_t a = 0; a < f.size(); ++a) {
+    rhs[a] = target[f[a]] - c[f[a]];
+    for (Eigen::Index j : n) rhs[a] -= K(f[a], j) * w[j];
+    for (std::size_t b = 0; b < f.size(); ++b) kff(a, b) = K(f[a], f[b]);
+  }
+  const Eigen::VectorXd x = kff.ldlt().solve(rhs);
+  for (std::size_t a = 0; a < f.size(); ++a) w[f[a]] = x[a];
 }
 
 template class CellLocator<2>;

@@ -378,10 +378,32 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
     return fa;
   };
 
+  // Axial stiffness map of the current set of active points (rebuilt when a point is picked up).
+  AxialMap map;
+  std::size_t map_size = 0;
+  auto compact = [&](const std::vector<double>& v) {
+    Eigen::VectorXd c(active.size());
+    for (std::size_t i = 0; i < active.size(); ++i) c[i] = v[active[i]];
+    return c;
+  };
+  auto expand = [&](const Eigen::VectorXd& c, std::vector<double>& v) {
+    for (std::size_t i = 0; i < active.size(); ++i) v[active[i]] = c[i];
+  };
+  auto ensure_map = [&]() {
+    if (map_size == active.size()) return;
+    map = AxialMap::probe(static_cast<Eigen::Index>(active.size()),
+                          [&](const Eigen::VectorXd& wc) {
+                            std::vector<double> full(np, 0.0);
+                            expand(wc, full);
+                            return compact(solve_with(full));
+                          },
+                          pitch);
+    map_size = active.size();
+  };
+
   Progress progress("needle " + spec.name, spec.steps);
   const auto t_run = Clock::now();
   double d_prev = 0.0;
-  const double force_tol = 1e-8;
   for (int k = 1; k <= spec.steps; ++k) {
     const double d = spec.depth * static_cast<double>(k) / static_cast<double>(spec.steps);
     const double dd = d - d_prev;
@@ -410,43 +432,60 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
       sol = fem::Solution<dim>{};
       record(d, nullptr, 0, 0);
     } else if (force_model) {
-      std::vector<bool> fr(np, false);
+      ensure_map();
       std::vector<double> target(np, 0.0);
-      for (std::size_t j : active) {
-        fr[j] = true;
-        target[j] = spec.friction_per_length * covered[j] + (j == last ? spec.tip_force : 0.0);
-      }
-      solve_axial_forces(w, fr, target, solve_with, pitch, force_tol, 200);
+      for (std::size_t j : active) target[j] = spec.friction_per_length * covered[j] + (j == last ? spec.tip_force : 0.0);
+      Eigen::VectorXd wc = compact(w);
+      map.solve_free(wc, std::vector<bool>(active.size(), true), compact(target));
+      expand(wc, w);
       solve_with(w);
       record(d, &sol, static_cast<int>(active.size()), solves_total - solves_before);
     } else if (!slip) {
       solve_with(w);
       record(d, &sol, static_cast<int>(active.size()), solves_total - solves_before);
     } else {
-      // Stick-slip active set: sliding points carry ±limit, stuck points move with the needle.
-      for (int iter = 0; iter < 50; ++iter) {
-        std::vector<double> target(np, 0.0);
-        bool any = false;
-        for (std::size_t j : active) {
-          target[j] = sign[j] * limit[j];
-          any = any || sliding[j];
-        }
-        if (any) solve_axial_forces(w, sliding, target, solve_with, pitch, force_tol, 200);
+      // Stick-slip: try sticking first; if a load exceeds its limit (or points were sliding), solve the
+      // active-set problem on the axial map: sliding points carry ±limit, stuck points move with the needle.
+      bool need = false;
+      for (std::size_t j : active) need = need || sliding[j];
+      if (!need) {
         const std::vector<double> fa = solve_with(w);
-        bool changed = false;
-        for (std::size_t j : active) {
-          if (!sliding[j] && std::abs(fa[j]) > limit[j] * (1.0 + 1e-6)) {
-            sliding[j] = true;
-            sign[j] = fa[j] > 0.0 ? 1.0 : -1.0;
-            changed = true;
-          } else if (sliding[j] && (w[j] - w_stick[j]) * sign[j] > 1e-12 * std::max(1.0, std::abs(w_stick[j]))) {
-            // Holding the limit would need the point to move ahead of the needle: it sticks again.
-            sliding[j] = false;
-            w[j] = w_stick[j];
-            changed = true;
-          }
+        for (std::size_t j : active) need = need || std::abs(fa[j]) > limit[j] * (1.0 + 1e-9);
+      }
+      if (need) {
+        ensure_map();
+        const std::size_t m = active.size();
+        Eigen::VectorXd wc = compact(w), ws = compact(w_stick), lim = compact(limit);
+        std::vector<bool> sl(m);
+        Eigen::VectorXd sg(m);
+        for (std::size_t i = 0; i < m; ++i) {
+          sl[i] = sliding[active[i]];
+          sg[i] = sign[active[i]];
         }
-        if (!changed) break;
+        for (int iter = 0; iter < 100; ++iter) {
+          map.solve_free(wc, sl, sg.cwiseProduct(lim));
+          const Eigen::VectorXd f = map(wc);
+          bool changed = false;
+          for (std::size_t i = 0; i < m; ++i) {
+            if (!sl[i] && std::abs(f[i]) > lim[i] * (1.0 + 1e-9)) {
+              sl[i] = true;
+              sg[i] = f[i] > 0.0 ? 1.0 : -1.0;
+              changed = true;
+            } else if (sl[i] && (wc[i] - ws[i]) * sg[i] > 1e-12 * std::max(1.0, std::abs(ws[i]))) {
+              // Holding the limit would need the point to move ahead of the needle: it sticks again.
+              sl[i] = false;
+              wc[i] = ws[i];
+              changed = true;
+            }
+          }
+          if (!changed) break;
+        }
+        expand(wc, w);
+        for (std::size_t i = 0; i < m; ++i) {
+          sliding[active[i]] = sl[i];
+          sign[active[i]] = sg[i];
+        }
+        solve_with(w);
       }
       record(d, &sol, static_cast<int>(active.size()), solves_total - solves_before);
     }

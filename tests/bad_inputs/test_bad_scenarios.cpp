@@ -35,7 +35,7 @@ targets:
 output: {every: 1}
 )";
 
-struct Run {
+struct CliRun {
   int code = -1;
   std::string err;
 };
@@ -60,14 +60,14 @@ class BadScenario : public ::testing::Test {
     write_image<3>(img, path);
   }
 
-  Run run(const std::string& yaml, const std::string& image = "") {
+  CliRun run(const std::string& yaml, const std::string& image = "") {
     const fs::path scen = dir_ / "s.yaml", out = dir_ / "out", err = dir_ / "err.txt";
     fs::remove_all(out);
     std::ofstream(scen) << yaml;
     const std::string cmd = std::string(VIM_PIPELINE_EXE) + " " + (image.empty() ? image_ : image) + " --simulate " +
                             scen.string() + " --mesher grid --nodes 300 --export none -q --out " + out.string() + " 2> " +
                             err.string() + " > /dev/null";
-    Run r;
+    CliRun r;
     const int s = std::system(cmd.c_str());
     r.code = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
     std::ifstream e(err);
@@ -83,7 +83,7 @@ class BadScenario : public ::testing::Test {
   }
 
   void expect_error(const std::string& yaml, const std::vector<std::string>& parts, const std::string& image = "") {
-    const Run r = run(yaml, image);
+    const CliRun r = run(yaml, image);
     EXPECT_EQ(r.code, 1) << r.err;
     EXPECT_EQ(r.err.rfind("vim-pipeline: error: ", 0), 0u) << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line only: " << r.err;
@@ -106,7 +106,7 @@ class BadScenario : public ::testing::Test {
 }  // namespace
 
 TEST_F(BadScenario, BaseScenarioRuns) {
-  const Run r = run(kBase);
+  const CliRun r = run(kBase);
   ASSERT_EQ(r.code, 0) << r.err;
   for (const char* f : {"mesh.vtu", "report.json", "needle.csv", "simulation.pvd", "steps/step_0002.vtu"})
     EXPECT_TRUE(fs::exists(dir_ / "out" / f)) << f;
@@ -143,7 +143,7 @@ TEST_F(BadScenario, NegativeModulusImageWithoutClamp) {
   write_block(img, 10.0f, -4.0f);
   expect_error(kBase, {"material.youngs_modulus: image has 1 voxels", "-4", "material.clamp"}, img);
   // With a clamp the same image is accepted.
-  const Run r = run(with("poisson_ratio: 0.45}", "poisson_ratio: 0.45, clamp: [1, 100]}"), img);
+  const CliRun r = run(with("poisson_ratio: 0.45}", "poisson_ratio: 0.45, clamp: [1, 100]}"), img);
   EXPECT_EQ(r.code, 0) << r.err;
 }
 TEST_F(BadScenario, NaNModulusImage) {

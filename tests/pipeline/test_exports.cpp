@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -28,11 +29,21 @@ using namespace vim::pipeline;
 
 namespace {
 
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("vim_test_exports_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+// A scratch folder removed when the test ends.
+struct ScratchDir : fs::path {
+  explicit ScratchDir(const fs::path& p) : fs::path(p) {
+    fs::remove_all(*this);
+    fs::create_directories(*this);
+  }
+  ~ScratchDir() {  // VIM_KEEP_TEST_OUTPUT=1 keeps the files for a look
+    if (std::getenv("VIM_KEEP_TEST_OUTPUT")) return;
+    std::error_code ec;
+    fs::remove_all(*this, ec);
+  }
+};
+
+ScratchDir fresh_dir(const std::string& name) {
+  return ScratchDir(fs::temp_directory_path() / ("vim_test_exports_" + name + "_" + std::to_string(::getpid())));
 }
 
 std::string slurp(const fs::path& p) {

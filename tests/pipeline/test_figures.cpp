@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <unistd.h>
 
@@ -16,11 +17,21 @@ using namespace vim::pipeline;
 
 namespace {
 
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("vim_test_figures_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+// A scratch folder removed when the test ends.
+struct ScratchDir : fs::path {
+  explicit ScratchDir(const fs::path& p) : fs::path(p) {
+    fs::remove_all(*this);
+    fs::create_directories(*this);
+  }
+  ~ScratchDir() {  // VIM_KEEP_TEST_OUTPUT=1 keeps the files for a look
+    if (std::getenv("VIM_KEEP_TEST_OUTPUT")) return;
+    std::error_code ec;
+    fs::remove_all(*this, ec);
+  }
+};
+
+ScratchDir fresh_dir(const std::string& name) {
+  return ScratchDir(fs::temp_directory_path() / ("vim_test_figures_" + name + "_" + std::to_string(::getpid())));
 }
 
 double pixel_variance(const Canvas& c) {

@@ -113,7 +113,7 @@ TEST(ShaftSampling, SpacingLengthsAndDistinctSupports) {
   for (const auto& p : free_pts) EXPECT_GT(p.position[2], 2.0);  // a cell with a vertex above z = 2
 }
 
-TEST(ForceControl, ConjugateGradientMatchesDirectSolve) {
+TEST(AxialMap, ProbedMapAndForceControlMatchADirectSolve) {
   // An SPD affine map f(w) = M w + c (like the condensed point stiffness), 8 points, 5 force-controlled.
   const int m = 8;
   std::mt19937 rng(7);
@@ -125,40 +125,23 @@ TEST(ForceControl, ConjugateGradientMatchesDirectSolve) {
   Eigen::VectorXd c(m);
   for (int i = 0; i < m; ++i) c[i] = n01(rng);
   int calls = 0;
-  auto f = [&](const std::vector<double>& w) {
-    ++calls;
-    const Eigen::VectorXd r = M * Eigen::Map<const Eigen::VectorXd>(w.data(), m) + c;
-    return std::vector<double>(r.data(), r.data() + m);
-  };
+  const AxialMap map = AxialMap::probe(m, [&](const Eigen::VectorXd& w) { ++calls; return Eigen::VectorXd(M * w + c); }, 0.5);
+  EXPECT_EQ(calls, m + 1);
+  EXPECT_LT((map.K - M).norm(), 1e-12 * M.norm());
+  EXPECT_LT((map.c - c).norm(), 1e-14);
   std::vector<bool> free = {true, false, true, true, false, true, false, true};
-  std::vector<double> target(m, 0.0), w(m, 0.0);
+  Eigen::VectorXd target(m), w(m);
   for (int i = 0; i < m; ++i) {
     target[i] = 1.0 + i;
     w[i] = 0.1 * i;
   }
-  const std::vector<double> w0 = w;
-  const int solves = solve_axial_forces(w, free, target, f, 1.0, 1e-12, 100);
-  EXPECT_EQ(solves, calls);
-  EXPECT_LE(solves, 1 + 5 + 2);  // CG on 5 unknowns: at most 5 iterations (+ round-off)
-  const std::vector<double> res = f(w);
+  const Eigen::VectorXd w0 = w;
+  map.solve_free(w, free, target);
+  const Eigen::VectorXd res = M * w + c;
   for (int i = 0; i < m; ++i) {
     if (free[i])
-      EXPECT_NEAR(res[i], target[i], 1e-9);
+      EXPECT_NEAR(res[i], target[i], 1e-10);
     else
       EXPECT_EQ(w[i], w0[i]);
   }
-  // Independent check: the direct solve of the free block.
-  std::vector<int> F;
-  for (int i = 0; i < m; ++i)
-    if (free[i]) F.push_back(i);
-  Eigen::MatrixXd Mff(F.size(), F.size());
-  Eigen::VectorXd rhs(F.size());
-  for (std::size_t a = 0; a < F.size(); ++a) {
-    rhs[a] = target[F[a]] - c[F[a]];
-    for (int j = 0; j < m; ++j)
-      if (!free[j]) rhs[a] -= M(F[a], j) * w0[j];
-    for (std::size_t b = 0; b < F.size(); ++b) Mff(a, b) = M(F[a], F[b]);
-  }
-  const Eigen::VectorXd x = Mff.ldlt().solve(rhs);
-  for (std::size_t a = 0; a < F.size(); ++a) EXPECT_NEAR(w[F[a]], x[a], 1e-9);
 }

@@ -1,11 +1,12 @@
 // Needle geometry for the kinematic insertion model (DESIGN.md §5): locating points in the model's
-// cells, sampling the embedded shaft points along the straight path, and solving for the axial
-// values of force-controlled (sliding) points, which the stick-slip and force models need.
+// cells, sampling the embedded shaft points along the straight path, and the axial stiffness map of
+// the embedded points, which the stick-slip and force models use for force control.
 #pragma once
 
 #include <vim/simplex_mesh.hpp>
 
 #include <Eigen/Core>
+#include <Eigen/Dense>
 
 #include <array>
 #include <functional>
@@ -57,13 +58,17 @@ std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator, const
                                           const Eigen::Matrix<double, dim, 1>& axis, double depth, double pitch,
                                           const std::vector<bool>& blocked);
 
-// Force control by conjugate gradients on the axial values. `axial_force(w)` solves the model with
-// axial constraint values w (one per point) and returns the axial forces; the map is affine with a
-// symmetric positive definite matrix on the `free` entries. Finds w on the free entries such that
-// force_free = target_free (other entries of w are kept); returns the number of solves used.
-// `length_scale` (e.g. the shaft pitch) sets the size of the probing steps.
-int solve_axial_forces(std::vector<double>& w, const std::vector<bool>& free, const std::vector<double>& target,
-                       const std::function<std::vector<double>(const std::vector<double>&)>& axial_force,
-                       double length_scale, double tolerance, int max_iterations);
+// The affine map from the axial values w of a fixed set of m point constraints to their axial forces,
+// f = K w + c (the condensed stiffness of the embedded points along the needle; K is symmetric positive
+// definite). probe() measures it with m + 1 model solves (w = 0, then w = sigma·e_j); afterwards force
+// control (stick-slip, force model) is dense m×m algebra instead of one model solve per iteration.
+struct AxialMap {
+  Eigen::MatrixXd K;
+  Eigen::VectorXd c;
+  static AxialMap probe(Eigen::Index m, const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& forces, double sigma);
+  Eigen::VectorXd operator()(const Eigen::VectorXd& w) const { return K * w + c; }
+  // Sets the free entries of w so that the forces there equal target (the other entries are kept).
+  void solve_free(Eigen::VectorXd& w, const std::vector<bool>& free, const Eigen::VectorXd& target) const;
+};
 
 }  // namespace vim::pipeline
