@@ -31,6 +31,7 @@
 #include <Teuchos_ParameterList.hpp>
 
 #include <cmath>
+#include <chrono>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -914,6 +915,8 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
   check_points(points);
   prepare_solver<dim>(m, opt);
   Timer timer;
+  auto T0 = std::chrono::steady_clock::now();
+  auto lap = [&](const char* w) { static std::map<std::string,double> acc; auto T1 = std::chrono::steady_clock::now(); acc[w] += std::chrono::duration<double>(T1-T0).count(); T0 = T1; if (std::string(w)=="post") for (auto& [k,v]: acc) std::fprintf(stderr, "%s %.3f  ", k.c_str(), v); if (std::string(w)=="post") std::fprintf(stderr,"\n"); };
   unsigned iterations = 0;
   double residual = 0.0;
   if (!m.have_u0) {
@@ -965,6 +968,7 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
   // S = C K⁻¹ Cᵀ over all rows; a row is dropped (in order) when its pivot in an ordered Cholesky
   // of S vanishes: it is then a combination of the earlier kept rows (sin² of the angle < 1e-10 in
   // the K⁻¹ metric). Checked for consistency after the solve.
+  lap("rows+cols");
   const std::size_t n_all = rows.size();
   Eigen::MatrixXd S_all(n_all, n_all);
   Eigen::VectorXd r_all(n_all);
@@ -1000,6 +1004,7 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
       kept.push_back(static_cast<Eigen::Index>(a));
     }
   }
+  lap("S+select");
   std::vector<Active> used;
   for (std::size_t a = 0; a < n_all; ++a)
     if (keep[a]) used.push_back(rows[a]);
@@ -1026,11 +1031,13 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
       m.u.add(-x[a], *rows[a].col);
     }
   }
+  lap("solve+update");
   check_dropped_rows(all_rows, all_g, keep, all_which, m.u);
   m.constraints.distribute(m.u);
   m.have_solution = true;
   const double solve_seconds = timer.wall_time();
   Solution<dim> s = postprocess<dim>(m);
+  lap("post");
   s.point_force.assign(points.size(), Vec<dim>::Zero());
   for (std::size_t a = 0; a < nr; ++a) {
     s.point_force[rows[a].point][rows[a].comp] = -mu[a];

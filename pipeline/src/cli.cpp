@@ -14,6 +14,7 @@
 #include <vim/pipeline/vtk_output.hpp>
 #include <vim/quality.hpp>
 #include <vim/segmentation.hpp>
+#include <vim/sizing.hpp>
 #include <vim/version.hpp>
 #include <vim/voxel_statistics.hpp>
 #include <vim/energy.hpp>
@@ -107,6 +108,8 @@ OutputDirectory::~OutputDirectory() {
 
 namespace {
 
+std::string fmt(const char* f, ...) __attribute__((format(printf, 1, 2)));
+
 CLI::Validator half_open_unit() {
   return CLI::Validator(
       [](std::string& s) -> std::string {
@@ -158,7 +161,8 @@ Examples:
   vim-pipeline table1.mha --nodes 343 --mesher grid --out out/table1-grid
   vim-make-phantom prostate prostate.mha
   vim-pipeline prostate.mha --nodes 1000 --lambda 0.3 --out out/prostate
-  vim-pipeline prostate.mha --nodes 1000 --simulate examples/prostate_needle.yaml --out out/needle)";
+  vim-pipeline prostate.mha --nodes 1000 --simulate examples/prostate_needle.yaml --out out/needle
+)";
 
 }  // namespace
 
@@ -197,8 +201,8 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
       ->check(CLI::PositiveNumber)
       ->excludes(nodes);
   app.add_option("--lambda", o.lambda,
-                 "Weight of the image term in E = (1-λ)E_G/E_G0 + λE_D/E_D0 (default " + std::to_string(d.lambda).substr(0, 4) +
-                     "; range [0, 1); 0 = purely geometric)")
+                 fmt("Weight of the image term in E = (1-λ)E_G/E_G0 + λE_D/E_D0 (default %g; range [0, 1); "
+                     "0 = purely geometric)", d.lambda))
       ->type_name("L")
       ->check(half_open_unit());
   app.add_option("--max-dihedral", o.max_dihedral_deg,
@@ -301,7 +305,6 @@ json options_json(const RunOptions& o) {
   return j;
 }
 
-std::string fmt(const char* f, ...) __attribute__((format(printf, 1, 2)));
 std::string fmt(const char* f, ...) {
   char buf[512];
   va_list ap;
@@ -437,6 +440,8 @@ int run_dim(const RunOptions& given) {
     if (!(s.min > 0.0))
       throw InputError(o.sizing + ": sizing image has values <= 0 (min " + std::to_string(s.min) +
                        "); density must be positive everywhere");
+    if (!sizing->direction.isApprox(img.direction, 1e-6))
+      throw InputError(o.sizing + ": sizing image direction differs from IMAGE's; both must share one frame");
     report["sizing"] = image_json(*sizing, o.sizing);
   }
 
@@ -490,9 +495,11 @@ int run_dim(const RunOptions& given) {
     } else {
       // 3. VIM optimisation (paper §IV).
       if (sizing) {
-        // PLUG-IN (engineer A2): E_G-only initialisation with the density image (§VI-E) goes here,
-        // replacing `initial`; the mesher API has no sizing entry point yet.
-        Log::warning("sizing", "the mesher has no sizing entry point yet; " + o.sizing + " was read and checked but not used");
+        // E_G-only initialisation weighted by the density image (§VI-E), then VIM from there.
+        StageTimer ts(report, "sizing");
+        initial = size_initial_mesh<dim>(sizing->image, std::move(initial), vo.max_iterations, vo);
+        Log::info("sizing", fmt("density-weighted initialisation from %s done", o.sizing.c_str()));
+        ts.stop();
       }
       StageTimer t(report, "optimize");
       const auto start = std::chrono::steady_clock::now();

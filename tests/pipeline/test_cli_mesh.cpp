@@ -233,7 +233,9 @@ TEST(CliMesh, HelpVersionInfo) {
                           "--threads", "--seed", "--sizing", "--threshold", "--mesher", "--degree", "--simulate",
                           "--export", "--overwrite", "--quiet", "--verbose", "--version", "--info", "Examples:"})
     EXPECT_NE(h.out.find(opt), std::string::npos) << opt;
-  EXPECT_NE(h.out.find("default 0.3"), std::string::npos);
+  char lambda[64];
+  std::snprintf(lambda, sizeof lambda, "default %g;", vim::VimOptions{}.lambda);
+  EXPECT_NE(h.out.find(lambda), std::string::npos) << lambda;
   EXPECT_NE(h.out.find("(90, 180)"), std::string::npos);
   const auto v = run_pipeline("--version");
   EXPECT_EQ(v.code, 0);
