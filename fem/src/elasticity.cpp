@@ -30,8 +30,8 @@
 #include <Epetra_MultiVector.h>
 #include <Teuchos_ParameterList.hpp>
 
+#include <algorithm>
 #include <cmath>
-#include <chrono>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -567,6 +567,50 @@ void amg_setup(const TrilinosWrappers::SparseMatrix& K, const std::function<Poin
 // ================================================================================================
 // solving
 
+UmfpackLU::UmfpackLU(const SparseMatrix<double>& K) {
+  const auto n = static_cast<SuiteSparse_long>(K.m());
+  // K is symmetric, so its rows (CSR) are its columns (CSC); UMFPACK wants sorted indices.
+  Ap.assign(n + 1, 0);
+  for (SuiteSparse_long i = 0; i < n; ++i) Ap[i + 1] = Ap[i] + static_cast<SuiteSparse_long>(K.get_row_length(i));
+  Ai.resize(Ap[n]);
+  Ax.resize(Ap[n]);
+  std::vector<std::pair<SuiteSparse_long, double>> row;
+  for (SuiteSparse_long i = 0; i < n; ++i) {
+    row.clear();
+    for (auto it = K.begin(i); it != K.end(i); ++it) row.emplace_back(static_cast<SuiteSparse_long>(it->column()), it->value());
+    std::sort(row.begin(), row.end());
+    for (std::size_t k = 0; k < row.size(); ++k) Ai[Ap[i] + k] = row[k].first, Ax[Ap[i] + k] = row[k].second;
+  }
+  umfpack_dl_defaults(control);
+  control[UMFPACK_STRATEGY] = UMFPACK_STRATEGY_SYMMETRIC;
+  control[UMFPACK_IRSTEP] = 0;
+  double info[UMFPACK_INFO];
+  int status = umfpack_dl_symbolic(n, n, Ap.data(), Ai.data(), Ax.data(), &symbolic, control, info);
+  if (status == UMFPACK_OK) status = umfpack_dl_numeric(Ap.data(), Ai.data(), Ax.data(), symbolic, &numeric, control, info);
+  if (status != UMFPACK_OK) {
+    if (symbolic) umfpack_dl_free_symbolic(&symbolic);
+    if (numeric) umfpack_dl_free_numeric(&numeric);
+    throw std::runtime_error("UMFPACK factorisation of the stiffness matrix failed (status " + std::to_string(status) +
+                             (status == UMFPACK_WARNING_singular_matrix ? ": singular matrix)" : ")"));
+  }
+  Wi.resize(n);
+  W.resize(n);
+  b.resize(n);
+}
+
+UmfpackLU::~UmfpackLU() {
+  if (symbolic) umfpack_dl_free_symbolic(&symbolic);
+  if (numeric) umfpack_dl_free_numeric(&numeric);
+}
+
+void UmfpackLU::solve(Vector<double>& x) const {
+  std::copy(x.begin(), x.end(), b.begin());
+  double info[UMFPACK_INFO];
+  const int status = umfpack_dl_wsolve(UMFPACK_A, Ap.data(), Ai.data(), Ax.data(), x.data(), b.data(), numeric,
+                                       control, info, Wi.data(), W.data());
+  if (status != UMFPACK_OK) throw std::runtime_error("UMFPACK solve failed (status " + std::to_string(status) + ")");
+}
+
 namespace {
 
 template <int dim, class Impl>
@@ -586,8 +630,7 @@ void prepare_solver(Impl& m, const SolverOptions& opt) {
   m.columns.clear();
   Timer timer;
   if (!use_amg) {
-    m.direct = std::make_unique<SparseDirectUMFPACK>();
-    m.direct->initialize(m.K);
+    m.direct = std::make_unique<UmfpackLU>(m.K);
   } else {
     m.K_trilinos = std::make_unique<TrilinosWrappers::SparseMatrix>();
     m.K_trilinos->reinit(m.K, 0.0);
@@ -915,8 +958,6 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
   check_points(points);
   prepare_solver<dim>(m, opt);
   Timer timer;
-  auto T0 = std::chrono::steady_clock::now();
-  auto lap = [&](const char* w) { static std::map<std::string,double> acc; auto T1 = std::chrono::steady_clock::now(); acc[w] += std::chrono::duration<double>(T1-T0).count(); T0 = T1; if (std::string(w)=="post") for (auto& [k,v]: acc) std::fprintf(stderr, "%s %.3f  ", k.c_str(), v); if (std::string(w)=="post") std::fprintf(stderr,"\n"); };
   unsigned iterations = 0;
   double residual = 0.0;
   if (!m.have_u0) {
@@ -968,7 +1009,6 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
   // S = C K⁻¹ Cᵀ over all rows; a row is dropped (in order) when its pivot in an ordered Cholesky
   // of S vanishes: it is then a combination of the earlier kept rows (sin² of the angle < 1e-10 in
   // the K⁻¹ metric). Checked for consistency after the solve.
-  lap("rows+cols");
   const std::size_t n_all = rows.size();
   Eigen::MatrixXd S_all(n_all, n_all);
   Eigen::VectorXd r_all(n_all);
@@ -1004,7 +1044,6 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
       kept.push_back(static_cast<Eigen::Index>(a));
     }
   }
-  lap("S+select");
   std::vector<Active> used;
   for (std::size_t a = 0; a < n_all; ++a)
     if (keep[a]) used.push_back(rows[a]);
@@ -1031,13 +1070,11 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
       m.u.add(-x[a], *rows[a].col);
     }
   }
-  lap("solve+update");
   check_dropped_rows(all_rows, all_g, keep, all_which, m.u);
   m.constraints.distribute(m.u);
   m.have_solution = true;
   const double solve_seconds = timer.wall_time();
   Solution<dim> s = postprocess<dim>(m);
-  lap("post");
   s.point_force.assign(points.size(), Vec<dim>::Zero());
   for (std::size_t a = 0; a < nr; ++a) {
     s.point_force[rows[a].point][rows[a].comp] = -mu[a];

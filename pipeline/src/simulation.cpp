@@ -348,7 +348,8 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
   }
 
   std::vector<double> w(np, 0.0);       // axial constraint values (displacement along a)
-  std::vector<bool> picked(np, false);  // passed by the tip
+  std::vector<bool> picked(np, false), picking(np, false);  // passed by the tip (before / in this step)
+  bool have_solution = false;
   std::vector<bool> sliding(np, false); // stick-slip: force-controlled at ±limit
   std::vector<double> sign(np, 1.0);
   // Shaft length each point carries at travel d: its segment [start_j, start_j + length_j) as far as the
@@ -413,8 +414,18 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
     std::vector<double> w_stick(np, 0.0);
     std::size_t last = np;
     active.clear();
+    // Pick-up: the tip reaches a material point when it reaches the point's current position
+    // s_j + u_j·a (the tissue ahead of the tip has been pushed forward), so it never jumps back.
+    for (std::size_t j = 0; j < np && shaft[j].s < d - 1e-9 * spec.depth; ++j) {
+      if (picked[j]) continue;
+      double ua = 0.0;
+      if (have_solution) ua = model->sample({shaft[j].position})[0].dot(a);
+      if (shaft[j].s + ua >= d - 1e-9 * spec.depth) break;
+      picking[j] = true;
+    }
     for (std::size_t j = 0; j < np; ++j) {
-      if (shaft[j].s < d - 1e-9 * spec.depth) {
+      if (picked[j] || picking[j]) {
+        picking[j] = false;
         w_stick[j] = picked[j] ? w[j] + dd : d - shaft[j].s;
         if (!picked[j]) w[j] = w_stick[j];
         else if (!sliding[j]) w[j] = w_stick[j];
@@ -489,6 +500,7 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
       }
       record(d, &sol, static_cast<int>(active.size()), solves_total - solves_before);
     }
+    have_solution = !active.empty();
     run.stats = sol.stats;
     run.step_seconds.push_back(seconds_since(t_step));
     if (write && (k % sc.output_every == 0 || k == spec.steps)) {

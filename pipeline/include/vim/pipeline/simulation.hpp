@@ -5,8 +5,9 @@
 //
 // Needle models (all in the reference configuration, small strain):
 //  * kinematic / stick: shaft points s_j = entry + s·a are sampled along the path (about one per cell
-//    crossed). A point is picked up when the tip travel d passes s_j; from then on it moves with the
-//    rigid needle: u_j = (d − s_j)·a, lateral displacement 0 (it stays on the shaft). The most
+//    crossed). A point is picked up when the tip reaches its current position (s_j + u_j·a < d, with u
+//    from the previous step: tissue ahead of the tip is pushed before it is pierced); from then on it
+//    moves with the rigid needle: u_j = (d − s_j)·a, lateral displacement 0 (it stays on the shaft). The most
 //    recently picked-up point is the one the tip pushes. Pure stick drags the shaft's tissue along
 //    with the needle; it is the upper bound of tissue drag.
 //  * kinematic / stick-slip: the same, but a point whose axial load exceeds max_shear_per_length × (the
