@@ -4,6 +4,7 @@
 // usage errors (exit 2), refusal of a non-empty --out, --help/--version/--info.
 #include <vim/pipeline/image_io.hpp>
 #include <vim/pipeline/phantoms.hpp>
+#include <vim/vim.hpp>
 
 #include "run_cli.hpp"
 
