@@ -6,6 +6,8 @@
 
 #include <vim/initial_mesh.hpp>
 #include <vim/pipeline/atomic_file.hpp>
+#include <vim/pipeline/exports.hpp>
+#include <vim/pipeline/figures.hpp>
 #include <vim/pipeline/image_io.hpp>
 #include <vim/pipeline/model.hpp>
 #include <vim/pipeline/report.hpp>
@@ -404,6 +406,36 @@ RunOptions with_scenario_mesh(const RunOptions& given, const Scenario& sc) {
   return o;
 }
 
+// Figures of a needle run: axial/lateral force against depth for every needle and, on a simplex
+// model, the deformed mesh at the last step cut through the final tip position.
+template <int dim>
+void write_simulation_figures(const SimulationResult<dim>& result, const MeshModel<dim>* model, OutputDirectory& out,
+                              json& report) {
+  for (const auto& run : result.needles) {
+    if (run.depth.empty()) continue;
+    const std::string prefix = result.needles.size() > 1 ? run.name + "_" : "";
+    json& fig = report["figures"]["simulation"][run.name.empty() ? std::string("needle") : run.name];
+    fig["force"] = write_line_plot(out.file("figures/" + prefix + "needle_force.png"), run.depth,
+                                   {run.axial_force, run.lateral_force}, {"axial_force", "lateral_force"});
+    fig["force"]["file"] = "figures/" + prefix + "needle_force.png";
+    if (!run.target_displacement.empty() && !run.target_displacement.front().empty()) {
+      std::vector<std::vector<double>> series(run.target_displacement.front().size());
+      for (const auto& step : run.target_displacement)
+        for (std::size_t t = 0; t < step.size() && t < series.size(); ++t) series[t].push_back(step[t].norm());
+      fig["targets"] = write_line_plot(out.file("figures/" + prefix + "target_displacement.png"), run.depth, series);
+      fig["targets"]["file"] = "figures/" + prefix + "target_displacement.png";
+    }
+    if (model && !run.vertex_displacement.empty() && run.vertex_displacement.back().size() == model->mesh.n_points()) {
+      std::vector<Eigen::Matrix<double, dim, 1>> u;
+      u.reserve(model->mesh.n_points());
+      for (const auto& w : run.vertex_displacement.back()) u.push_back(model->transform.vector_to_frame(w));
+      const Eigen::Matrix<double, dim, 1> tip = model->transform.to_frame(run.tip.back());
+      fig["deformed"] = write_deformed_slice<dim>(*model, u, out.file("figures/" + prefix + "deformed.png"), tip);
+      fig["deformed"]["file"] = "figures/" + prefix + "deformed.png";
+    }
+  }
+}
+
 template <int dim>
 int run_dim(const RunOptions& given) {
   // The scenario is read and checked before anything is written.
@@ -458,6 +490,7 @@ int run_dim(const RunOptions& given) {
   }
 
   UnstructuredGrid grid;
+  std::vector<IterationRecord> energy_history;
   if (o.mesher == MesherKind::voxel) {
     // The fine voxel model. PLUG-IN (engineer D/B): with --simulate, the voxel reference model
     // is built by the simulation stage from `img`; mesh-only mode writes the voxel grid itself.
@@ -468,7 +501,9 @@ int run_dim(const RunOptions& given) {
     if (scenario) {
       StageTimer ts(report, "simulate");
       NeedleSimulation<dim> sim = NeedleSimulation<dim>::voxel(img.image, model.transform, *scenario, sim_options);
-      report["simulation"] = sim.run().report;
+      const SimulationResult<dim> result = sim.run();
+      report["simulation"] = result.report;
+      write_simulation_figures<dim>(result, nullptr, out, report);
       ts.stop();
     }
   } else {
@@ -518,6 +553,7 @@ int run_dim(const RunOptions& given) {
         Log::warning("vim", "the image is constant inside the box (E_D0 = 0): the mesh is optimised for E_G only");
       model.mesh = std::move(result.mesh);
       model.values = std::move(result.values);
+      energy_history = result.history;
       report["optimization"] = {{"iterations", result.history.empty() ? 0 : result.history.back().iteration},
                                 {"converged", result.converged},
                                 {"eg0", result.eg0},
@@ -555,7 +591,9 @@ int run_dim(const RunOptions& given) {
       StageTimer t(report, "simulate");
       NeedleSimulation<dim> sim(model, *scenario, sim_options);  // validates against the mesh first
       model.youngs_modulus = sim.youngs_modulus();
-      report["simulation"] = sim.run().report;
+      const SimulationResult<dim> result = sim.run();
+      report["simulation"] = result.report;
+      write_simulation_figures<dim>(result, &model, out, report);
       t.stop();
     }
 
@@ -586,9 +624,25 @@ int run_dim(const RunOptions& given) {
   // 6. Writers.
   StageTimer t_write(report, "write");
   write_vtu(out.file("mesh.vtu"), grid);
-  // PLUG-IN (engineer E): exports and figures, e.g.
-  //    write_exports<dim>(model, o, out, report);   (exports.hpp; o.exports lists the formats)
-  //    write_figures<dim>(img, model, o, out, report);   (figures.hpp)
+  if (o.mesher != MesherKind::voxel) {
+    // Exports for other tools (world coordinates, material bins) and the figures.
+    if (!o.exports.empty()) {
+      for (const auto& f : o.exports)
+        if (!(dim == 2 && f == "feb")) out.file("mesh." + f);
+      write_exports<dim>(model, out.path(), o.exports, report);
+      for (auto& [fmt_name, path] : report["exports"]["files"].items()) path = "mesh." + fmt_name;
+    }
+    if (dim == 3)
+      for (const char* name : {"sagittal", "coronal", "axial"}) out.file(std::string("figures/slice_") + name + ".png");
+    else
+      for (const char* name : {"mesh_overlay", "discretized"}) out.file(std::string("figures/") + name + ".png");
+    write_mesh_figures<dim>(img, model, out.path(), nullptr, report);
+    if (report.contains("optimization")) {
+      std::vector<IterationRecord> history = energy_history;
+      if (history.size() >= 2)
+        report["figures"]["energy"] = write_energy_plot(history, out.file("figures/energy.png"));
+    }
+  }
   t_write.stop();
 
   report["timing"]["total"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_total).count();
