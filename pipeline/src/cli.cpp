@@ -456,9 +456,10 @@ int run_dim(const RunOptions& given) {
   const OrientedImage<dim> img = read_image<dim>(o.image);
   t_read.stop();
   report["input"] = image_json(img, o.image);
-  Log::info("image", fmt("%s: %dD, %zu voxels, values %.4g..%.4g", o.image.c_str(), dim, img.image.voxel_count(),
-                         report["input"]["values"]["min"].get<double>(), report["input"]["values"]["max"].get<double>()));
   check_meshable(img, o.image);
+  if (o.mesher != MesherKind::voxel && o.spacing <= 0.0 && o.nodes < (1L << dim))
+    throw InputError("--nodes " + std::to_string(o.nodes) + ": a " + std::to_string(dim) + "D mesh needs at least " +
+                     std::to_string(1 << dim) + " nodes (2 per axis)");
   const VimOptions vo = o.vim_options();
   vo.validate();
 
@@ -488,6 +489,10 @@ int run_dim(const RunOptions& given) {
     sim_options.output_file = [&out](const std::string& rel) { return out.file(rel); };
     sim_options.degree = static_cast<unsigned>(o.degree);
   }
+
+  // Every input is checked; from here on progress goes to stderr.
+  Log::info("image", fmt("%s: %dD, %zu voxels, values %.4g..%.4g", o.image.c_str(), dim, img.image.voxel_count(),
+                         report["input"]["values"]["min"].get<double>(), report["input"]["values"]["max"].get<double>()));
 
   UnstructuredGrid grid;
   std::vector<IterationRecord> energy_history;

@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <iostream>
 #include <sstream>
 #include <unistd.h>
 
@@ -37,6 +38,26 @@ std::string one_line(const std::string& text) {
   const auto e = s.find_last_not_of(' ');
   return b == std::string::npos ? std::string() : s.substr(b, e - b + 1);
 }
+
+// MetaIO reports some errors only on std::cerr/std::cout (a truncated voxel block is read without an
+// exception). While alive, captures both streams so the messages can be checked and folded into one
+// error line instead of reaching the user's terminal.
+class StreamCapture {
+ public:
+  StreamCapture() : old_err_(std::cerr.rdbuf(err_.rdbuf())), old_out_(std::cout.rdbuf(out_.rdbuf())) {}
+  ~StreamCapture() {
+    std::cerr.rdbuf(old_err_);
+    std::cout.rdbuf(old_out_);
+  }
+  StreamCapture(const StreamCapture&) = delete;
+  StreamCapture& operator=(const StreamCapture&) = delete;
+  std::string text() const { return err_.str() + out_.str(); }
+
+ private:
+  std::ostringstream err_, out_;
+  std::streambuf* old_err_;
+  std::streambuf* old_out_;
+};
 
 const char* supported_formats() { return "MetaImage (.mha/.mhd), NRRD (.nrrd/.nhdr) or NIfTI (.nii/.nii.gz)"; }
 
@@ -63,10 +84,15 @@ itk::ImageIOBase::Pointer open_header(const std::string& path) {
     throw InputError(path + ": not a readable image (unknown format or corrupt header); expected " +
                      supported_formats());
   io->SetFileName(path);
-  try {
-    io->ReadImageInformation();
-  } catch (const itk::ExceptionObject& e) {
-    throw InputError(path + ": cannot read the image header: " + one_line(e.GetDescription()));
+  {
+    StreamCapture capture;
+    try {
+      io->ReadImageInformation();
+    } catch (const itk::ExceptionObject& e) {
+      const std::string detail = one_line(capture.text());
+      throw InputError(path + ": cannot read the image header: " + (detail.empty() ? "" : detail + "; ") +
+                       one_line(e.GetDescription()));
+    }
   }
   const unsigned d = io->GetNumberOfDimensions();
   if (d != 2 && d != 3)
@@ -115,11 +141,18 @@ RawImage read_dim(const std::string& path, itk::ImageIOBase::Pointer io) {
   auto reader = itk::ImageFileReader<ItkImage>::New();
   reader->SetImageIO(io);
   reader->SetFileName(path);
-  try {
-    reader->Update();
-  } catch (const itk::ExceptionObject& e) {
-    throw InputError(path + ": cannot read the voxel data (truncated or corrupt file?): " +
-                     one_line(e.GetDescription()));
+  {
+    StreamCapture capture;
+    try {
+      reader->Update();
+    } catch (const itk::ExceptionObject& e) {
+      throw InputError(path + ": cannot read the voxel data (truncated or corrupt file?): " +
+                       one_line(capture.text() + " " + e.GetDescription()));
+    }
+    const std::string said = capture.text();
+    if (said.find("not read completely") != std::string::npos)
+      throw InputError(path + ": cannot read the voxel data: truncated (the file holds fewer bytes than the header declares: " +
+                       one_line(said) + ")");
   }
   typename ItkImage::Pointer img = reader->GetOutput();
   RawImage out;
