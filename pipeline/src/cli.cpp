@@ -147,11 +147,16 @@ CLI::Validator open_interval(double lo, double hi) {
       desc);
 }
 
-const char* kFooter = R"(Outputs (in DIR):
-  mesh.vtu     the mesh in world coordinates (image direction applied); cell data mean, variance,
-               voxels, quality (3D: max dihedral angle, 2D: min angle, degrees), with --threshold
-               also segment and object; point data boundary (number of box faces a node lies on)
-  report.json  input, options, mesh counts and quality, energy history, timings (see README)
+const char* kFooter = R"(Outputs (in DIR; all in world coordinates, every file written under a temporary name):
+  mesh.vtu     the mesh (image direction applied); cell data mean, variance, voxels, quality (3D: max
+               dihedral angle, 2D: min angle, degrees), youngs_modulus with --simulate, with
+               --threshold also segment and object; point data boundary (box faces a node lies on)
+  mesh.vtk mesh.feb mesh.msh mesh.inp
+               exports (--export): deal.II GridIn (legacy 3.0, MaterialID), FEBio, Gmsh 4.1, Abaqus
+  figures/     PNG: image slices beside the mesh cross-section, energy history; with --simulate
+               force and target displacement vs depth and the deformed mesh at the last step
+  simulation.pvd, steps/step_NNNN.vtu, needle.csv   with --simulate (open the .pvd in ParaView)
+  report.json  input, options, mesh counts and quality, energy history, simulation, timings (README)
   A non-empty DIR is refused unless --overwrite; a failed run removes the files it wrote.
 
 Exit status: 0 success, 1 bad input or failure (one 'vim-pipeline: error:' line), 2 usage error.

@@ -1,0 +1,256 @@
+// The main job through the real CLI: `vim-pipeline IMAGE --simulate SCENARIO --out DIR` on an image
+// with an oblique direction and anisotropic spacing. Positions and vectors are checked in world
+// coordinates computed here from the image header (independently of the pipeline's transform code);
+// figures are checked for content. Also: the README's option and scenario references agree with
+// the program (--help, the scenario parser).
+#include <vim/pipeline/image_io.hpp>
+#include <vim/pipeline/phantoms.hpp>
+#include <vim/pipeline/png.hpp>
+#include <vim/pipeline/scenario.hpp>
+
+#include "run_cli.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <vtkCellData.h>
+#include <vtkDataArray.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkSmartPointer.h>
+#include <vtkUnstructuredGrid.h>
+#include <vtkXMLUnstructuredGridReader.h>
+
+#include <cmath>
+#include <fstream>
+#include <regex>
+#include <set>
+#include <sstream>
+
+using namespace vim;
+using namespace vim::pipeline;
+using vim::test::quote;
+using vim::test::run_pipeline;
+namespace fs = std::filesystem;
+
+namespace {
+
+Eigen::Matrix3d oblique() {
+  const Eigen::Vector3d k = Eigen::Vector3d(1, 2, -2).normalized();
+  Eigen::Matrix3d K;
+  K << 0, -k.z(), k.y(), k.z(), 0, -k.x(), -k.y(), k.x(), 0;
+  const double t = 0.7;
+  return Eigen::Matrix3d::Identity() + std::sin(t) * K + (1 - std::cos(t)) * K * K;
+}
+
+// world = origin + D·(idx ⊙ spacing), voxel centres at integer idx.
+Eigen::Vector3d world_of_index(const OrientedImage<3>& im, const Eigen::Vector3d& idx) {
+  Eigen::Vector3d o, s;
+  for (int a = 0; a < 3; ++a) o[a] = im.image.origin[a], s[a] = im.image.spacing[a];
+  return o + im.direction * idx.cwiseProduct(s);
+}
+
+std::string yaml_vec(const Eigen::Vector3d& v) {
+  std::ostringstream s;
+  s.precision(17);
+  s << "[" << v[0] << ", " << v[1] << ", " << v[2] << "]";
+  return s.str();
+}
+
+vtkSmartPointer<vtkUnstructuredGrid> read_vtu(const fs::path& path) {
+  vtkNew<vtkXMLUnstructuredGridReader> r;
+  r->SetFileName(path.string().c_str());
+  r->Update();
+  vtkSmartPointer<vtkUnstructuredGrid> g = r->GetOutput();
+  return g;
+}
+
+std::vector<std::vector<std::string>> read_csv(const fs::path& path) {
+  std::ifstream f(path);
+  std::vector<std::vector<std::string>> rows;
+  std::string line;
+  while (std::getline(f, line)) {
+    std::vector<std::string> row;
+    std::stringstream ss(line);
+    std::string cell;
+    while (std::getline(ss, cell, ',')) row.push_back(cell);
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// Per-channel variance of the pixels: 0 for a blank image.
+double pixel_variance(const Canvas& c) {
+  double s = 0, s2 = 0;
+  const double n = 3.0 * c.width() * c.height();
+  for (int y = 0; y < c.height(); ++y)
+    for (int x = 0; x < c.width(); ++x) {
+      const Rgb p = c.at(x, y);
+      for (double v : {double(p.r), double(p.g), double(p.b)}) s += v, s2 += v * v;
+    }
+  return s2 / n - (s / n) * (s / n);
+}
+
+std::string section(const std::string& text, const std::string& heading) {
+  const auto b = text.find(heading);
+  if (b == std::string::npos) return {};
+  const auto e = text.find("\n## ", b + heading.size());
+  return text.substr(b, e == std::string::npos ? std::string::npos : e - b);
+}
+
+std::set<std::string> long_options(const std::string& text) {
+  std::set<std::string> out;
+  const std::regex re("--[a-z][a-z-]*[a-z]");
+  for (auto it = std::sregex_iterator(text.begin(), text.end(), re); it != std::sregex_iterator(); ++it)
+    out.insert(it->str());
+  return out;
+}
+
+}  // namespace
+
+TEST(CliSimulate, ObliqueAnisotropicNeedleRunWritesWorldResultsAndFigures) {
+  vim::test::TempDir dir("clisim");
+  auto im = phantoms::table1(12);  // sphere (2.0) in 1.0; 12³ voxels
+  im.image.spacing = {2.0, 1.5, 2.5};
+  im.image.origin = {3.0, -1.0, 12.0};
+  im.direction = oblique();
+  write_image(im, dir / "in.mha");
+
+  // Needle along the image's first index axis through the middle, from the x_min face; x_max held.
+  // (The force's growth with depth is tested on refined meshes in test_simulation.cpp.)
+  const Eigen::Vector3d entry_idx(-0.5, 5.5, 5.5), target_idx(8.0, 5.5, 5.5), fixed_idx(11.5, 1.0, 2.0);
+  const Eigen::Vector3d entry = world_of_index(im, entry_idx);
+  const Eigen::Vector3d dir_w = (world_of_index(im, entry_idx + Eigen::Vector3d::UnitX()) - entry).normalized();
+  const double extent_x = 12 * 2.0, depth = 0.55 * extent_x;
+  const int steps = 6;
+  {
+    std::ofstream f(dir / "needle.yaml");
+    f << "units: {length: mm, modulus: kPa}\n"
+         "material: {youngs_modulus: image, scale: 10.0, poisson_ratio: 0.45}\n"
+         "boundary_conditions:\n"
+         "  - {type: fixed, region: {box_face: x_max}}\n"
+         "needle:\n"
+         "  entry: "
+      << yaml_vec(entry) << "\n  direction: " << yaml_vec(dir_w) << "\n  depth: " << depth
+      << "\n  steps: " << steps
+      << "\n  diameter: 1.27\n  model: kinematic\n  friction: {model: stick}\n"
+         "targets:\n  - {name: ahead, position: "
+      << yaml_vec(world_of_index(im, target_idx)) << "}\n  - {name: corner, position: "
+      << yaml_vec(world_of_index(im, fixed_idx)) << "}\noutput: {every: 2}\n";
+  }
+  const fs::path out = dir.path / "out";
+  const auto r = run_pipeline(quote(dir / "in.mha") + " --nodes 100 --max-iterations 3 --simulate " +
+                              quote(dir / "needle.yaml") + " --out " + quote(out.string()));
+  ASSERT_EQ(r.code, 0) << r.err;
+
+  for (const char* f : {"mesh.vtu", "mesh.vtk", "mesh.msh", "mesh.inp", "mesh.feb", "simulation.pvd", "needle.csv",
+                        "report.json", "steps/step_0000.vtu", "steps/step_0006.vtu"})
+    EXPECT_TRUE(fs::is_regular_file(out / f)) << f;
+
+  // Figures: present, of a plausible size, not blank.
+  for (const char* f : {"slice_sagittal", "slice_coronal", "slice_axial", "energy", "needle_force",
+                        "target_displacement", "deformed"}) {
+    const fs::path p = out / "figures" / (std::string(f) + ".png");
+    ASSERT_TRUE(fs::is_regular_file(p)) << p;
+    const Canvas c = Canvas::read_png(p);
+    EXPECT_GE(c.width(), 100) << f;
+    EXPECT_GE(c.height(), 100) << f;
+    EXPECT_GT(pixel_variance(c), 1.0) << f << " is blank";
+  }
+
+  // needle.csv: the tip follows entry + depth·direction in world coordinates; the axial force grows.
+  const auto csv = read_csv(out / "needle.csv");
+  ASSERT_EQ(csv.size(), static_cast<std::size_t>(steps + 2));
+  const auto& head = csv[0];
+  auto col = [&](const std::string& name) {
+    const auto it = std::find(head.begin(), head.end(), name);
+    EXPECT_NE(it, head.end()) << name;
+    return static_cast<std::size_t>(it - head.begin());
+  };
+  const std::size_t cd = col("depth"), cx = col("tip_x"), cf = col("axial_force"), cad = col("ahead_dx"),
+                    cn = col("corner_norm");
+  double last_force = 0.0;
+  for (int k = 0; k <= steps; ++k) {
+    const auto& row = csv[k + 1];
+    const double d = std::stod(row[cd]);
+    EXPECT_NEAR(d, depth * k / steps, 1e-9 * depth);
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(std::stod(row[cx + a]), entry[a] + d * dir_w[a], 1e-7) << k;
+    last_force = std::stod(row[cf]);
+    EXPECT_TRUE(std::isfinite(last_force)) << k;
+  }
+  EXPECT_GT(last_force, 0.0);
+  // The target ahead of the tip is pushed forward along the needle (world axes); a point on the
+  // fixed face (x_max) does not move.
+  const auto& final_row = csv.back();
+  const Eigen::Vector3d u_ahead(std::stod(final_row[cad]), std::stod(final_row[cad + 1]), std::stod(final_row[cad + 2]));
+  EXPECT_GT(u_ahead.dot(dir_w), 0.7 * u_ahead.norm()) << u_ahead.transpose();
+  EXPECT_GT(u_ahead.norm(), 1e-3);
+  EXPECT_LT(std::stod(final_row[cn]), 1e-9 * u_ahead.norm() + 1e-12);
+
+  // Step files: the same world points as mesh.vtu; the point of largest displacement moves along the needle.
+  const auto mesh = read_vtu(out / "mesh.vtu");
+  const auto step = read_vtu(out / "steps" / "step_0006.vtu");
+  ASSERT_EQ(step->GetNumberOfPoints(), mesh->GetNumberOfPoints());
+  for (vtkIdType i = 0; i < mesh->GetNumberOfPoints(); ++i) {
+    double p[3], q[3];
+    mesh->GetPoint(i, p);
+    step->GetPoint(i, q);
+    for (int a = 0; a < 3; ++a) ASSERT_NEAR(p[a], q[a], 1e-9);
+  }
+  vtkDataArray* u = step->GetPointData()->GetArray("displacement");
+  ASSERT_NE(u, nullptr);
+  ASSERT_EQ(u->GetNumberOfComponents(), 3);
+  for (const char* name : {"strain", "stress", "von_mises", "youngs_modulus"})
+    EXPECT_NE(step->GetCellData()->GetArray(name), nullptr) << name;
+  ASSERT_NE(mesh->GetCellData()->GetArray("youngs_modulus"), nullptr);
+  Eigen::Vector3d umax = Eigen::Vector3d::Zero();
+  for (vtkIdType i = 0; i < step->GetNumberOfPoints(); ++i) {
+    const double* t = u->GetTuple3(i);
+    const Eigen::Vector3d v(t[0], t[1], t[2]);
+    if (v.norm() > umax.norm()) umax = v;
+  }
+  EXPECT_GT(umax.norm(), 0.0);
+  EXPECT_GT(umax.dot(dir_w), 0.7 * umax.norm()) << umax.transpose();
+
+  // report.json: the simulation, the exports and the figures are recorded.
+  const auto rep = nlohmann::json::parse(vim::test::slurp(out / "report.json"));
+  EXPECT_TRUE(rep.contains("simulation"));
+  EXPECT_TRUE(rep["timing"].contains("simulate"));
+  for (const char* f : {"vtk", "msh", "inp", "feb"}) EXPECT_EQ(rep["exports"]["files"][f], std::string("mesh.") + f);
+  EXPECT_TRUE(rep["figures"].contains("energy"));
+  EXPECT_TRUE(rep["figures"]["simulation"].contains("needle"));
+  std::set<std::string> listed(rep["outputs"].begin(), rep["outputs"].end());
+  for (const char* f : {"figures/deformed.png", "figures/needle_force.png", "mesh.feb", "needle.csv"})
+    EXPECT_TRUE(listed.count(f)) << f;
+}
+
+TEST(CliSimulate, ReadmeOptionTableMatchesHelp) {
+  const std::string readme = vim::test::slurp(fs::path(VIM_SOURCE_DIR) / "README.md");
+  const std::string table = section(readme, "## Options");
+  ASSERT_FALSE(table.empty()) << "README.md has no '## Options' section";
+  const auto h = run_pipeline("--help");
+  ASSERT_EQ(h.code, 0);
+  const std::string help = h.out.substr(0, h.out.find("Outputs ("));  // the option list only
+  const auto in_readme = long_options(table), in_help = long_options(help);
+  EXPECT_GE(in_help.size(), 15u);
+  for (const auto& o : in_help) EXPECT_TRUE(in_readme.count(o)) << o << " is in --help but not in README's Options";
+  for (const auto& o : in_readme) EXPECT_TRUE(in_help.count(o)) << o << " is in README's Options but not in --help";
+}
+
+TEST(CliSimulate, ReadmeScenarioReferenceParses) {
+  const std::string readme = vim::test::slurp(fs::path(VIM_SOURCE_DIR) / "README.md");
+  const std::string sec = section(readme, "## Scenario file");
+  const auto b = sec.find("```yaml\n");
+  ASSERT_NE(b, std::string::npos) << "README.md's scenario section has no yaml block";
+  const auto e = sec.find("```", b + 8);
+  const std::string yaml = sec.substr(b + 8, e - b - 8);
+  const Scenario sc = parse_scenario_text(yaml, 3, "README.md");
+  EXPECT_EQ(sc.boundary_conditions.size(), 7u);
+  ASSERT_EQ(sc.needles.size(), 1u);
+  EXPECT_EQ(sc.targets.size(), 1u);
+  EXPECT_EQ(sc.nodes.value_or(0), 3000);
+  EXPECT_NEAR(sc.needles[0].depth, 40.0, 0);
+  EXPECT_EQ(sc.solver_type, "auto");
+  // Every top-level key of the reference is one the parser knows (it would have thrown otherwise);
+  // and the shipped example parses too.
+  EXPECT_NO_THROW(read_scenario((fs::path(VIM_SOURCE_DIR) / "examples" / "prostate_needle.yaml").string(), 3));
+}
