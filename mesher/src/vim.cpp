@@ -318,7 +318,9 @@ VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const
     r.seconds = std::chrono::duration<double>(clock::now() - t0).count();
     result.history.push_back(r);
     if (progress) progress(r);
-    if (r.v < options.convergence && to_insert == 0) {
+    // Eq. 9 measures node motion only; a swap changes the 1-rings and typically unlocks further node
+    // moves, so the run is converged only once an iteration also changed no connectivity.
+    if (r.v < options.convergence && r.swaps == 0 && to_insert == 0) {
       result.converged = true;
       break;
     }
