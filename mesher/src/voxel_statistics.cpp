@@ -203,6 +203,19 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::sums(const Simplex& x)
     }
     pending = 0;
   };
+  auto add_row = [&](long a, long b) {
+    if (a > b) return;
+    long row = 0;
+    if constexpr (dim == 2) row = j[1];
+    if constexpr (dim == 3) row = j[1] + image_->size[1] * j[2];
+    const double* p = prefix_.data() + 2 * row * row_length_;
+    out.n += b - a + 1;
+    span_lo[pending] = p + 2 * a;
+    span_hi[pending] = p + 2 * (b + 1);
+    __builtin_prefetch(span_lo[pending]);
+    __builtin_prefetch(span_hi[pending]);
+    if (++pending == kBatch) flush();
+  };
   auto clip_row = [&]() {
     long a = f.lo[0], b = f.hi[0];
     bool decided = false;
@@ -281,18 +294,7 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::sums(const Simplex& x)
         b = t1;
       }
     }
-    if (a <= b) {
-      long row = 0;
-      if constexpr (dim == 2) row = j[1];
-      if constexpr (dim == 3) row = j[1] + image_->size[1] * j[2];
-      const double* p = prefix_.data() + 2 * row * row_length_;
-      out.n += b - a + 1;
-      span_lo[pending] = p + 2 * a;
-      span_hi[pending] = p + 2 * (b + 1);
-      __builtin_prefetch(span_lo[pending]);
-      __builtin_prefetch(span_hi[pending]);
-      if (++pending == kBatch) flush();
-    }
+    add_row(a, b);
   };
   if constexpr (dim == 2) {
     for (j[1] = f.lo[1]; j[1] <= f.hi[1]; ++j[1]) clip_row();
@@ -323,7 +325,37 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::sums(const Simplex& x)
       }
       const long r0 = std::max(f.lo[1], ceil_long(std::max(ymin - f.margin, static_cast<double>(f.lo[1]) - 1.0)));
       const long r1 = std::min(f.hi[1], floor_long(std::min(ymax + f.margin, static_cast<double>(f.hi[1]) + 1.0)));
-      for (j[1] = r0; j[1] <= r1; ++j[1]) clip_row();
+      if (!f.all_fast) {
+        for (j[1] = r0; j[1] <= r1; ++j[1]) clip_row();
+        continue;
+      }
+      // Inlined fast path of clip_row: per slab, each face's crossing is linear in j_1. Rows whose
+      // bounds fall within 1e-6 of a voxel centre (possible ties) take clip_row's exact path; the
+      // fast bounds are only trusted away from ties, so rounding here cannot change a result.
+      std::array<double, dim + 1> c0, s1;
+      for (int i = 0; i <= dim; ++i) {
+        c0[i] = f.cross0[i] + f.slope[i][2] * z;
+        s1[i] = f.slope[i][1];
+      }
+      const double lo0 = static_cast<double>(f.lo[0]) - 0.5, hi0 = static_cast<double>(f.hi[0]) + 0.5;
+      for (j[1] = r0; j[1] <= r1; ++j[1]) {
+        const double y = static_cast<double>(j[1]);
+        double lower = lo0, upper = hi0;
+        for (int i = 0; i <= dim; ++i) {
+          const double t = c0[i] + s1[i] * y;
+          if (f.normal[i][0] > 0.0)
+            lower = std::max(lower, t);
+          else
+            upper = std::min(upper, t);
+        }
+        if (lower > upper + 1e-6) continue;
+        const long fl = floor_long(lower), fu = floor_long(upper);
+        const double rl = lower - static_cast<double>(fl), ru = upper - static_cast<double>(fu);
+        if (rl > 1e-6 && rl < 1.0 - 1e-6 && ru > 1e-6 && ru < 1.0 - 1e-6)
+          add_row(fl + 1, fu);
+        else
+          clip_row();
+      }
     }
   }
   flush();
