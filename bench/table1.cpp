@@ -3,7 +3,8 @@
 // counts of the thresholded sphere (§VI-B), computed by the independent code in metrics.hpp,
 // printed beside the paper's VIM rows.
 //
-//   table1 [--n 100] [--lambda 0.3] [--max-iterations 50] [--convergence 1e-3] [--threads 0] [nodes ...]
+//   table1 [--n 100] [--lambda 0.5] [--max-iterations 50] [--convergence 1e-3] [--threads 0]
+//          [--line-search-step 0.5] [--random-walk SAMPLES] [nodes ...]
 #include "metrics.hpp"
 
 #include <vim/initial_mesh.hpp>
@@ -61,6 +62,11 @@ int main(int argc, char** argv) try {
     else if (!std::strcmp(argv[i], "--max-iterations")) options.max_iterations = std::atoi(value("--max-iterations"));
     else if (!std::strcmp(argv[i], "--convergence")) options.convergence = std::atof(value("--convergence"));
     else if (!std::strcmp(argv[i], "--threads")) options.threads = std::atoi(value("--threads"));
+    else if (!std::strcmp(argv[i], "--line-search-step")) options.line_search_step = std::atof(value("--line-search-step"));
+    else if (!std::strcmp(argv[i], "--random-walk")) {
+      options.strategy = vim::VimOptions::NodeStrategy::random_walk;
+      options.random_walk_samples = std::atoi(value("--random-walk"));
+    }
     else budgets.push_back(std::atol(argv[i]));
   }
   if (budgets.empty()) budgets = {125, 343, 4096};
