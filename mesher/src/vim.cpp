@@ -318,9 +318,9 @@ VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const
     r.seconds = std::chrono::duration<double>(clock::now() - t0).count();
     result.history.push_back(r);
     if (progress) progress(r);
-    // Eq. 9 measures node motion only; a swap changes the 1-rings and typically unlocks further node
-    // moves, so the run is converged only once an iteration also changed no connectivity.
-    if (r.v < options.convergence && r.swaps == 0 && to_insert == 0) {
+    // Eq. 9 alone (node motion). Also requiring an iteration without swaps was tried: Table I TF was
+    // unchanged (2.67% at 343, 0.50% at 4096 nodes) while 4096 nodes took 23 instead of ~9 iterations.
+    if (r.v < options.convergence && to_insert == 0) {
       result.converged = true;
       break;
     }
