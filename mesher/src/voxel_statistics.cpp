@@ -138,7 +138,15 @@ bool VoxelStatistics<dim>::prepare(const Simplex& x, Faces& f) const {
     std::array<Point, dim> v;
     for (int k = 0, m = 0; k <= dim; ++k)
       if (k != i) v[m++] = c[k];
-    std::sort(v.begin(), v.end(), lex_less<dim>);
+    // Canonical order by a compare-swap network (same result as std::sort: the order is total).
+    auto order = [&](int p, int q) {
+      if (lex_less<dim>(v[q], v[p])) std::swap(v[p], v[q]);
+    };
+    order(0, 1);
+    if constexpr (dim == 3) {
+      order(1, 2);
+      order(0, 1);
+    }
     Point n = face_normal(v);
     double face_size = centre_size;
     for (const Point& p : v) face_size = std::max(face_size, p.cwiseAbs().maxCoeff());
