@@ -1,0 +1,286 @@
+// Issue 8, prostate scenario: VIM vs regular grid (same node count) against the fine voxel
+// reference (one Q1 cell per voxel, E = voxel value) on the prostate phantom, for
+//   (a) the needle insertion of examples/prostate_needle.yaml (NeedleSimulation, same scenario for
+//       all three models; the embedded shaft points are sampled per mesh, see the doc), and
+//   (b) a compression load: x_max face clamped, x_min face pushed by 5% of the length along +x
+//       (other components free), ν and Eq. 15 moduli as in the scenario.
+// Error metrics: relative L2 = sqrt(Σ|u − u_ref|² / Σ|u_ref|²) over voxel centres (all, and those in
+// the gland ellipsoid), max |u − u_ref| / max |u_ref| over all voxel centres, and |u − u_ref| at each
+// scenario target (needle only).
+//
+//   validate_needle [--n 40] [--steps 12] [--scenario examples/prostate_needle.yaml]
+//                   [--plots DIR] [--skip-needle] [--skip-compression] [nodes ...]
+#include <vim/fem/elasticity.hpp>
+#include <vim/initial_mesh.hpp>
+#include <vim/pipeline/figures.hpp>
+#include <vim/pipeline/phantoms.hpp>
+#include <vim/pipeline/scenario.hpp>
+#include <vim/pipeline/simulation.hpp>
+#include <vim/vim.hpp>
+#include <vim/voxel_statistics.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace {
+
+using namespace vim;
+using namespace vim::pipeline;
+using V3 = Eigen::Vector3d;
+using Clock = std::chrono::steady_clock;
+
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+struct Samples {
+  std::vector<V3> points;    // frame coordinates (voxel centres)
+  std::vector<bool> gland;   // inside the gland ellipsoid
+};
+
+struct Err {
+  double rel_all = 0, rel_gland = 0, max_rel = 0;
+  std::vector<double> target;  // |u − u_ref| at each target (needle)
+};
+
+Err compare(const std::vector<V3>& u, const std::vector<V3>& ref, const Samples& s) {
+  Err e;
+  double na = 0, da = 0, ng = 0, dg = 0, mx = 0, mref = 0;
+  for (std::size_t k = 0; k < ref.size(); ++k) {
+    const double d2 = (u[k] - ref[k]).squaredNorm(), r2 = ref[k].squaredNorm();
+    na += d2, da += r2;
+    if (s.gland[k]) ng += d2, dg += r2;
+    mx = std::max(mx, std::sqrt(d2));
+    mref = std::max(mref, std::sqrt(r2));
+  }
+  e.rel_all = da > 0 ? std::sqrt(na / da) : 0.0;
+  e.rel_gland = dg > 0 ? std::sqrt(ng / dg) : 0.0;
+  e.max_rel = mref > 0 ? mx / mref : 0.0;
+  return e;
+}
+
+struct Meshes {
+  std::size_t nodes = 0, cells_grid = 0, cells_vim = 0;
+  MeshModel<3> grid, vim;
+  double vim_seconds = 0;
+};
+
+Meshes make_meshes(const OrientedImage<3>& img, long budget, double lambda) {
+  Meshes m;
+  const auto lo = img.image.box_min(), hi = img.image.box_max();
+  const auto axis = nodes_per_axis_for_budget<3>(lo, hi, budget);
+  const SimplexMesh<3> initial = regular_grid_mesh<3>(lo, hi, axis);
+  const VoxelStatistics<3> stats(img.image);
+  for (MeshModel<3>* mm : {&m.grid, &m.vim}) {
+    mm->transform.origin = img.origin();
+    mm->transform.direction = img.direction;
+  }
+  m.grid.mesh = initial;
+  for (std::size_t c = 0; c < initial.n_cells(); ++c) m.grid.values.push_back(stats.value(cell_points(initial, c)));
+  VimOptions vo;
+  vo.lambda = lambda;
+  const auto t = Clock::now();
+  VimResult<3> r = optimize<3>(img.image, initial, vo);
+  m.vim_seconds = since(t);
+  m.vim.mesh = std::move(r.mesh);
+  m.vim.values = std::move(r.values);
+  m.nodes = initial.n_points();
+  m.cells_grid = initial.n_cells();
+  m.cells_vim = m.vim.mesh.n_cells();
+  return m;
+}
+
+// ---- compression -------------------------------------------------------------------------------
+constexpr double kStrain = 0.05;
+
+void add_compression(fem::ElasticModel<3>& model, const V3& lo, const V3& hi) {
+  const double tol = 1e-6 * (hi - lo).norm();
+  model.add_dirichlet(fem::DirichletBC<3>{fem::box_face_region<3>(lo, hi, 0, true, tol)});
+  fem::DirichletBC<3> push{fem::box_face_region<3>(lo, hi, 0, false, tol)};
+  push.components = fem::DirichletBC<3>::filled(false);
+  push.components[0] = true;
+  push.value = V3(kStrain * (hi[0] - lo[0]), 0, 0);
+  model.add_dirichlet(push);
+}
+
+std::vector<V3> solve_compression(const MeshModel<3>& m, const Scenario& sc, const V3& lo, const V3& hi,
+                                  const Samples& s, double* energy) {
+  std::vector<double> mean;
+  for (const auto& v : m.values) mean.push_back(v.mean);
+  fem::ElasticModel<3> model(m.mesh, scenario_modulus(sc, mean), sc.poisson_ratio, 1);
+  add_compression(model, lo, hi);
+  const auto sol = model.solve();
+  if (energy) *energy = sol.strain_energy;
+  return model.sample(s.points);
+}
+
+// ---- needle ------------------------------------------------------------------------------------
+struct NeedleOut {
+  std::vector<V3> u;        // at the sample points (frame axes = world axes: identity direction)
+  std::vector<V3> targets;  // final target displacement (world)
+  double axial_force = 0, seconds = 0;
+  int shaft_points = 0;
+};
+
+NeedleOut finish(NeedleSimulation<3>& sim, const Samples& s) {
+  const auto t = Clock::now();
+  const SimulationResult<3> r = sim.run();
+  NeedleOut o;
+  o.seconds = since(t);
+  o.u = sim.model().sample(s.points);
+  o.targets = r.needles.at(0).target_displacement.back();
+  o.axial_force = r.needles.at(0).axial_force.back();
+  o.shaft_points = static_cast<int>(r.needles.at(0).point_s.size());
+  return o;
+}
+
+void plot(const std::string& dir, const std::string& name, const std::vector<double>& nodes,
+          const std::vector<double>& vim, const std::vector<double>& grid) {
+  if (dir.empty()) return;
+  std::filesystem::create_directories(dir);
+  // series_color(0) (blue) = VIM, series_color(1) (red) = grid.
+  write_line_plot(std::filesystem::path(dir) / name, nodes, {vim, grid}, {"VIM", "grid"});
+  std::printf("wrote %s/%s (blue = VIM, red = grid)\n", dir.c_str(), name.c_str());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) try {
+  int n = 40, steps = 12;
+  std::string scenario_path = "examples/prostate_needle.yaml", plots;
+  bool needle = true, compression = true;
+  std::vector<long> budgets;
+  for (int i = 1; i < argc; ++i) {
+    auto value = [&] {
+      if (i + 1 >= argc) throw std::invalid_argument(std::string(argv[i]) + " needs a value");
+      return argv[++i];
+    };
+    if (!std::strcmp(argv[i], "--n")) n = std::atoi(value());
+    else if (!std::strcmp(argv[i], "--steps")) steps = std::atoi(value());
+    else if (!std::strcmp(argv[i], "--scenario")) scenario_path = value();
+    else if (!std::strcmp(argv[i], "--plots")) plots = value();
+    else if (!std::strcmp(argv[i], "--skip-needle")) needle = false;
+    else if (!std::strcmp(argv[i], "--skip-compression")) compression = false;
+    else budgets.push_back(std::atol(argv[i]));
+  }
+  if (budgets.empty()) budgets = {125, 343, 1000};
+
+  Scenario sc = read_scenario(scenario_path, 3);
+  if (steps > 0)
+    for (auto& nd : sc.needles) nd.steps = steps;
+  sc.output_every = 0;
+  const double lambda = sc.lambda.value_or(0.3);
+
+  const OrientedImage<3> img = phantoms::prostate(n);
+  const V3 lo = img.image.box_min(), hi = img.image.box_max();
+  WorldTransform<3> tf;
+  tf.origin = img.origin();
+  tf.direction = img.direction;
+  check_scenario_geometry<3>(sc, lo, hi, tf);
+
+  // Sample points: every voxel centre (frame), flagged when inside the gland (world ellipsoid at 0).
+  Samples s;
+  const phantoms::ProstateGeometry g;
+  for (std::size_t k = 0; k < img.image.voxel_count(); ++k) {
+    const V3 p = img.image.point_of(img.image.index_of(k));
+    const V3 w = tf.to_world(p);
+    double q = 0;
+    for (int a = 0; a < 3; ++a) q += (w[a] / g.gland_semi_axes[a]) * (w[a] / g.gland_semi_axes[a]);
+    s.points.push_back(p);
+    s.gland.push_back(q <= 1.0);
+  }
+  long in_gland = 0;
+  for (bool b : s.gland) in_gland += b;
+  std::printf("# Prostate phantom %ldx%ldx%ld voxels (%.2f mm), %zu sample points (%ld in the gland); nu=%.2f, "
+              "lambda=%.2f, needle steps=%d\n",
+              img.image.size[0], img.image.size[1], img.image.size[2], img.image.spacing[0], s.points.size(), in_gland,
+              sc.poisson_ratio, lambda, sc.needles.empty() ? 0 : sc.needles[0].steps);
+  std::fflush(stdout);
+
+  std::vector<Meshes> meshes;
+  for (long b : budgets) {
+    meshes.push_back(make_meshes(img, b, lambda));
+    std::printf("mesh budget %ld: %zu nodes, grid %zu cells, VIM %zu cells (%.1f s)\n", b, meshes.back().nodes,
+                meshes.back().cells_grid, meshes.back().cells_vim, meshes.back().vim_seconds);
+    std::fflush(stdout);
+  }
+  std::vector<double> xs;
+  for (const auto& m : meshes) xs.push_back(static_cast<double>(m.nodes));
+
+  if (compression) {
+    // Reference: the voxel model with the scenario's moduli.
+    std::vector<double> e(img.image.data.begin(), img.image.data.end());
+    auto t = Clock::now();
+    auto ref_model = fem::ElasticModel<3>::voxel_grid(img.image.size, lo, hi, scenario_modulus(sc, e), sc.poisson_ratio);
+    add_compression(ref_model, lo, hi);
+    const auto ref_sol = ref_model.solve();
+    const auto ref = ref_model.sample(s.points);
+    std::printf("\n## Prostate compression (x_max clamped, x_min pushed +%.0f%% along x): reference %u DoFs, %.1f s\n",
+                100 * kStrain, ref_model.n_dofs(), since(t));
+    std::printf("| nodes | cells grid | cells VIM | relL2 grid | relL2 VIM | VIM/grid | relL2 gland grid | relL2 gland VIM | "
+                "max/|u|max grid | max/|u|max VIM | energy err grid | energy err VIM |\n"
+                "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    std::vector<double> yv, yg;
+    for (const auto& m : meshes) {
+      double wg = 0, wv = 0;
+      const Err eg = compare(solve_compression(m.grid, sc, lo, hi, s, &wg), ref, s);
+      const Err ev = compare(solve_compression(m.vim, sc, lo, hi, s, &wv), ref, s);
+      const double w0 = ref_sol.strain_energy;
+      std::printf("| %zu | %zu | %zu | %.4f | %.4f | **%.3f** | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f |\n", m.nodes,
+                  m.cells_grid, m.cells_vim, eg.rel_all, ev.rel_all, ev.rel_all / eg.rel_all, eg.rel_gland,
+                  ev.rel_gland, eg.max_rel, ev.max_rel, std::abs(wg - w0) / w0, std::abs(wv - w0) / w0);
+      std::fflush(stdout);
+      yv.push_back(ev.rel_all), yg.push_back(eg.rel_all);
+    }
+    plot(plots, "validation_prostate_compression.png", xs, yv, yg);
+  }
+
+  if (needle) {
+    SimulationOptions opt;
+    opt.progress = false;
+    auto t = Clock::now();
+    auto ref_sim = NeedleSimulation<3>::voxel(img.image, tf, sc, opt);
+    const NeedleOut ref = finish(ref_sim, s);
+    std::printf("\n## Prostate needle insertion (%s, %d steps, %.1f mm): reference %u DoFs, %d shaft points, "
+                "axial force %.2f mN, %.1f s\n",
+                scenario_path.c_str(), sc.needles[0].steps, sc.needles[0].depth, ref_sim.model().n_dofs(),
+                ref.shaft_points, ref.axial_force, since(t));
+    std::printf("reference target displacement |u| (mm):");
+    for (std::size_t k = 0; k < sc.targets.size(); ++k)
+      std::printf(" %s %.4f", sc.targets[k].name.c_str(), ref.targets[k].norm());
+    std::printf("\n| nodes | mesh | shaft pts | relL2 | relL2 gland | max/|u|max | axial force mN |");
+    for (const auto& tg : sc.targets) std::printf(" err %s mm |", tg.name.c_str());
+    std::printf(" VIM/grid relL2 |\n|---|---|---|---|---|---|---|");
+    for (std::size_t k = 0; k < sc.targets.size(); ++k) std::printf("---|");
+    std::printf("---|\n");
+    std::vector<double> yv, yg;
+    for (const auto& m : meshes) {
+      double rel[2] = {0, 0};
+      int i = 0;
+      for (const MeshModel<3>* mm : {&m.grid, &m.vim}) {
+        NeedleSimulation<3> sim(*mm, sc, opt);
+        const NeedleOut o = finish(sim, s);
+        const Err e = compare(o.u, ref.u, s);
+        rel[i] = e.rel_all;
+        std::printf("| %zu | %s | %d | %.4f | %.4f | %.4f | %.2f |", m.nodes, i ? "VIM" : "grid", o.shaft_points,
+                    e.rel_all, e.rel_gland, e.max_rel, o.axial_force);
+        for (std::size_t k = 0; k < sc.targets.size(); ++k) std::printf(" %.4f |", (o.targets[k] - ref.targets[k]).norm());
+        if (i) std::printf(" **%.3f** |\n", rel[1] / rel[0]);
+        else std::printf(" |\n");
+        std::fflush(stdout);
+        ++i;
+      }
+      yg.push_back(rel[0]), yv.push_back(rel[1]);
+    }
+    plot(plots, "validation_prostate_needle.png", xs, yv, yg);
+  }
+  return 0;
+} catch (const std::exception& e) {
+  std::fprintf(stderr, "validate_needle: %s\n", e.what());
+  return 1;
+}
