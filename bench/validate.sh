@@ -3,22 +3,29 @@
 #   1. paper Table I at 125, 343, 4096 nodes (bench/table1.cpp, independent TF% metric);
 #   2. deformation error vs the fine voxel reference, VIM vs grid at 125, 343, 1000, 4096 nodes,
 #      for the 3D sphere (10x stiffer) and the 2D two-inclusion phantom (bench/bench_fem_validate.cpp);
-#   3. the prostate needle scenario through the CLI with --mesher vim|grid|voxel, when the CLI and
-#      the example scenario exist.
-# Usage: bench/validate.sh [build-dir] > docs-tables.md
+#   3. the prostate phantom (bench/validate_needle.cpp, 30x25x25 voxels at 2 mm): the needle insertion of
+#      examples/prostate_needle.yaml (12 steps) and an x-compression, VIM vs grid vs the voxel reference;
+#   4. the plots docs/figures/validation_*.png (bench/validation_plots.cpp reads the tables of 1 and 2;
+#      validate_needle writes the prostate plots);
+#   5. the prostate needle scenario through the CLI with --mesher vim|grid|voxel (target displacements).
+# Usage: bench/validate.sh [build-dir] > docs-tables.md   (PLOTS=dir to write the figures elsewhere)
 set -euo pipefail
 BUILD=${1:-build}
 SRC=$(cd "$(dirname "$0")/.." && pwd)
 cmake -S "$SRC" -B "$BUILD" -DCMAKE_BUILD_TYPE=Release >/dev/null
-cmake --build "$BUILD" -j"${JOBS:-2}" --target table1 bench_fem_validate >/dev/null
+cmake --build "$BUILD" -j"${JOBS:-2}" --target table1 bench_fem_validate validate_needle validation_plots >/dev/null
+PLOTS=${PLOTS:-$SRC/docs/figures}
+TABLES=$(mktemp -d)
 echo "# vim-pipeline validation — commit $(git -C "$SRC" rev-parse --short HEAD 2>/dev/null || echo unknown)," \
      "$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(nproc) cores, $(date -u +%F)"
 echo
 echo '## Table I'
 echo '```'
-"$BUILD/bench/table1" 125 343 4096
+"$BUILD/bench/table1" 125 343 4096 | tee "$TABLES/table1.txt"
 echo '```'
-"$BUILD/bench/bench_fem_validate" --scenario all 125 343 1000 4096
+"$BUILD/bench/bench_fem_validate" --scenario all 125 343 1000 4096 | tee "$TABLES/deformation.md"
+(cd "$SRC" && "$BUILD/bench/validate_needle" --n 30 --steps 12 --plots "$PLOTS" 125 343 1000)
+"$BUILD/bench/validation_plots" "$PLOTS" "$TABLES/table1.txt" "$TABLES/deformation.md" >&2
 
 SCENARIO="$SRC/examples/prostate_needle.yaml"
 prostate() {
