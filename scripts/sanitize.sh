@@ -2,12 +2,12 @@
 # Builds the mesher and pipeline test suites with -fsanitize=address,undefined (VIM_SANITIZE=ON)
 # in a separate build dir and runs them. Not part of CI yet (a full extra build).
 #   scripts/sanitize.sh [BUILD_DIR]            (default: ../build-sanitize next to the checkout)
-# Environment: JOBS (default 2), CONFIGURE_ONLY=1 to stop after cmake, GTEST_FILTER passed through.
+# Environment: JOBS (default 1), CONFIGURE_ONLY=1 to stop after cmake, GTEST_FILTER passed through.
 # Leak detection is off: MPI and deal.II leave intentional allocations at exit.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$root/../build-sanitize}
-jobs=${JOBS:-2}
+jobs=${JOBS:-1}
 
 # Release, not RelWithDebInfo: deal_ii_setup_target only knows Debug/Release. -g for stacks.
 cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DVIM_SANITIZE=ON -DVIM_BUILD_BENCH=OFF \
