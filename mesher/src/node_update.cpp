@@ -143,8 +143,21 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
 
   if (options_.strategy == VimOptions::NodeStrategy::centroid_line_search) {
     const double tiny = 1e-12 * bbox_diagonal();
-    for (std::size_t k = 0; k < m; ++k) {
-      const Point d = project(centroid<dim>(s.base[k]) - x0);
+    // Directions: toward each 1-ring element's centroid, then toward the midpoint of each edge at the
+    // node (the neighbour vertices, in ring order, each once).
+    std::vector<Point>& dirs = s.dirs;
+    dirs.clear();
+    for (std::size_t k = 0; k < m; ++k) dirs.push_back(centroid<dim>(s.base[k]));
+    for (std::size_t k = 0; k < m; ++k)
+      for (int j = 0; j <= dim; ++j) {
+        if (j == s.local[k]) continue;
+        const Point mid = 0.5 * (s.base[k][j] + x0);
+        bool seen = false;
+        for (std::size_t q = m; q < dirs.size() && !seen; ++q) seen = dirs[q] == mid;
+        if (!seen) dirs.push_back(mid);
+      }
+    for (std::size_t k = 0; k < dirs.size(); ++k) {
+      const Point d = project(dirs[k] - x0);
       const double len = d.norm();
       if (len <= tiny) continue;
       // Golden-section search on t ∈ [0, 1] along x0 + t·d, from the centroid (t = 1) down to a

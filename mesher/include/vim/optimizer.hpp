@@ -111,6 +111,7 @@ class VimOptimizer {
     std::vector<int> ring, local;
     std::vector<Simplex> base;
     std::vector<CellCache> trial, best;
+    std::vector<Point> dirs;
   };
   bool update_node_impl(int node, int iteration, Scratch& s, double* moved_sq);
   double evaluate_candidate(const Point& p, Scratch& s, double bound, bool image) const;
