@@ -11,10 +11,14 @@
 #include <itkImageFileWriter.h>
 #include <itkImageIOBase.h>
 #include <itkImageIOFactory.h>
+#include <itkMetaImageIO.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cctype>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <sstream>
 #include <unistd.h>
@@ -69,6 +73,71 @@ void quiet_itk() {
   (void)done;
 }
 
+// MetaIO (ITK 5.2) mishandles some ElementDataFile values when it reads the voxels: a value with
+// '%' is used as a printf format for numbered slice files (fuzz_image_header: std::length_error
+// escaping from ITK; a format-string hazard), and a missing external data file leaks its stream.
+// Checked after the header is parsed (MetaIO's own parse) and before any voxel is read: LOCAL, or
+// one existing, readable data file.
+void check_metaimage_data_file(const std::string& path, const std::string& value) {
+  if (value == "LOCAL" || value == "Local" || value == "local") return;  // MetaIO's spellings
+  if (value.find('%') != std::string::npos || value.compare(0, 4, "LIST") == 0)
+    throw InputError(path + ": ElementDataFile = '" + one_line(value) +
+                     "' (a list or numbered pattern of slice files) is not supported; use LOCAL or one data file");
+  fs::path data(value);
+  if (data.is_relative()) data = fs::path(path).parent_path() / data;
+  std::error_code ec;
+  if (value.empty() || !fs::is_regular_file(data, ec) || ::access(data.c_str(), R_OK) != 0)
+    throw InputError(path + ": ElementDataFile = '" + one_line(value) + "': data file " + data.string() +
+                     " does not exist or is not readable");
+}
+
+// MetaIO keeps header state between the reads ITK makes of one file (ReadImageInformation, again in
+// ImageFileReader, again in Read): a header that repeats NDims/DimSize or gives fewer DimSize values
+// than NDims can yield a voxel count on the last read larger than the buffer ITK allocated
+// (fuzz_image_header: heap-buffer-overflow in MetaImage::M_ReadElementData). Such headers are
+// rejected before ITK parses them. Lines are "Key = value" (or "Key: value") as MetaIO reads them,
+// up to ElementDataFile, after which the voxel data starts.
+void check_metaimage_header_text(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext != ".mha" && ext != ".mhd") return;
+  std::ifstream in(path, std::ios::binary);
+  const auto trim = [](std::string t) {
+    t = t.substr(0, t.find('\0'));  // MetaIO compares keys as C strings
+    const auto b = t.find_first_not_of(" \t\r\v\f");
+    const auto e = t.find_last_not_of(" \t\r\v\f");
+    return b == std::string::npos ? std::string() : t.substr(b, e - b + 1);
+  };
+  std::string line;
+  std::size_t scanned = 0;
+  int ndims_seen = 0, dimsize_seen = 0;
+  long ndims = -1, dimsize_count = -1;
+  while (scanned < (1u << 20) && std::getline(in, line)) {
+    scanned += line.size() + 1;
+    const auto sep = line.find_first_of("=:");
+    if (sep == std::string::npos) continue;
+    const std::string key = trim(line.substr(0, sep));
+    const std::string value = line.substr(sep + 1);
+    if (key == "NDims") {
+      ++ndims_seen;
+      ndims = std::strtol(value.c_str(), nullptr, 10);
+    } else if (key == "DimSize") {
+      ++dimsize_seen;
+      std::istringstream v(value.substr(0, value.find('\0')));
+      double x = 0.0;
+      dimsize_count = 0;
+      while (v >> x) ++dimsize_count;
+    } else if (key == "ElementDataFile") {
+      break;
+    }
+  }
+  if (ndims_seen > 1 || dimsize_seen > 1)
+    throw InputError(path + ": corrupt MetaImage header: " + (ndims_seen > 1 ? "NDims" : "DimSize") + " is given more than once");
+  if (ndims_seen == 1 && dimsize_seen == 1 && dimsize_count != ndims)
+    throw InputError(path + ": corrupt MetaImage header: DimSize has " + std::to_string(dimsize_count) +
+                     " values but NDims = " + std::to_string(ndims));
+}
+
 // Opens the header and checks everything that can be checked without reading voxels.
 itk::ImageIOBase::Pointer open_header(const std::string& path) {
   quiet_itk();
@@ -77,12 +146,20 @@ itk::ImageIOBase::Pointer open_header(const std::string& path) {
   if (fs::is_directory(path, ec)) throw InputError(path + ": is a directory, not an image file");
   if (::access(path.c_str(), R_OK) != 0) throw InputError(path + ": file is not readable (permission denied)");
   if (fs::file_size(path, ec) == 0) throw InputError(path + ": file is empty (0 bytes)");
+  check_metaimage_header_text(path);
 
   itk::ImageIOBase::Pointer io =
       itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::ImageIOFactory::IOFileModeEnum::ReadMode);
   if (!io)
     throw InputError(path + ": not a readable image (unknown format or corrupt header); expected " +
                      supported_formats());
+  // Only the documented input formats. Other registered IOs (PNGImageIO, registered for the
+  // figures) are not input formats, and ITK 5.2's PNG reader aborts the process on a corrupt PNG
+  // (libpng png_error without a jump buffer; found by fuzz_image_header with PNG bytes in a .mha).
+  const std::string io_name = io->GetNameOfClass();
+  if (io_name != "MetaImageIO" && io_name != "NrrdImageIO" && io_name != "NiftiImageIO")
+    throw InputError(path + ": " + (io_name == "PNGImageIO" ? std::string("PNG") : io_name) +
+                     " files are not supported as input images; expected " + supported_formats());
   io->SetFileName(path);
   {
     StreamCapture capture;
@@ -92,8 +169,12 @@ itk::ImageIOBase::Pointer open_header(const std::string& path) {
       const std::string detail = one_line(capture.text());
       throw InputError(path + ": cannot read the image header: " + (detail.empty() ? "" : detail + "; ") +
                        one_line(e.GetDescription()));
+    } catch (const std::exception& e) {  // std::length_error, std::bad_alloc, ... from inside ITK
+      throw InputError(path + ": cannot read the image header: " + one_line(e.what()));
     }
   }
+  if (auto* meta = dynamic_cast<itk::MetaImageIO*>(io.GetPointer()))
+    check_metaimage_data_file(path, meta->GetMetaImagePointer()->ElementDataFileName());
   const unsigned d = io->GetNumberOfDimensions();
   if (d != 2 && d != 3)
     throw InputError(path + ": image has " + std::to_string(d) + " dimensions; expected 2 or 3");
@@ -148,6 +229,8 @@ RawImage read_dim(const std::string& path, itk::ImageIOBase::Pointer io) {
     } catch (const itk::ExceptionObject& e) {
       throw InputError(path + ": cannot read the voxel data (truncated or corrupt file?): " +
                        one_line(capture.text() + " " + e.GetDescription()));
+    } catch (const std::exception& e) {  // std::length_error, std::bad_alloc, ... from inside ITK
+      throw InputError(path + ": cannot read the voxel data (truncated or corrupt file?): " + one_line(e.what()));
     }
     const std::string said = capture.text();
     if (said.find("not read completely") != std::string::npos)
