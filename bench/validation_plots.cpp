@@ -66,8 +66,9 @@ void write(const std::filesystem::path& path, const std::vector<const std::map<d
       ys[k].push_back(it == series[k]->end() ? NAN : it->second);
     }
   }
-  vim::pipeline::write_line_plot(path, x, ys);
-  std::printf("wrote %s (%zu node counts)\n", path.c_str(), x.size());
+  const auto info = vim::pipeline::write_line_plot(path, x, ys);
+  std::printf("wrote %s (%zu node counts; x axis %s, y axis %s)\n", path.c_str(), x.size(), info["x_range"].dump().c_str(),
+              info["y_range"].dump().c_str());
 }
 
 }  // namespace
