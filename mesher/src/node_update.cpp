@@ -1,6 +1,7 @@
 // Node updates of paper §IV-B / §VI-D: for node i, golden-section line searches toward the
-// centroid of each 1-ring element (or a random walk inside the 1-ring), evaluating only the
-// 1-ring's energy; the best candidate is taken iff E drops and the quality bound holds.
+// centroid of each 1-ring element and toward the midpoint of each edge at i (or a random walk
+// inside the 1-ring), evaluating only the 1-ring's energy; the best candidate is taken iff E drops
+// and the quality bound holds.
 #include <vim/energy.hpp>
 #include <vim/optimizer.hpp>
 

@@ -18,9 +18,9 @@ namespace vim {
 struct VimOptions {
   // λ ∈ [0,1): weight of the normalised discretisation energy (§IV-C: "λ = 30% means 30% discretisation,
   // 70% geometry"); the paper does not state the λ of Table I. Default 0.5 (sphere phantom, 100^3
-  // voxels, max dihedral <= 150°): TF 5.43% / 2.67% / 0.50% at 125 / 343 / 4096 nodes vs the paper's
-  // 5.52% / 2.64% / 0.78% (docs/performance.md); 0.3 gives 3.1% at 343, 0.55 gives 2.65%, 0.6 2.76%.
-  // Larger λ trades element quality (min dihedral) for image fit.
+  // voxels, max dihedral <= 150°): TF 5.34% / 2.48% / 0.42% at 125 / 343 / 4096 nodes vs the paper's
+  // 5.52% / 2.64% / 0.78% (docs/performance.md). Larger λ trades element quality (min dihedral) for
+  // image fit.
   double lambda = 0.5;
   double max_dihedral_deg = 150.0;     // quality bound (3D: max dihedral; 2D: max interior angle), in (90,180)
   double min_dihedral_deg = 0.0;       // optional lower bound (0 = off)
