@@ -95,7 +95,7 @@ void check_metaimage_data_file(const std::string& path, const std::string& value
 // ImageFileReader, again in Read): a header that repeats NDims/DimSize or gives fewer DimSize values
 // than NDims can yield a voxel count on the last read larger than the buffer ITK allocated
 // (fuzz_image_header: heap-buffer-overflow in MetaImage::M_ReadElementData). Such headers are
-// rejected before ITK parses them. Lines are "Key = value" (or "Key: value") as MetaIO reads them,
+// rejected before ITK parses them, as is an NDims outside 1..10. Lines are "Key = value" (or "Key: value") as MetaIO reads them,
 // up to ElementDataFile, after which the voxel data starts.
 void check_metaimage_header_text(const std::string& path) {
   std::string ext = fs::path(path).extension().string();
@@ -131,6 +131,10 @@ void check_metaimage_header_text(const std::string& path) {
       break;
     }
   }
+  // MetaIO loops forever reading the per-axis fields of a header with a negative NDims (fuzz_image_header
+  // timeout); it supports at most 10 axes.
+  if (ndims_seen == 1 && (ndims < 1 || ndims > 10))
+    throw InputError(path + ": corrupt MetaImage header: NDims = " + std::to_string(ndims) + "; expected 2 or 3");
   if (ndims_seen > 1 || dimsize_seen > 1)
     throw InputError(path + ": corrupt MetaImage header: " + (ndims_seen > 1 ? "NDims" : "DimSize") + " is given more than once");
   if (ndims_seen == 1 && dimsize_seen == 1 && dimsize_count != ndims)
