@@ -4,7 +4,7 @@
 #   2. deformation error vs the fine voxel reference, VIM vs grid at 125, 343, 1000, 4096 nodes,
 #      for the 3D sphere (10x stiffer) and the 2D two-inclusion phantom (bench/bench_fem_validate.cpp);
 #   3. the prostate phantom (bench/validate_needle.cpp, 30x25x25 voxels at 2 mm): the needle insertion of
-#      examples/prostate_needle.yaml (12 steps) and an x-compression, VIM vs grid vs the voxel reference;
+#      examples/prostate_needle.yaml (6 steps) and an x-compression, VIM vs grid vs the voxel reference;
 #   4. the plots docs/figures/validation_*.png (bench/validation_plots.cpp reads the tables of 1 and 2;
 #      validate_needle writes the prostate plots);
 #   5. the prostate needle scenario through the CLI with --mesher vim|grid|voxel (target displacements).
@@ -24,7 +24,7 @@ echo '```'
 "$BUILD/bench/table1" 125 343 4096 | tee "$TABLES/table1.txt"
 echo '```'
 "$BUILD/bench/bench_fem_validate" --scenario all 125 343 1000 4096 | tee "$TABLES/deformation.md"
-(cd "$SRC" && "$BUILD/bench/validate_needle" --n 30 --steps 12 --plots "$PLOTS" 125 343 1000)
+(cd "$SRC" && "$BUILD/bench/validate_needle" --n 30 --steps 6 --plots "$PLOTS" 125 343 1000)
 "$BUILD/bench/validation_plots" "$PLOTS" "$TABLES/table1.txt" "$TABLES/deformation.md" >&2
 
 SCENARIO="$SRC/examples/prostate_needle.yaml"
