@@ -115,6 +115,10 @@ void check_metaimage_header_text(const std::string& path) {
   while (scanned < (1u << 20) && std::getline(in, line)) {
     scanned += line.size() + 1;
     const auto sep = line.find_first_of("=:");
+    // MetaIO copies an unknown key into a fixed 255-byte field name (strcpy: "buffer overflow
+    // detected" abort in MET_InitReadField, fuzz_image_header).
+    if (trim(line.substr(0, sep)).size() > 250)
+      throw InputError(path + ": corrupt MetaImage header: a header key is longer than 250 characters");
     if (sep == std::string::npos) continue;
     const std::string key = trim(line.substr(0, sep));
     const std::string value = line.substr(sep + 1);
