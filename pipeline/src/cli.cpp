@@ -112,28 +112,13 @@ namespace {
 
 std::string fmt(const char* f, ...) __attribute__((format(printf, 1, 2)));
 
-CLI::Validator half_open_unit() {
-  return CLI::Validator(
-      [](std::string& s) -> std::string {
-        double v = 0;
-        try {
-          std::size_t pos = 0;
-          v = std::stod(s, &pos);
-          if (pos != s.size()) throw std::invalid_argument(s);
-        } catch (...) {
-          return "value " + s + " is not a number";
-        }
-        return (v >= 0.0 && v < 1.0) ? std::string() : "value " + s + " not in [0, 1)";
-      },
-      "in [0, 1)");
-}
-
-CLI::Validator open_interval(double lo, double hi) {
+// A real number in an interval; `closed_lo` includes lo ([lo, hi) instead of (lo, hi)).
+CLI::Validator number_in(double lo, double hi, bool closed_lo) {
   std::ostringstream d;
-  d << "in (" << lo << ", " << hi << ")";
+  d << "in " << (closed_lo ? "[" : "(") << lo << ", " << hi << ")";
   const std::string desc = d.str();
   return CLI::Validator(
-      [lo, hi, desc](std::string& s) -> std::string {
+      [lo, hi, closed_lo, desc](std::string& s) -> std::string {
         double v = 0;
         try {
           std::size_t pos = 0;
@@ -142,10 +127,14 @@ CLI::Validator open_interval(double lo, double hi) {
         } catch (...) {
           return "value " + s + " is not a number";
         }
-        return (v > lo && v < hi) ? std::string() : "value " + s + " not " + desc;
+        const bool above = closed_lo ? v >= lo : v > lo;
+        return (above && v < hi) ? std::string() : "value " + s + " not " + desc;
       },
       desc);
 }
+
+CLI::Validator half_open_unit() { return number_in(0.0, 1.0, true); }
+CLI::Validator open_interval(double lo, double hi) { return number_in(lo, hi, false); }
 
 const char* kFooter = R"(Outputs (in DIR; all in world coordinates, every file written under a temporary name):
   mesh.vtu     the mesh (image direction applied); cell data mean, variance, voxels, quality (3D: max

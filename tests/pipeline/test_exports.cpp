@@ -23,28 +23,16 @@
 #include <sstream>
 #include <unistd.h>
 
+#include "scratch_dir.hpp"
+
 namespace fs = std::filesystem;
 using namespace vim;
 using namespace vim::pipeline;
 
 namespace {
 
-// A scratch folder removed when the test ends.
-struct ScratchDir : fs::path {
-  explicit ScratchDir(const fs::path& p) : fs::path(p) {
-    fs::remove_all(*this);
-    fs::create_directories(*this);
-  }
-  ~ScratchDir() {  // VIM_KEEP_TEST_OUTPUT=1 keeps the files for a look
-    if (std::getenv("VIM_KEEP_TEST_OUTPUT")) return;
-    std::error_code ec;
-    fs::remove_all(*this, ec);
-  }
-};
-
-ScratchDir fresh_dir(const std::string& name) {
-  return ScratchDir(fs::temp_directory_path() / ("vim_test_exports_" + name + "_" + std::to_string(::getpid())));
-}
+using vim::test::ScratchDir;
+ScratchDir fresh_dir(const std::string& name) { return vim::test::scratch_dir("exports", name); }
 
 std::string slurp(const fs::path& p) {
   std::ifstream in(p);
