@@ -41,7 +41,7 @@ Solution<dim> ElasticModel<dim>::solve_distributed(MPI_Comm comm, const SolverOp
   // parallel::shared::Triangulation (METIS partition, cells away from the own part artificial).
   // deal.II 9.4.1's fullydistributed::Triangulation::create_triangulation sorts the cells with a
   // comparator that binary-searches the coarse-cell map twice per comparison: with every cell a
-  // coarse cell (~2M tets for ~1M DoFs) that took minutes; copy_triangulation + partition takes seconds.
+  // coarse cell (~2M tets for ~1M DoFs) that dominated the set-up (docs/performance.md, issue 5).
   // partition_metis explicitly: partition_auto picks Zoltan's hypergraph partitioner, far slower here.
   parallel::shared::Triangulation<dim> ptria(comm, Triangulation<dim>::none, /*allow_artificial_cells=*/true,
                                              parallel::shared::Triangulation<dim>::partition_metis);

@@ -9,7 +9,6 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
-#include <regex>
 #include <set>
 #include <sstream>
 
@@ -31,12 +30,68 @@ std::string fmt(double x) {
   return s.str();
 }
 
+// Hand-written equivalents of the former std::regex checks (std::regex_match dominated the parse
+// time under the fuzzer). ASCII only, like the [A-Za-z0-9] classes they replace.
+bool is_digit(char c) { return c >= '0' && c <= '9'; }
+bool is_alpha(char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); }
+// [+-]?[0-9]+
+bool is_integer_text(const std::string& t) {
+  std::size_t i = (!t.empty() && (t[0] == '+' || t[0] == '-')) ? 1 : 0;
+  if (i == t.size()) return false;
+  for (; i < t.size(); ++i)
+    if (!is_digit(t[i])) return false;
+  return true;
+}
+// [A-Za-z0-9_-]+
+bool is_folder_name(const std::string& t) {
+  if (t.empty()) return false;
+  for (char c : t)
+    if (!is_alpha(c) && !is_digit(c) && c != '_' && c != '-') return false;
+  return true;
+}
+// [A-Za-z_][A-Za-z0-9_]*
+bool is_identifier(const std::string& t) {
+  if (t.empty() || !(is_alpha(t[0]) || t[0] == '_')) return false;
+  for (char c : t)
+    if (!is_alpha(c) && !is_digit(c) && c != '_') return false;
+  return true;
+}
+
 std::string scalar_text(const YAML::Node& n) {
   if (n.IsScalar()) return "'" + n.Scalar() + "'";
   if (n.IsSequence()) return "a list";
   if (n.IsMap()) return "a mapping";
   return "nothing";
 }
+
+// The entries of a mapping, collected once by Reader::check_keys. yaml-cpp's Node::operator[](key)
+// decodes and copies every key of the mapping into a std::string (and copies Nodes) on each lookup,
+// which dominated the parse time under the fuzzer. Lookup semantics are yaml-cpp's: the first entry
+// whose key is a scalar equal to `key`; a missing key gives an undefined node (operator! is true).
+class Fields {
+ public:
+  explicit Fields(const YAML::Node& n) : node_(n) {}
+  void add(bool scalar_key, std::string key, const YAML::Node& value) { entries_.push_back({scalar_key, std::move(key), value}); }
+  const YAML::Node& node() const { return node_; }
+  const YAML::Node& operator[](const char* key) const {
+    for (const Entry& e : entries_)
+      if (e.scalar_key && e.key == key) return e.value;
+    return undefined();
+  }
+
+ private:
+  struct Entry {
+    bool scalar_key;
+    std::string key;
+    YAML::Node value;
+  };
+  static const YAML::Node& undefined() {
+    static const YAML::Node u(YAML::NodeType::Undefined);
+    return u;
+  }
+  YAML::Node node_;
+  std::vector<Entry> entries_;
+};
 
 class Reader {
  public:
@@ -54,18 +109,22 @@ class Reader {
   void expect_map(const YAML::Node& n, const std::string& path) const {
     if (!n.IsMap()) fail(n, path + " must be a mapping, got " + scalar_text(n));
   }
-  void check_keys(const YAML::Node& n, const std::string& path, const std::vector<std::string>& valid) const {
+  // Checks that n is a mapping with only valid keys and returns its entries for the lookups.
+  Fields check_keys(const YAML::Node& n, const std::string& path, const std::vector<std::string>& valid) const {
     expect_map(n, path);
+    Fields fields(n);
     for (const auto& kv : n) {
-      const std::string k = kv.first.Scalar();
+      std::string k = kv.first.Scalar();
       if (std::find(valid.begin(), valid.end(), k) == valid.end())
         fail(kv.first, "unknown key '" + (path.empty() ? k : path + "." + k) + "'; valid keys" +
                            (path.empty() ? "" : " of " + path) + ": " + join(valid));
+      fields.add(kv.first.IsScalar(), std::move(k), kv.second);
     }
+    return fields;
   }
-  YAML::Node require(const YAML::Node& parent, const std::string& key, const std::string& path) const {
-    YAML::Node n = parent[key];
-    if (!n) fail(parent, "missing key '" + path + "'");
+  const YAML::Node& require(const Fields& parent, const char* key, const std::string& path) const {
+    const YAML::Node& n = parent[key];
+    if (!n) fail(parent.node(), "missing key '" + path + "'");
     return n;
   }
 
@@ -87,8 +146,7 @@ class Reader {
   }
   long integer(const YAML::Node& n, const std::string& path) const {
     if (!n.IsScalar()) fail(n, path + " must be an integer, got " + scalar_text(n));
-    static const std::regex re("[+-]?[0-9]+");
-    if (!std::regex_match(n.Scalar(), re)) fail(n, path + " must be an integer, got " + scalar_text(n));
+    if (!is_integer_text(n.Scalar())) fail(n, path + " must be an integer, got " + scalar_text(n));
     try {
       return n.as<long>();
     } catch (const YAML::Exception&) {
@@ -159,71 +217,71 @@ RegionSpec parse_region(const Reader& r, const YAML::Node& n, const std::string&
     reg.axis = k / 2;
     reg.upper = (k % 2) == 1;
   } else if (kind == "box") {
-    r.check_keys(v, p, {"min", "max"});
+    const Fields f = r.check_keys(v, p, {"min", "max"});
     reg.kind = RegionSpec::Kind::box;
-    reg.lo = r.vector(r.require(v, "min", p + ".min"), p + ".min", dim);
-    reg.hi = r.vector(r.require(v, "max", p + ".max"), p + ".max", dim);
+    reg.lo = r.vector(r.require(f, "min", p + ".min"), p + ".min", dim);
+    reg.hi = r.vector(r.require(f, "max", p + ".max"), p + ".max", dim);
     for (int d = 0; d < dim; ++d)
       if (!(reg.lo[d] <= reg.hi[d])) r.fail(v, p + ": min must be <= max on every axis (axis " + std::to_string(d) + ")");
   } else if (kind == "sphere") {
-    r.check_keys(v, p, {"center", "radius"});
+    const Fields f = r.check_keys(v, p, {"center", "radius"});
     reg.kind = RegionSpec::Kind::sphere;
-    reg.center = r.vector(r.require(v, "center", p + ".center"), p + ".center", dim);
-    reg.radius = r.positive(r.require(v, "radius", p + ".radius"), p + ".radius");
+    reg.center = r.vector(r.require(f, "center", p + ".center"), p + ".center", dim);
+    reg.radius = r.positive(r.require(f, "radius", p + ".radius"), p + ".radius");
   } else {
-    r.check_keys(v, p, {"center", "axis", "radius"});
+    const Fields f = r.check_keys(v, p, {"center", "axis", "radius"});
     reg.kind = RegionSpec::Kind::cylinder;
-    reg.center = r.vector(r.require(v, "center", p + ".center"), p + ".center", dim);
-    reg.axis_vector = r.nonzero_vector(r.require(v, "axis", p + ".axis"), p + ".axis", dim);
-    reg.radius = r.positive(r.require(v, "radius", p + ".radius"), p + ".radius");
+    reg.center = r.vector(r.require(f, "center", p + ".center"), p + ".center", dim);
+    reg.axis_vector = r.nonzero_vector(r.require(f, "axis", p + ".axis"), p + ".axis", dim);
+    reg.radius = r.positive(r.require(f, "radius", p + ".radius"), p + ".radius");
   }
   return reg;
 }
 
 NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string& path, int dim) {
-  r.check_keys(n, path, {"name", "entry", "direction", "depth", "steps", "diameter", "model", "friction", "sample_spacing",
-                         "tip_force", "friction_per_length"});
+  const Fields f = r.check_keys(n, path, {"name", "entry", "direction", "depth", "steps", "diameter", "model", "friction",
+                                          "sample_spacing", "tip_force", "friction_per_length"});
   NeedleSpec s;
   s.line = Reader::line(n);
-  if (n["name"]) {
-    s.name = r.string(n["name"], path + ".name");
-    static const std::regex re("[A-Za-z0-9_-]+");
-    if (!std::regex_match(s.name, re))
-      r.fail(n["name"], path + ".name = '" + s.name + "' must use only letters, digits, '_' and '-' (it names a folder)");
+  if (f["name"]) {
+    s.name = r.string(f["name"], path + ".name");
+    if (!is_folder_name(s.name))
+      r.fail(f["name"], path + ".name = '" + s.name + "' must use only letters, digits, '_' and '-' (it names a folder)");
   }
-  s.entry = r.vector(r.require(n, "entry", path + ".entry"), path + ".entry", dim);
-  s.direction = r.nonzero_vector(r.require(n, "direction", path + ".direction"), path + ".direction", dim);
-  s.depth = r.positive(r.require(n, "depth", path + ".depth"), path + ".depth");
+  s.entry = r.vector(r.require(f, "entry", path + ".entry"), path + ".entry", dim);
+  s.direction = r.nonzero_vector(r.require(f, "direction", path + ".direction"), path + ".direction", dim);
+  s.depth = r.positive(r.require(f, "depth", path + ".depth"), path + ".depth");
   {
-    const YAML::Node st = r.require(n, "steps", path + ".steps");
+    const YAML::Node& st = r.require(f, "steps", path + ".steps");
     const long steps = r.integer(st, path + ".steps");
     if (steps <= 0) r.fail(st, path + ".steps must be > 0, got " + std::to_string(steps));
     if (steps > 1000000) r.fail(st, path + ".steps must be <= 1000000, got " + std::to_string(steps));
     s.steps = static_cast<int>(steps);
   }
-  s.diameter = r.positive(r.require(n, "diameter", path + ".diameter"), path + ".diameter");
-  if (n["model"]) s.model = r.choice(n["model"], path + ".model", {"kinematic", "force"}) == "force" ? NeedleSpec::Model::force : NeedleSpec::Model::kinematic;
-  if (n["friction"]) {
-    const YAML::Node f = n["friction"];
+  s.diameter = r.positive(r.require(f, "diameter", path + ".diameter"), path + ".diameter");
+  if (f["model"]) s.model = r.choice(f["model"], path + ".model", {"kinematic", "force"}) == "force" ? NeedleSpec::Model::force : NeedleSpec::Model::kinematic;
+  if (f["friction"]) {
+    const YAML::Node& fn = f["friction"];
     const std::string fp = path + ".friction";
-    r.check_keys(f, fp, {"model", "max_shear_per_length"});
-    const std::string m = r.choice(r.require(f, "model", fp + ".model"), fp + ".model", {"stick", "stick-slip"});
+    const Fields fr = r.check_keys(fn, fp, {"model", "max_shear_per_length"});
+    const std::string m = r.choice(r.require(fr, "model", fp + ".model"), fp + ".model", {"stick", "stick-slip"});
     s.friction = m == "stick" ? NeedleSpec::Friction::stick : NeedleSpec::Friction::stick_slip;
     if (s.friction == NeedleSpec::Friction::stick_slip) {
-      if (!f["max_shear_per_length"])
-        r.fail(f, "missing key '" + fp + ".max_shear_per_length' (required for friction model stick-slip; force per unit length, > 0)");
-      s.max_shear_per_length = r.positive(f["max_shear_per_length"], fp + ".max_shear_per_length");
-    } else if (f["max_shear_per_length"]) {
-      r.fail(f["max_shear_per_length"], fp + ".max_shear_per_length applies only to model stick-slip");
+      if (!fr["max_shear_per_length"])
+        r.fail(fn, "missing key '" + fp + ".max_shear_per_length' (required for friction model stick-slip; force per unit length, > 0)");
+      s.max_shear_per_length = r.positive(fr["max_shear_per_length"], fp + ".max_shear_per_length");
+    } else if (fr["max_shear_per_length"]) {
+      r.fail(fr["max_shear_per_length"], fp + ".max_shear_per_length applies only to model stick-slip");
     }
   }
-  if (n["sample_spacing"]) s.sample_spacing = r.positive(n["sample_spacing"], path + ".sample_spacing");
+  if (f["sample_spacing"]) s.sample_spacing = r.positive(f["sample_spacing"], path + ".sample_spacing");
   const bool force = s.model == NeedleSpec::Model::force;
   for (const char* k : {"tip_force", "friction_per_length"}) {
-    if (!n[k]) continue;
-    if (!force) r.fail(n[k], path + "." + k + " applies only to needle model 'force'");
-    const double v = r.number(n[k], path + "." + k);
-    if (v < 0.0) r.fail(n[k], path + "." + k + " must be >= 0, got " + fmt(v));
+    const YAML::Node& x = f[k];
+    if (!x) continue;
+    if (!force) r.fail(x, path + "." + k + " applies only to needle model 'force'");
+    const double v = r.number(x, path + "." + k);
+    if (v < 0.0) r.fail(x, path + "." + k + " must be >= 0, got " + fmt(v));
     (std::string(k) == "tip_force" ? s.tip_force : s.friction_per_length) = v;
   }
   if (force && !(s.tip_force > 0.0 || s.friction_per_length > 0.0))
@@ -273,17 +331,17 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
   }
   const Reader r(s);
   if (!root || root.IsNull()) throw ScenarioError(s.where(0) + "the scenario file is empty");
-  r.check_keys(root, "", {"units", "material", "mesh", "boundary_conditions", "needle", "needles", "targets", "output", "solver"});
+  const Fields top = r.check_keys(root, "", {"units", "material", "mesh", "boundary_conditions", "needle", "needles", "targets", "output", "solver"});
 
-  if (const YAML::Node u = root["units"]) {
-    r.check_keys(u, "units", {"length", "modulus"});
-    if (u["length"]) s.length_unit = r.string(u["length"], "units.length");
-    if (u["modulus"]) s.modulus_unit = r.string(u["modulus"], "units.modulus");
+  if (const YAML::Node& u = top["units"]) {
+    const Fields f = r.check_keys(u, "units", {"length", "modulus"});
+    if (const YAML::Node& x = f["length"]) s.length_unit = r.string(x, "units.length");
+    if (const YAML::Node& x = f["modulus"]) s.modulus_unit = r.string(x, "units.modulus");
   }
 
-  if (const YAML::Node m = root["material"]) {
-    r.check_keys(m, "material", {"youngs_modulus", "scale", "clamp", "poisson_ratio"});
-    if (const YAML::Node e = m["youngs_modulus"]) {
+  if (const YAML::Node& m = top["material"]) {
+    const Fields f = r.check_keys(m, "material", {"youngs_modulus", "scale", "clamp", "poisson_ratio"});
+    if (const YAML::Node& e = f["youngs_modulus"]) {
       if (e.IsScalar() && e.Scalar() == "image") {
         s.modulus_from_image = true;
       } else {
@@ -299,15 +357,15 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
         s.youngs_modulus = v;
       }
     }
-    if (m["scale"]) s.scale = r.positive(m["scale"], "material.scale");
-    if (const YAML::Node c = m["clamp"]) {
+    if (const YAML::Node& x = f["scale"]) s.scale = r.positive(x, "material.scale");
+    if (const YAML::Node& c = f["clamp"]) {
       if (!c.IsSequence() || c.size() != 2) r.fail(c, "material.clamp must be a list [min, max], got " + scalar_text(c));
       const double lo = r.number(c[0], "material.clamp[0]"), hi = r.number(c[1], "material.clamp[1]");
       if (!(lo > 0.0)) r.fail(c, "material.clamp min must be > 0 (a Young's modulus), got " + fmt(lo));
       if (!(hi >= lo)) r.fail(c, "material.clamp must have min <= max, got [" + fmt(lo) + ", " + fmt(hi) + "]");
       s.clamp = std::make_pair(lo, hi);
     }
-    if (const YAML::Node nu = m["poisson_ratio"]) {
+    if (const YAML::Node& nu = f["poisson_ratio"]) {
       const double v = r.number(nu, "material.poisson_ratio");
       if (v >= 0.5)
         r.fail(nu, "material.poisson_ratio = " + fmt(v) + " is not valid: it must be < 0.5 (0.5 is incompressible; use e.g. 0.49 with mesh.degree 2)");
@@ -316,50 +374,50 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
     }
   }
 
-  if (const YAML::Node m = root["mesh"]) {
-    r.check_keys(m, "mesh", {"nodes", "lambda", "degree"});
-    if (m["nodes"]) {
-      const long v = r.integer(m["nodes"], "mesh.nodes");
-      if (v < 8) r.fail(m["nodes"], "mesh.nodes must be >= 8, got " + std::to_string(v));
+  if (const YAML::Node& m = top["mesh"]) {
+    const Fields f = r.check_keys(m, "mesh", {"nodes", "lambda", "degree"});
+    if (const YAML::Node& x = f["nodes"]) {
+      const long v = r.integer(x, "mesh.nodes");
+      if (v < 8) r.fail(x, "mesh.nodes must be >= 8, got " + std::to_string(v));
       s.nodes = v;
     }
-    if (m["lambda"]) {
-      const double v = r.number(m["lambda"], "mesh.lambda");
-      if (!(v >= 0.0 && v < 1.0)) r.fail(m["lambda"], "mesh.lambda must be in [0, 1), got " + fmt(v));
+    if (const YAML::Node& x = f["lambda"]) {
+      const double v = r.number(x, "mesh.lambda");
+      if (!(v >= 0.0 && v < 1.0)) r.fail(x, "mesh.lambda must be in [0, 1), got " + fmt(v));
       s.lambda = v;
     }
-    if (m["degree"]) {
-      const long v = r.integer(m["degree"], "mesh.degree");
-      if (v != 1 && v != 2) r.fail(m["degree"], "mesh.degree must be 1 or 2, got " + std::to_string(v));
+    if (const YAML::Node& x = f["degree"]) {
+      const long v = r.integer(x, "mesh.degree");
+      if (v != 1 && v != 2) r.fail(x, "mesh.degree must be 1 or 2, got " + std::to_string(v));
       s.degree = static_cast<unsigned>(v);
     }
   }
 
   {
-    const YAML::Node bcs = r.require(root, "boundary_conditions", "boundary_conditions");
+    const YAML::Node& bcs = r.require(top, "boundary_conditions", "boundary_conditions");
     if (!bcs.IsSequence() || bcs.size() == 0)
       r.fail(bcs, "boundary_conditions must be a non-empty list (at least one fixed or displacement condition)");
     for (std::size_t i = 0; i < bcs.size(); ++i) {
       const std::string p = "boundary_conditions[" + std::to_string(i) + "]";
       const YAML::Node b = bcs[i];
-      r.check_keys(b, p, {"type", "region", "value", "components"});
+      const Fields f = r.check_keys(b, p, {"type", "region", "value", "components"});
       BoundaryConditionSpec bc;
       bc.line = Reader::line(b);
-      const std::string t = r.choice(r.require(b, "type", p + ".type"), p + ".type", {"fixed", "displacement", "pressure", "traction"});
+      const std::string t = r.choice(r.require(f, "type", p + ".type"), p + ".type", {"fixed", "displacement", "pressure", "traction"});
       bc.type = t == "fixed" ? BoundaryConditionSpec::Type::fixed
                 : t == "displacement" ? BoundaryConditionSpec::Type::displacement
                 : t == "pressure" ? BoundaryConditionSpec::Type::pressure
                                   : BoundaryConditionSpec::Type::traction;
-      bc.region = parse_region(r, r.require(b, "region", p + ".region"), p + ".region", dim);
+      bc.region = parse_region(r, r.require(f, "region", p + ".region"), p + ".region", dim);
       if (bc.type == BoundaryConditionSpec::Type::fixed) {
-        if (b["value"]) r.fail(b["value"], p + ".value is not used by type fixed (use type displacement)");
+        if (f["value"]) r.fail(f["value"], p + ".value is not used by type fixed (use type displacement)");
       } else if (bc.type == BoundaryConditionSpec::Type::pressure) {
-        bc.value = {r.number(r.require(b, "value", p + ".value"), p + ".value")};
+        bc.value = {r.number(r.require(f, "value", p + ".value"), p + ".value")};
       } else {
-        bc.value = r.vector(r.require(b, "value", p + ".value"), p + ".value", dim);
+        bc.value = r.vector(r.require(f, "value", p + ".value"), p + ".value", dim);
       }
       bc.components.assign(dim, true);
-      if (const YAML::Node c = b["components"]) {
+      if (const YAML::Node& c = f["components"]) {
         if (!bc.is_dirichlet()) r.fail(c, p + ".components applies only to fixed and displacement conditions");
         if (!c.IsSequence() || c.size() == 0) r.fail(c, p + ".components must be a non-empty list of axis names (x, y" + (dim == 3 ? ", z)" : ")"));
         bc.components.assign(dim, false);
@@ -379,7 +437,7 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
   }
 
   {
-    const YAML::Node one = root["needle"], many = root["needles"];
+    const YAML::Node &one = top["needle"], &many = top["needles"];
     if (one && many) r.fail(many, "give either 'needle' or 'needles', not both");
     if (!one && !many) r.fail(root, "missing key 'needle' (or 'needles' with a list of needles)");
     if (one) {
@@ -398,45 +456,44 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
     }
   }
 
-  if (const YAML::Node t = root["targets"]) {
+  if (const YAML::Node& t = top["targets"]) {
     if (!t.IsSequence()) r.fail(t, "targets must be a list of {name, position}");
     std::set<std::string> names;
     for (std::size_t i = 0; i < t.size(); ++i) {
       const std::string p = "targets[" + std::to_string(i) + "]";
-      r.check_keys(t[i], p, {"name", "position"});
+      const Fields f = r.check_keys(t[i], p, {"name", "position"});
       TargetSpec ts;
       ts.line = Reader::line(t[i]);
-      const YAML::Node nn = r.require(t[i], "name", p + ".name");
+      const YAML::Node& nn = r.require(f, "name", p + ".name");
       ts.name = r.string(nn, p + ".name");
-      static const std::regex re("[A-Za-z_][A-Za-z0-9_]*");
-      if (!std::regex_match(ts.name, re))
+      if (!is_identifier(ts.name))
         r.fail(nn, p + ".name = '" + ts.name + "' must be an identifier (letters, digits, '_'; it names CSV columns)");
       if (!names.insert(ts.name).second) r.fail(nn, p + ".name = '" + ts.name + "' is used twice; names must be unique");
-      ts.position = r.vector(r.require(t[i], "position", p + ".position"), p + ".position", dim);
+      ts.position = r.vector(r.require(f, "position", p + ".position"), p + ".position", dim);
       s.targets.push_back(ts);
     }
   }
 
-  if (const YAML::Node o = root["output"]) {
-    r.check_keys(o, "output", {"every", "fields"});
-    if (o["every"]) {
-      const long v = r.integer(o["every"], "output.every");
-      if (v < 0) r.fail(o["every"], "output.every must be >= 0 (0 = no step files), got " + std::to_string(v));
+  if (const YAML::Node& o = top["output"]) {
+    const Fields f = r.check_keys(o, "output", {"every", "fields"});
+    if (const YAML::Node& x = f["every"]) {
+      const long v = r.integer(x, "output.every");
+      if (v < 0) r.fail(x, "output.every must be >= 0 (0 = no step files), got " + std::to_string(v));
       s.output_every = static_cast<int>(v);
     }
-    if (const YAML::Node f = o["fields"]) {
-      if (!f.IsSequence()) r.fail(f, "output.fields must be a list");
+    if (const YAML::Node& l = f["fields"]) {
+      if (!l.IsSequence()) r.fail(l, "output.fields must be a list");
       s.output_fields.clear();
-      for (std::size_t i = 0; i < f.size(); ++i)
-        s.output_fields.push_back(r.choice(f[i], "output.fields[" + std::to_string(i) + "]",
+      for (std::size_t i = 0; i < l.size(); ++i)
+        s.output_fields.push_back(r.choice(l[i], "output.fields[" + std::to_string(i) + "]",
                                            {"displacement", "strain", "stress", "von_mises", "youngs_modulus"}));
     }
   }
 
-  if (const YAML::Node v = root["solver"]) {
-    r.check_keys(v, "solver", {"type", "tolerance"});
-    if (v["type"]) s.solver_type = r.choice(v["type"], "solver.type", {"auto", "direct", "amg"});
-    if (v["tolerance"]) s.solver_tolerance = r.positive(v["tolerance"], "solver.tolerance");
+  if (const YAML::Node& v = top["solver"]) {
+    const Fields f = r.check_keys(v, "solver", {"type", "tolerance"});
+    if (const YAML::Node& x = f["type"]) s.solver_type = r.choice(x, "solver.type", {"auto", "direct", "amg"});
+    if (const YAML::Node& x = f["tolerance"]) s.solver_tolerance = r.positive(x, "solver.tolerance");
   }
   return s;
 }
