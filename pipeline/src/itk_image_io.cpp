@@ -181,10 +181,39 @@ itk::ImageIOBase::Pointer open_header(const std::string& path) {
       throw InputError(path + ": cannot read the image header: " + one_line(e.what()));
     }
   }
+  if (auto* meta = dynamic_cast<itk::MetaImageIO*>(io.GetPointer()))
+    check_metaimage_data_file(path, meta->GetMetaImagePointer()->ElementDataFileName());
+  const unsigned d = io->GetNumberOfDimensions();
+  if (d != 2 && d != 3)
+    throw InputError(path + ": image has " + std::to_string(d) + " dimensions; expected 2 or 3");
+  if (io->GetNumberOfComponents() != 1)
+    throw InputError(path + ": pixels have " + std::to_string(io->GetNumberOfComponents()) +
+                     " components (vector/RGB/complex image); expected a scalar image (1 component)");
+  if (io->GetComponentType() == itk::IOComponentEnum::UNKNOWNCOMPONENTTYPE)
+    throw InputError(path + ": unknown voxel component type; expected an integer or floating-point scalar type");
+  double n = 1.0;
+  for (unsigned a = 0; a < d; ++a) {
+    if (io->GetDimensions(a) == 0)
+      throw InputError(path + ": image is empty (size 0 along axis " + std::to_string(a) + ")");
+    n *= static_cast<double>(io->GetDimensions(a));
+    const double s = io->GetSpacing(a);
+    if (!(s > 0.0) || !std::isfinite(s)) {
+      std::ostringstream m;
+      m << path << ": spacing along axis " << a << " is " << s << "; spacing must be positive and finite";
+      throw InputError(m.str());
+    }
+    if (!std::isfinite(io->GetOrigin(a)))
+      throw InputError(path + ": origin along axis " + std::to_string(a) + " is not finite");
+  }
+  if (n > max_voxels) {
+    std::ostringstream m;
+    m << path << ": header declares " << n << " voxels, more than the supported " << max_voxels;
+    throw InputError(m.str());
+  }
+  // (after the checks above: GetImageSizeInBytes throws for an unknown component type)
   if (auto* meta = dynamic_cast<itk::MetaImageIO*>(io.GetPointer())) {
     const MetaImage* mi = meta->GetMetaImagePointer();
     const std::string value = mi->ElementDataFileName();
-    check_metaimage_data_file(path, value);
     // Uncompressed binary voxels: a file shorter than the declared data is truncated; say so
     // before ITK allocates the declared size (fuzz_image_header: a 200-byte header declaring
     // 6.4 GB of floats). Compressed and ASCII data cannot be sized from the file.
@@ -214,33 +243,6 @@ itk::ImageIOBase::Pointer open_header(const std::string& path) {
     if (raw && !detached && !size_ec && have < need)
       throw InputError(path + ": cannot read the voxel data: truncated (the header declares " + std::to_string(need) +
                        " bytes of raw voxel data, the file holds only " + std::to_string(have) + " bytes)");
-  }
-  const unsigned d = io->GetNumberOfDimensions();
-  if (d != 2 && d != 3)
-    throw InputError(path + ": image has " + std::to_string(d) + " dimensions; expected 2 or 3");
-  if (io->GetNumberOfComponents() != 1)
-    throw InputError(path + ": pixels have " + std::to_string(io->GetNumberOfComponents()) +
-                     " components (vector/RGB/complex image); expected a scalar image (1 component)");
-  if (io->GetComponentType() == itk::IOComponentEnum::UNKNOWNCOMPONENTTYPE)
-    throw InputError(path + ": unknown voxel component type; expected an integer or floating-point scalar type");
-  double n = 1.0;
-  for (unsigned a = 0; a < d; ++a) {
-    if (io->GetDimensions(a) == 0)
-      throw InputError(path + ": image is empty (size 0 along axis " + std::to_string(a) + ")");
-    n *= static_cast<double>(io->GetDimensions(a));
-    const double s = io->GetSpacing(a);
-    if (!(s > 0.0) || !std::isfinite(s)) {
-      std::ostringstream m;
-      m << path << ": spacing along axis " << a << " is " << s << "; spacing must be positive and finite";
-      throw InputError(m.str());
-    }
-    if (!std::isfinite(io->GetOrigin(a)))
-      throw InputError(path + ": origin along axis " + std::to_string(a) + " is not finite");
-  }
-  if (n > max_voxels) {
-    std::ostringstream m;
-    m << path << ": header declares " << n << " voxels, more than the supported " << max_voxels;
-    throw InputError(m.str());
   }
   return io;
 }
