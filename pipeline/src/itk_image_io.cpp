@@ -234,6 +234,7 @@ itk::ImageIOBase::Pointer open_header(const std::string& path) {
     std::string line;
     bool raw = false, detached = false;
     while (std::getline(in, line) && !line.empty() && line != "\r") {
+      for (char& c : line) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));  // teem: any case
       if (line.rfind("encoding:", 0) == 0) raw = line.find("raw") != std::string::npos;
       if (line.rfind("data file:", 0) == 0 || line.rfind("datafile:", 0) == 0) detached = true;
     }
