@@ -155,7 +155,7 @@ class ElasticModel {
   // The same, as one monolithic saddle-point solve [K Cᵀ; C 0] (reference for the fast path).
   Solution<dim> solve_monolithic(const std::vector<PointConstraint<dim>>& points, const SolverOptions& options = {});
 
-  // Solve on parallel::fullydistributed::Triangulation over `comm` (Trilinos CG + AMG with rigid-body
+  // Solve on a METIS-partitioned parallel::shared::Triangulation over `comm` (Trilinos CG + AMG with rigid-body
   // modes). Collective: every rank must hold the same model (same mesh, moduli, conditions) and call
   // it. Every rank gets the full vertex_displacement, per-cell fields, strain energy and reactions.
   // Point constraints are not supported here (use solve()).
