@@ -527,41 +527,6 @@ void assemble(Impl& m) {
   m.assemble_seconds = timer.wall_time();
 }
 
-// Rigid-body modes at the DoF support points, as an ML pre-computed null space.
-template <int dim>
-void amg_setup(const TrilinosWrappers::SparseMatrix& K, const std::function<Point<dim>(unsigned)>& support_of_local,
-               const std::function<unsigned(unsigned)>& component_of_local, unsigned degree,
-               TrilinosWrappers::PreconditionAMG& amg) {
-  constexpr int nm = dim == 2 ? 3 : 6;
-  TrilinosWrappers::PreconditionAMG::AdditionalData data;
-  data.elliptic = true;
-  data.higher_order_elements = degree > 1;
-  data.smoother_sweeps = 2;
-  data.aggregation_threshold = 0.02;
-  Teuchos::ParameterList pl;
-  std::unique_ptr<Epetra_MultiVector> unused;
-  data.set_parameters(pl, unused, K);
-  Epetra_MultiVector nsp(K.trilinos_matrix().DomainMap(), nm);
-  const int n_local = K.trilinos_matrix().DomainMap().NumMyElements();
-  for (int i = 0; i < n_local; ++i) {
-    const Point<dim> x = support_of_local(static_cast<unsigned>(i));
-    const unsigned c = component_of_local(static_cast<unsigned>(i));
-    for (int k = 0; k < nm; ++k) nsp[k][i] = 0.0;
-    nsp[c][i] = 1.0;
-    if constexpr (dim == 2) {
-      nsp[2][i] = c == 0 ? -x[1] : x[0];
-    } else {
-      const double rot[3][3] = {{0.0, x[2], -x[1]}, {-x[2], 0.0, x[0]}, {x[1], -x[0], 0.0}};
-      for (int a = 0; a < 3; ++a) nsp[3 + a][i] = rot[a][c];
-    }
-  }
-  pl.set("null space: type", "pre-computed");
-  pl.set("null space: dimension", nm);
-  pl.set("null space: vectors", nsp.Values());
-  pl.set("null space: add default vectors", false);
-  pl.set("PDE equations", dim);
-  amg.initialize(K, pl);
-}
 }  // namespace
 
 // ================================================================================================

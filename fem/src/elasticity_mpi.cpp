@@ -110,37 +110,10 @@ Solution<dim> ElasticModel<dim>::solve_distributed(MPI_Comm comm, const SolverOp
   for (const auto& v : m.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
   Point<dim> mid;
   for (int d = 0; d < dim; ++d) mid[d] = 0.5 * (lo[d] + hi[d]);
-  constexpr int nm = dim == 2 ? 3 : 6;
   TrilinosWrappers::PreconditionAMG amg;
-  {
-    TrilinosWrappers::PreconditionAMG::AdditionalData data;
-    data.elliptic = true;
-    data.higher_order_elements = m.degree > 1;
-    data.smoother_sweeps = 2;
-    data.aggregation_threshold = 0.02;
-    Teuchos::ParameterList pl;
-    std::unique_ptr<Epetra_MultiVector> unused;
-    data.set_parameters(pl, unused, K);
-    Epetra_MultiVector nsp(K.trilinos_matrix().DomainMap(), nm);
-    for (unsigned i = 0; i < owned.n_elements(); ++i) {
-      const auto& [x0, c] = dof_info.at(owned.nth_index_in_set(i));
-      const Point<dim> x = Point<dim>(x0 - mid);
-      for (int k = 0; k < nm; ++k) nsp[k][i] = 0.0;
-      nsp[c][i] = 1.0;
-      if constexpr (dim == 2) {
-        nsp[2][i] = c == 0 ? -x[1] : x[0];
-      } else {
-        const double rot[3][3] = {{0.0, x[2], -x[1]}, {-x[2], 0.0, x[0]}, {x[1], -x[0], 0.0}};
-        for (int a = 0; a < 3; ++a) nsp[3 + a][i] = rot[a][c];
-      }
-    }
-    pl.set("null space: type", "pre-computed");
-    pl.set("null space: dimension", nm);
-    pl.set("null space: vectors", nsp.Values());
-    pl.set("null space: add default vectors", false);
-    pl.set("PDE equations", dim);
-    amg.initialize(K, pl);
-  }
+  amg_setup<dim>(
+      K, [&](unsigned i) { return Point<dim>(dof_info.at(owned.nth_index_in_set(i)).first - mid); },
+      [&](unsigned i) { return dof_info.at(owned.nth_index_in_set(i)).second; }, m.degree, amg);
   TrilinosWrappers::MPI::Vector u(owned, comm);
   const double fn = f.l2_norm();
   unsigned iterations = 0;
