@@ -2,6 +2,7 @@
 // cube meshes, the Q1 voxel reference, and needle-style steps (cached Schur fast path vs monolithic).
 //   bench_fem                      serial: P1 ~10k and ~100k DoFs (direct and AMG), needle steps
 //   bench_fem --p1 68              one P1 model with 68³·6 tets (~1M DoFs; AMG)
+//   bench_fem --p1-2d 300          2D P1, 300²·2 triangles (~180k DoFs), direct and AMG
 //   mpirun -np 2 bench_fem --mpi --p1 68 --voxel 100    the same on 2 ranks (solve_distributed)
 #include "../tests/fem/box_mesh.hpp"
 
@@ -79,6 +80,29 @@ void p1_model(int n, SolverOptions::Type type, bool mpi, MPI_Comm comm) {
   row(name.c_str(), dealii::Utilities::MPI::n_mpi_processes(comm), s, build, now() - t0, comm);
 }
 
+// 2D P1 (direct vs AMG), for the 2D direct_limit: unit square, bottom fixed, pressure on top.
+void p1_model_2d(int n, SolverOptions::Type type) {
+  const double t0 = now();
+  const auto mesh = test::kuhn_box<2>({{n, n}}, {{0, 0}}, {{1, 1}});
+  ElasticModel<2> model(mesh, moduli(mesh.n_cells()), 0.45, 1);
+  DirichletBC<2> fixed;
+  fixed.region = box_face_region<2>(Vec<2>(0, 0), Vec<2>(1, 1), 1, false, 1e-9);
+  model.add_dirichlet(fixed);
+  SurfaceLoad<2> load;
+  load.region = box_face_region<2>(Vec<2>(0, 0), Vec<2>(1, 1), 1, true, 1e-9);
+  load.pressure = 1.0;
+  model.add_surface_load(load);
+  const double build = now() - t0;
+  SolverOptions opt;
+  opt.type = type;
+  opt.tolerance = 1e-8;
+  const auto s = model.solve({}, opt);
+  std::printf("| P1 2D Kuhn %-11s |     1 | %9u | %-22s | %5u | %8.2f | %8.2f | %8.2f | %8.2f | %6.2f          |\n",
+              (std::to_string(n) + "^2").c_str(), s.stats.n_dofs, s.stats.method.c_str(), s.stats.iterations, build,
+              s.stats.assemble_seconds, s.stats.solve_seconds, now() - t0, vm_hwm_gb());
+  std::fflush(stdout);
+}
+
 void voxel_model(int n, bool mpi, MPI_Comm comm) {
   const double t0 = now();
   auto model = ElasticModel<3>::voxel_grid({{n, n, n}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1),
@@ -124,16 +148,17 @@ int main(int argc, char** argv) {
   dealii::Utilities::MPI::MPI_InitFinalize init(argc, argv, 1);
   MPI_Comm comm = MPI_COMM_WORLD;
   bool mpi = false;
-  std::vector<int> p1, voxel, needle;
+  std::vector<int> p1, p1_2d, voxel, needle;
   bool defaults = true, amg_too = true;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--mpi")) mpi = true;
     else if (!std::strcmp(argv[i], "--p1") && i + 1 < argc) p1.push_back(std::atoi(argv[++i])), defaults = false;
+    else if (!std::strcmp(argv[i], "--p1-2d") && i + 1 < argc) p1_2d.push_back(std::atoi(argv[++i])), defaults = false;
     else if (!std::strcmp(argv[i], "--voxel") && i + 1 < argc) voxel.push_back(std::atoi(argv[++i])), defaults = false;
     else if (!std::strcmp(argv[i], "--no-amg")) amg_too = false;
     else if (!std::strcmp(argv[i], "--needle") && i + 1 < argc) needle.push_back(std::atoi(argv[++i])), defaults = false;
     else {
-      std::fprintf(stderr, "usage: bench_fem [--mpi] [--p1 N]... [--voxel N]... [--needle N]... [--no-amg]\n");
+      std::fprintf(stderr, "usage: bench_fem [--mpi] [--p1 N]... [--p1-2d N]... [--voxel N]... [--needle N]... [--no-amg]\n");
       return 2;
     }
   }
@@ -147,6 +172,10 @@ int main(int argc, char** argv) {
       if (dofs <= 200000) p1_model(n, SolverOptions::Type::direct, false, comm);
       if (amg_too || dofs > 200000) p1_model(n, SolverOptions::Type::amg, false, comm);
     }
+  }
+  for (int n : p1_2d) {
+    p1_model_2d(n, SolverOptions::Type::direct);
+    p1_model_2d(n, SolverOptions::Type::amg);
   }
   for (int n : voxel) voxel_model(n, mpi, comm);
   for (int n : needle) needle_steps(n, 40);

@@ -201,6 +201,7 @@ ElasticModel<dim>::ElasticModel(const SimplexMesh<dim>& mesh, std::vector<double
   m.face_quadrature = std::make_unique<QGaussSimplex<dim - 1>>(degree + 1);
   for (int d = 0; d < dim; ++d) m.unit_centroid[d] = 1.0 / (dim + 1);
   m.setup_dofs();
+  m.mesh_built = true;
 }
 
 template <int dim>
@@ -231,31 +232,63 @@ ElasticModel<dim> ElasticModel<dim>::voxel_grid(const std::array<long, dim>& cel
   m.E = std::move(youngs_modulus);
   m.nu = poisson_ratio;
   m.degree = 1;
-  std::vector<unsigned> reps(dim);
-  for (int d = 0; d < dim; ++d) reps[d] = static_cast<unsigned>(cells[d]);
-  GridGenerator::subdivided_hyper_rectangle(m.tria, reps, to_point<dim>(box_min), to_point<dim>(box_max));
-  // Cell -> voxel index from its centre (iteration order is not assumed).
-  for (const auto& cell : m.tria.active_cell_iterators()) {
-    const Point<dim> c = cell->center();
-    std::size_t idx = 0, stride = 1;
+  m.grid_cells = cells;
+  m.grid_min = to_point<dim>(box_min);
+  m.grid_max = to_point<dim>(box_max);
+  // Grid vertices in lexicographic order (axis 0 fastest), the numbering subdivided_hyper_rectangle
+  // uses (ensure_mesh checks it).
+  std::array<long, dim> nv;
+  std::size_t n_vertices = 1;
+  for (int d = 0; d < dim; ++d) nv[d] = cells[d] + 1, n_vertices *= static_cast<std::size_t>(nv[d]);
+  m.vertices.resize(n_vertices);
+  for (std::size_t v = 0; v < n_vertices; ++v) {
+    std::size_t r = v;
     for (int d = 0; d < dim; ++d) {
-      const double h = (box_max[d] - box_min[d]) / cells[d];
-      long i = static_cast<long>(std::floor((c[d] - box_min[d]) / h));
-      i = std::min(std::max(i, 0L), cells[d] - 1);
-      idx += static_cast<std::size_t>(i) * stride;
-      stride *= static_cast<std::size_t>(cells[d]);
+      const long i = static_cast<long>(r % static_cast<std::size_t>(nv[d]));
+      r /= static_cast<std::size_t>(nv[d]);
+      m.vertices[v][d] = box_min[d] + i * ((box_max[d] - box_min[d]) / cells[d]);
     }
-    cell->set_material_id(static_cast<types::material_id>(idx));
   }
-  for (const auto& p : m.tria.get_vertices()) m.vertices.push_back(to_vec<dim>(p));
   m.fe = std::make_unique<FESystem<dim>>(FE_Q<dim>(1), dim);
   m.linear_fe = std::make_unique<FE_Q<dim>>(1);
   m.mapping = std::make_unique<MappingQ<dim>>(1);
   m.quadrature = std::make_unique<QGauss<dim>>(2);
   m.face_quadrature = std::make_unique<QGauss<dim - 1>>(2);
   for (int d = 0; d < dim; ++d) m.unit_centroid[d] = 0.5;
-  m.setup_dofs();
   return model;
+}
+
+template <int dim>
+std::size_t ElasticModel<dim>::Impl::voxel_index(const Point<dim>& x) const {
+  std::size_t idx = 0, stride = 1;
+  for (int d = 0; d < dim; ++d) {
+    const double h = (grid_max[d] - grid_min[d]) / grid_cells[d];
+    long i = static_cast<long>(std::floor((x[d] - grid_min[d]) / h));
+    i = std::min(std::max(i, 0L), grid_cells[d] - 1);
+    idx += static_cast<std::size_t>(i) * stride;
+    stride *= static_cast<std::size_t>(grid_cells[d]);
+  }
+  return idx;
+}
+
+template <int dim>
+void ElasticModel<dim>::Impl::ensure_mesh() {
+  if (mesh_built) return;
+  std::vector<unsigned> reps(dim);
+  for (int d = 0; d < dim; ++d) reps[d] = static_cast<unsigned>(grid_cells[d]);
+  GridGenerator::subdivided_hyper_rectangle(tria, reps, grid_min, grid_max);
+  // Cell -> voxel index from its centre (iteration order is not assumed).
+  for (const auto& cell : tria.active_cell_iterators())
+    cell->set_material_id(static_cast<types::material_id>(voxel_index(cell->center())));
+  const auto& tv = tria.get_vertices();
+  double h = std::numeric_limits<double>::max();
+  for (int d = 0; d < dim; ++d) h = std::min(h, (grid_max[d] - grid_min[d]) / grid_cells[d]);
+  if (tv.size() != vertices.size()) throw std::logic_error("voxel_grid: vertex count differs from deal.II's grid");
+  for (std::size_t v = 0; v < tv.size(); ++v)
+    if ((to_vec<dim>(tv[v]) - vertices[v]).norm() > 1e-9 * h)
+      throw std::logic_error("voxel_grid: vertex numbering differs from deal.II's subdivided_hyper_rectangle");
+  setup_dofs();
+  mesh_built = true;
 }
 
 template <int dim>
@@ -314,9 +347,12 @@ void ElasticModel<dim>::set_body_force(const Vec<dim>& f) {
 }
 
 template <int dim>
-unsigned ElasticModel<dim>::n_dofs() const { return static_cast<unsigned>(impl_->dof.n_dofs()); }
+unsigned ElasticModel<dim>::n_dofs() const {
+  if (impl_->mesh_built) return static_cast<unsigned>(impl_->dof.n_dofs());
+  return static_cast<unsigned>(dim * impl_->vertices.size());  // voxel grid not built yet: Q1, dim per vertex
+}
 template <int dim>
-unsigned ElasticModel<dim>::n_cells() const { return impl_->tria.n_active_cells(); }
+unsigned ElasticModel<dim>::n_cells() const { return static_cast<unsigned>(impl_->E.size()); }
 template <int dim>
 const std::vector<Vec<dim>>& ElasticModel<dim>::vertices() const { return impl_->vertices; }
 template <int dim>
@@ -585,7 +621,7 @@ void prepare_solver(Impl& m, const SolverOptions& opt) {
   if (opt.max_iterations == 0) throw std::invalid_argument("SolverOptions: max_iterations must be > 0");
   assemble<dim>(m);
   const bool use_amg = opt.type == SolverOptions::Type::amg ||
-                       (opt.type == SolverOptions::Type::automatic && m.dof.n_dofs() > opt.direct_limit);
+                       (opt.type == SolverOptions::Type::automatic && m.dof.n_dofs() > opt.direct_limit_for(dim));
   const std::string method = use_amg ? "cg+amg" : "umfpack";
   if (m.method == method) return;
   m.direct.reset();
@@ -921,6 +957,7 @@ template <int dim>
 Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& points, const SolverOptions& opt) {
   Impl& m = *impl_;
   check_points(points);
+  m.ensure_mesh();
   prepare_solver<dim>(m, opt);
   Timer timer;
   unsigned iterations = 0;
@@ -1060,6 +1097,7 @@ Solution<dim> ElasticModel<dim>::solve_monolithic(const std::vector<PointConstra
                                                   const SolverOptions& opt) {
   Impl& m = *impl_;
   check_points(points);
+  m.ensure_mesh();
   assemble<dim>(m);
   Timer timer;
   const unsigned n = m.dof.n_dofs();
@@ -1133,7 +1171,7 @@ Solution<dim> ElasticModel<dim>::solve_monolithic(const std::vector<PointConstra
 template <int dim>
 std::vector<Vec<dim>> ElasticModel<dim>::sample(const std::vector<Vec<dim>>& points, PointSample* info) const {
   const Impl& m = *impl_;
-  if (!m.have_solution) throw std::runtime_error("sample: no solution yet; call solve() first");
+  if (!m.have_solution) throw std::runtime_error("sample: no solution yet; call solve() first");  // solve() built the mesh
   std::vector<Point<dim>> pts(points.size());
   for (std::size_t i = 0; i < pts.size(); ++i) {
     if (!points[i].allFinite()) throw std::invalid_argument("sample: point " + std::to_string(i) + " is not finite");
@@ -1178,6 +1216,7 @@ std::vector<Vec<dim>> ElasticModel<dim>::sample(const std::vector<Vec<dim>>& poi
 template <int dim>
 double ElasticModel<dim>::strain_energy_of(const std::vector<Vec<dim>>& U) const {
   Impl& m = *impl_;
+  m.ensure_mesh();
   if (U.size() != m.tria.n_vertices()) {
     std::ostringstream s;
     s << "strain_energy_of: " << U.size() << " vertex values for " << m.tria.n_vertices() << " vertices";

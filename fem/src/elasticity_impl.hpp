@@ -71,6 +71,12 @@ struct ElasticModel<dim>::Impl {
 
   // ---- input -------------------------------------------------------------------------------
   bool voxel = false;
+  // Voxel models: the grid (cells per axis, box). Their serial triangulation/DoFHandler is built on
+  // first serial use (ensure_mesh); solve_distributed builds its own distributed grid instead, so an
+  // MPI voxel solve never holds the whole mesh on a rank.
+  std::array<long, dim> grid_cells{};
+  dealii::Point<dim> grid_min, grid_max;
+  bool mesh_built = false;
   std::vector<Vec<dim>> vertices;
   std::vector<double> E;  // per input cell (material_id of a deal.II cell = its input index)
   double nu = 0.3;
@@ -126,6 +132,10 @@ struct ElasticModel<dim>::Impl {
 
   // ---- shared helpers (elasticity.cpp) -----------------------------------------------------
   void setup_dofs();
+  // Builds the serial voxel triangulation + DoFs if not built yet (no-op for simplex models).
+  void ensure_mesh();
+  // Index of the voxel containing x (clamped to the grid), axis 0 fastest.
+  std::size_t voxel_index(const dealii::Point<dim>& x) const;
   // Per-DoF support points over the cells given by `cells` (all active cells in serial).
   int dirichlet_owner(const dealii::Point<dim>& x, unsigned component, double* value) const;
   // Throws unless the constrained DoFs (this rank's share; summed over `comm`) remove every rigid motion.

@@ -1,13 +1,17 @@
-// The same elasticity problem on a parallel::shared::Triangulation (DESIGN.md §4): a copy of the
-// serial triangulation every rank holds is partitioned (METIS), cells away from the own part are
-// artificial, each rank assembles its cells into Trilinos matrices, and solves with CG +
-// ML AMG fed the rigid-body modes. Outputs are gathered so every rank gets the full Solution.
+// The same elasticity problem distributed over MPI ranks (DESIGN.md §4): simplex models on a
+// parallel::shared::Triangulation (a copy of the serial triangulation every rank holds, METIS
+// partition, cells away from the own part artificial); voxel models on a p4est
+// parallel::distributed::Triangulation built from the grid description alone (no serial mesh).
+// Each rank assembles its cells into Trilinos matrices and solves with CG + ML AMG fed the
+// rigid-body modes. Outputs are gathered so every rank gets the full Solution.
 #include "elasticity_impl.hpp"
 
 #include <deal.II/base/index_set.h>
 #include <deal.II/base/mpi.h>
 #include <deal.II/base/timer.h>
 #include <deal.II/distributed/shared_tria.h>
+#include <deal.II/distributed/tria.h>
+#include <deal.II/grid/grid_generator.h>
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/grid/grid_tools.h>
 #include <deal.II/lac/solver_cg.h>
@@ -38,15 +42,40 @@ Solution<dim> ElasticModel<dim>::solve_distributed(MPI_Comm comm, const SolverOp
   const unsigned rank = Utilities::MPI::this_mpi_process(comm);
 
   // ---- distributed mesh and DoFs ----
-  // parallel::shared::Triangulation (METIS partition, cells away from the own part artificial).
-  // deal.II 9.4.1's fullydistributed::Triangulation::create_triangulation sorts the cells with a
-  // comparator that binary-searches the coarse-cell map twice per comparison: with every cell a
-  // coarse cell (~2M tets for ~1M DoFs) that dominated the set-up (docs/performance.md, issue 5).
-  // partition_metis explicitly: partition_auto picks Zoltan's hypergraph partitioner, far slower here.
-  parallel::shared::Triangulation<dim> ptria(comm, Triangulation<dim>::none, /*allow_artificial_cells=*/true,
-                                             parallel::shared::Triangulation<dim>::partition_metis);
-  ptria.copy_triangulation(m.tria);
-  DoFHandler<dim> dof(ptria);
+  // Simplex models: parallel::shared::Triangulation (METIS partition, cells away from the own part
+  // artificial). deal.II 9.4.1's fullydistributed::Triangulation::create_triangulation sorts the
+  // cells with a comparator that binary-searches the coarse-cell map twice per comparison: with
+  // every cell a coarse cell (~2M tets for ~1M DoFs) that dominated the set-up (docs/performance.md,
+  // issue 5). partition_metis explicitly: partition_auto picks Zoltan's hypergraph partitioner, far
+  // slower here.
+  // Voxel models: a parallel::distributed::Triangulation (p4est) of a coarse block grid refined
+  // globally r times (2^r the largest power of two dividing every axis), so a rank holds the coarse
+  // grid plus its own part of the voxel grid and never the whole serial mesh; each cell's modulus is
+  // looked up by its centre (material id = voxel index).
+  std::unique_ptr<parallel::TriangulationBase<dim>> ptria;
+  if (m.voxel) {
+    auto t = std::make_unique<parallel::distributed::Triangulation<dim>>(comm);
+    unsigned r = 0;
+    auto divisible = [&](unsigned k) {
+      for (int d = 0; d < dim; ++d)
+        if (m.grid_cells[d] % (1L << k) != 0) return false;
+      return true;
+    };
+    while (r < 10 && divisible(r + 1)) ++r;
+    std::vector<unsigned> reps(dim);
+    for (int d = 0; d < dim; ++d) reps[d] = static_cast<unsigned>(m.grid_cells[d] >> r);
+    GridGenerator::subdivided_hyper_rectangle(*t, reps, m.grid_min, m.grid_max);
+    t->refine_global(r);
+    for (const auto& cell : t->active_cell_iterators())
+      if (!cell->is_artificial()) cell->set_material_id(static_cast<types::material_id>(m.voxel_index(cell->center())));
+    ptria = std::move(t);
+  } else {
+    auto t = std::make_unique<parallel::shared::Triangulation<dim>>(
+        comm, Triangulation<dim>::none, /*allow_artificial_cells=*/true, parallel::shared::Triangulation<dim>::partition_metis);
+    t->copy_triangulation(m.tria);
+    ptria = std::move(t);
+  }
+  DoFHandler<dim> dof(*ptria);
   dof.distribute_dofs(*m.fe);
   const IndexSet owned = dof.locally_owned_dofs();
   IndexSet relevant;
@@ -55,7 +84,9 @@ Solution<dim> ElasticModel<dim>::solve_distributed(MPI_Comm comm, const SolverOp
   // ---- support points of the relevant DoFs; Dirichlet constraints (first condition wins) ----
   const FiniteElement<dim>& fe = *m.fe;
   const unsigned dpc = fe.n_dofs_per_cell();
-  std::unordered_map<types::global_dof_index, std::pair<Point<dim>, unsigned>> dof_info;
+  // per relevant DoF (position in `relevant`): support point and component
+  std::vector<Point<dim>> rel_point(relevant.n_elements());
+  std::vector<unsigned char> rel_comp(relevant.n_elements());
   {
     Quadrature<dim> sq(fe.get_unit_support_points());
     FEValues<dim> sv(*m.mapping, fe, sq, update_quadrature_points);
@@ -64,20 +95,25 @@ Solution<dim> ElasticModel<dim>::solve_distributed(MPI_Comm comm, const SolverOp
       if (cell->is_artificial()) continue;
       sv.reinit(cell);
       cell->get_dof_indices(idx);
-      for (unsigned i = 0; i < dpc; ++i) dof_info[idx[i]] = {sv.quadrature_point(i), fe.system_to_component_index(i).first};
+      for (unsigned i = 0; i < dpc; ++i) {
+        const auto k = relevant.index_within_set(idx[i]);
+        rel_point[k] = sv.quadrature_point(i);
+        rel_comp[k] = static_cast<unsigned char>(fe.system_to_component_index(i).first);
+      }
     }
   }
   AffineConstraints<double> constraints(relevant);
   std::unordered_map<types::global_dof_index, int> dof_bc;
   std::vector<std::pair<Point<dim>, unsigned>> constrained_owned;
-  for (const auto& [i, pc] : dof_info) {
+  for (std::size_t k = 0; k < rel_point.size(); ++k) {
     double value = 0.0;
-    const int b = m.dirichlet_owner(pc.first, pc.second, &value);
+    const int b = m.dirichlet_owner(rel_point[k], rel_comp[k], &value);
     if (b < 0) continue;
+    const types::global_dof_index i = relevant.nth_index_in_set(k);
     dof_bc[i] = b;
     constraints.add_line(i);
     constraints.set_inhomogeneity(i, value);
-    if (owned.is_element(i)) constrained_owned.push_back(pc);
+    if (owned.is_element(i)) constrained_owned.emplace_back(rel_point[k], rel_comp[k]);
   }
   constraints.close();
   m.check_rigid_modes_removed(constrained_owned, comm);
@@ -112,8 +148,8 @@ Solution<dim> ElasticModel<dim>::solve_distributed(MPI_Comm comm, const SolverOp
   for (int d = 0; d < dim; ++d) mid[d] = 0.5 * (lo[d] + hi[d]);
   TrilinosWrappers::PreconditionAMG amg;
   amg_setup<dim>(
-      K, [&](unsigned i) { return Point<dim>(dof_info.at(owned.nth_index_in_set(i)).first - mid); },
-      [&](unsigned i) { return dof_info.at(owned.nth_index_in_set(i)).second; }, m.degree, amg);
+      K, [&](unsigned i) { return Point<dim>(rel_point[relevant.index_within_set(owned.nth_index_in_set(i))] - mid); },
+      [&](unsigned i) { return unsigned(rel_comp[relevant.index_within_set(owned.nth_index_in_set(i))]); }, m.degree, amg);
   TrilinosWrappers::MPI::Vector u(owned, comm);
   const double fn = f.l2_norm();
   unsigned iterations = 0;
@@ -139,7 +175,7 @@ Solution<dim> ElasticModel<dim>::solve_distributed(MPI_Comm comm, const SolverOp
 
   // ---- outputs, gathered ----
   Solution<dim> s;
-  const std::size_t nv = m.tria.n_vertices(), nc = m.tria.n_active_cells();
+  const std::size_t nv = m.vertices.size(), nc = m.E.size();
   std::vector<double> vert(nv * dim, -DBL_MAX);                     // MAX-reduced: shared vertices agree
   std::vector<double> cellf(nc * (2 * dim * dim + 1), 0.0);         // SUM-reduced: each cell owned once
   std::vector<double> react(m.bcs.size() * dim, 0.0);
@@ -152,14 +188,28 @@ Solution<dim> ElasticModel<dim>::solve_distributed(MPI_Comm comm, const SolverOp
     if (!cell->is_locally_owned()) continue;
     cell->get_dof_indices(idx);
     for (unsigned i = 0; i < dpc; ++i) uev[i] = ue[i] = ug[idx[i]];
-    // vertices: match this cell's vertices to the serial cell with the same CellId
-    const auto serial = m.tria.create_cell_iterator(cell->id());
-    for (const unsigned v : cell->vertex_indices()) {
-      unsigned gv = numbers::invalid_unsigned_int;
-      for (const unsigned w : serial->vertex_indices())
-        if (serial->vertex(w).distance(cell->vertex(v)) <= 1e-12 * cell->diameter()) gv = serial->vertex_index(w);
-      if (gv == numbers::invalid_unsigned_int) throw std::logic_error("solve_distributed: vertex matching failed");
-      for (unsigned c = 0; c < unsigned(dim); ++c) vert[gv * dim + c] = ug[cell->vertex_dof_index(v, c)];
+    if (m.voxel) {
+      // vertices: lexicographic grid index from the position (the numbering of m.vertices)
+      for (const unsigned v : cell->vertex_indices()) {
+        std::size_t gv = 0, stride = 1;
+        for (int d = 0; d < dim; ++d) {
+          const double h = (m.grid_max[d] - m.grid_min[d]) / m.grid_cells[d];
+          const long i = std::lround((cell->vertex(v)[d] - m.grid_min[d]) / h);
+          gv += static_cast<std::size_t>(i) * stride;
+          stride *= static_cast<std::size_t>(m.grid_cells[d] + 1);
+        }
+        for (unsigned c = 0; c < unsigned(dim); ++c) vert[gv * dim + c] = ug[cell->vertex_dof_index(v, c)];
+      }
+    } else {
+      // vertices: match this cell's vertices to the serial cell with the same CellId
+      const auto serial = m.tria.create_cell_iterator(cell->id());
+      for (const unsigned v : cell->vertex_indices()) {
+        unsigned gv = numbers::invalid_unsigned_int;
+        for (const unsigned w : serial->vertex_indices())
+          if (serial->vertex(w).distance(cell->vertex(v)) <= 1e-12 * cell->diameter()) gv = serial->vertex_index(w);
+        if (gv == numbers::invalid_unsigned_int) throw std::logic_error("solve_distributed: vertex matching failed");
+        for (unsigned c = 0; c < unsigned(dim); ++c) vert[gv * dim + c] = ug[cell->vertex_dof_index(v, c)];
+      }
     }
     const unsigned j = cell->material_id();
     Eigen::Matrix<double, dim, dim> eps = m.centroid_strain(cell, cv, ue), sigma;

@@ -1,5 +1,6 @@
-// solve_distributed on 2 ranks (parallel::fullydistributed::Triangulation, Trilinos CG + AMG) vs
-// the serial direct solve each rank also runs: simplex (P1, P2, 2D) and voxel models.
+// solve_distributed on 2 ranks (simplex: parallel::shared::Triangulation; voxel: p4est
+// parallel::distributed::Triangulation; Trilinos CG + AMG) vs the serial direct solve each rank
+// also runs: simplex (P1, P2, 2D) and voxel models (3D, 2D).
 #include "../fem/box_mesh.hpp"
 
 #include <vim/fem/elasticity.hpp>
@@ -92,6 +93,20 @@ TEST(Distributed, SimplexP1_2D) {
 TEST(Distributed, VoxelModel3D) {
   auto model = ElasticModel<3>::voxel_grid({{12, 10, 8}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1),
                                            random_moduli<3>(12 * 10 * 8), 0.4);
+  add_conditions(model);
+  compare(model);
+}
+
+// Grid sizes divisible by 4 (coarse p4est grid refined twice) and odd sizes (no refinement), 2D.
+TEST(Distributed, VoxelModel3DRefinedCoarseGrid) {
+  auto model = ElasticModel<3>::voxel_grid({{16, 8, 12}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1),
+                                           random_moduli<3>(16 * 8 * 12), 0.3);
+  add_conditions(model);
+  compare(model);
+}
+
+TEST(Distributed, VoxelModel2DOddSizes) {
+  auto model = ElasticModel<2>::voxel_grid({{9, 7}}, Vec<2>(0, 0), Vec<2>(1, 1), random_moduli<2>(9 * 7), 0.3);
   add_conditions(model);
   compare(model);
 }

@@ -85,7 +85,13 @@ struct SolverOptions {
   enum class Type { automatic, direct, amg } type = Type::automatic;
   double tolerance = 1e-10;       // relative residual for CG
   unsigned max_iterations = 10000;
-  unsigned direct_limit = 200000; // `automatic` uses UMFPACK up to this many DoFs
+  // `automatic` uses UMFPACK up to this many DoFs; 0 = the default for the dimension,
+  // default_direct_limit(dim). 3D direct solves fill in badly (P1, one factorisation: 32k DoFs 8.6 s,
+  // 53k DoFs 26 s, 98k DoFs 123 s and 4.2 GB, against 0.9 / 1.5 / 6 s for CG+AMG; docs/performance.md).
+  // On the AMG path each new point constraint costs one CG solve instead of one back-substitution.
+  unsigned direct_limit = 0;
+  static constexpr unsigned default_direct_limit(int dim) { return dim == 2 ? 200000u : 30000u; }
+  unsigned direct_limit_for(int dim) const { return direct_limit ? direct_limit : default_direct_limit(dim); }
 };
 
 struct SolverStats {
