@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -189,6 +190,30 @@ EnergyTotals VimOptimizer<dim>::recompute_totals() const {
 }
 
 template <int dim>
+void VimOptimizer<dim>::check_invariants(const char* stage, int iteration, double previous_energy) const {
+  auto fail = [&](const std::string& what) {
+    std::ostringstream m;
+    m << "mesh invariant violated after the " << stage << " of iteration " << iteration << ": " << what;
+    throw InvariantViolation(m.str());
+  };
+  std::string v = mesh_invariant_violation<dim>(mesh_, alive_, fixed_, box_min_, box_max_, boundary_tol_, bound_);
+  if (!v.empty()) fail(v);
+  if (!adj_.consistent(mesh_.n_points(), mesh_.cells, alive_)) fail("the node-to-cell adjacency differs from a rebuild");
+  const EnergyTotals cached = totals(), fresh = recompute_totals();
+  const double scale = std::max(std::abs(fresh.energy), 1e-300);
+  if (!(std::abs(cached.energy - fresh.energy) <= 1e-9 * scale)) {
+    std::ostringstream m;
+    m << "stale per-element caches: cached E = " << cached.energy << ", fresh evaluation " << fresh.energy;
+    fail(m.str());
+  }
+  if (!(cached.energy <= previous_energy + 1e-12 * std::abs(previous_energy))) {
+    std::ostringstream m;
+    m << "E rose from " << previous_energy << " to " << cached.energy;
+    fail(m.str());
+  }
+}
+
+template <int dim>
 SimplexMesh<dim> VimOptimizer<dim>::compact_mesh() const {
   SimplexMesh<dim> out;
   out.points = mesh_.points;
@@ -277,6 +302,7 @@ VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const
   VoxelStatistics<dim> stats(image);
   VimOptimizer<dim> opt(std::move(initial), &stats, nullptr, options);
 
+  if (options.check_invariants) opt.check_invariants("set-up", 0, std::numeric_limits<double>::infinity());
   VimResult<dim> result;
   result.eg0 = opt.eg0();
   result.ed0 = opt.ed0();
@@ -301,14 +327,25 @@ VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const
     r.iteration = it;
     double sum_sq = 0.0;
     const std::size_t n_nodes = opt.mesh().n_points();
+    double previous = result.history.back().energy;
+    auto check = [&](const char* stage) {
+      if (!options.check_invariants) return;
+      opt.check_invariants(stage, it, previous);
+      previous = opt.totals().energy;
+    };
     r.moves = opt.update_nodes(it, &sum_sq);
     r.v = std::sqrt(sum_sq / static_cast<double>(n_nodes)) / b;
-    if (options.swaps) r.swaps = opt.swap_pass();
+    check("node update");
+    if (options.swaps) {
+      r.swaps = opt.swap_pass();
+      check("swap pass");
+    }
     long inserted = 0;
     if (to_insert > 0) {
       const long k = std::min<long>(to_insert, std::max<long>(1, static_cast<long>(n_nodes) / 10));
       inserted = opt.insert_nodes(k);
       to_insert = inserted > 0 ? to_insert - inserted : 0;  // stop when no split lowers E
+      check("node insertion");
     }
     if (r.swaps > 0 || inserted > 0) opt.recolour();
     const EnergyTotals t = opt.totals();

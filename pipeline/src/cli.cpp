@@ -5,6 +5,7 @@
 #include <vim/pipeline/cli.hpp>
 
 #include <vim/initial_mesh.hpp>
+#include <vim/invariants.hpp>
 #include <vim/pipeline/atomic_file.hpp>
 #include <vim/pipeline/exports.hpp>
 #include <vim/pipeline/figures.hpp>
@@ -52,6 +53,7 @@ VimOptions RunOptions::vim_options() const {
   v.max_iterations = max_iterations;
   v.threads = threads;
   v.seed = seed;
+  v.check_invariants = check_invariants;
   return v;
 }
 
@@ -217,6 +219,10 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
       ->check(CLI::Range(0, 1024));
   app.add_option("--seed", o.seed, "Random seed for tie-breaking and random-walk updates (default 1; >= 0)")
       ->type_name("S");
+  app.add_flag("--check-invariants", o.check_invariants,
+               "Check every mesh invariant (no inverted element, quality bound, conforming tiling, boundary "
+               "nodes on the box, caches, E never rising) after each VIM stage; about doubles meshing time "
+               "(default off; on in a VIM_CHECKED build)");
   app.add_option("--sizing", o.sizing,
                  "Sizing/density image (same dimension as IMAGE, values > 0; larger = denser) for an "
                  "E_G-only initialisation (paper §VI-E) (default: none)")
@@ -291,6 +297,7 @@ json options_json(const RunOptions& o) {
   j["max_iterations"] = o.max_iterations;
   j["threads"] = o.threads;
   j["seed"] = o.seed;
+  j["check_invariants"] = o.check_invariants;
   j["sizing"] = o.sizing.empty() ? json(nullptr) : json(o.sizing);
   j["threshold"] = o.threshold ? json(*o.threshold) : json(nullptr);
   j["mesher"] = to_string(o.mesher);
@@ -678,6 +685,8 @@ int run(const RunOptions& o) {
     print_error(e.what());
   } catch (const std::invalid_argument& e) {
     print_error(e.what());
+  } catch (const InvariantViolation& e) {
+    print_error(std::string("internal error, please report it with the input: ") + e.what());
   } catch (const std::bad_alloc&) {
     print_error("out of memory (try a smaller image or fewer --nodes)");
   } catch (const std::exception& e) {

@@ -175,6 +175,31 @@ TEST(CliMesh, TwoDimensionalObliqueAnisotropic) {
   EXPECT_EQ(b["mesh"]["mesher"], "grid");
 }
 
+// --check-invariants runs the mesher's invariant checks after every stage: the run succeeds, the
+// report records the option, and the mesh is the same point for point as without the checks.
+TEST(CliMesh, CheckInvariantsFlagChecksWithoutChangingTheMesh) {
+  vim::test::TempDir dir("cli_inv");
+  auto im = phantoms::two_inclusions(40);
+  im.image.spacing = {1.5, 1.1};
+  write_image(im, dir / "in.mha");
+  const auto checked = dir.path / "checked", plain = dir.path / "plain";
+  const auto a = run_pipeline(quote(dir / "in.mha") + " --nodes 80 --max-iterations 4 --check-invariants -q --export none --out " +
+                              quote(checked.string()));
+  ASSERT_EQ(a.code, 0) << a.err;
+  const auto b = run_pipeline(quote(dir / "in.mha") + " --nodes 80 --max-iterations 4 -q --export none --out " +
+                              quote(plain.string()));
+  ASSERT_EQ(b.code, 0) << b.err;
+  const auto ra = nlohmann::json::parse(vim::test::slurp(checked / "report.json"));
+  const auto rb = nlohmann::json::parse(vim::test::slurp(plain / "report.json"));
+  EXPECT_EQ(ra["options"]["check_invariants"], true);
+  EXPECT_EQ(rb["options"]["check_invariants"], kCheckedBuild);
+  const auto ma = read_vtu((checked / "mesh.vtu").string()), mb = read_vtu((plain / "mesh.vtu").string());
+  ASSERT_EQ(ma->GetNumberOfPoints(), mb->GetNumberOfPoints());
+  ASSERT_EQ(ma->GetNumberOfCells(), mb->GetNumberOfCells());
+  for (vtkIdType i = 0; i < ma->GetNumberOfPoints(); ++i)
+    for (int k = 0; k < 3; ++k) ASSERT_EQ(ma->GetPoint(i)[k], mb->GetPoint(i)[k]) << "point " << i;
+}
+
 TEST(CliMesh, ThreeDimensionalObliqueAnisotropic) {
   vim::test::TempDir dir("cli3");
   auto im = phantoms::table1(16);

@@ -5,6 +5,7 @@
 
 #include <vim/adjacency.hpp>
 #include <vim/image.hpp>
+#include <vim/invariants.hpp>
 #include <vim/quality.hpp>
 #include <vim/simplex_mesh.hpp>
 #include <vim/vim.hpp>
@@ -79,6 +80,13 @@ class VimOptimizer {
   // Splits the longest edge of up to k highest-cost elements (all cells sharing the edge are
   // split). Only splits that keep every new element acceptable and do not raise E are taken.
   long insert_nodes(long k);
+
+  // Checks the invariants of invariants.hpp (nodes in the box and on their faces, no inverted cell,
+  // quality bound, conforming tiling of the box) plus: the adjacency equals a rebuild from the
+  // cells, the per-element caches equal a fresh evaluation (relative 1e-9) and E has not risen above
+  // previous_energy. Costs about one full evaluation of the mesh. Throws InvariantViolation naming
+  // `stage`, `iteration` and the first violation.
+  void check_invariants(const char* stage, int iteration, double previous_energy) const;
 
   // Sums over live cells (deterministic order, extended precision).
   EnergyTotals totals() const;

@@ -14,6 +14,12 @@
 
 namespace vim {
 
+#ifdef VIM_CHECKED
+inline constexpr bool kCheckedBuild = true;
+#else
+inline constexpr bool kCheckedBuild = false;
+#endif
+
 // Options with the paper's defaults; validate() throws std::invalid_argument naming the option.
 struct VimOptions {
   // λ ∈ [0,1): weight of the normalised discretisation energy (§IV-C: "λ = 30% means 30% discretisation,
@@ -35,6 +41,10 @@ struct VimOptions {
   std::uint64_t seed = 1;              // random-walk and tie-breaking seed
   int insert_nodes = 0;                // extra nodes to insert near high-cost elements (never above node_budget)
   long node_budget = 0;                // hard cap for insertion (0 = current node count)
+  // Check every mesh invariant (invariants.hpp) after each node sweep, swap pass and insertion, and
+  // throw vim::InvariantViolation at the first violation. About doubles the time per iteration.
+  // Default on in a checked build (cmake -DVIM_CHECKED=ON), off otherwise.
+  bool check_invariants = kCheckedBuild;
 
   void validate() const;
 };

@@ -32,6 +32,7 @@ struct RunOptions {
   int max_iterations = VimOptions{}.max_iterations;
   int threads = 0;                   // 0 = all cores (TBB default)
   std::uint64_t seed = 1;
+  bool check_invariants = kCheckedBuild;  // --check-invariants (on by default in a VIM_CHECKED build)
   std::string sizing;                // --sizing IMAGE (density for the E_G-only initialisation)
   std::optional<double> threshold;   // --threshold T: segment element means > T
   MesherKind mesher = MesherKind::vim;
