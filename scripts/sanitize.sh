@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Builds the mesher and pipeline test suites with -fsanitize=address,undefined (VIM_SANITIZE=ON)
-# in a separate build dir and runs them. Not part of CI yet (a full extra build).
+# and the mesh-invariant checks on (VIM_CHECKED=ON: every VIM stage of every test run is checked)
+# in a separate build dir and runs them. Not part of CI (a full extra build).
 #   scripts/sanitize.sh [BUILD_DIR]            (default: ../build-sanitize next to the checkout)
 # Environment: JOBS (default 1), CONFIGURE_ONLY=1 to stop after cmake, GTEST_FILTER passed through.
 # Leak detection is off: MPI and deal.II leave intentional allocations at exit.
@@ -10,9 +11,9 @@ build=${1:-$root/../build-sanitize}
 jobs=${JOBS:-1}
 
 # Release, not RelWithDebInfo: deal_ii_setup_target only knows Debug/Release. -g for stacks.
-cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DVIM_SANITIZE=ON -DVIM_BUILD_BENCH=OFF \
+cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DVIM_SANITIZE=ON -DVIM_CHECKED=ON -DVIM_BUILD_BENCH=OFF \
   -DCMAKE_CXX_FLAGS="-g" >/dev/null
-echo "configured $build (VIM_SANITIZE=ON)"
+echo "configured $build (VIM_SANITIZE=ON, VIM_CHECKED=ON)"
 [ "${CONFIGURE_ONLY:-0}" = 1 ] && exit 0
 cmake --build "$build" -j"$jobs" --target test_mesher test_pipeline
 
