@@ -10,22 +10,28 @@
 //
 //   validate_needle [--n 40] [--steps 12] [--scenario examples/prostate_needle.yaml]
 //                   [--plots DIR] [--skip-needle] [--skip-compression] [nodes ...]
+// Diagnostics (same options for the VIM and the grid model; the reference never changes with them
+// except through --nu): [--lambda L] [--min-dihedral D] [--min-rr R] [--max-dihedral D] [--no-swaps]
+// [--degree 2] [--nu 0.3] [--ref-cache FILE] (reuse the compression reference of an earlier run).
 #include <vim/fem/elasticity.hpp>
 #include <vim/initial_mesh.hpp>
 #include <vim/pipeline/figures.hpp>
 #include <vim/pipeline/phantoms.hpp>
 #include <vim/pipeline/scenario.hpp>
 #include <vim/pipeline/simulation.hpp>
+#include <vim/quality.hpp>
 #include <vim/vim.hpp>
 #include <vim/voxel_statistics.hpp>
 
 #include <chrono>
 #include <cmath>
+#include <deal.II/base/mpi.h>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <filesystem>
+#include <fstream>
 #include <optional>
 #include <string>
 #include <vector>
@@ -71,7 +77,34 @@ struct Meshes {
   double vim_seconds = 0;
 };
 
-Meshes make_meshes(const OrientedImage<3>& img, long budget, double lambda) {
+// Mesh diagnostics: quality and how many cells resolve the stiff structures.
+const Scenario* g_scenario = nullptr;  // for the region node counts in describe()
+
+void describe(const char* name, const MeshModel<3>& m) {
+  const MeshQuality q = mesh_quality<3>(m.mesh);
+  std::string regions;
+  if (g_scenario)
+    for (const auto& bc : g_scenario->boundary_conditions) {
+      if (bc.region.kind != RegionSpec::Kind::cylinder) continue;
+      const auto reg = fem::cylinder_region<3>(V3(bc.region.center.data()), V3(bc.region.axis_vector.data()),
+                                               bc.region.radius);
+      long hits = 0;
+      for (const auto& p : m.mesh.points) hits += reg.contains(m.transform.to_world(p));
+      regions += ", nodes in the " + bc.region.describe() + ": " + std::to_string(hits);
+    }
+  long gland = 0, lesion = 0, empty = 0;
+  for (const auto& v : m.values) {
+    gland += v.mean > 37.5;
+    lesion += v.mean > 105.0;
+    empty += v.voxels == 0;
+  }
+  std::printf("  %s: %zu cells, dihedral %.1f..%.1f deg, min NRR %.3f, cells with mean > 37.5 kPa: %ld, "
+              "> 105 kPa: %ld, without a voxel centre: %ld%s\n",
+              name, m.mesh.n_cells(), q.min_dihedral_deg, q.max_dihedral_deg, q.min_nrr, gland, lesion, empty,
+              regions.c_str());
+}
+
+Meshes make_meshes(const OrientedImage<3>& img, long budget, const VimOptions& vo) {
   Meshes m;
   const auto lo = img.image.box_min(), hi = img.image.box_max();
   const auto axis = nodes_per_axis_for_budget<3>(lo, hi, budget);
@@ -83,8 +116,6 @@ Meshes make_meshes(const OrientedImage<3>& img, long budget, double lambda) {
   }
   m.grid.mesh = initial;
   for (std::size_t c = 0; c < initial.n_cells(); ++c) m.grid.values.push_back(stats.value(cell_points(initial, c)));
-  VimOptions vo;
-  vo.lambda = lambda;
   const auto t = Clock::now();
   VimResult<3> r = optimize<3>(img.image, initial, vo);
   m.vim_seconds = since(t);
@@ -110,10 +141,10 @@ void add_compression(fem::ElasticModel<3>& model, const V3& lo, const V3& hi) {
 }
 
 std::vector<V3> solve_compression(const MeshModel<3>& m, const Scenario& sc, const V3& lo, const V3& hi,
-                                  const Samples& s, double* energy) {
+                                  const Samples& s, double* energy, unsigned degree) {
   std::vector<double> mean;
   for (const auto& v : m.values) mean.push_back(v.mean);
-  fem::ElasticModel<3> model(m.mesh, scenario_modulus(sc, mean), sc.poisson_ratio, 1);
+  fem::ElasticModel<3> model(m.mesh, scenario_modulus(sc, mean), sc.poisson_ratio, degree);
   add_compression(model, lo, hi);
   const auto sol = model.solve();
   if (energy) *energy = sol.strain_energy;
@@ -153,10 +184,15 @@ void plot(const std::string& dir, const std::string& name, const std::vector<dou
 }  // namespace
 
 int main(int argc, char** argv) try {
+  dealii::Utilities::MPI::MPI_InitFinalize mpi(argc, argv, 1);  // the AMG solver (Trilinos) needs MPI
   int n = 40, steps = 12;
   std::string scenario_path = "examples/prostate_needle.yaml", plots;
   bool needle = true, compression = true;
   std::vector<long> budgets;
+  VimOptions vo;
+  std::optional<double> lambda_arg, nu_arg;
+  std::string ref_cache;
+  unsigned degree = 1;
   for (int i = 1; i < argc; ++i) {
     auto value = [&] {
       if (i + 1 >= argc) throw std::invalid_argument(std::string(argv[i]) + " needs a value");
@@ -168,6 +204,14 @@ int main(int argc, char** argv) try {
     else if (!std::strcmp(argv[i], "--plots")) plots = value();
     else if (!std::strcmp(argv[i], "--skip-needle")) needle = false;
     else if (!std::strcmp(argv[i], "--skip-compression")) compression = false;
+    else if (!std::strcmp(argv[i], "--lambda")) lambda_arg = std::atof(value());
+    else if (!std::strcmp(argv[i], "--nu")) nu_arg = std::atof(value());
+    else if (!std::strcmp(argv[i], "--degree")) degree = static_cast<unsigned>(std::atoi(value()));
+    else if (!std::strcmp(argv[i], "--min-dihedral")) vo.min_dihedral_deg = std::atof(value());
+    else if (!std::strcmp(argv[i], "--min-rr")) vo.min_radius_ratio = std::atof(value());
+    else if (!std::strcmp(argv[i], "--max-dihedral")) vo.max_dihedral_deg = std::atof(value());
+    else if (!std::strcmp(argv[i], "--no-swaps")) vo.swaps = false;
+    else if (!std::strcmp(argv[i], "--ref-cache")) ref_cache = value();
     else budgets.push_back(std::atol(argv[i]));
   }
   if (budgets.empty()) budgets = {125, 343, 1000};
@@ -176,7 +220,11 @@ int main(int argc, char** argv) try {
   if (steps > 0)
     for (auto& nd : sc.needles) nd.steps = steps;
   sc.output_every = 0;
-  const double lambda = sc.lambda.value_or(0.3);
+  if (nu_arg) sc.poisson_ratio = *nu_arg;
+  if (degree != 1) sc.degree = degree;
+  g_scenario = &sc;
+  vo.lambda = lambda_arg ? *lambda_arg : sc.lambda.value_or(0.3);
+  const double lambda = vo.lambda;
 
   const OrientedImage<3> img = phantoms::prostate(n);
   const V3 lo = img.image.box_min(), hi = img.image.box_max();
@@ -206,9 +254,11 @@ int main(int argc, char** argv) try {
 
   std::vector<Meshes> meshes;
   for (long b : budgets) {
-    meshes.push_back(make_meshes(img, b, lambda));
+    meshes.push_back(make_meshes(img, b, vo));
     std::printf("mesh budget %ld: %zu nodes, grid %zu cells, VIM %zu cells (%.1f s)\n", b, meshes.back().nodes,
                 meshes.back().cells_grid, meshes.back().cells_vim, meshes.back().vim_seconds);
+    describe("grid", meshes.back().grid);
+    describe("VIM ", meshes.back().vim);
     std::fflush(stdout);
   }
   std::vector<double> xs;
@@ -218,21 +268,42 @@ int main(int argc, char** argv) try {
     // Reference: the voxel model with the scenario's moduli.
     std::vector<double> e(img.image.data.begin(), img.image.data.end());
     auto t = Clock::now();
-    auto ref_model = fem::ElasticModel<3>::voxel_grid(img.image.size, lo, hi, scenario_modulus(sc, e), sc.poisson_ratio);
-    add_compression(ref_model, lo, hi);
-    const auto ref_sol = ref_model.solve();
-    const auto ref = ref_model.sample(s.points);
+    std::vector<V3> ref(s.points.size());
+    double w0 = 0;
+    unsigned ref_dofs = 0;
+    // --ref-cache FILE: reuse the reference displacement of an earlier run with the same image and ν.
+    std::ifstream in(ref_cache, std::ios::binary);
+    const std::string key = std::to_string(n) + " " + std::to_string(sc.poisson_ratio) + " " + std::to_string(ref.size());
+    std::string cached_key;
+    if (!ref_cache.empty() && in && std::getline(in, cached_key) && cached_key == key) {
+      in.read(reinterpret_cast<char*>(&w0), sizeof w0);
+      in.read(reinterpret_cast<char*>(&ref_dofs), sizeof ref_dofs);
+      in.read(reinterpret_cast<char*>(ref.data()), static_cast<std::streamsize>(ref.size() * sizeof(V3)));
+      std::printf("\n(reference read from %s)", ref_cache.c_str());
+    } else {
+      auto ref_model = fem::ElasticModel<3>::voxel_grid(img.image.size, lo, hi, scenario_modulus(sc, e), sc.poisson_ratio);
+      add_compression(ref_model, lo, hi);
+      w0 = ref_model.solve().strain_energy;
+      ref = ref_model.sample(s.points);
+      ref_dofs = ref_model.n_dofs();
+      if (!ref_cache.empty()) {
+        std::ofstream out(ref_cache, std::ios::binary);
+        out << key << "\n";
+        out.write(reinterpret_cast<const char*>(&w0), sizeof w0);
+        out.write(reinterpret_cast<const char*>(&ref_dofs), sizeof ref_dofs);
+        out.write(reinterpret_cast<const char*>(ref.data()), static_cast<std::streamsize>(ref.size() * sizeof(V3)));
+      }
+    }
     std::printf("\n## Prostate compression (x_max clamped, x_min pushed +%.0f%% along x): reference %u DoFs, %.1f s\n",
-                100 * kStrain, ref_model.n_dofs(), since(t));
+                100 * kStrain, ref_dofs, since(t));
     std::printf("| nodes | cells grid | cells VIM | relL2 grid | relL2 VIM | VIM/grid | relL2 gland grid | relL2 gland VIM | "
                 "max/|u|max grid | max/|u|max VIM | energy err grid | energy err VIM |\n"
                 "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     std::vector<double> yv, yg;
     for (const auto& m : meshes) {
       double wg = 0, wv = 0;
-      const Err eg = compare(solve_compression(m.grid, sc, lo, hi, s, &wg), ref, s);
-      const Err ev = compare(solve_compression(m.vim, sc, lo, hi, s, &wv), ref, s);
-      const double w0 = ref_sol.strain_energy;
+      const Err eg = compare(solve_compression(m.grid, sc, lo, hi, s, &wg, degree), ref, s);
+      const Err ev = compare(solve_compression(m.vim, sc, lo, hi, s, &wv, degree), ref, s);
       std::printf("| %zu | %zu | %zu | %.4f | %.4f | **%.3f** | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f |\n", m.nodes,
                   m.cells_grid, m.cells_vim, eg.rel_all, ev.rel_all, ev.rel_all / eg.rel_all, eg.rel_gland,
                   ev.rel_gland, eg.max_rel, ev.max_rel, std::abs(wg - w0) / w0, std::abs(wv - w0) / w0);
