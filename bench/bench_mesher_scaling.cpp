@@ -17,6 +17,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -35,6 +36,19 @@ double vmhwm_mb() {
   while (std::getline(in, line))
     if (line.rfind("VmHWM:", 0) == 0) return std::atof(line.c_str() + 6) / 1024.0;  // kB
   return -1.0;
+}
+
+// FNV-1a over the bytes of the final node coordinates and cells: equal hashes = bit-identical meshes
+// (compare builds before/after an optimisation of the mesher).
+std::uint64_t mesh_hash(const vim::SimplexMesh<3>& mesh) {
+  std::uint64_t h = 1469598103934665603ull;
+  auto mix = [&](const void* data, std::size_t bytes) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (std::size_t k = 0; k < bytes; ++k) h = (h ^ p[k]) * 1099511628211ull;
+  };
+  for (const auto& p : mesh.points) mix(p.data(), 3 * sizeof(double));
+  for (const auto& c : mesh.cells) mix(c.data(), sizeof(c[0]) * c.size());
+  return h;
 }
 
 double since(std::chrono::steady_clock::time_point t0) {
@@ -93,6 +107,8 @@ int main(int argc, char** argv) try {
               "CPU/wall %.2f\n",
               total, setup, k, mean, iterations, r.converged ? "converged" : "NOT converged", r.mesh.n_cells(),
               cpu_per_wall);
+  std::printf("final E %.17g, mesh hash %016llx\n", r.history.back().energy,
+              static_cast<unsigned long long>(mesh_hash(r.mesh)));
   std::printf("ROW %ld %.0f %zu %zu %.3f %.3f %d %d %.1f %.2f\n", n, voxels, nodes, cells, setup, mean, iterations,
               r.converged ? 1 : 0, vmhwm_mb(), cpu_per_wall);
   return 0;

@@ -63,24 +63,28 @@ for n in $IMAGES; do
 done
 
 echo
-echo "| image | voxels | nodes | elements | set-up s | s/iteration (mean of first 3) | iterations | converged | VmHWM MB | CPU/wall | load (start/end) |"
-echo "|---|---|---|---|---|---|---|---|---|---|---|"
-awk '{ printf "| %d³ | %.3g | %d | %d | %.2f | %.2f | %d | %s | %.0f | %.2f | %s / %s |\n",
-         $2, $3, $4, $5, $6, $7, $8, ($9 ? "yes" : "no"), $10, $11, $12, $13 }' "$ROWS"
+echo "| image | voxels | nodes | elements | set-up s | s/iteration (mean of first 3) | CPU/wall | ≈ CPU s/iteration | iterations | converged | VmHWM MB | load (start/end) |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
+awk '{ printf "| %d³ | %.3g | %d | %d | %.2f | %.2f | %.2f | %.2f | %d | %s | %.0f | %s / %s |\n",
+         $2, $3, $4, $5, $6, $7, $11, $7 * $11, $8, ($9 ? "yes" : "no"), $10, $12, $13 }' "$ROWS"
 echo
-# Least-squares slope of log(s/iteration) against log(x) within each group with >= 2 points.
+# Least-squares slope of log(s/iteration) against log(x) within each group with >= 2 points; the
+# second exponent uses CPU s/iteration (wall × CPU/wall of the run), less sensitive to machine load.
 fit() {  # $1 = group column, $2 = x column, $3 = label
   awk -v g="$1" -v xc="$2" -v label="$3" '
-    { k = $g; x = log($xc); y = log($7); n[k]++; sx[k] += x; sy[k] += y; sxx[k] += x * x; sxy[k] += x * y }
-    END { for (k in n) if (n[k] >= 2) {
-            d = n[k] * sxx[k] - sx[k] * sx[k]
-            if (d > 0) printf "s/iteration ~ %s^%.2f  (%s, %d points)\n", label, (n[k] * sxy[k] - sx[k] * sy[k]) / d, k, n[k] } }' "$ROWS"
+    function slope(k) { d = n[k] * sxx[k] - sx[k] * sx[k]; return d > 0 ? (n[k] * sxy[k] - sx[k] * sy[k]) / d : 0 }
+    function slopec(k) { d = n[k] * sxx[k] - sx[k] * sx[k]; return d > 0 ? (n[k] * sxyc[k] - sx[k] * syc[k]) / d : 0 }
+    { k = $g; x = log($xc); y = log($7); yc = log($7 * $11); n[k]++; sx[k] += x; sy[k] += y; syc[k] += yc
+      sxx[k] += x * x; sxy[k] += x * y; sxyc[k] += x * yc }
+    END { for (k in n) if (n[k] >= 2)
+            printf "s/iteration ~ %s^%.2f, CPU s/iteration ~ %s^%.2f  (%s, %d points)\n", label, slope(k), label, slopec(k), k, n[k] }' "$ROWS"
 }
 echo "Growth exponents (least squares on log-log):"
 fit 4 3 "voxels" | sed 's/(\([0-9]*\),/(\1 nodes,/' | sort
 fit 2 5 "elements" | sed 's/(\([0-9]*\),/(n = \1,/' | sort
-awk '{ x = log($5); y = log($7); n++; sx += x; sy += y; sxx += x * x; sxy += x * y }
-     END { if (n >= 2) printf "s/iteration ~ elements^%.2f  (all %d runs)\n", (n * sxy - sx * sy) / (n * sxx - sx * sx), n }' "$ROWS"
+awk '{ $1 = "all" } 1' "$ROWS" > "$ROWS.all"
+ROWS="$ROWS.all" fit 1 5 "elements" | sed 's/(all,/(all runs,/'
+rm -f "$ROWS.all"
 
 # Plots: scaling_plots links vim_pipeline (write_line_plot of pipeline/figures.hpp); PLOTS=0 skips
 # them (building vim_pipeline also builds vim_fem, deal.II: minutes on a fresh build dir).
