@@ -77,6 +77,10 @@ struct ElasticModel<dim>::Impl {
   std::array<long, dim> grid_cells{};
   dealii::Point<dim> grid_min, grid_max;
   bool mesh_built = false;
+  // Voxel cells are congruent boxes: K_e = λ_e Kλ + μ_e Kμ and ∫N_i from the first cell assembled.
+  mutable bool voxel_reference_ready = false;
+  mutable dealii::FullMatrix<double> voxel_K_lambda, voxel_K_mu;
+  mutable std::vector<double> voxel_shape_integral;
   std::vector<Vec<dim>> vertices;
   std::vector<double> E;  // per input cell (material_id of a deal.II cell = its input index)
   double nu = 0.3;
@@ -157,19 +161,27 @@ struct ElasticModel<dim>::Impl {
 
 // CG preconditioner for elasticity (serial and MPI solves): ML AMG with the rigid-body modes at
 // the DoF support points (local index -> point, component) as a pre-computed null space.
+// `voxel_grid` (Q1 hexahedra, 81 nonzeros per row): unsmoothed aggregation (damping factor 0),
+// aggregation threshold 0, Chebyshev degree 1, W-cycle. On the 50³ grid (398k DoFs, 2 ranks)
+// smoothed aggregation (threshold 0.02, degree 2) took 37 CG iterations but a ~2.5x longer set-up
+// and 1.43x the peak memory (1.05 vs 0.73 GB per rank; the 100³ grid ran out of memory with it); the
+// unsmoothed hierarchy takes 66 iterations (V-cycle) / 53 (W-cycle) and is faster overall
+// (docs/performance.md, issue 5).
 template <int dim>
 inline void amg_setup(const dealii::TrilinosWrappers::SparseMatrix& K, const std::function<dealii::Point<dim>(unsigned)>& support_of_local,
-               const std::function<unsigned(unsigned)>& component_of_local, unsigned degree,
+               const std::function<unsigned(unsigned)>& component_of_local, unsigned degree, bool voxel_grid,
                dealii::TrilinosWrappers::PreconditionAMG& amg) {
   constexpr int nm = dim == 2 ? 3 : 6;
   dealii::TrilinosWrappers::PreconditionAMG::AdditionalData data;
   data.elliptic = true;
   data.higher_order_elements = degree > 1;
-  data.smoother_sweeps = 2;
-  data.aggregation_threshold = 0.02;
+  data.smoother_sweeps = voxel_grid ? 1 : 2;
+  data.aggregation_threshold = voxel_grid ? 0.0 : 0.02;
+  data.w_cycle = voxel_grid;
   Teuchos::ParameterList pl;
   std::unique_ptr<Epetra_MultiVector> unused;
   data.set_parameters(pl, unused, K);
+  if (voxel_grid) pl.set("aggregation: damping factor", 0.0);
   Epetra_MultiVector nsp(K.trilinos_matrix().DomainMap(), nm);
   const int n_local = K.trilinos_matrix().DomainMap().NumMyElements();
   for (int i = 0; i < n_local; ++i) {

@@ -16,6 +16,8 @@
 #include <deal.II/grid/grid_tools.h>
 #include <deal.II/lac/solver_cg.h>
 #include <deal.II/lac/solver_control.h>
+#include <deal.II/lac/dynamic_sparsity_pattern.h>
+#include <deal.II/lac/sparsity_tools.h>
 #include <deal.II/lac/trilinos_sparsity_pattern.h>
 #include <deal.II/lac/trilinos_vector.h>
 
@@ -39,7 +41,6 @@ Solution<dim> ElasticModel<dim>::solve_distributed(MPI_Comm comm, const SolverOp
   if (opt.max_iterations == 0) throw std::invalid_argument("SolverOptions: max_iterations must be > 0");
   Timer timer;
   const unsigned n_ranks = Utilities::MPI::n_mpi_processes(comm);
-  const unsigned rank = Utilities::MPI::this_mpi_process(comm);
 
   // ---- distributed mesh and DoFs ----
   // Simplex models: parallel::shared::Triangulation (METIS partition, cells away from the own part
@@ -118,12 +119,18 @@ Solution<dim> ElasticModel<dim>::solve_distributed(MPI_Comm comm, const SolverOp
   constraints.close();
   m.check_rigid_modes_removed(constrained_owned, comm);
 
+  const double setup_seconds = timer.wall_time();
+
   // ---- assembly ----
-  TrilinosWrappers::SparsityPattern sp(owned, owned, relevant, comm);
-  DoFTools::make_sparsity_pattern(dof, sp, constraints, false, rank);
-  sp.compress();
   TrilinosWrappers::SparseMatrix K;
-  K.reinit(sp);
+  {
+    // deal.II's DynamicSparsityPattern + distribute_sparsity_pattern: inserting into the Trilinos
+    // (Epetra_FECrsGraph) pattern directly took ~3x the assembly time on the voxel grids.
+    DynamicSparsityPattern dsp(relevant);
+    DoFTools::make_sparsity_pattern(dof, dsp, constraints, false);
+    SparsityTools::distribute_sparsity_pattern(dsp, owned, comm, relevant);
+    K.reinit(owned, owned, dsp, comm);
+  }  // the pattern is copied into K: free it before the AMG set-up
   TrilinosWrappers::MPI::Vector f(owned, comm);
   auto fv = m.make_fe_values();
   auto ffv = m.make_face_values();
@@ -147,9 +154,12 @@ Solution<dim> ElasticModel<dim>::solve_distributed(MPI_Comm comm, const SolverOp
   Point<dim> mid;
   for (int d = 0; d < dim; ++d) mid[d] = 0.5 * (lo[d] + hi[d]);
   TrilinosWrappers::PreconditionAMG amg;
+  Timer amg_timer;
   amg_setup<dim>(
       K, [&](unsigned i) { return Point<dim>(rel_point[relevant.index_within_set(owned.nth_index_in_set(i))] - mid); },
-      [&](unsigned i) { return unsigned(rel_comp[relevant.index_within_set(owned.nth_index_in_set(i))]); }, m.degree, amg);
+      [&](unsigned i) { return unsigned(rel_comp[relevant.index_within_set(owned.nth_index_in_set(i))]); }, m.degree,
+      m.voxel, amg);
+  const double precondition_seconds = amg_timer.wall_time();
   TrilinosWrappers::MPI::Vector u(owned, comm);
   const double fn = f.l2_norm();
   unsigned iterations = 0;
@@ -253,6 +263,8 @@ Solution<dim> ElasticModel<dim>::solve_distributed(MPI_Comm comm, const SolverOp
   s.stats.n_dofs = dof.n_dofs();
   s.stats.assemble_seconds = assemble_seconds;
   s.stats.solve_seconds = solve_seconds;
+  s.stats.setup_seconds = setup_seconds;
+  s.stats.precondition_seconds = precondition_seconds;
   return s;
 }
 

@@ -100,6 +100,10 @@ struct SolverStats {
   double residual = 0.0;
   unsigned n_dofs = 0;
   double assemble_seconds = 0.0, solve_seconds = 0.0;
+  // Parts of the above: setup_seconds of assemble_seconds (solve_distributed: distributed mesh, DoFs
+  // and constraints; 0 in serial), precondition_seconds of solve_seconds (UMFPACK factorisation or
+  // AMG set-up, counted by the solve that did it).
+  double setup_seconds = 0.0, precondition_seconds = 0.0;
   // Point-constraint rows (one per selected component): used, and dropped because they are linear
   // combinations of earlier rows (e.g. >2 collinear points in one P1 element) but consistent with them.
   unsigned constraint_rows = 0, dependent_rows_dropped = 0;
