@@ -223,6 +223,7 @@ int main(int argc, char** argv) try {
   if (nu_arg) sc.poisson_ratio = *nu_arg;
   if (degree != 1) sc.degree = degree;
   g_scenario = &sc;
+  const std::string suffix = degree == 1 ? "" : "_p" + std::to_string(degree);  // plot file names
   vo.lambda = lambda_arg ? *lambda_arg : sc.lambda.value_or(0.3);
   const double lambda = vo.lambda;
 
@@ -310,7 +311,7 @@ int main(int argc, char** argv) try {
       std::fflush(stdout);
       yv.push_back(ev.rel_all), yg.push_back(eg.rel_all);
     }
-    plot(plots, "validation_prostate_compression.png", xs, yv, yg);
+    plot(plots, "validation_prostate_compression" + suffix + ".png", xs, yv, yg);
   }
 
   if (needle) {
@@ -357,7 +358,7 @@ int main(int argc, char** argv) try {
       }
       yg.push_back(rel[0]), yv.push_back(rel[1]);
     }
-    plot(plots, "validation_prostate_needle.png", xs, yv, yg);
+    plot(plots, "validation_prostate_needle" + suffix + ".png", xs, yv, yg);
   }
   return 0;
 } catch (const std::exception& e) {
