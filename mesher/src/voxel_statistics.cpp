@@ -24,6 +24,9 @@ struct VoxelStatistics<dim>::Faces {
   std::array<double, dim + 1> cross0;
   std::array<bool, dim + 1> fast;     // |n_0| large enough for the fast path
   bool all_fast;                      // every face fast: rows use the branch-free bound below
+  // Every face fast or parallel to axis 0 (n_0 == 0 exactly, as for the Kuhn grid's unmoved faces):
+  // a parallel face accepts a whole row or none of it, so 3D slabs still take the inlined fast path.
+  bool slab_fast;
   std::array<long, dim> lo, hi;       // voxel index range of the bounding box (clipped to the image)
   std::array<Point, dim + 1> vertex;  // vertices in index space
   double margin;                      // bounding-box slack, far above the tie tolerance
@@ -134,6 +137,7 @@ bool VoxelStatistics<dim>::prepare(const Simplex& x, Faces& f) const {
   }
   const double centre_size = centre_.cwiseAbs().maxCoeff();
   f.all_fast = true;
+  f.slab_fast = true;
   for (int i = 0; i <= dim; ++i) {
     std::array<Point, dim> v;
     for (int k = 0, m = 0; k <= dim; ++k)
@@ -180,6 +184,7 @@ bool VoxelStatistics<dim>::prepare(const Simplex& x, Faces& f) const {
     f.tie_in[i] = in;
     f.fast[i] = std::abs(n[0]) >= 1e-3 * norm1;
     f.all_fast = f.all_fast && f.fast[i];
+    f.slab_fast = f.slab_fast && (f.fast[i] || n[0] == 0.0);
     if (f.fast[i]) {
       const double thr = in ? -tol : tol;
       double rest = thr;
@@ -333,21 +338,29 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::sums(const Simplex& x)
       }
       const long r0 = std::max(f.lo[1], ceil_long(std::max(ymin - f.margin, static_cast<double>(f.lo[1]) - 1.0)));
       const long r1 = std::min(f.hi[1], floor_long(std::min(ymax + f.margin, static_cast<double>(f.hi[1]) + 1.0)));
-      if (!f.all_fast) {
+      if (!f.slab_fast) {
         for (j[1] = r0; j[1] <= r1; ++j[1]) clip_row();
         continue;
       }
       // Inlined fast path of clip_row: per slab, each face's crossing is linear in j_1. Rows whose
       // bounds fall within 1e-6 of a voxel centre (possible ties) take clip_row's exact path; the
       // fast bounds are only trusted away from ties, so rounding here cannot change a result.
+      // A face with n_0 == 0 gets crossing +inf (no bound); instead it rejects whole rows by the
+      // predicate clip_row applies to it (ok(a) == accepts(r, ...) exactly, as n_0·(a − b_0) = ±0).
       std::array<double, dim + 1> c0, s1;
       for (int i = 0; i <= dim; ++i) {
-        c0[i] = f.cross0[i] + f.slope[i][2] * z;
-        s1[i] = f.slope[i][1];
+        c0[i] = f.fast[i] ? f.cross0[i] + f.slope[i][2] * z : std::numeric_limits<double>::infinity();
+        s1[i] = f.fast[i] ? f.slope[i][1] : 0.0;
       }
       const double lo0 = static_cast<double>(f.lo[0]) - 0.5, hi0 = static_cast<double>(f.hi[0]) + 0.5;
       for (j[1] = r0; j[1] <= r1; ++j[1]) {
         const double y = static_cast<double>(j[1]);
+        if (!f.all_fast) {
+          bool rejected = false;
+          for (int i = 0; i <= dim && !rejected; ++i)
+            if (!f.fast[i]) rejected = !accepts(row_rest<dim>(f.normal[i], f.base[i], j), f.tol[i], f.tie_in[i]);
+          if (rejected) continue;
+        }
         double lower = lo0, upper = hi0;
         for (int i = 0; i <= dim; ++i) {
           const double t = c0[i] + s1[i] * y;
