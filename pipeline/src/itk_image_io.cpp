@@ -210,40 +210,55 @@ itk::ImageIOBase::Pointer open_header(const std::string& path) {
     m << path << ": header declares " << n << " voxels, more than the supported " << max_voxels;
     throw InputError(m.str());
   }
-  // (after the checks above: GetImageSizeInBytes throws for an unknown component type)
+  // A file too short for the declared voxels is truncated: say so before ITK allocates the declared
+  // size (fuzz_image_header: a 200-byte header declaring 6.4 GB of binary floats; an ASCII header
+  // declaring 25 GB). The least bytes the voxel data can take: raw binary = the declared size;
+  // ASCII = one character per voxel (plus separators); zlib/gzip = the declared size / 1032 (deflate
+  // never compresses better). Checked after the checks above: GetImageSizeInBytes throws for an
+  // unknown component type. bzip2 (NRRD) has no useful bound and is not checked.
+  const auto voxels = static_cast<std::uintmax_t>(n);
+  const auto declared = [&] { return static_cast<std::uintmax_t>(io->GetImageSizeInBytes()); };
+  const auto require = [&](const fs::path& data, std::uintmax_t least, const char* what) {
+    std::error_code size_ec;
+    const auto have = fs::file_size(data, size_ec);
+    if (!size_ec && have < least)
+      throw InputError(path + ": cannot read the voxel data: truncated (the header declares " + std::to_string(voxels) +
+                       " voxels, " + std::to_string(declared()) + " bytes, of " + what + " voxel data, which needs at least " +
+                       std::to_string(least) + " bytes; " + data.string() + " holds only " + std::to_string(have) + " bytes)");
+  };
   if (auto* meta = dynamic_cast<itk::MetaImageIO*>(io.GetPointer())) {
     const MetaImage* mi = meta->GetMetaImagePointer();
     const std::string value = mi->ElementDataFileName();
-    // Uncompressed binary voxels: a file shorter than the declared data is truncated; say so
-    // before ITK allocates the declared size (fuzz_image_header: a 200-byte header declaring
-    // 6.4 GB of floats). Compressed and ASCII data cannot be sized from the file.
-    if (mi->BinaryData() && !mi->CompressedData()) {
-      fs::path data(value == "LOCAL" || value == "Local" || value == "local" ? path : value);
-      if (data.is_relative() && data != fs::path(path)) data = fs::path(path).parent_path() / data;
-      std::error_code size_ec;
-      const auto have = fs::file_size(data, size_ec);
-      const auto need = static_cast<std::uintmax_t>(io->GetImageSizeInBytes());
-      if (!size_ec && have < need)
-        throw InputError(path + ": cannot read the voxel data: truncated (the header declares " + std::to_string(need) +
-                         " bytes of voxel data, " + data.string() + " holds only " + std::to_string(have) + " bytes)");
-    }
+    fs::path data(value == "LOCAL" || value == "Local" || value == "local" ? path : value);
+    if (data.is_relative() && data != fs::path(path)) data = fs::path(path).parent_path() / data;
+    if (!mi->BinaryData())
+      require(data, voxels, "ASCII");
+    else if (mi->CompressedData())
+      require(data, declared() / 1032, "compressed");
+    else
+      require(data, declared(), "raw binary");
   }
   if (std::string(io->GetNameOfClass()) == "NrrdImageIO") {
-    // Same for an attached raw NRRD (fuzz_image_header: "sizes: 4 2000000002 2" in 110 bytes).
     std::ifstream in(path, std::ios::binary);
-    std::string line;
-    bool raw = false, detached = false;
+    std::string line, encoding = "raw";
+    fs::path data = path;
     while (std::getline(in, line) && !line.empty() && line != "\r") {
-      for (char& c : line) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));  // teem: any case
-      if (line.rfind("encoding:", 0) == 0) raw = line.find("raw") != std::string::npos;
-      if (line.rfind("data file:", 0) == 0 || line.rfind("datafile:", 0) == 0) detached = true;
+      std::string lower = line;
+      for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));  // teem: any case
+      if (lower.rfind("encoding:", 0) == 0) encoding = lower.substr(9);
+      if (lower.rfind("data file:", 0) == 0 || lower.rfind("datafile:", 0) == 0) data.clear();  // detached: not checked
     }
-    std::error_code size_ec;
-    const auto have = fs::file_size(path, size_ec);
-    const auto need = static_cast<std::uintmax_t>(io->GetImageSizeInBytes());
-    if (raw && !detached && !size_ec && have < need)
-      throw InputError(path + ": cannot read the voxel data: truncated (the header declares " + std::to_string(need) +
-                       " bytes of raw voxel data, the file holds only " + std::to_string(have) + " bytes)");
+    const auto has = [&](const char* e) { return encoding.find(e) != std::string::npos; };
+    if (!data.empty()) {
+      if (has("raw"))
+        require(data, declared(), "raw binary");
+      else if (has("txt") || has("text") || has("ascii"))
+        require(data, voxels, "ASCII");
+      else if (has("hex"))
+        require(data, 2 * declared(), "hex");
+      else if (has("gz"))
+        require(data, declared() / 1032, "gzip-compressed");
+    }
   }
   return io;
 }

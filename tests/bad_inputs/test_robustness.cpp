@@ -308,6 +308,37 @@ TEST_F(Robustness, MhaTruncatedVoxelData) {
   expect_bad_image(p, {"voxel data"});
 }
 
+// ASCII and compressed voxel data cannot be sized exactly from the file, but they have a lower
+// bound (one character per ASCII voxel; deflate compresses at most 1032:1): a file below it is
+// refused before ITK allocates the declared 4 GB (fuzz_image_header: regress_mha_ascii_huge_oom).
+TEST_F(Robustness, MhaAsciiDataFarShorterThanDeclared) {
+  const fs::path p = dir_ / "ascii_huge.mha";
+  std::ofstream(p, std::ios::binary) << "ObjectType = Image\nNDims = 3\nBinaryData = False\nDimSize = 1000 1000 1000\n"
+                                        "ElementType = MET_FLOAT\nElementDataFile = LOCAL\n1 2 3 4 5 6 7 8\n";
+  const auto t0 = std::chrono::steady_clock::now();
+  expect_bad_image(p, {"truncated", "ASCII", "1000000000 voxels"});
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 10.0);
+}
+
+TEST_F(Robustness, MhaCompressedDataShorterThanDeflateAllows) {
+  const fs::path p = dir_ / "zip_huge.mha";
+  std::ofstream out(p, std::ios::binary);
+  out << "ObjectType = Image\nNDims = 3\nBinaryData = True\nCompressedData = True\nCompressedDataSize = 64\n"
+         "DimSize = 1000 1000 1000\nElementType = MET_FLOAT\nElementDataFile = LOCAL\n"
+      << std::string(64, 'x');
+  out.close();
+  expect_bad_image(p, {"truncated", "compressed"});
+}
+
+TEST_F(Robustness, NrrdGzipDataShorterThanDeflateAllows) {
+  const fs::path p = dir_ / "gz_huge.nrrd";
+  std::ofstream out(p, std::ios::binary);
+  out << "NRRD0004\ntype: float\ndimension: 3\nsizes: 1000 1000 1000\nspacings: 1 1 1\nendian: little\nencoding: gzip\n\n"
+      << std::string(64, 'x');
+  out.close();
+  expect_bad_image(p, {"truncated", "gzip"});
+}
+
 TEST_F(Robustness, MhaGarbageHeader) {
   const fs::path p = dir_ / "garbage.mha";
   std::ofstream(p, std::ios::binary) << "this is not a MetaImage header\n\x01\x02\x03 rubbish\n";
