@@ -165,8 +165,11 @@ class ElasticModel {
   // The same, as one monolithic saddle-point solve [K Cᵀ; C 0] (reference for the fast path).
   Solution<dim> solve_monolithic(const std::vector<PointConstraint<dim>>& points, const SolverOptions& options = {});
 
-  // Solve on a METIS-partitioned parallel::shared::Triangulation over `comm` (Trilinos CG + AMG with rigid-body
-  // modes). Collective: every rank must hold the same model (same mesh, moduli, conditions) and call
+  // Solve over `comm` with Trilinos CG + AMG with rigid-body modes: simplex models on a METIS-partitioned
+  // parallel::shared::Triangulation (every rank holds the whole mesh); voxel models on a p4est
+  // parallel::distributed::Triangulation built from the grid description, so a rank holds only its part
+  // (a voxel model's serial mesh is built only if solve()/solve_monolithic()/strain_energy_of() is used).
+  // Collective: every rank must hold the same model (same mesh, moduli, conditions) and call
   // it. Every rank gets the full vertex_displacement, per-cell fields, strain energy and reactions.
   // Point constraints are not supported here (use solve()).
   Solution<dim> solve_distributed(MPI_Comm comm, const SolverOptions& options = {});
