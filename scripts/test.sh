@@ -11,4 +11,9 @@ BUILD_DIR="$BUILD_DIR" bash "$ROOT/scripts/build.sh"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 cd "$BUILD_DIR"
 ctest --output-on-failure --timeout 1800 "$@"
+# The full run also builds the mesher suite with ASan+UBSan and every mesh invariant checked
+# (scripts/sanitize.sh; SANITIZE=0 skips it).
+if [ $# -eq 0 ] && [ "${SANITIZE:-1}" != 0 ]; then
+  TARGETS=test_mesher JOBS="${JOBS:-2}" bash "$ROOT/scripts/sanitize.sh" "$BUILD_DIR-sanitize"
+fi
 echo "test.sh: all tests passed in $(( $(date +%s) - start )) s"
