@@ -110,18 +110,35 @@ void check_metaimage_header_text(const std::string& path) {
   };
   std::string line;
   std::size_t scanned = 0;
-  int ndims_seen = 0, dimsize_seen = 0;
+  int ndims_seen = 0, dimsize_seen = 0, line_no = 0;
   long ndims = -1, dimsize_count = -1;
   while (scanned < (1u << 20) && std::getline(in, line)) {
     scanned += line.size() + 1;
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.find_first_not_of(" \t") == std::string::npos) continue;  // blank line
     const auto sep = line.find_first_of("=:");
     // MetaIO copies an unknown key into a fixed 255-byte field name (strcpy: "buffer overflow
     // detected" abort in MET_InitReadField, fuzz_image_header).
     if (trim(line.substr(0, sep)).size() > 250)
       throw InputError(path + ": corrupt MetaImage header: a header key is longer than 250 characters");
-    if (sep == std::string::npos) continue;
+    // Every header line must be "Key = value": MetaIO reads a malformed line differently on each of
+    // ITK's header passes (a key runs on to the next '=' across lines), so the size it reads the
+    // voxels with can differ from the checked one (fuzz_image_header: heap-buffer-overflow in
+    // MetaImage::M_ReadElementData, regress_mha_malformed_line_overflow). Keys are letters, digits
+    // and '_'; values have no control characters (tabs are fine; bytes >= 0x80 are, for UTF-8 names).
+    const std::string where = path + ": not a readable image (corrupt MetaImage header): line " + std::to_string(line_no) + " ";
+    if (sep == std::string::npos) throw InputError(where + "is not 'Key = value'");
     const std::string key = trim(line.substr(0, sep));
+    if (key.empty() || line.substr(0, sep).find('\0') != std::string::npos ||
+        !std::all_of(key.begin(), key.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }))
+      throw InputError(where + "has a key that is not letters, digits and '_'");
     const std::string value = line.substr(sep + 1);
+    if (std::any_of(value.begin(), value.end(), [](char c) {
+          const auto u = static_cast<unsigned char>(c);
+          return (u < 0x20 && c != '\t') || u == 0x7f;
+        }))
+      throw InputError(where + "(" + key + ") has a control character in its value");
     if (key == "NDims") {
       ++ndims_seen;
       ndims = std::strtol(value.c_str(), nullptr, 10);
@@ -278,11 +295,23 @@ template <unsigned dim>
 RawImage read_dim(const std::string& path, itk::ImageIOBase::Pointer io) {
   using ItkImage = itk::Image<float, dim>;
   auto reader = itk::ImageFileReader<ItkImage>::New();
+  std::vector<itk::SizeValueType> checked(dim);
+  for (unsigned a = 0; a < dim; ++a) checked[a] = io->GetDimensions(a);
   reader->SetImageIO(io);
   reader->SetFileName(path);
   {
     StreamCapture capture;
     try {
+      // MetaIO keeps state between the header reads ITK makes: a malformed header can give a
+      // different (huge) size on the reader's own pass than the one open_header checked
+      // (fuzz_image_header: regress_mha_second_pass_size, 25 GB allocated). The buffer is
+      // allocated from the reader's pass, so it must match the checked one.
+      reader->UpdateOutputInformation();
+      const auto size = reader->GetOutput()->GetLargestPossibleRegion().GetSize();
+      for (unsigned a = 0; a < dim; ++a)
+        if (size[a] != checked[a])
+          throw InputError(path + ": corrupt image header: it gives size " + std::to_string(size[a]) + " along axis " +
+                           std::to_string(a) + " on a second read but " + std::to_string(checked[a]) + " on the first");
       reader->Update();
     } catch (const itk::ExceptionObject& e) {
       throw InputError(path + ": cannot read the voxel data (truncated or corrupt file?): " +
