@@ -139,6 +139,9 @@ void check_metaimage_header_text(const std::string& path) {
           return (u < 0x20 && c != '\t') || u == 0x7f;
         }))
       throw InputError(where + "(" + key + ") has a control character in its value");
+    // MetaIO strcpy's string values into fixed 255-byte fields too (fuzz_image_header: a long
+    // ObjectType value, regress_mha_long_value_strcpy).
+    if (trim(value).size() > 250) throw InputError(where + "(" + key + ") has a value longer than 250 characters");
     if (key == "NDims") {
       ++ndims_seen;
       ndims = std::strtol(value.c_str(), nullptr, 10);

@@ -351,6 +351,10 @@ TEST_F(Robustness, MhaMalformedHeaderLinesAreRefusedByLine) {
   const fs::path r = dir_ / "ctrl.mha";
   write_mha(r, mha_header("4 4 4", "1 1\x01 1"), std::vector<float>(64, 1.0f));
   expect_bad_image(r, {"corrupt MetaImage header", "ElementSpacing", "control character"});
+  const fs::path v = dir_ / "longvalue.mha";
+  write_mha(v, "ObjectType = Image" + std::string(300, '6') + "\nNDims = 3\nDimSize = 4 4 4\nElementType = MET_FLOAT\n",
+            std::vector<float>(64, 1.0f));
+  expect_bad_image(v, {"corrupt MetaImage header", "ObjectType", "longer than 250"});
 }
 
 TEST_F(Robustness, MhaGarbageHeader) {
