@@ -166,6 +166,41 @@ void check_metaimage_header_text(const std::string& path) {
                      " values but NDims = " + std::to_string(ndims));
 }
 
+// NRRD headers are checked line by line before teem parses them: after the NRRD000X magic line,
+// every line up to the blank line that ends the header is a comment ('#'), "field: description"
+// or "key:=value", with no control characters (tabs are fine) and a field/key of at most 250
+// characters (fuzz_image_header: a long line without ':' smashed teem's stack,
+// regress_nrrd_garbage_line_stack_smash).
+void check_nrrd_header_text(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext != ".nrrd" && ext != ".nhdr") return;
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  int line_no = 0;
+  std::size_t scanned = 0;
+  while (scanned < (1u << 20) && std::getline(in, line)) {
+    scanned += line.size() + 1;
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty()) break;  // end of the header; attached data follow
+    const std::string where = path + ": not a readable image (corrupt NRRD header): line " + std::to_string(line_no) + " ";
+    if (line_no == 1) {
+      if (line.rfind("NRRD000", 0) != 0) throw InputError(where + "is not the NRRD000X magic");
+      continue;
+    }
+    if (std::any_of(line.begin(), line.end(), [](char c) {
+          const auto u = static_cast<unsigned char>(c);
+          return (u < 0x20 && c != '\t') || u == 0x7f;
+        }))
+      throw InputError(where + "has a control character");
+    if (line[0] == '#') continue;
+    const auto colon = line.find(':');
+    if (colon == std::string::npos || colon == 0) throw InputError(where + "is not 'field: description' or 'key:=value'");
+    if (colon > 250) throw InputError(where + "has a field name longer than 250 characters");
+  }
+}
+
 // Opens the header and checks everything that can be checked without reading voxels.
 itk::ImageIOBase::Pointer open_header(const std::string& path) {
   quiet_itk();
@@ -175,6 +210,7 @@ itk::ImageIOBase::Pointer open_header(const std::string& path) {
   if (::access(path.c_str(), R_OK) != 0) throw InputError(path + ": file is not readable (permission denied)");
   if (fs::file_size(path, ec) == 0) throw InputError(path + ": file is empty (0 bytes)");
   check_metaimage_header_text(path);
+  check_nrrd_header_text(path);
 
   itk::ImageIOBase::Pointer io =
       itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::ImageIOFactory::IOFileModeEnum::ReadMode);

@@ -357,6 +357,17 @@ TEST_F(Robustness, MhaMalformedHeaderLinesAreRefusedByLine) {
   expect_bad_image(v, {"corrupt MetaImage header", "ObjectType", "longer than 250"});
 }
 
+// teem smashed its stack on a long NRRD header line without ':' (fuzz finding): such lines are
+// refused first, naming the line.
+TEST_F(Robustness, NrrdMalformedHeaderLineIsRefusedByLine) {
+  const fs::path p = dir_ / "garbage_line.nrrd";
+  std::ofstream out(p, std::ios::binary);
+  out << "NRRD0004\ntype: short\n" << std::string(400, '6') << "\nsizes: 4 3 4\nencoding: raw\nendian: little\n\n"
+      << std::string(96, '\0');
+  out.close();
+  expect_bad_image(p, {"corrupt NRRD header", "line 3"});
+}
+
 TEST_F(Robustness, MhaGarbageHeader) {
   const fs::path p = dir_ / "garbage.mha";
   std::ofstream(p, std::ios::binary) << "this is not a MetaImage header\n\x01\x02\x03 rubbish\n";
