@@ -168,9 +168,9 @@ void check_metaimage_header_text(const std::string& path) {
 
 // NRRD headers are checked line by line before teem parses them: after the NRRD000X magic line,
 // every line up to the blank line that ends the header is a comment ('#'), "field: description"
-// or "key:=value", with no control characters (tabs are fine) and a field/key of at most 250
-// characters (fuzz_image_header: a long line without ':' smashed teem's stack,
-// regress_nrrd_garbage_line_stack_smash).
+// or "key:=value", with no control characters (tabs are fine), at most 500 characters long and a
+// field/key of at most 250 characters (fuzz_image_header: long lines smashed teem's stack,
+// regress_nrrd_garbage_line_stack_smash, regress_nrrd_long_line_biff_smash).
 void check_nrrd_header_text(const std::string& path) {
   std::string ext = fs::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -194,6 +194,9 @@ void check_nrrd_header_text(const std::string& path) {
           return (u < 0x20 && c != '\t') || u == 0x7f;
         }))
       throw InputError(where + "has a control character");
+    // teem copies an offending line into a fixed-size error message on the stack (biffAddf: a
+    // stack smash on a 400-character line, regress_nrrd_long_line_biff_smash).
+    if (line.size() > 500) throw InputError(where + "is longer than 500 characters");
     if (line[0] == '#') continue;
     const auto colon = line.find(':');
     if (colon == std::string::npos || colon == 0) throw InputError(where + "is not 'field: description' or 'key:=value'");

@@ -366,6 +366,13 @@ TEST_F(Robustness, NrrdMalformedHeaderLineIsRefusedByLine) {
       << std::string(96, '\0');
   out.close();
   expect_bad_image(p, {"corrupt NRRD header", "line 3"});
+  // A long line with a ':' (teem's error message about it overflowed a stack buffer).
+  const fs::path q = dir_ / "long_line.nrrd";
+  std::ofstream o(q, std::ios::binary);
+  o << "NRRD0004\ntype: short\ndimension: 3\n" << std::string(14, '6') << ":" << std::string(600, '6')
+    << "\nsizes: 4 3 4\nencoding: raw\nendian: little\n\n" << std::string(96, '\0');
+  o.close();
+  expect_bad_image(q, {"corrupt NRRD header", "line 4", "longer than 500"});
 }
 
 TEST_F(Robustness, MhaGarbageHeader) {
