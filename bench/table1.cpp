@@ -4,7 +4,8 @@
 // printed beside the paper's VIM rows.
 //
 //   table1 [--n 100] [--lambda 0.5] [--max-iterations 50] [--convergence 1e-3] [--threads 0]
-//          [--line-search-step 0.5] [--random-walk SAMPLES] [nodes ...]
+//          [--line-search-step 0.5] [--random-walk SAMPLES] [--verbose] [nodes ...]
+// --verbose prints one line per iteration (E, v of Eq. 9, moves, swaps, seconds) to stderr.
 #include "metrics.hpp"
 
 #include <vim/initial_mesh.hpp>
@@ -51,6 +52,7 @@ void print_row(const char* method, const vim::SimplexMesh<3>& mesh, const vim::m
 int main(int argc, char** argv) try {
   long n = 100;
   vim::VimOptions options;
+  bool verbose = false;
   std::vector<long> budgets;
   for (int i = 1; i < argc; ++i) {
     auto value = [&](const char* name) {
@@ -67,6 +69,7 @@ int main(int argc, char** argv) try {
       options.strategy = vim::VimOptions::NodeStrategy::random_walk;
       options.random_walk_samples = std::atoi(value("--random-walk"));
     }
+    else if (!std::strcmp(argv[i], "--verbose")) verbose = true;
     else budgets.push_back(std::atol(argv[i]));
   }
   if (budgets.empty()) budgets = {125, 343, 4096};
@@ -84,7 +87,13 @@ int main(int argc, char** argv) try {
     print_row("grid", grid, gm, 0.0, 0);
 
     const auto t0 = std::chrono::steady_clock::now();
-    const vim::VimResult<3> r = vim::optimize<3>(image, grid, options);
+    vim::ProgressCallback progress;
+    if (verbose)
+      progress = [](const vim::IterationRecord& h) {
+        std::fprintf(stderr, "  iteration %2d  E %.9f  v %.3e  searched %6ld  moves %6ld  swaps %5ld  %.3f s\n",
+                     h.iteration, h.energy, h.v, h.searched, h.moves, h.swaps, h.seconds);
+      };
+    const vim::VimResult<3> r = vim::optimize<3>(image, grid, options, progress);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const auto vm = vim::metrics::table1_metrics<3>(image, r.mesh, centre, 1.0);
     print_row("VIM", r.mesh, vm, seconds, static_cast<int>(r.history.size()) - 1);

@@ -49,6 +49,8 @@ double VimOptimizer<dim>::evaluate_candidate(const Point& p, Scratch& s, double 
   const std::size_t m = s.ring.size();
   // Cheapest first: orientation, then the E_G terms (a candidate already worse than `bound` needs no
   // quality check: infeasible or not, the caller discards it), then the quality bound, then E_D.
+  // A partial sum above `bound` is returned at once: the callers only compare it with `bound` (and
+  // with values at least as large), so stopping early cannot change a decision.
   double total = 0.0;
   for (std::size_t k = 0; k < m; ++k) {
     Simplex x = s.base[k];
@@ -57,16 +59,16 @@ double VimOptimizer<dim>::evaluate_candidate(const Point& p, Scratch& s, double 
     c = CellCache{};
     c.volume = signed_volume<dim>(x);
     if (!(c.volume > 0.0)) return kInf;
-    c.eg = geometric_energy<dim>(x);
+    c.eg = geometric_energy_of_volume<dim>(x, c.volume);
     if (density_) c.eg *= density_->interpolate(centroid<dim>(x));
     c.cost = wg_ * c.eg;
     total += c.cost;
+    if (total > bound) return total;
   }
-  if (total > bound) return total;
   for (std::size_t k = 0; k < m; ++k) {
     Simplex x = s.base[k];
     x[s.local[k]] = p;
-    if (!acceptable(x)) return kInf;
+    if (!acceptable(x, s.trial[k].volume)) return kInf;
   }
   if (!image) return total;
   for (std::size_t k = 0; k < m; ++k) {
@@ -230,10 +232,10 @@ bool VimOptimizer<dim>::update_node(int node, int iteration) {
 // One sweep: colour classes in order; nodes of a class in parallel (their 1-rings are disjoint, so
 // the result does not depend on the thread count or scheduling).
 template <int dim>
-long VimOptimizer<dim>::update_nodes(int iteration, double* sum_sq) {
+long VimOptimizer<dim>::update_nodes(int iteration, double* sum_sq, long* searched) {
   const std::size_t n = mesh_.points.size();
   std::vector<double> moved(n, 0.0);
-  std::vector<char> did(n, 0);
+  std::vector<char> did(n, 0), ran(n, 0);
   const bool line_search = options_.strategy == VimOptions::NodeStrategy::centroid_line_search;
   tbb::task_arena arena(options_.threads > 0 ? options_.threads : tbb::task_arena::automatic);
   arena.execute([&] {
@@ -244,6 +246,7 @@ long VimOptimizer<dim>::update_nodes(int iteration, double* sum_sq) {
           const int node = cls[j];
           if (line_search && !dirty_[node]) continue;  // would repeat its last, unsuccessful search
           dirty_[node] = 0;  // only this task touches this node's flag during the class
+          ran[node] = 1;
           double sq = 0.0;
           if (update_node_impl(node, iteration, s, &sq)) {
             did[node] = 1;
@@ -255,13 +258,15 @@ long VimOptimizer<dim>::update_nodes(int iteration, double* sum_sq) {
         if (did[node]) mark_ring_dirty(node);
     }
   });
-  long moves = 0;
+  long moves = 0, runs = 0;
   double total = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
     moves += did[i];
+    runs += ran[i];
     total += moved[i];
   }
   if (sum_sq) *sum_sq = total;
+  if (searched) *searched = runs;
   return moves;
 }
 
@@ -271,7 +276,7 @@ template bool VimOptimizer<2>::update_node_impl(int, int, Scratch&, double*);
 template bool VimOptimizer<3>::update_node_impl(int, int, Scratch&, double*);
 template bool VimOptimizer<2>::update_node(int, int);
 template bool VimOptimizer<3>::update_node(int, int);
-template long VimOptimizer<2>::update_nodes(int, double*);
-template long VimOptimizer<3>::update_nodes(int, double*);
+template long VimOptimizer<2>::update_nodes(int, double*, long*);
+template long VimOptimizer<3>::update_nodes(int, double*, long*);
 
 }  // namespace vim

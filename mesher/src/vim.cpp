@@ -85,7 +85,7 @@ template <int dim>
 CellCache VimOptimizer<dim>::evaluate(const Simplex& x) const {
   CellCache c;
   c.volume = signed_volume<dim>(x);
-  c.eg = geometric_energy<dim>(x);
+  c.eg = geometric_energy_of_volume<dim>(x, c.volume);
   if (density_) c.eg *= density_->interpolate(centroid<dim>(x));
   if (stats_) {
     const auto s = stats_->sums(x);
@@ -128,12 +128,11 @@ inline int angle_cosines(const std::array<Eigen::Vector3d, 4>& x, std::array<dou
 // bound, or one is clearly outside it, decide from the cosines; otherwise (and for radius-ratio
 // bounds) defer to vim::acceptable, which defines the bound.
 template <int dim>
-bool VimOptimizer<dim>::acceptable(const Simplex& x) const {
+bool VimOptimizer<dim>::acceptable(const Simplex& x, double vol) const {
   if (bound_.min_radius_ratio > 0.0) return vim::acceptable<dim>(x, bound_);
   double longest2 = 0.0;
   for (int i = 0; i <= dim; ++i)
     for (int k = i + 1; k <= dim; ++k) longest2 = std::max(longest2, (x[i] - x[k]).squaredNorm());
-  const double vol = signed_volume<dim>(x);
   if (!(vol > 0.0)) return false;
   const double scale = dim == 3 ? longest2 * std::sqrt(longest2) : longest2;  // longest^dim
   bool defer = !(vol > 2e-12 * scale);
@@ -333,7 +332,7 @@ VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const
       opt.check_invariants(stage, it, previous);
       previous = opt.totals().energy;
     };
-    r.moves = opt.update_nodes(it, &sum_sq);
+    r.moves = opt.update_nodes(it, &sum_sq, &r.searched);
     r.v = std::sqrt(sum_sq / static_cast<double>(n_nodes)) / b;
     check("node update");
     if (options.swaps) {

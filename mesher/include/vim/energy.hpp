@@ -15,11 +15,23 @@ namespace vim {
 // E_G(τ) = ∫_τ (I|x|² − |x|²) = |τ| / ((d+1)(d+2)) · Σ_{i<k} |x_i − x_k|², where I|x|² is the linear
 // interpolant of |x|² at the vertices. Summed over a mesh this equals Eq. 3 (1-ring form).
 template <int dim>
-double geometric_energy(const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>& x) {
+double squared_edge_sum(const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>& x) {
   double edges = 0.0;
   for (int i = 0; i <= dim; ++i)
     for (int k = i + 1; k <= dim; ++k) edges += (x[i] - x[k]).squaredNorm();
-  return std::abs(signed_volume<dim>(x)) * edges / static_cast<double>((dim + 1) * (dim + 2));
+  return edges;
+}
+
+// E_G from a signed volume the caller already has (the optimiser's inner loop): bit-identical to
+// geometric_energy(x) when volume == signed_volume(x).
+template <int dim>
+double geometric_energy_of_volume(const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>& x, double volume) {
+  return std::abs(volume) * squared_edge_sum<dim>(x) / static_cast<double>((dim + 1) * (dim + 2));
+}
+
+template <int dim>
+double geometric_energy(const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>& x) {
+  return geometric_energy_of_volume<dim>(x, signed_volume<dim>(x));
 }
 
 // Density-weighted E_G: ∫_τ ρ (I|x|² − |x|²) with ρ taken at the centroid (the caller samples it).

@@ -62,9 +62,9 @@ class VimOptimizer {
   double eg0() const { return eg0_; }
   double ed0() const { return ed0_; }
 
-  // One node-update sweep over the colour classes (parallel inside a class). Returns accepted moves
-  // and writes Σ_i |Δx_i|² to *sum_sq.
-  long update_nodes(int iteration, double* sum_sq);
+  // One node-update sweep over the colour classes (parallel inside a class). Returns accepted moves,
+  // writes Σ_i |Δx_i|² to *sum_sq and the number of nodes whose update ran to *searched.
+  long update_nodes(int iteration, double* sum_sq, long* searched = nullptr);
   // Updates one node (sequential use; tests). Returns true if it moved.
   bool update_node(int node, int iteration);
 
@@ -111,7 +111,9 @@ class VimOptimizer {
 
   // Evaluates one simplex (all cache fields; cost uses the current normalisation).
   CellCache evaluate(const Simplex& x) const;
-  bool acceptable(const Simplex& x) const;
+  bool acceptable(const Simplex& x) const { return acceptable(x, signed_volume<dim>(x)); }
+  // Same, with x's signed volume already computed by the caller.
+  bool acceptable(const Simplex& x, double volume) const;
   Simplex simplex(int cell) const { return cell_points(mesh_, static_cast<std::size_t>(cell)); }
 
  private:

@@ -62,6 +62,7 @@ struct IterationRecord {
   double geometric = 0.0; // E_G (absolute)
   double discretization = 0.0; // E_D (absolute)
   double v = 0.0;         // Eq. 9 convergence measure of this iteration's node moves
+  long searched = 0;      // nodes whose update ran (the others' 1-rings had not changed)
   long moves = 0;         // accepted node moves
   long swaps = 0;         // accepted connectivity changes
   double seconds = 0.0;
