@@ -476,6 +476,23 @@ void ElasticModel<dim>::Impl::local_system(const typename DoFHandler<dim>::activ
       for (unsigned j = 0; j < n; ++j) Ke(i, j) = lambda * voxel_K_lambda(i, j) + mu * voxel_K_mu(i, j);
       Fe(i) = body ? body_force[fe->system_to_component_index(i).first] * voxel_shape_integral[i] : 0.0;
     }
+  } else if (degree == 1) {
+    // P1: constant strain in the cell, so K_e = |τ| Bᵀ C B exactly (the same matrix as the
+    // quadrature below, without FEValues and its MappingFE).
+    std::array<Tensor<1, dim>, dim + 1> g;
+    const double volume = barycentric_gradients<dim>(cell, g);
+    for (unsigned i = 0; i < n; ++i) {
+      const auto [ci, vi] = fe->system_to_component_index(i);
+      const Tensor<1, dim>& gi = g[vi];
+      for (unsigned j = i; j < n; ++j) {
+        const auto [cj, vj] = fe->system_to_component_index(j);
+        const Tensor<1, dim>& gj = g[vj];
+        double v = lambda * gi[ci] * gj[cj] + mu * gi[cj] * gj[ci];
+        if (ci == cj) v += mu * (gi * gj);
+        Ke(i, j) = Ke(j, i) = v * volume;
+      }
+      Fe(i) = body ? body_force[ci] * volume / (dim + 1) : 0.0;
+    }
   } else {
   fv.reinit(cell);
   Ke = 0.0;
@@ -532,7 +549,12 @@ void assemble(Impl& m) {
   const FiniteElement<dim>& fe = *m.fe;
   // Support points of all DoFs, then Dirichlet constraints (first condition wins).
   m.support_points.assign(n, Point<dim>());
-  {
+  if (m.degree == 1) {
+    // P1/Q1: every DoF sits on a vertex (component c of vertex v is vertex_dof_index(v, c))
+    for (const auto& cell : m.dof.active_cell_iterators())
+      for (const unsigned v : cell->vertex_indices())
+        for (unsigned c = 0; c < unsigned(dim); ++c) m.support_points[cell->vertex_dof_index(v, c)] = cell->vertex(v);
+  } else {
     Quadrature<dim> sq(fe.get_unit_support_points());
     FEValues<dim> sv(*m.mapping, fe, sq, update_quadrature_points);
     std::vector<types::global_dof_index> idx(fe.n_dofs_per_cell());
@@ -957,8 +979,17 @@ void add_constraint_reactions(const Impl& m, const ConstraintRow& row, unsigned 
 template <int dim>
 Eigen::Matrix<double, dim, dim> ElasticModel<dim>::Impl::centroid_strain(
     const typename DoFHandler<dim>::active_cell_iterator& cell, FEValues<dim>& cv, const std::vector<double>& ue) const {
-  cv.reinit(cell);
   Eigen::Matrix<double, dim, dim> grad = Eigen::Matrix<double, dim, dim>::Zero();
+  if (!voxel && degree == 1) {
+    std::array<Tensor<1, dim>, dim + 1> g;
+    barycentric_gradients<dim>(cell, g);
+    for (unsigned i = 0; i < ue.size(); ++i) {
+      const auto [c, v] = fe->system_to_component_index(i);
+      for (int d = 0; d < dim; ++d) grad(c, d) += ue[i] * g[v][d];
+    }
+    return 0.5 * (grad + grad.transpose());
+  }
+  cv.reinit(cell);
   for (unsigned i = 0; i < ue.size(); ++i) {
     const unsigned c = fe->system_to_component_index(i).first;
     const Tensor<1, dim> g = cv.shape_grad(i, 0);

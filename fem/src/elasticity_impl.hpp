@@ -26,6 +26,8 @@
 #include <Epetra_MultiVector.h>
 #include <Teuchos_ParameterList.hpp>
 
+#include <array>
+#include <cmath>
 #include <functional>
 #include <map>
 #include <memory>
@@ -159,29 +161,52 @@ struct ElasticModel<dim>::Impl {
                  double& von_mises) const;
 };
 
+// P1 simplex: the shape functions are the barycentric coordinates (shape function k of
+// FE_SimplexP(1) belongs to cell vertex k), with constant gradients ∇λ_k = row k−1 of J⁻¹ (k ≥ 1) and
+// ∇λ_0 = −Σ ∇λ_k, J = [x_1 − x_0, …, x_dim − x_0]. Fills g and returns the cell's volume.
+template <int dim, class CellIterator>
+double barycentric_gradients(const CellIterator& cell, std::array<dealii::Tensor<1, dim>, dim + 1>& g) {
+  dealii::Tensor<2, dim> J;
+  const dealii::Point<dim> x0 = cell->vertex(0);
+  for (int k = 1; k <= dim; ++k)
+    for (int d = 0; d < dim; ++d) J[d][k - 1] = cell->vertex(k)[d] - x0[d];
+  const dealii::Tensor<2, dim> Jinv = dealii::invert(J);
+  g[0] = dealii::Tensor<1, dim>();
+  for (int k = 1; k <= dim; ++k) {
+    g[k] = Jinv[k - 1];
+    g[0] -= g[k];
+  }
+  return std::abs(dealii::determinant(J)) / (dim == 2 ? 2.0 : 6.0);
+}
+
 // CG preconditioner for elasticity (serial and MPI solves): ML AMG with the rigid-body modes at
 // the DoF support points (local index -> point, component) as a pre-computed null space.
-// `voxel_grid` (Q1 hexahedra, 81 nonzeros per row): unsmoothed aggregation (damping factor 0),
-// aggregation threshold 0, Chebyshev degree 1, W-cycle. On the 50³ grid (398k DoFs, 2 ranks)
-// smoothed aggregation (threshold 0.02, degree 2) took 37 CG iterations but a ~2.5x longer set-up
-// and 1.43x the peak memory (1.05 vs 0.73 GB per rank; the 100³ grid ran out of memory with it); the
-// unsmoothed hierarchy takes 66 iterations (V-cycle) / 53 (W-cycle) and is faster overall
-// (docs/performance.md, issue 5).
+// Linear elements (P1 simplices, Q1 voxel hexahedra): unsmoothed aggregation (damping factor 0),
+// aggregation threshold 0, W-cycle; Chebyshev degree 1 on voxel grids (81 nonzeros per row), 2 on
+// simplices. Voxel 50³ grid (398k DoFs, 2 ranks): smoothed aggregation (threshold 0.02, degree 2)
+// took 37 CG iterations but a ~2.5x longer set-up and 1.43x the peak memory (1.05 vs 0.73 GB per
+// rank; the 100³ grid ran out of memory with it); the unsmoothed hierarchy takes 66 iterations
+// (V-cycle) / 53 (W-cycle) and is faster overall. P1 Kuhn 68³ (985k DoFs, 2 ranks): smoothed
+// aggregation (threshold 0.02) set-up 10.8 s + CG 7.6 s (62 iterations), threshold 0 13.0 + 5.0 s
+// (38), unsmoothed V-cycle 2.5 + 9.1 s (102), unsmoothed W-cycle 2.7 + 6.4 s (62), with 18 % less
+// peak memory (docs/performance.md, issue 5). P2 keeps smoothed aggregation (threshold 0.02,
+// degree 2, V-cycle), not re-measured.
 template <int dim>
 inline void amg_setup(const dealii::TrilinosWrappers::SparseMatrix& K, const std::function<dealii::Point<dim>(unsigned)>& support_of_local,
                const std::function<unsigned(unsigned)>& component_of_local, unsigned degree, bool voxel_grid,
                dealii::TrilinosWrappers::PreconditionAMG& amg) {
+  const bool unsmoothed = degree == 1;
   constexpr int nm = dim == 2 ? 3 : 6;
   dealii::TrilinosWrappers::PreconditionAMG::AdditionalData data;
   data.elliptic = true;
   data.higher_order_elements = degree > 1;
   data.smoother_sweeps = voxel_grid ? 1 : 2;
-  data.aggregation_threshold = voxel_grid ? 0.0 : 0.02;
-  data.w_cycle = voxel_grid;
+  data.aggregation_threshold = unsmoothed ? 0.0 : 0.02;
+  data.w_cycle = unsmoothed;
   Teuchos::ParameterList pl;
   std::unique_ptr<Epetra_MultiVector> unused;
   data.set_parameters(pl, unused, K);
-  if (voxel_grid) pl.set("aggregation: damping factor", 0.0);
+  if (unsmoothed) pl.set("aggregation: damping factor", 0.0);
   Epetra_MultiVector nsp(K.trilinos_matrix().DomainMap(), nm);
   const int n_local = K.trilinos_matrix().DomainMap().NumMyElements();
   for (int i = 0; i < n_local; ++i) {

@@ -8,6 +8,7 @@
 
 #include <deal.II/base/index_set.h>
 #include <deal.II/base/mpi.h>
+#include <deal.II/base/multithread_info.h>
 #include <deal.II/base/timer.h>
 #include <deal.II/distributed/shared_tria.h>
 #include <deal.II/distributed/tria.h>
@@ -24,7 +25,10 @@
 #include <Epetra_MultiVector.h>
 #include <Teuchos_ParameterList.hpp>
 
+#include <dlfcn.h>
+
 #include <cfloat>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
@@ -32,6 +36,42 @@
 namespace vim::fem {
 
 using namespace dealii;
+
+namespace {
+// One thread per rank while a multi-rank solve runs (restored afterwards). OpenBLAS, which Trilinos
+// ML calls, keeps nproc − 1 worker threads per process that spin in sched_yield after each BLAS call
+// (perf, 1 rank: 12 % of the samples in that thread); with a rank per core they take CPU from the
+// other ranks. The same holds for OpenMP (libgomp) teams and deal.II's TBB tasks. The BLAS and OpenMP
+// setters are looked up at run time: absent (another BLAS, no OpenMP) means nothing to limit.
+class OneThreadPerRank {
+ public:
+  OneThreadPerRank()
+      : blas_get_(reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"))),
+        blas_set_(reinterpret_cast<void (*)(int)>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))),
+        omp_get_(reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "omp_get_max_threads"))),
+        omp_set_(reinterpret_cast<void (*)(int)>(dlsym(RTLD_DEFAULT, "omp_set_num_threads"))),
+        tbb_saved_(MultithreadInfo::n_threads()) {
+    if (blas_get_ && blas_set_) blas_saved_ = blas_get_(), blas_set_(1);
+    if (omp_get_ && omp_set_) omp_saved_ = omp_get_(), omp_set_(1);
+    MultithreadInfo::set_thread_limit(1);
+  }
+  ~OneThreadPerRank() {
+    if (blas_saved_ > 1) blas_set_(blas_saved_);
+    if (omp_saved_ > 1) omp_set_(omp_saved_);
+    MultithreadInfo::set_thread_limit(tbb_saved_);
+  }
+  OneThreadPerRank(const OneThreadPerRank&) = delete;
+  OneThreadPerRank& operator=(const OneThreadPerRank&) = delete;
+
+ private:
+  int (*blas_get_)();
+  void (*blas_set_)(int);
+  int (*omp_get_)();
+  void (*omp_set_)(int);
+  unsigned tbb_saved_;
+  int blas_saved_ = 0, omp_saved_ = 0;
+};
+}  // namespace
 
 template <int dim>
 Solution<dim> ElasticModel<dim>::solve_distributed(MPI_Comm comm, const SolverOptions& opt) {
@@ -41,6 +81,8 @@ Solution<dim> ElasticModel<dim>::solve_distributed(MPI_Comm comm, const SolverOp
   if (opt.max_iterations == 0) throw std::invalid_argument("SolverOptions: max_iterations must be > 0");
   Timer timer;
   const unsigned n_ranks = Utilities::MPI::n_mpi_processes(comm);
+  std::optional<OneThreadPerRank> one_thread;
+  if (n_ranks > 1) one_thread.emplace();
 
   // ---- distributed mesh and DoFs ----
   // Simplex models: parallel::shared::Triangulation (METIS partition, cells away from the own part
@@ -88,7 +130,18 @@ Solution<dim> ElasticModel<dim>::solve_distributed(MPI_Comm comm, const SolverOp
   // per relevant DoF (position in `relevant`): support point and component
   std::vector<Point<dim>> rel_point(relevant.n_elements());
   std::vector<unsigned char> rel_comp(relevant.n_elements());
-  {
+  if (m.degree == 1) {
+    // P1/Q1: every DoF sits on a vertex (component c of vertex v is vertex_dof_index(v, c))
+    for (const auto& cell : dof.active_cell_iterators()) {
+      if (cell->is_artificial()) continue;
+      for (const unsigned v : cell->vertex_indices())
+        for (unsigned c = 0; c < unsigned(dim); ++c) {
+          const auto k = relevant.index_within_set(cell->vertex_dof_index(v, c));
+          rel_point[k] = cell->vertex(v);
+          rel_comp[k] = static_cast<unsigned char>(c);
+        }
+    }
+  } else {
     Quadrature<dim> sq(fe.get_unit_support_points());
     FEValues<dim> sv(*m.mapping, fe, sq, update_quadrature_points);
     std::vector<types::global_dof_index> idx(dpc);
@@ -211,13 +264,12 @@ Solution<dim> ElasticModel<dim>::solve_distributed(MPI_Comm comm, const SolverOp
         for (unsigned c = 0; c < unsigned(dim); ++c) vert[gv * dim + c] = ug[cell->vertex_dof_index(v, c)];
       }
     } else {
-      // vertices: match this cell's vertices to the serial cell with the same CellId
-      const auto serial = m.tria.create_cell_iterator(cell->id());
+      // vertices: the shared triangulation is a copy of the serial one, same vertex numbering
+      const auto& serial_vertices = m.tria.get_vertices();
       for (const unsigned v : cell->vertex_indices()) {
-        unsigned gv = numbers::invalid_unsigned_int;
-        for (const unsigned w : serial->vertex_indices())
-          if (serial->vertex(w).distance(cell->vertex(v)) <= 1e-12 * cell->diameter()) gv = serial->vertex_index(w);
-        if (gv == numbers::invalid_unsigned_int) throw std::logic_error("solve_distributed: vertex matching failed");
+        const unsigned gv = cell->vertex_index(v);
+        if (gv >= serial_vertices.size() || serial_vertices[gv].distance(cell->vertex(v)) > 1e-12 * cell->diameter())
+          throw std::logic_error("solve_distributed: vertex numbering differs from the serial mesh");
         for (unsigned c = 0; c < unsigned(dim); ++c) vert[gv * dim + c] = ug[cell->vertex_dof_index(v, c)];
       }
     }

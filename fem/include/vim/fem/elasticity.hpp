@@ -171,7 +171,9 @@ class ElasticModel {
   // (a voxel model's serial mesh is built only if solve()/solve_monolithic()/strain_energy_of() is used).
   // Collective: every rank must hold the same model (same mesh, moduli, conditions) and call
   // it. Every rank gets the full vertex_displacement, per-cell fields, strain energy and reactions.
-  // Point constraints are not supported here (use solve()).
+  // Point constraints are not supported here (use solve()). With more than one rank, OpenBLAS, OpenMP
+  // and deal.II's TBB run one thread per rank during the call (their worker threads otherwise spin on
+  // the cores the other ranks need); the previous limits are restored on return.
   Solution<dim> solve_distributed(MPI_Comm comm, const SolverOptions& options = {});
 
   // Displacement of the last solution at arbitrary points (compute_point_locations).
