@@ -200,8 +200,7 @@ ElasticModel<dim>::ElasticModel(const SimplexMesh<dim>& mesh, std::vector<double
   m.quadrature = std::make_unique<QGaussSimplex<dim>>(degree + 1);
   m.face_quadrature = std::make_unique<QGaussSimplex<dim - 1>>(degree + 1);
   for (int d = 0; d < dim; ++d) m.unit_centroid[d] = 1.0 / (dim + 1);
-  m.setup_dofs();
-  m.mesh_built = true;
+  m.mesh_built = true;  // DoFs on first serial use (ensure_mesh): solve_distributed does not need them
 }
 
 template <int dim>
@@ -273,7 +272,10 @@ std::size_t ElasticModel<dim>::Impl::voxel_index(const Point<dim>& x) const {
 
 template <int dim>
 void ElasticModel<dim>::Impl::ensure_mesh() {
-  if (mesh_built) return;
+  if (mesh_built) {
+    if (!dofs_ready) setup_dofs();
+    return;
+  }
   std::vector<unsigned> reps(dim);
   for (int d = 0; d < dim; ++d) reps[d] = static_cast<unsigned>(grid_cells[d]);
   GridGenerator::subdivided_hyper_rectangle(tria, reps, grid_min, grid_max);
@@ -303,6 +305,7 @@ void ElasticModel<dim>::Impl::setup_dofs() {
   dof.reinit(tria);
   dof.distribute_dofs(*fe);  // no renumbering: DoFs stay node-interleaved for AMG "PDE equations"
   cache = std::make_unique<GridTools::Cache<dim>>(tria, *mapping);
+  dofs_ready = true;
 }
 
 // ================================================================================================
@@ -348,8 +351,11 @@ void ElasticModel<dim>::set_body_force(const Vec<dim>& f) {
 
 template <int dim>
 unsigned ElasticModel<dim>::n_dofs() const {
-  if (impl_->mesh_built) return static_cast<unsigned>(impl_->dof.n_dofs());
-  return static_cast<unsigned>(dim * impl_->vertices.size());  // voxel grid not built yet: Q1, dim per vertex
+  Impl& m = *impl_;
+  if (m.dofs_ready) return static_cast<unsigned>(m.dof.n_dofs());
+  if (m.voxel) return static_cast<unsigned>(dim * m.vertices.size());  // grid not built yet: Q1, dim per vertex
+  m.ensure_mesh();
+  return static_cast<unsigned>(m.dof.n_dofs());
 }
 template <int dim>
 unsigned ElasticModel<dim>::n_cells() const { return static_cast<unsigned>(impl_->E.size()); }

@@ -79,6 +79,7 @@ struct ElasticModel<dim>::Impl {
   std::array<long, dim> grid_cells{};
   dealii::Point<dim> grid_min, grid_max;
   bool mesh_built = false;
+  bool dofs_ready = false;  // dof and cache set up (setup_dofs); simplex models too only on first serial use
   // Voxel cells are congruent boxes: K_e = λ_e Kλ + μ_e Kμ and ∫N_i from the first cell assembled.
   mutable bool voxel_reference_ready = false;
   mutable dealii::FullMatrix<double> voxel_K_lambda, voxel_K_mu;
@@ -138,7 +139,7 @@ struct ElasticModel<dim>::Impl {
 
   // ---- shared helpers (elasticity.cpp) -----------------------------------------------------
   void setup_dofs();
-  // Builds the serial voxel triangulation + DoFs if not built yet (no-op for simplex models).
+  // Builds the serial voxel triangulation if not built yet, and the DoFs (every serial entry point).
   void ensure_mesh();
   // Index of the voxel containing x (clamped to the grid), axis 0 fastest.
   std::size_t voxel_index(const dealii::Point<dim>& x) const;
