@@ -116,40 +116,69 @@ void check_simplex_mesh(const SimplexMesh<dim>& mesh) {
       throw std::invalid_argument(m.str());
     }
   }
-  // face (sorted vertex ids) -> (cell, side of its opposite vertex)
-  struct Hash {
-    std::size_t operator()(const std::array<int, dim>& a) const {
-      std::size_t h = 1469598103934665603ull;
-      for (int v : a) h = (h ^ static_cast<std::size_t>(v)) * 1099511628211ull;
-      return h;
-    }
+  // Faces (sorted vertex ids) with the side of the opposite vertex, bucketed by their smallest
+  // vertex (counting sort, linear, instead of a hash map of all faces); equal faces are found by
+  // sorting each small bucket. The error reported is the first offending (cell, face) in cell order,
+  // as in a sequential scan: the second cell on a face whose opposite vertices lie on the same side
+  // (inverted), or the third cell on a face (non-manifold).
+  struct Face {
+    std::array<int, dim> v;
+    int side;         // sign of the opposite vertex's side
+    std::size_t pos;  // cell·(dim+1) + local face
   };
-  std::unordered_map<std::array<int, dim>, std::pair<int, int>, Hash> faces;
-  faces.reserve(mesh.cells.size() * (dim + 1));
-  for (std::size_t c = 0; c < mesh.cells.size(); ++c)
+  std::vector<std::size_t> start(static_cast<std::size_t>(np) + 1, 0);
+  for (const auto& cell : mesh.cells)
     for (int k = 0; k <= dim; ++k) {
-      std::array<int, dim> f;
-      for (int i = 0, j = 0; i <= dim; ++i)
-        if (i != k) f[j++] = mesh.cells[c][i];
-      std::sort(f.begin(), f.end());
-      std::array<Vec<dim>, dim + 1> x;
-      for (int i = 0; i < dim; ++i) x[i] = mesh.points[f[i]];
-      x[dim] = mesh.points[mesh.cells[c][k]];
-      const int side = signed_volume<dim>(x) > 0.0 ? 1 : -1;
-      auto [it, fresh] = faces.try_emplace(f, static_cast<int>(c), side);
-      if (fresh) continue;
-      if (it->second.first < 0) {
-        throw std::invalid_argument("ElasticModel: cell " + std::to_string(c) +
-                                    " shares a face with two other cells (non-manifold mesh)");
-      }
-      if (it->second.second == side) {
-        std::ostringstream m;
-        m << "ElasticModel: cell " << c << " is inverted: it overlaps cell " << it->second.first
-          << " across their shared face (tangled mesh)";
-        throw std::invalid_argument(m.str());
-      }
-      it->second.first = -1;
+      int lowest = np;
+      for (int i = 0; i <= dim; ++i)
+        if (i != k) lowest = std::min(lowest, cell[i]);
+      ++start[static_cast<std::size_t>(lowest) + 1];
     }
+  for (int v = 0; v < np; ++v) start[v + 1] += start[v];
+  std::vector<Face> faces(mesh.cells.size() * (dim + 1));
+  {
+    std::vector<std::size_t> next(start.begin(), start.end() - 1);
+    for (std::size_t c = 0; c < mesh.cells.size(); ++c)
+      for (int k = 0; k <= dim; ++k) {
+        Face f;
+        for (int i = 0, j = 0; i <= dim; ++i)
+          if (i != k) f.v[j++] = mesh.cells[c][i];
+        std::sort(f.v.begin(), f.v.end());
+        std::array<Vec<dim>, dim + 1> x;
+        for (int i = 0; i < dim; ++i) x[i] = mesh.points[f.v[i]];
+        x[dim] = mesh.points[mesh.cells[c][k]];
+        f.side = signed_volume<dim>(x) > 0.0 ? 1 : -1;
+        f.pos = c * (dim + 1) + static_cast<std::size_t>(k);
+        faces[next[f.v[0]]++] = f;
+      }
+  }
+  const std::size_t none = std::numeric_limits<std::size_t>::max();
+  std::size_t bad = none, bad_first = 0;
+  bool bad_inverted = false;
+  for (int v = 0; v < np; ++v) {
+    const auto b = faces.begin() + static_cast<std::ptrdiff_t>(start[v]);
+    const auto e = faces.begin() + static_cast<std::ptrdiff_t>(start[v + 1]);
+    std::sort(b, e, [](const Face& x, const Face& y) { return x.v != y.v ? x.v < y.v : x.pos < y.pos; });
+    for (auto g = b; g != e;) {
+      auto h = g + 1;
+      while (h != e && h->v == g->v) ++h;
+      if (h - g >= 2 && g[1].side == g[0].side) {
+        if (g[1].pos < bad) bad = g[1].pos, bad_first = g[0].pos, bad_inverted = true;
+      } else if (h - g >= 3 && g[2].pos < bad) {
+        bad = g[2].pos, bad_inverted = false;
+      }
+      g = h;
+    }
+  }
+  if (bad == none) return;
+  const std::size_t c = bad / (dim + 1);
+  if (!bad_inverted)
+    throw std::invalid_argument("ElasticModel: cell " + std::to_string(c) +
+                                " shares a face with two other cells (non-manifold mesh)");
+  std::ostringstream m;
+  m << "ElasticModel: cell " << c << " is inverted: it overlaps cell " << bad_first / (dim + 1)
+    << " across their shared face (tangled mesh)";
+  throw std::invalid_argument(m.str());
 }
 
 template <int dim>

@@ -466,6 +466,16 @@ TEST(BadInput, InvertedAndDegenerateCells) {
   EXPECT_THAT(message_of([&] { ElasticModel<2>(tri, {1.0}, 0.3); }), HasSubstr("cell 0 is degenerate"));
   tri.cells = {{{0, 1, 5}}};
   EXPECT_THAT(message_of([&] { ElasticModel<2>(tri, {1.0}, 0.3); }), HasSubstr("refers to vertex 5"));
+  // three triangles on edge 0-1 (the first two on opposite sides): the third is reported
+  SimplexMesh<2> fan;
+  fan.points = {Eigen::Vector2d(0, 0), Eigen::Vector2d(1, 0), Eigen::Vector2d(0.5, 1), Eigen::Vector2d(0.5, -1),
+                Eigen::Vector2d(0.5, 2)};
+  fan.cells = {{{0, 1, 2}}, {{1, 0, 3}}, {{0, 1, 4}}};
+  EXPECT_THAT(message_of([&] { ElasticModel<2>(fan, {1.0, 1.0, 1.0}, 0.3); }),
+              HasSubstr("cell 2 shares a face with two other cells"));
+  // two triangles on the same side of one edge overlap: reported at the second, naming the first
+  fan.cells = {{{0, 1, 2}}, {{1, 0, 4}}};
+  EXPECT_THAT(message_of([&] { ElasticModel<2>(fan, {1.0, 1.0}, 0.3); }), HasSubstr("cell 1 is inverted: it overlaps cell 0"));
 }
 
 TEST(BadInput, SingularSystems) {
