@@ -68,7 +68,7 @@ double VimOptimizer<dim>::evaluate_candidate(const Point& p, Scratch& s, double 
   for (std::size_t k = 0; k < m; ++k) {
     Simplex x = s.base[k];
     x[s.local[k]] = p;
-    if (!acceptable(x, s.trial[k].volume)) return kInf;
+    if (!acceptable(x, s.trial[k].volume, &s.faces[k])) return kInf;
   }
   if (!image) return total;
   for (std::size_t k = 0; k < m; ++k) {
@@ -100,6 +100,7 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
   s.base.resize(m);
   s.trial.resize(m);
   s.best.resize(m);
+  s.faces.resize(m);
   double c0 = 0.0;
   long ring_n = 0;
   double ring_s = 0.0, ring_q = 0.0;
@@ -108,6 +109,7 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
     s.base[k] = simplex(c);
     for (int j = 0; j <= dim; ++j)
       if (mesh_.cells[c][j] == node) s.local[k] = j;
+    s.faces[k] = fixed_face<dim>(s.base[k], s.local[k]);
     c0 += cache_[c].cost;
     ring_n += cache_[c].n;
     ring_s += cache_[c].s;

@@ -101,21 +101,26 @@ CellCache VimOptimizer<dim>::evaluate(const Simplex& x) const {
 namespace {
 // Cosines of the dihedral angles (3D: between outward facet normals n_i, n_j the angle at their
 // shared edge has cos = −n_i·n_j / |n_i||n_j|) or interior angles (2D); no allocation, no acos.
-inline int angle_cosines(const std::array<Eigen::Vector2d, 3>& x, std::array<double, 6>& c) {
+// `fixed` (if given) holds the unoriented normal and length of the face opposite fixed->vertex,
+// computed by the same expression, so the result is bit-identical.
+inline int angle_cosines(const std::array<Eigen::Vector2d, 3>& x, std::array<double, 6>& c,
+                         const FixedFace<2>* /*fixed*/) {
   for (int i = 0; i < 3; ++i) {
     const Eigen::Vector2d u = x[(i + 1) % 3] - x[i], v = x[(i + 2) % 3] - x[i];
     c[i] = u.dot(v) / std::sqrt(u.squaredNorm() * v.squaredNorm());
   }
   return 3;
 }
-inline int angle_cosines(const std::array<Eigen::Vector3d, 4>& x, std::array<double, 6>& c) {
+inline int angle_cosines(const std::array<Eigen::Vector3d, 4>& x, std::array<double, 6>& c,
+                         const FixedFace<3>* fixed) {
   std::array<Eigen::Vector3d, 4> n;
   std::array<double, 4> len;
   for (int i = 0; i < 4; ++i) {
     const int j = (i + 1) % 4, k = (i + 2) % 4, l = (i + 3) % 4;
-    n[i] = (x[k] - x[j]).cross(x[l] - x[j]);
+    const bool known = fixed && fixed->vertex == i;
+    n[i] = known ? fixed->normal : Eigen::Vector3d((x[k] - x[j]).cross(x[l] - x[j]));
     if (n[i].dot(x[i] - x[j]) > 0.0) n[i] = -n[i];
-    len[i] = n[i].norm();
+    len[i] = known ? fixed->length : n[i].norm();
   }
   int m = 0;
   for (int i = 0; i < 4; ++i)
@@ -128,16 +133,36 @@ inline int angle_cosines(const std::array<Eigen::Vector3d, 4>& x, std::array<dou
 // bound, or one is clearly outside it, decide from the cosines; otherwise (and for radius-ratio
 // bounds) defer to vim::acceptable, which defines the bound.
 template <int dim>
-bool VimOptimizer<dim>::acceptable(const Simplex& x, double vol) const {
-  if (bound_.min_radius_ratio > 0.0) return vim::acceptable<dim>(x, bound_);
-  double longest2 = 0.0;
+FixedFace<dim> fixed_face(const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>& x, int vertex) {
+  FixedFace<dim> f;
+  f.vertex = vertex;
+  if constexpr (dim == 3) {
+    const int j = (vertex + 1) % 4, k = (vertex + 2) % 4, l = (vertex + 3) % 4;
+    f.normal = (x[k] - x[j]).cross(x[l] - x[j]);
+    f.length = f.normal.norm();
+  }
   for (int i = 0; i <= dim; ++i)
-    for (int k = i + 1; k <= dim; ++k) longest2 = std::max(longest2, (x[i] - x[k]).squaredNorm());
+    for (int k = i + 1; k <= dim; ++k)
+      if (i != vertex && k != vertex) f.longest2 = std::max(f.longest2, (x[i] - x[k]).squaredNorm());
+  return f;
+}
+template FixedFace<2> fixed_face<2>(const std::array<Eigen::Vector2d, 3>&, int);
+template FixedFace<3> fixed_face<3>(const std::array<Eigen::Vector3d, 4>&, int);
+
+template <int dim>
+bool VimOptimizer<dim>::acceptable(const Simplex& x, double vol, const FixedFace<dim>* fixed) const {
+  if (bound_.min_radius_ratio > 0.0) return vim::acceptable<dim>(x, bound_);
+  // Longest edge (max is exact in any order, so the fixed face's edges may come precomputed).
+  double longest2 = fixed ? fixed->longest2 : 0.0;
+  for (int i = 0; i <= dim; ++i)
+    for (int k = i + 1; k <= dim; ++k)
+      if (!fixed || i == fixed->vertex || k == fixed->vertex)
+        longest2 = std::max(longest2, (x[i] - x[k]).squaredNorm());
   if (!(vol > 0.0)) return false;
   const double scale = dim == 3 ? longest2 * std::sqrt(longest2) : longest2;  // longest^dim
   bool defer = !(vol > 2e-12 * scale);
   std::array<double, 6> c;
-  const int m = angle_cosines(x, c);
+  const int m = angle_cosines(x, c, fixed);
   constexpr double eps = 1e-9;
   for (int i = 0; i < m; ++i) {
     if (!(c[i] >= cos_max_ - eps)) return false;  // angle clearly above the max bound (or NaN)

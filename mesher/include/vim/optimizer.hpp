@@ -42,6 +42,17 @@ struct EnergyTotals {
   double geometric = 0.0, discretization = 0.0, energy = 0.0;
 };
 
+// What the quality test of a 1-ring element can reuse while one of its vertices moves: the face
+// opposite that vertex (3D: its unoriented normal and length) and the longest of its edges.
+template <int dim>
+struct FixedFace {
+  int vertex = -1;  // local index of the moving vertex
+  Eigen::Matrix<double, dim, 1> normal = Eigen::Matrix<double, dim, 1>::Zero();
+  double length = 0.0, longest2 = 0.0;
+};
+template <int dim>
+FixedFace<dim> fixed_face(const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>& x, int vertex);
+
 template <int dim>
 class VimOptimizer {
  public:
@@ -112,8 +123,9 @@ class VimOptimizer {
   // Evaluates one simplex (all cache fields; cost uses the current normalisation).
   CellCache evaluate(const Simplex& x) const;
   bool acceptable(const Simplex& x) const { return acceptable(x, signed_volume<dim>(x)); }
-  // Same, with x's signed volume already computed by the caller.
-  bool acceptable(const Simplex& x, double volume) const;
+  // Same, with x's signed volume already computed by the caller and optionally the precomputed face
+  // opposite a moving vertex (bit-identical result).
+  bool acceptable(const Simplex& x, double volume, const FixedFace<dim>* fixed = nullptr) const;
   Simplex simplex(int cell) const { return cell_points(mesh_, static_cast<std::size_t>(cell)); }
 
  private:
@@ -122,6 +134,7 @@ class VimOptimizer {
     std::vector<Simplex> base;
     std::vector<CellCache> trial, best;
     std::vector<Point> dirs;
+    std::vector<FixedFace<dim>> faces;  // per 1-ring element: the face opposite the node
   };
   bool update_node_impl(int node, int iteration, Scratch& s, double* moved_sq);
   double evaluate_candidate(const Point& p, Scratch& s, double bound, bool image) const;
