@@ -33,6 +33,11 @@ VimOptimizer<dim>::VimOptimizer(SimplexMesh<dim> mesh, const VoxelStatistics<dim
   constexpr double kPi = 3.14159265358979323846;
   cos_max_ = std::cos(bound_.max_dihedral_deg * kPi / 180.0);
   cos_min_ = std::cos(bound_.min_dihedral_deg * kPi / 180.0);
+  // The square-root-free quality test needs both thresholds of the max bound negative (bound well
+  // above 90°) and no other bound.
+  sqrt_free_ = bound_.min_dihedral_deg <= 0.0 && bound_.min_radius_ratio <= 0.0 && cos_max_ + 1e-9 < 0.0;
+  reject2_ = (cos_max_ - 1e-9) * (cos_max_ - 1e-9);
+  defer2_ = (cos_max_ + 1e-9) * (cos_max_ + 1e-9);
 
   box_min_ = mesh_.points[0];
   box_max_ = mesh_.points[0];
@@ -161,6 +166,33 @@ bool VimOptimizer<dim>::acceptable(const Simplex& x, double vol, const FixedFace
   if (!(vol > 0.0)) return false;
   const double scale = dim == 3 ? longest2 * std::sqrt(longest2) : longest2;  // longest^dim
   bool defer = !(vol > 2e-12 * scale);
+  if constexpr (dim == 3) {
+    if (!defer && sqrt_free_) {
+      // Same decision without square roots or divisions: with positive volume the outward normal of
+      // the face opposite vertex i is (−1)^i (x_k − x_j)×(x_l − x_j); an angle's cosine
+      // c = −n_i·n_j / |n_i||n_j| is only below the (negative) thresholds when t = −n_i·n_j < 0, and
+      // then c < T ⇔ t² > T²·|n_i|²|n_j|². The thresholds keep the 1e-9 margin of the path below, far
+      // above the round-off of either evaluation, so both reach the decision of vim::acceptable.
+      std::array<Eigen::Vector3d, 4> n;
+      std::array<double, 4> len2;
+      for (int i = 0; i < 4; ++i) {
+        const int j = (i + 1) % 4, k = (i + 2) % 4, l = (i + 3) % 4;
+        const bool known = fixed && fixed->vertex == i;
+        n[i] = known ? fixed->normal : Eigen::Vector3d((x[k] - x[j]).cross(x[l] - x[j]));
+        if (i & 1) n[i] = -n[i];
+        len2[i] = known ? fixed->length * fixed->length : n[i].squaredNorm();
+      }
+      for (int i = 0; i < 4; ++i)
+        for (int j = i + 1; j < 4; ++j) {
+          const double t = -n[i].dot(n[j]);
+          if (t >= 0.0) continue;
+          const double q = t * t, prod = len2[i] * len2[j];
+          if (!(q <= reject2_ * prod)) return false;
+          if (q > defer2_ * prod) defer = true;
+        }
+      return defer ? vim::acceptable<dim>(x, bound_) : true;
+    }
+  }
   std::array<double, 6> c;
   const int m = angle_cosines(x, c, fixed);
   constexpr double eps = 1e-9;

@@ -2,12 +2,14 @@
 // hand-computed dihedral / interior angles and normalised radius ratios, the acceptability rule,
 // and the mesh summary on a Kuhn grid.
 #include <vim/initial_mesh.hpp>
+#include <vim/optimizer.hpp>
 #include <vim/quality.hpp>
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 
 namespace vim {
 namespace {
@@ -99,6 +101,73 @@ TEST(Quality, MeshSummaryOfKuhnGrid) {
   const auto q2 = mesh_quality<2>(regular_grid_mesh<2>(Eigen::Vector2d(0, 0), Eigen::Vector2d(1, 1), {4, 4}));
   EXPECT_NEAR(q2.max_dihedral_deg, 90.0, 1e-9);
   EXPECT_NEAR(q2.min_dihedral_deg, 45.0, 1e-9);
+}
+
+// The optimiser's fast quality test (cosines, or squared cosines without square roots for a max
+// bound alone, with or without the precomputed fixed face) must reach the decision of
+// vim::acceptable on every tetrahedron: random ones, and ones whose largest dihedral angle sits within
+// 1e-3 … 1e-13 of the bound (found by bisection on the exact angle).
+TEST(Quality, OptimizerFastTestAgreesWithReference) {
+  struct Case {
+    double max_deg, min_deg;
+  };
+  const Case cases[] = {{150.0, 0.0}, {120.0, 0.0}, {95.0, 0.0}, {150.0, 12.0}};
+  std::mt19937_64 rng(20261123);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto random_point = [&] { return Eigen::Vector3d(u(rng), u(rng), u(rng)); };
+  for (const Case& cs : cases) {
+    VimOptions o;
+    o.max_dihedral_deg = cs.max_deg;
+    o.min_dihedral_deg = cs.min_deg;
+    VimOptimizer<3> opt(regular_grid_mesh<3>(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 1, 1), {2, 2, 2}),
+                        nullptr, nullptr, o);
+    QualityBound b;
+    b.max_dihedral_deg = cs.max_deg;
+    b.min_dihedral_deg = cs.min_deg;
+    long checked = 0, accepted = 0, near = 0;
+    auto check = [&](const T3& x, int moving) {
+      const double vol = signed_volume<3>(x);
+      const bool want = acceptable<3>(x, b);
+      const FixedFace<3> face = fixed_face<3>(x, moving);
+      ASSERT_EQ(opt.acceptable(x, vol), want) << "bound " << cs.max_deg << "/" << cs.min_deg;
+      ASSERT_EQ(opt.acceptable(x, vol, &face), want) << "bound " << cs.max_deg << "/" << cs.min_deg;
+      ++checked;
+      accepted += want;
+    };
+    for (int trial = 0; trial < 4000; ++trial) {
+      T3 x{random_point(), random_point(), random_point(), random_point()};
+      if (signed_volume<3>(x) < 0.0) std::swap(x[0], x[1]);
+      const int moving = trial % 4;
+      check(x, moving);
+      // Move one vertex along a random direction until the largest angle crosses the bound.
+      const Eigen::Vector3d d = random_point();
+      auto above = [&](double t) {
+        T3 y = x;
+        y[moving] += t * d;
+        return !(signed_volume<3>(y) > 0.0) || max_dihedral_deg<3>(y) > cs.max_deg;
+      };
+      const bool a0 = above(0.0);
+      double lo = 0.0, hi = 0.0;
+      for (double t = 0.05; t <= 2.0 && hi == 0.0; t += 0.05)
+        if (above(t) != a0) hi = t;
+      if (hi == 0.0) continue;
+      for (int it = 0; it < 200 && hi - lo > 1e-15; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        (above(mid) == a0 ? lo : hi) = mid;
+      }
+      for (double delta : {-1e-3, -1e-7, -1e-10, -1e-13, 0.0, 1e-13, 1e-10, 1e-7, 1e-3}) {
+        T3 y = x;
+        y[moving] += (lo + delta) * d;
+        if (!(signed_volume<3>(y) > 0.0)) continue;
+        check(y, moving);
+        ++near;
+      }
+    }
+    // Both decisions occur, and many tetrahedra sit at the bound.
+    EXPECT_GT(accepted, checked / 20) << cs.max_deg;
+    EXPECT_LT(accepted, checked - checked / 20) << cs.max_deg;
+    EXPECT_GT(near, 1000) << cs.max_deg;
+  }
 }
 
 }  // namespace

@@ -163,6 +163,8 @@ class VimOptimizer {
   VimOptions options_;
   QualityBound bound_;
   double cos_max_ = -1.0, cos_min_ = 1.0;  // cosines of the dihedral bounds
+  bool sqrt_free_ = false;                   // acceptable() may use the squared-cosine test
+  double reject2_ = 1.0, defer2_ = 1.0;      // (cos_max_ ∓ 1e-9)²
   Point box_min_, box_max_;
   double boundary_tol_ = 0.0;
   double min_step_ = 0.0;        // line-search stopping step (physical)
