@@ -71,7 +71,16 @@ double VimOptimizer<dim>::evaluate_candidate(const Point& p, Scratch& s, double 
     if (!acceptable(x, s.trial[k].volume, &s.faces[k])) return kInf;
   }
   if (!image) return total;
-  for (std::size_t k = 0; k < m; ++k) {
+  // The voxel sums dominate the cost. They are taken in s.order (the elements with the largest
+  // current E_D first), so a candidate that loses usually stops after a few elements. The early
+  // stop needs the partial sum above bound·(1 + 1e-12): the terms are non-negative and the margin is
+  // far above the round-off of summing them in another order, so the total in ring order exceeds
+  // bound too. A candidate that is not stopped gets its total summed in ring order, E_G first, as
+  // the cache and every other evaluation do. The decisions are therefore those of a ring-order loop.
+  const double stop = bound * (1.0 + 1e-12);
+  double partial = total;
+  for (std::size_t r = 0; r < m; ++r) {
+    const std::size_t k = static_cast<std::size_t>(s.order[r]);
     Simplex x = s.base[k];
     x[s.local[k]] = p;
     CellCache& c = s.trial[k];
@@ -82,9 +91,11 @@ double VimOptimizer<dim>::evaluate_candidate(const Point& p, Scratch& s, double 
     c.ed = discretization_energy(c.volume, element_variance(sum.n, sum.s, sum.q));
     const double d = wd_ * c.ed;
     c.cost += d;
-    total += d;
-    if (total > bound) return total;
+    s.ed_cost[k] = d;
+    partial += d;
+    if (partial > stop) return partial;
   }
+  for (std::size_t k = 0; k < m; ++k) total += s.ed_cost[k];
   return total;
 }
 
@@ -117,6 +128,14 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
   }
   if (!(c0 > 0.0)) return false;
   const Point x0 = mesh_.points[node];
+  s.ed_cost.resize(m);
+  s.order.resize(m);
+  for (std::size_t k = 0; k < m; ++k) {  // insertion sort by decreasing current E_D, then position
+    std::size_t r = k;
+    const double e = cache_[s.ring[k]].ed;
+    for (; r > 0 && cache_[s.ring[static_cast<std::size_t>(s.order[r - 1])]].ed < e; --r) s.order[r] = s.order[r - 1];
+    s.order[r] = static_cast<int>(k);
+  }
 
   // Moving the node keeps the 1-ring's union fixed, so if the voxels in it are all equal (variance
   // zero up to round-off), E_D is zero for every candidate and the search skips the voxel sums.

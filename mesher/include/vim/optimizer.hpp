@@ -135,6 +135,8 @@ class VimOptimizer {
     std::vector<CellCache> trial, best;
     std::vector<Point> dirs;
     std::vector<FixedFace<dim>> faces;  // per 1-ring element: the face opposite the node
+    std::vector<int> order;             // 1-ring positions by decreasing current E_D (voxel sums first)
+    std::vector<double> ed_cost;        // per 1-ring element: the candidate's weighted E_D term
   };
   bool update_node_impl(int node, int iteration, Scratch& s, double* moved_sq);
   double evaluate_candidate(const Point& p, Scratch& s, double bound, bool image) const;
