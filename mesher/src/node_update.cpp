@@ -1,7 +1,9 @@
-// Node updates of paper §IV-B / §VI-D: for node i, golden-section line searches toward the
-// centroid of each 1-ring element and, if the image varies inside the 1-ring, toward the midpoint
-// of each edge at i (or a random walk inside the 1-ring), evaluating only the 1-ring's energy; the
-// best candidate is taken iff E drops and the quality bound holds.
+// Node updates of paper §IV-B / §VI-D: for node i, golden-section line searches (or a random walk
+// inside the 1-ring), evaluating only the 1-ring's energy; the best candidate is taken iff E drops
+// and the quality bound holds. Directions: where the image varies inside the 1-ring, toward the
+// minimiser of the 1-ring's E_G (the ODT update), the centroid of each 1-ring element and the
+// midpoint of each edge at i; where it is constant (E_D ≡ 0), toward the E_G minimiser only, and
+// toward the centroids if that finds no decrease.
 #include <vim/energy.hpp>
 #include <vim/optimizer.hpp>
 
@@ -167,50 +169,92 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
 
   if (options_.strategy == VimOptions::NodeStrategy::centroid_line_search) {
     const double tiny = 1e-12 * bbox_diagonal();
-    // Directions: toward each 1-ring element's centroid, then toward the midpoint of each edge at the
-    // node (the neighbour vertices, in ring order, each once). The edge directions let a node slide
-    // along an edge onto an image edge; where the image is constant over the 1-ring (E_D ≡ 0) they
-    // are skipped: E_G alone is served by the centroid directions (Table I: same or lower TF% at
-    // 125, 343 and 4096 nodes; docs/performance.md).
+    // Directions (see the top of the file): the edge directions let a node slide along an edge onto
+    // an image edge, so they are searched only where the image varies in the 1-ring. Table I with
+    // these directions: docs/performance.md.
     std::vector<Point>& dirs = s.dirs;
-    dirs.clear();
-    for (std::size_t k = 0; k < m; ++k) dirs.push_back(centroid<dim>(s.base[k]));
-    for (std::size_t k = 0; k < m && image; ++k)
-      for (int j = 0; j <= dim; ++j) {
-        if (j == s.local[k]) continue;
-        const Point mid = 0.5 * (s.base[k][j] + x0);
-        bool seen = false;
-        for (std::size_t q = m; q < dirs.size() && !seen; ++q) seen = dirs[q] == mid;
-        if (!seen) dirs.push_back(mid);
-      }
-    for (std::size_t k = 0; k < dirs.size(); ++k) {
-      const Point d = project(dirs[k] - x0);
-      const double len = d.norm();
-      if (len <= tiny) continue;
-      // Golden-section search on t ∈ [0, 1] along x0 + t·d, from the centroid (t = 1) down to a
-      // bracket shorter than the minimum step; infeasible points count as +inf (shrink toward x0).
-      // Each new point is evaluated with the retained point's value as bound: if it is worse, the
-      // (partial) value only decides the comparison and is discarded, so the search is exact.
-      consider(x0 + d, best);
-      double a = 0.0, b = 1.0;
-      double t1 = b - kGolden * (b - a), t2 = a + kGolden * (b - a);
-      double f1 = consider(x0 + t1 * d, kInf);
-      double f2 = consider(x0 + t2 * d, f1);
-      while ((b - a) * len > min_step_) {
-        if (f1 <= f2) {
-          b = t2;
-          t2 = t1;
-          f2 = f1;
-          t1 = b - kGolden * (b - a);
-          f1 = consider(x0 + t1 * d, f2);
-        } else {
-          a = t1;
-          t1 = t2;
-          f1 = f2;
-          t2 = a + kGolden * (b - a);
-          f2 = consider(x0 + t2 * d, f1);
+    auto search = [&]() {
+      for (std::size_t k = 0; k < dirs.size(); ++k) {
+        const Point d = project(dirs[k] - x0);
+        const double len = d.norm();
+        if (len <= tiny) continue;
+        // Golden-section search on t ∈ [0, 1] along x0 + t·d, from the centroid (t = 1) down to a
+        // bracket shorter than the minimum step; infeasible points count as +inf (shrink toward x0).
+        // Each new point is evaluated with the retained point's value as bound: if it is worse, the
+        // (partial) value only decides the comparison and is discarded, so the search is exact.
+        consider(x0 + d, best);
+        double a = 0.0, b = 1.0;
+        double t1 = b - kGolden * (b - a), t2 = a + kGolden * (b - a);
+        double f1 = consider(x0 + t1 * d, kInf);
+        double f2 = consider(x0 + t2 * d, f1);
+        while ((b - a) * len > min_step_) {
+          if (f1 <= f2) {
+            b = t2;
+            t2 = t1;
+            f2 = f1;
+            t1 = b - kGolden * (b - a);
+            f1 = consider(x0 + t1 * d, f2);
+          } else {
+            a = t1;
+            t1 = t2;
+            f1 = f2;
+            t2 = a + kGolden * (b - a);
+            f2 = consider(x0 + t2 * d, f1);
+          }
         }
       }
+    };
+    // Without a density, E_G of the 1-ring is a quadratic in the node's position while no element
+    // inverts: each |τ| is affine in it and the 1-ring's union is fixed (along the node's face or
+    // edge on the boundary). Its minimiser is the ODT update (Chen & Xu) x* = x0 − G / (2|Ω|),
+    // G = Σ_τ ∇|τ|·Σ_{k∈τ, k≠i} |x_k − x0|², projected onto the node's face or edge. Where E_D ≡ 0
+    // one line search toward x* (the quality bound may cut it short) replaces the per-element
+    // directions, which are still searched if it finds no decrease; elsewhere x* is one more
+    // direction.
+    bool searched_odt = false;
+    Point odt = x0;
+    if (density_ == nullptr) {
+      Point g = Point::Zero();
+      double omega = 0.0;
+      for (std::size_t k = 0; k < m; ++k) {
+        const Simplex& x = s.base[k];
+        const int v = s.local[k];
+        double sq = 0.0;
+        for (int j = 0; j <= dim; ++j)
+          if (j != v) sq += (x[j] - x0).squaredNorm();
+        Point grad;  // ∂|τ|/∂x_v: the opposite face's normal scaled by its measure / dim, toward v
+        if constexpr (dim == 3) {
+          grad = s.faces[k].normal / 6.0;
+        } else {
+          const Point e = x[(v + 2) % 3] - x[(v + 1) % 3];
+          grad = Point(-e[1], e[0]) / 2.0;
+        }
+        if (grad.dot(x0 - x[(v + 1) % (dim + 1)]) < 0.0) grad = -grad;
+        g += sq * grad;
+        omega += std::abs(cache_[s.ring[k]].volume);
+      }
+      if (omega > 0.0) {
+        odt = x0 - g / (2.0 * omega);
+        if (!image) {
+          dirs.assign(1, odt);
+          search();
+          searched_odt = true;
+        }
+      }
+    }
+    if (!searched_odt || !found) {
+      dirs.clear();
+      if (image && odt != x0) dirs.push_back(odt);
+      for (std::size_t k = 0; k < m; ++k) dirs.push_back(centroid<dim>(s.base[k]));
+      for (std::size_t k = 0; k < m && image; ++k)
+        for (int j = 0; j <= dim; ++j) {
+          if (j == s.local[k]) continue;
+          const Point mid = 0.5 * (s.base[k][j] + x0);
+          bool seen = false;
+          for (std::size_t q = 0; q < dirs.size() && !seen; ++q) seen = dirs[q] == mid;
+          if (!seen) dirs.push_back(mid);
+        }
+      search();
     }
   } else {
     // Random walk: uniformly distributed points of uniformly chosen 1-ring elements (projected onto

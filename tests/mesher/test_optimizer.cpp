@@ -13,6 +13,9 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
+
+#include <random>
 #include <set>
 
 namespace vim {
@@ -232,6 +235,99 @@ TEST(Sizing, DensityConcentratesNodes) {
   bad.data[3] = 0.0f;
   EXPECT_THROW(size_initial_mesh<2>(bad, initial, 2), std::invalid_argument);
 }
+
+// Where only E_G acts (no image), the ring energy is a quadratic in the node's position, and one
+// update must land on its minimiser: fitted here from E_G sampled at 10 points around the node
+// (independent of the optimiser's closed form), for interior nodes and for face nodes, in 2D and 3D.
+template <int dim>
+void check_odt_step(unsigned seed) {
+  using P = Eigen::Matrix<double, dim, 1>;
+  std::array<int, dim> n;
+  n.fill(5);
+  SimplexMesh<dim> mesh = regular_grid_mesh<dim>(P::Zero(), P::Ones(), n);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-0.06, 0.06);
+  const double tol = 1e-9;
+  for (auto& p : mesh.points)  // jitter, keeping boundary nodes on their faces
+    for (int a = 0; a < dim; ++a)
+      if (p[a] > tol && p[a] < 1.0 - tol) p[a] += u(rng);
+  VimOptimizer<dim> opt(mesh, nullptr, nullptr, VimOptions{});
+  int interior = 0, face = 0;
+  for (int node = 0; node < static_cast<int>(mesh.points.size()); ++node) {
+    const std::uint8_t mask = opt.fixed_axes(node);
+    if (mask == (1u << dim) - 1) continue;
+    const bool on_face = mask != 0;
+    if (on_face && face >= 4) continue;
+    if (!on_face && interior >= 4) continue;
+    const auto ring = opt.adjacency().cells_of(node);
+    const P x0 = opt.mesh().points[node];
+    auto ring_energy = [&](const P& x) {
+      double e = 0.0;
+      for (int c : ring) {
+        auto s = opt.simplex(c);
+        for (int j = 0; j <= dim; ++j)
+          if (opt.mesh().cells[c][j] == node) s[j] = x;
+        e += geometric_energy<dim>(s);
+      }
+      return e;
+    };
+    // Fit E(x0 + δ) = c + bᵀδ + δᵀAδ over the free axes (exact for a quadratic) and solve for its minimum.
+    std::vector<int> free_axes;
+    for (int a = 0; a < dim; ++a)
+      if (!(mask & (1u << a))) free_axes.push_back(a);
+    const int k = static_cast<int>(free_axes.size());
+    const int unknowns = 1 + k + k * (k + 1) / 2;
+    Eigen::MatrixXd m(3 * unknowns, unknowns);
+    Eigen::VectorXd rhs(3 * unknowns);
+    std::uniform_real_distribution<double> w(-0.02, 0.02);
+    for (int r = 0; r < m.rows(); ++r) {
+      Eigen::VectorXd d(k);
+      for (int i = 0; i < k; ++i) d[i] = w(rng);
+      P x = x0;
+      for (int i = 0; i < k; ++i) x[free_axes[i]] += d[i];
+      int col = 0;
+      m(r, col++) = 1.0;
+      for (int i = 0; i < k; ++i) m(r, col++) = d[i];
+      for (int i = 0; i < k; ++i)
+        for (int j = i; j < k; ++j) m(r, col++) = d[i] * d[j];
+      rhs[r] = ring_energy(x);
+    }
+    const Eigen::VectorXd coef = m.colPivHouseholderQr().solve(rhs);
+    Eigen::MatrixXd hess(k, k);
+    Eigen::VectorXd grad(k);
+    int col = 1 + k;
+    for (int i = 0; i < k; ++i) grad[i] = coef[1 + i];
+    for (int i = 0; i < k; ++i)
+      for (int j = i; j < k; ++j) {
+        hess(i, j) = hess(j, i) = (i == j ? 2.0 : 1.0) * coef[col];
+        ++col;
+      }
+    const Eigen::VectorXd step = hess.ldlt().solve(-grad);
+    P want = x0;
+    for (int i = 0; i < k; ++i) want[free_axes[i]] += step[i];
+    bool feasible = true;
+    for (int c : ring) {
+      auto sx = opt.simplex(c);
+      for (int j = 0; j <= dim; ++j)
+        if (opt.mesh().cells[c][j] == node) sx[j] = want;
+      feasible = feasible && opt.acceptable(sx);
+    }
+    if (!feasible) continue;  // the quality bound would stop the step short of the minimum
+    ASSERT_TRUE(opt.update_node(node, 1)) << "node " << node;
+    const P got = opt.mesh().points[node];
+    EXPECT_LT((got - want).norm(), 1e-7) << "node " << node << (on_face ? " (face)" : " (interior)") << " mask " << int(mask)
+        << " x0 " << x0.transpose() << " got " << got.transpose() << " want " << want.transpose() << " E " << ring_energy(got) << " vs " << ring_energy(want);
+    for (int a = 0; a < dim; ++a)
+      if (mask & (1u << a)) EXPECT_EQ(got[a], x0[a]) << "node " << node << " left its face";
+    EXPECT_LT(ring_energy(got), ring_energy(x0));
+    ++(on_face ? face : interior);
+  }
+  EXPECT_EQ(interior, 4);
+  EXPECT_EQ(face, 4);
+}
+
+TEST(Optimizer, GeometricOnlyUpdateReachesTheQuadraticMinimum2D) { check_odt_step<2>(11); }
+TEST(Optimizer, GeometricOnlyUpdateReachesTheQuadraticMinimum3D) { check_odt_step<3>(12); }
 
 TEST(Optimizer, RejectsBadInput) {
   const auto img = two_circle_phantom(20);
