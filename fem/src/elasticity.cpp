@@ -32,6 +32,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -700,6 +701,23 @@ void UmfpackLU::solve(Vector<double>& x) const {
 
 namespace {
 
+// Trilinos (the AMG preconditioner and its matrix) needs MPI initialised even on one process. Test
+// mains and MPI programs do that through deal.II's MPI_InitFinalize; a serial program such as the
+// CLI does not, so the first serial AMG set-up initialises MPI itself and finalises it at exit.
+void ensure_mpi_initialized() {
+  int initialized = 0;
+  MPI_Initialized(&initialized);
+  if (initialized) return;
+  int provided = 0;
+  if (MPI_Init_thread(nullptr, nullptr, MPI_THREAD_SERIALIZED, &provided) != MPI_SUCCESS)
+    throw std::runtime_error("the AMG solver needs MPI, and MPI_Init_thread failed; use solver type 'direct'");
+  std::atexit([] {
+    int finalized = 0;
+    MPI_Finalized(&finalized);
+    if (!finalized) MPI_Finalize();
+  });
+}
+
 template <int dim, class Impl>
 void prepare_solver(Impl& m, const SolverOptions& opt) {
   if (!(opt.tolerance > 0.0) || !std::isfinite(opt.tolerance))
@@ -719,6 +737,7 @@ void prepare_solver(Impl& m, const SolverOptions& opt) {
   if (!use_amg) {
     m.direct = std::make_unique<UmfpackLU>(m.K);
   } else {
+    ensure_mpi_initialized();
     m.K_trilinos = std::make_unique<TrilinosWrappers::SparseMatrix>();
     m.K_trilinos->reinit(m.K, 0.0);
     // centre the rotations at the bounding-box centre for conditioning

@@ -254,3 +254,49 @@ TEST(CliSimulate, ReadmeScenarioReferenceParses) {
   // and the shipped example parses too.
   EXPECT_NO_THROW(read_scenario((fs::path(VIM_SOURCE_DIR) / "examples" / "prostate_needle.yaml").string(), 3));
 }
+
+// The AMG solver uses Trilinos, which needs MPI initialised even on one process. The CLI runs without
+// mpirun; before the fix, `--mesher voxel --simulate` (62k DoFs: AMG by `auto`) aborted in
+// MPI_Comm_size. Both meshers with `solver: {type: amg}`, on a small prostate phantom, must finish
+// and report the AMG method, with the same target displacement as the direct solver.
+TEST(CliSimulate, AmgSolverRunsWithoutAnMpiLauncher) {
+  vim::test::TempDir dir("cliamg");
+  const fs::path image = dir.path / "prostate.mha";
+  const auto made = vim::test::run_command(VIM_PHANTOM_EXE, "prostate " + quote(image.string()) + " --size 16");
+  ASSERT_EQ(made.code, 0) << made.err;
+  std::string yaml = vim::test::slurp(fs::path(VIM_SOURCE_DIR) / "examples" / "prostate_needle.yaml");
+  auto replace = [&](const std::string& from, const std::string& to) {
+    const auto at = yaml.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    yaml.replace(at, from.size(), to);
+  };
+  replace("nodes: 3000", "nodes: 200");
+  replace("steps: 36", "steps: 3");
+  replace("solver: {type: auto", "solver: {type: SOLVER");
+  auto run = [&](const std::string& mesher, const std::string& solver) {
+    std::string text = yaml;
+    text.replace(text.find("SOLVER"), 6, solver);
+    const fs::path scenario = dir.path / ("needle_" + mesher + "_" + solver + ".yaml");
+    std::ofstream(scenario) << text;
+    const fs::path out = dir.path / ("out_" + mesher + "_" + solver);
+    const auto r = run_pipeline(quote(image.string()) + " --mesher " + mesher + " --quiet --simulate " +
+                                quote(scenario.string()) + " --out " + quote(out.string()));
+    EXPECT_EQ(r.code, 0) << mesher << "/" << solver << ": " << r.err;
+    std::ifstream f(out / "report.json");
+    nlohmann::json report;
+    if (f) f >> report;
+    return report;
+  };
+  for (const std::string mesher : {"vim", "voxel"}) {
+    const auto amg = run(mesher, "amg");
+    const auto direct = run(mesher, "direct");
+    ASSERT_TRUE(amg.contains("simulation")) << mesher;
+    ASSERT_TRUE(direct.contains("simulation")) << mesher;
+    EXPECT_EQ(amg["simulation"]["needles"][0]["solver"]["method"], "cg+amg") << mesher;
+    EXPECT_EQ(direct["simulation"]["needles"][0]["solver"]["method"], "umfpack") << mesher;
+    const double ua = amg["simulation"]["final_displacement_lesion"].get<double>();
+    const double ud = direct["simulation"]["final_displacement_lesion"].get<double>();
+    EXPECT_GT(ud, 0.0) << mesher;
+    EXPECT_NEAR(ua, ud, 1e-6 * ud) << mesher;
+  }
+}
