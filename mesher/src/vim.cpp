@@ -116,14 +116,21 @@ inline int angle_cosines(const std::array<Eigen::Vector2d, 3>& x, std::array<dou
   }
   return 3;
 }
+// Unoriented normal (x_k − x_j)×(x_l − x_j), (j, k, l) = (i+1, i+2, i+3) mod 4, of the face opposite
+// vertex i; the precomputed one if i is the fixed face's vertex (the same expression).
+inline Eigen::Vector3d raw_face_normal(const std::array<Eigen::Vector3d, 4>& x, int i, const FixedFace<3>* fixed) {
+  if (fixed && fixed->vertex == i) return fixed->normal;
+  const int j = (i + 1) % 4, k = (i + 2) % 4, l = (i + 3) % 4;
+  return (x[k] - x[j]).cross(x[l] - x[j]);
+}
 inline int angle_cosines(const std::array<Eigen::Vector3d, 4>& x, std::array<double, 6>& c,
                          const FixedFace<3>* fixed) {
   std::array<Eigen::Vector3d, 4> n;
   std::array<double, 4> len;
   for (int i = 0; i < 4; ++i) {
-    const int j = (i + 1) % 4, k = (i + 2) % 4, l = (i + 3) % 4;
+    const int j = (i + 1) % 4;
     const bool known = fixed && fixed->vertex == i;
-    n[i] = known ? fixed->normal : Eigen::Vector3d((x[k] - x[j]).cross(x[l] - x[j]));
+    n[i] = raw_face_normal(x, i, fixed);
     if (n[i].dot(x[i] - x[j]) > 0.0) n[i] = -n[i];
     len[i] = known ? fixed->length : n[i].norm();
   }
@@ -176,9 +183,8 @@ bool VimOptimizer<dim>::acceptable(const Simplex& x, double vol, const FixedFace
       std::array<Eigen::Vector3d, 4> n;
       std::array<double, 4> len2;
       for (int i = 0; i < 4; ++i) {
-        const int j = (i + 1) % 4, k = (i + 2) % 4, l = (i + 3) % 4;
         const bool known = fixed && fixed->vertex == i;
-        n[i] = known ? fixed->normal : Eigen::Vector3d((x[k] - x[j]).cross(x[l] - x[j]));
+        n[i] = raw_face_normal(x, i, fixed);
         if (i & 1) n[i] = -n[i];
         len2[i] = known ? fixed->length * fixed->length : n[i].squaredNorm();
       }

@@ -317,8 +317,11 @@ void check_odt_step(unsigned seed) {
     const P got = opt.mesh().points[node];
     EXPECT_LT((got - want).norm(), 1e-7) << "node " << node << (on_face ? " (face)" : " (interior)") << " mask " << int(mask)
         << " x0 " << x0.transpose() << " got " << got.transpose() << " want " << want.transpose() << " E " << ring_energy(got) << " vs " << ring_energy(want);
-    for (int a = 0; a < dim; ++a)
-      if (mask & (1u << a)) EXPECT_EQ(got[a], x0[a]) << "node " << node << " left its face";
+    for (int a = 0; a < dim; ++a) {
+      if (mask & (1u << a)) {
+        EXPECT_EQ(got[a], x0[a]) << "node " << node << " left its face";
+      }
+    }
     EXPECT_LT(ring_energy(got), ring_energy(x0));
     ++(on_face ? face : interior);
   }
