@@ -4,7 +4,7 @@
 // printed beside the paper's VIM rows.
 //
 //   table1 [--n 100] [--lambda 0.5] [--max-iterations 50] [--convergence 1e-3] [--threads 0]
-//          [--line-search-step 0.5] [--random-walk SAMPLES] [--verbose] [nodes ...]
+//          [--line-search-step 0.5] [--search-width 3] [--random-walk SAMPLES] [--verbose] [nodes ...]
 // --verbose prints one line per iteration (E, v of Eq. 9, moves, swaps, seconds) to stderr.
 #include "metrics.hpp"
 
@@ -69,6 +69,7 @@ int main(int argc, char** argv) try {
       options.strategy = vim::VimOptions::NodeStrategy::random_walk;
       options.random_walk_samples = std::atoi(value("--random-walk"));
     }
+    else if (!std::strcmp(argv[i], "--search-width")) options.search_width = std::atoi(value("--search-width"));
     else if (!std::strcmp(argv[i], "--verbose")) verbose = true;
     else budgets.push_back(std::atol(argv[i]));
   }
@@ -90,8 +91,8 @@ int main(int argc, char** argv) try {
     vim::ProgressCallback progress;
     if (verbose)
       progress = [](const vim::IterationRecord& h) {
-        std::fprintf(stderr, "  iteration %2d  E %.9f  v %.3e  searched %6ld  moves %6ld  swaps %5ld  %.3f s\n",
-                     h.iteration, h.energy, h.v, h.searched, h.moves, h.swaps, h.seconds);
+        std::fprintf(stderr, "  iteration %2d  E %.9f  v %.3e  searched %6ld  evaluations %8ld  moves %6ld  swaps %5ld  %.3f s\n",
+                     h.iteration, h.energy, h.v, h.searched, h.evaluations, h.moves, h.swaps, h.seconds);
       };
     const vim::VimResult<3> r = vim::optimize<3>(image, grid, options, progress);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

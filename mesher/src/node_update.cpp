@@ -86,7 +86,14 @@ double VimOptimizer<dim>::evaluate_candidate(const Point& p, Scratch& s, double 
     Simplex x = s.base[k];
     x[s.local[k]] = p;
     CellCache& c = s.trial[k];
-    const auto sum = stats_->sums(x);
+    typename VoxelStatistics<dim>::Sums sum;
+    if (!stats_->varied_sums(x, sum)) {
+      // Uniform: E_D = 0, as evaluate() gives; the sums are taken only if this candidate is committed.
+      c.n = -1;
+      c.ed = 0.0;
+      s.ed_cost[k] = 0.0;
+      continue;
+    }
     c.n = sum.n;
     c.s = sum.s;
     c.q = sum.q;
@@ -152,6 +159,7 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
   Point best_p = x0;
   bool found = false;
   auto consider = [&](const Point& p, double bound) {
+    ++s.evaluations;
     const double f = evaluate_candidate(p, s, bound, image);
     if (f < best) {
       best = f;
@@ -173,7 +181,34 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
     // an image edge, so they are searched only where the image varies in the 1-ring. Table I with
     // these directions: docs/performance.md.
     std::vector<Point>& dirs = s.dirs;
+    // Screening (options_.search_width = w > 0, when there are more than w directions): each
+    // direction is probed at the first interior point of its golden-section search, t = 1 − φ⁻¹,
+    // and at (1 − φ⁻¹)², nearer the node; only the w directions with the lowest probe values are then
+    // searched in full. A probe already above the w-th lowest so far stops early (its value only
+    // decides that it is not kept). Every probe is a candidate like any other.
+    auto screen = [&]() {
+      const std::size_t w = static_cast<std::size_t>(options_.search_width);
+      if (w == 0 || dirs.size() <= w) return;
+      constexpr double kProbe = 1.0 - kGolden;
+      auto& top = s.top;  // (probe value, direction), ascending, at most w
+      top.clear();
+      for (std::size_t k = 0; k < dirs.size(); ++k) {
+        const Point d = project(dirs[k] - x0);
+        if (d.norm() <= tiny) continue;
+        const double bound = top.size() < w ? kInf : top.back().first;
+        double f = consider(x0 + kProbe * d, bound);
+        f = std::min(f, consider(x0 + (kProbe * kProbe) * d, std::min(bound, f)));
+        if (top.size() == w && !(f < top.back().first)) continue;
+        if (top.size() == w) top.pop_back();
+        top.emplace_back(f, k);
+        for (std::size_t r = top.size() - 1; r > 0 && top[r].first < top[r - 1].first; --r) std::swap(top[r], top[r - 1]);
+      }
+      s.kept.clear();
+      for (const auto& t : top) s.kept.push_back(dirs[t.second]);
+      dirs.swap(s.kept);
+    };
     auto search = [&]() {
+      screen();
       for (std::size_t k = 0; k < dirs.size(); ++k) {
         const Point d = project(dirs[k] - x0);
         const double len = d.norm();
@@ -283,6 +318,15 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
     }
     if (!(total < threshold)) return false;
   }
+  for (std::size_t k = 0; k < m; ++k)
+    if (s.best[k].n < 0) {  // a uniform element whose sums the search skipped
+      Simplex x = s.base[k];
+      x[s.local[k]] = best_p;
+      const auto sum = stats_->sums(x);
+      s.best[k].n = sum.n;
+      s.best[k].s = sum.s;
+      s.best[k].q = sum.q;
+    }
   mesh_.points[node] = best_p;
   for (std::size_t k = 0; k < m; ++k) cache_[s.ring[k]] = s.best[k];
   if (moved_sq) *moved_sq = (best_p - x0).squaredNorm();
@@ -300,9 +344,10 @@ bool VimOptimizer<dim>::update_node(int node, int iteration) {
 // One sweep: colour classes in order; nodes of a class in parallel (their 1-rings are disjoint, so
 // the result does not depend on the thread count or scheduling).
 template <int dim>
-long VimOptimizer<dim>::update_nodes(int iteration, double* sum_sq, long* searched) {
+long VimOptimizer<dim>::update_nodes(int iteration, double* sum_sq, long* searched, long* evaluations) {
   const std::size_t n = mesh_.points.size();
   std::vector<double> moved(n, 0.0);
+  std::vector<long> evals(n, 0);
   std::vector<char> did(n, 0), ran(n, 0);
   const bool line_search = options_.strategy == VimOptions::NodeStrategy::centroid_line_search;
   tbb::task_arena arena(options_.threads > 0 ? options_.threads : tbb::task_arena::automatic);
@@ -316,7 +361,10 @@ long VimOptimizer<dim>::update_nodes(int iteration, double* sum_sq, long* search
           dirty_[node] = 0;  // only this task touches this node's flag during the class
           ran[node] = 1;
           double sq = 0.0;
-          if (update_node_impl(node, iteration, s, &sq)) {
+          s.evaluations = 0;
+          const bool moved_node = update_node_impl(node, iteration, s, &sq);
+          evals[node] = s.evaluations;
+          if (moved_node) {
             did[node] = 1;
             moved[node] = sq;
           }
@@ -326,15 +374,17 @@ long VimOptimizer<dim>::update_nodes(int iteration, double* sum_sq, long* search
         if (did[node]) mark_ring_dirty(node);
     }
   });
-  long moves = 0, runs = 0;
+  long moves = 0, runs = 0, evaluated = 0;
   double total = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
+    evaluated += evals[i];
     moves += did[i];
     runs += ran[i];
     total += moved[i];
   }
   if (sum_sq) *sum_sq = total;
   if (searched) *searched = runs;
+  if (evaluations) *evaluations = evaluated;
   return moves;
 }
 
@@ -344,7 +394,7 @@ template bool VimOptimizer<2>::update_node_impl(int, int, Scratch&, double*);
 template bool VimOptimizer<3>::update_node_impl(int, int, Scratch&, double*);
 template bool VimOptimizer<2>::update_node(int, int);
 template bool VimOptimizer<3>::update_node(int, int);
-template long VimOptimizer<2>::update_nodes(int, double*, long*);
-template long VimOptimizer<3>::update_nodes(int, double*, long*);
+template long VimOptimizer<2>::update_nodes(int, double*, long*, long*);
+template long VimOptimizer<3>::update_nodes(int, double*, long*, long*);
 
 }  // namespace vim

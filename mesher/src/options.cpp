@@ -25,6 +25,7 @@ void VimOptions::validate() const {
   if (max_iterations < 0) bad("max-iterations", max_iterations, ">= 0");
   if (!(convergence > 0.0)) bad("convergence", convergence, "> 0");
   if (!(line_search_step > 0.0 && line_search_step <= 10.0)) bad("line-search-step", line_search_step, "in (0, 10] voxels");
+  if (search_width < 0) bad("search-width", search_width, ">= 0 (0 = search every direction)");
   if (random_walk_samples < 1) bad("random-walk-samples", random_walk_samples, ">= 1");
   if (threads < 0) bad("threads", threads, ">= 0 (0 = all cores)");
   if (insert_nodes < 0) bad("insert-nodes", insert_nodes, ">= 0");

@@ -97,7 +97,8 @@ CellCache VimOptimizer<dim>::evaluate(const Simplex& x) const {
     c.n = s.n;
     c.s = s.s;
     c.q = s.q;
-    c.ed = discretization_energy(std::abs(c.volume), element_variance(s.n, s.s, s.q));
+    // A box of equal voxels has variance 0 exactly (the sums' round-off is not left to the snap).
+    c.ed = stats_->uniform(x) ? 0.0 : discretization_energy(std::abs(c.volume), element_variance(s.n, s.s, s.q));
   }
   c.cost = cost_of(c);
   return c;
@@ -395,7 +396,7 @@ VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const
       opt.check_invariants(stage, it, previous);
       previous = opt.totals().energy;
     };
-    r.moves = opt.update_nodes(it, &sum_sq, &r.searched);
+    r.moves = opt.update_nodes(it, &sum_sq, &r.searched, &r.evaluations);
     r.v = std::sqrt(sum_sq / static_cast<double>(n_nodes)) / b;
     check("node update");
     if (options.swaps) {

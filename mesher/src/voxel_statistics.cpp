@@ -106,22 +106,48 @@ VoxelStatistics<dim>::VoxelStatistics(const Image<dim>& image) : image_(&image) 
     }
   }
   for (int a = 0; a < dim; ++a) centre_[a] = 0.5 * static_cast<double>(image.size[a] - 1);
+
+  // Edge voxels and their summed-area table: edges_[(i+1)] = Σ_{j ≤ i} edge(j) over every axis.
+  std::array<long, dim> ext;  // table extent per axis
+  for (int a = 0; a < dim; ++a) ext[a] = image.size[a] + 1;
+  long table = 1;
+  for (int a = 0; a < dim; ++a) table *= ext[a];
+  edges_.assign(static_cast<std::size_t>(table), 0);
+  std::array<long, dim> stride_img, stride_tab;
+  stride_img[0] = stride_tab[0] = 1;
+  for (int a = 1; a < dim; ++a) {
+    stride_img[a] = stride_img[a - 1] * image.size[a - 1];
+    stride_tab[a] = stride_tab[a - 1] * ext[a - 1];
+  }
+  for (std::size_t k = 0; k < image.data.size(); ++k) {
+    const auto i = image.index_of(k);
+    const float v = image.data[k];
+    bool edge = false;
+    long t = 0;
+    for (int a = 0; a < dim; ++a) {
+      if (i[a] > 0 && image.data[k - static_cast<std::size_t>(stride_img[a])] != v) edge = true;
+      if (i[a] + 1 < image.size[a] && image.data[k + static_cast<std::size_t>(stride_img[a])] != v) edge = true;
+      t += (i[a] + 1) * stride_tab[a];
+    }
+    edges_[static_cast<std::size_t>(t)] = edge ? 1 : 0;
+  }
+  for (int a = 0; a < dim; ++a)  // prefix sums along each axis in turn
+    for (long t = 0; t < table; ++t)
+      if ((t / stride_tab[a]) % ext[a] > 0)
+        edges_[static_cast<std::size_t>(t)] += edges_[static_cast<std::size_t>(t - stride_tab[a])];
 }
 
-// Face planes of x in continuous index space; false if x is degenerate or misses the image.
 template <int dim>
-bool VoxelStatistics<dim>::prepare(const Simplex& x, Faces& f) const {
+bool VoxelStatistics<dim>::index_box(const Simplex& x, std::array<Point, dim + 1>& c, double& margin,
+                                     std::array<long, dim>& lo_out, std::array<long, dim>& hi_out) const {
   const Image<dim>& img = *image_;
-  std::array<Point, dim + 1> c;
   double big = 0.0;
   for (int k = 0; k <= dim; ++k) {
     c[k] = img.continuous_index(x[k]);
     big = std::max(big, c[k].cwiseAbs().maxCoeff());
   }
   if (!std::isfinite(big)) return false;
-  const double margin = 1e-6 * (1.0 + big);
-  f.vertex = c;
-  f.margin = margin;
+  margin = 1e-6 * (1.0 + big);
   for (int a = 0; a < dim; ++a) {
     double lo = c[0][a], hi = c[0][a];
     for (int k = 1; k <= dim; ++k) {
@@ -132,9 +158,57 @@ bool VoxelStatistics<dim>::prepare(const Simplex& x, Faces& f) const {
     lo = std::max(std::ceil(lo - margin), 0.0);
     hi = std::min(std::floor(hi + margin), last);
     if (lo > hi) return false;
-    f.lo[a] = static_cast<long>(lo);
-    f.hi[a] = static_cast<long>(hi);
+    lo_out[a] = static_cast<long>(lo);
+    hi_out[a] = static_cast<long>(hi);
   }
+  return true;
+}
+
+template <int dim>
+bool VoxelStatistics<dim>::uniform(const Simplex& x) const {
+  std::array<Point, dim + 1> c;
+  double margin;
+  std::array<long, dim> lo, hi;
+  if (!index_box(x, c, margin, lo, hi)) return true;  // no voxel centre: variance 0
+  return uniform_box(lo, hi);
+}
+
+template <int dim>
+bool VoxelStatistics<dim>::varied_sums(const Simplex& x, Sums& out) const {
+  Faces f;
+  if (!index_box(x, f.vertex, f.margin, f.lo, f.hi)) return false;  // no voxel centre: uniform
+  if (uniform_box(f.lo, f.hi)) return false;
+  out = prepare_faces(f) ? scan(f) : Sums{};
+  return true;
+}
+
+template <int dim>
+bool VoxelStatistics<dim>::uniform_box(const std::array<long, dim>& lo, const std::array<long, dim>& hi) const {
+  // Inclusion–exclusion over the 2^dim corners of [lo, hi] in the table (offset by one).
+  long count = 0;
+  for (int corner = 0; corner < (1 << dim); ++corner) {
+    long t = 0, stride = 1;
+    int sign = 1;
+    for (int a = 0; a < dim; ++a) {
+      const bool upper = (corner >> a) & 1;
+      t += (upper ? hi[a] + 1 : lo[a]) * stride;
+      if (!upper) sign = -sign;
+      stride *= image_->size[a] + 1;
+    }
+    count += sign * static_cast<long>(edges_[static_cast<std::size_t>(t)]);
+  }
+  return count == 0;
+}
+
+// Face planes of x in continuous index space; false if x is degenerate or misses the image.
+template <int dim>
+bool VoxelStatistics<dim>::prepare(const Simplex& x, Faces& f) const {
+  return index_box(x, f.vertex, f.margin, f.lo, f.hi) && prepare_faces(f);
+}
+
+template <int dim>
+bool VoxelStatistics<dim>::prepare_faces(Faces& f) const {
+  const std::array<Point, dim + 1>& c = f.vertex;
   const double centre_size = centre_.cwiseAbs().maxCoeff();
   f.all_fast = true;
   f.slab_fast = true;
@@ -199,9 +273,13 @@ bool VoxelStatistics<dim>::prepare(const Simplex& x, Faces& f) const {
 
 template <int dim>
 typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::sums(const Simplex& x) const {
-  Sums out;
   Faces f;
-  if (!prepare(x, f)) return out;
+  return prepare(x, f) ? scan(f) : Sums{};
+}
+
+template <int dim>
+typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::scan(const Faces& f) const {
+  Sums out;
   std::array<long, dim> j = f.lo;  // j[0] unused
   // Two passes per batch of rows: clipping records each row's interval and prefetches its two prefix
   // entries; the sums are taken once the batch is full. The prefix table (16 bytes per voxel) rarely

@@ -150,6 +150,40 @@ TEST(Optimizer, TwoCirclePhantomHalvesDiscretizationEnergy) {
   EXPECT_EQ(r.mesh.n_points(), initial.n_points());
 }
 
+// The screened node update (search_width w > 0, the default) searches only the w directions with
+// the best probes: it must evaluate far fewer candidates than the full search of the paper
+// (search_width 0) and still reach about the same energy and image fit (brute-force E_D).
+TEST(Optimizer, ScreenedSearchEvaluatesFewerCandidatesForTheSameFit) {
+  const auto img = sphere_phantom(30);
+  const auto initial = grid_for(img, 6);
+  VimOptions full, screened;
+  full.search_width = 0;
+  screened.search_width = 3;
+  const auto a = optimize<3>(img, initial, full);
+  const auto b = optimize<3>(img, initial, screened);
+  long ea = 0, eb = 0;
+  for (const auto& h : a.history) ea += h.evaluations;
+  for (const auto& h : b.history) eb += h.evaluations;
+  const double iters_a = static_cast<double>(a.history.size() - 1), iters_b = static_cast<double>(b.history.size() - 1);
+  EXPECT_LT(static_cast<double>(eb) / iters_b, 0.6 * static_cast<double>(ea) / iters_a)
+      << "evaluations per iteration: full " << ea / iters_a << ", screened " << eb / iters_b;
+  for (const auto* r : {&a, &b})
+    for (std::size_t t = 1; t < r->history.size(); ++t) EXPECT_LE(r->history[t].energy, r->history[t - 1].energy);
+  EXPECT_LT(b.history.back().energy, 1.05 * a.history.back().energy);
+  const double ed0 = brute_force_energy(img, initial).ed;
+  const double eda = brute_force_energy(img, a.mesh).ed, edb = brute_force_energy(img, b.mesh).ed;
+  EXPECT_LT(eda, 0.7 * ed0);
+  EXPECT_LT(edb, 1.15 * eda) << "E_D initial " << ed0 << ", full " << eda << ", screened " << edb;
+  // A width at least the number of directions is the full search, bit for bit.
+  VimOptions wide = full;
+  wide.search_width = 1000;
+  wide.max_iterations = 2;
+  full.max_iterations = 2;
+  const auto c = optimize<3>(img, initial, full), d = optimize<3>(img, initial, wide);
+  EXPECT_EQ(c.mesh.points, d.mesh.points);
+  EXPECT_EQ(c.mesh.cells, d.mesh.cells);
+}
+
 TEST(Optimizer, RandomWalkLowersEnergyAndIsReproducible) {
   const auto img = two_circle_phantom(64);
   VimOptions o;

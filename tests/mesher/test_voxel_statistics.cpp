@@ -9,6 +9,7 @@
 #include <Eigen/LU>
 #include <gtest/gtest.h>
 
+#include <random>
 #include <thread>
 
 namespace vim {
@@ -180,6 +181,101 @@ void expect_rows_match_per_voxel_on_ties(unsigned seed) {
 
 TEST(VoxelStatistics, RowsMatchPerVoxelScanOnTies2D) { expect_rows_match_per_voxel_on_ties<2>(21); }
 TEST(VoxelStatistics, RowsMatchPerVoxelScanOnTies3D) { expect_rows_match_per_voxel_on_ties<3>(22); }
+
+// uniform(x) is exactly "no voxel of x's index bounding box differs from an axis neighbour"
+// (brute force over the box, own bounding-box computation), and then every voxel centre in x holds
+// one value; varied_sums is sums() exactly when x is not uniform. Blocky images (constant blocks of
+// random size and value) give both answers often.
+template <int dim>
+void expect_uniform_is_exact(long n, int trials, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::array<long, dim> size;
+  std::array<double, dim> spacing, origin;
+  for (int a = 0; a < dim; ++a) {
+    size[a] = n + a;
+    spacing[a] = 0.7 + 0.3 * a;
+    origin[a] = -1.0 + a;
+  }
+  Image<dim> img(size, spacing, origin, 1.0f);
+  std::uniform_int_distribution<long> pos(0, n - 1), len(2, n / 2);
+  std::uniform_int_distribution<int> level(1, 3);
+  for (int b = 0; b < 6; ++b) {  // constant boxes painted over a constant background
+    std::array<long, dim> lo, hi;
+    for (int a = 0; a < dim; ++a) {
+      lo[a] = pos(rng);
+      hi[a] = std::min(size[a] - 1, lo[a] + len(rng));
+    }
+    const float v = static_cast<float>(level(rng));
+    for (std::size_t k = 0; k < img.voxel_count(); ++k) {
+      const auto i = img.index_of(k);
+      bool in = true;
+      for (int a = 0; a < dim; ++a) in = in && i[a] >= lo[a] && i[a] <= hi[a];
+      if (in) img.data[k] = v;
+    }
+  }
+  const VoxelStatistics<dim> stats(img);
+  const auto blo = img.box_min(), bhi = img.box_max();
+  std::uniform_real_distribution<double> u(-0.05, 1.05), shrink(0.03, 0.4);
+  int uniform_seen = 0, varied_seen = 0;
+  for (int t = 0; t < trials; ++t) {
+    typename VoxelStatistics<dim>::Simplex x;
+    for (auto& p : x)
+      for (int a = 0; a < dim; ++a) p[a] = blo[a] + u(rng) * (bhi[a] - blo[a]);
+    const double f = shrink(rng);
+    for (int k = 1; k <= dim; ++k) x[k] = x[0] + f * (x[k] - x[0]);
+    // Index box: voxel centres within 1e-6 (relative) of the vertices' continuous-index range.
+    std::array<long, dim> lo, hi;
+    bool empty = false;
+    for (int a = 0; a < dim; ++a) {
+      double mn = 1e300, mx = -1e300, big = 0.0;
+      for (const auto& p : x)
+        for (int b = 0; b < dim; ++b) big = std::max(big, std::abs(img.continuous_index(p)[b]));
+      for (const auto& p : x) {
+        mn = std::min(mn, img.continuous_index(p)[a]);
+        mx = std::max(mx, img.continuous_index(p)[a]);
+      }
+      lo[a] = std::max(0L, static_cast<long>(std::ceil(mn - 1e-6 * (1.0 + big))));
+      hi[a] = std::min(size[a] - 1, static_cast<long>(std::floor(mx + 1e-6 * (1.0 + big))));
+      empty = empty || lo[a] > hi[a];
+    }
+    bool edge = false;
+    for (std::size_t k = 0; k < img.voxel_count() && !empty && !edge; ++k) {
+      auto i = img.index_of(k);
+      bool in = true;
+      for (int a = 0; a < dim; ++a) in = in && i[a] >= lo[a] && i[a] <= hi[a];
+      if (!in) continue;
+      for (int a = 0; a < dim && !edge; ++a)
+        for (int d : {-1, 1}) {
+          auto j = i;
+          j[a] += d;
+          if (j[a] >= 0 && j[a] < size[a] && img.at(j) != img.at(i)) edge = true;
+        }
+    }
+    const bool uniform = stats.uniform(x);
+    ASSERT_EQ(uniform, !edge) << "trial " << t;
+    typename VoxelStatistics<dim>::Sums vs;
+    ASSERT_EQ(stats.varied_sums(x, vs), !uniform) << "trial " << t;
+    const auto ref = stats.sums_per_voxel(x);
+    if (uniform) {
+      ++uniform_seen;
+      EXPECT_NEAR(stats.value(x).variance, 0.0, 1e-12) << "trial " << t;  // round-off of the sums only
+      if (ref.n > 0) {
+        EXPECT_NEAR(ref.q * static_cast<double>(ref.n), ref.s * ref.s, 1e-9 * (1.0 + ref.s * ref.s));
+      }
+    } else {
+      ++varied_seen;
+      const auto s = stats.sums(x);
+      EXPECT_EQ(vs.n, s.n);
+      EXPECT_EQ(vs.s, s.s);
+      EXPECT_EQ(vs.q, s.q);
+    }
+  }
+  EXPECT_GT(uniform_seen, trials / 10);
+  EXPECT_GT(varied_seen, trials / 10);
+}
+
+TEST(VoxelStatistics, UniformIsExactlyNoEdgeVoxelInTheBox2D) { expect_uniform_is_exact<2>(40, 400, 31); }
+TEST(VoxelStatistics, UniformIsExactlyNoEdgeVoxelInTheBox3D) { expect_uniform_is_exact<3>(18, 300, 32); }
 
 TEST(VoxelStatistics, EmptyElementTakesCentroidValue) {
   // Linear image h = 1 + 2i + 3j: the centroid sample is exact.

@@ -17,6 +17,7 @@
 
 #include <array>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace vim {
@@ -74,8 +75,9 @@ class VimOptimizer {
   double ed0() const { return ed0_; }
 
   // One node-update sweep over the colour classes (parallel inside a class). Returns accepted moves,
-  // writes Σ_i |Δx_i|² to *sum_sq and the number of nodes whose update ran to *searched.
-  long update_nodes(int iteration, double* sum_sq, long* searched = nullptr);
+  // writes Σ_i |Δx_i|² to *sum_sq, the number of nodes whose update ran to *searched and the number
+  // of candidate positions evaluated to *evaluations.
+  long update_nodes(int iteration, double* sum_sq, long* searched = nullptr, long* evaluations = nullptr);
   // Updates one node (sequential use; tests). Returns true if it moved.
   bool update_node(int node, int iteration);
 
@@ -133,10 +135,12 @@ class VimOptimizer {
     std::vector<int> ring, local;
     std::vector<Simplex> base;
     std::vector<CellCache> trial, best;
-    std::vector<Point> dirs;
+    std::vector<Point> dirs, kept;
+    std::vector<std::pair<double, std::size_t>> top;  // screening: (probe value, direction)
     std::vector<FixedFace<dim>> faces;  // per 1-ring element: the face opposite the node
     std::vector<int> order;             // 1-ring positions by decreasing current E_D (voxel sums first)
     std::vector<double> ed_cost;        // per 1-ring element: the candidate's weighted E_D term
+    long evaluations = 0;               // candidates evaluated by the current node update
   };
   bool update_node_impl(int node, int iteration, Scratch& s, double* moved_sq);
   double evaluate_candidate(const Point& p, Scratch& s, double bound, bool image) const;

@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 
 #include <array>
+#include <cstdint>
 #include <vector>
 
 namespace vim {
@@ -41,6 +42,12 @@ class VoxelStatistics {
   // Same result by testing every voxel centre of the bounding box with the same predicate
   // (reference for tests and the benchmark; O(voxels)).
   Sums sums_per_voxel(const Simplex& x) const;
+  // True if every voxel centre that can lie in x (those of its bounding box in index space, the
+  // range sums() scans) holds the same value, so x's variance is 0. Exact (an integer count of
+  // "edge" voxels over the box, O(1)); false only means "not known to be uniform".
+  bool uniform(const Simplex& x) const;
+  // sums() unless x is uniform (then false, `out` untouched): one bounding-box computation for both.
+  bool varied_sums(const Simplex& x, Sums& out) const;
   // Whether the voxel centre with this index belongs to x under the tie rule.
   bool contains(const Simplex& x, const typename Image<dim>::Index& index) const;
 
@@ -53,13 +60,23 @@ class VoxelStatistics {
 
  private:
   struct Faces;  // per-simplex face planes in index space (defined in the .cpp)
-  bool prepare(const Simplex& x, Faces& f) const;
+  bool prepare(const Simplex& x, Faces& f) const;  // index_box + face planes
+  bool prepare_faces(Faces& f) const;               // face planes, with f's box already set
+  bool uniform_box(const std::array<long, dim>& lo, const std::array<long, dim>& hi) const;
+  Sums scan(const Faces& f) const;                  // the scanline sums over a prepared simplex
+  // x's vertices in continuous index space and the voxel index range of its bounding box (with the
+  // tie tolerance's margin, clipped to the image); false if x is not finite or misses the image.
+  bool index_box(const Simplex& x, std::array<Point, dim + 1>& c, double& margin, std::array<long, dim>& lo,
+                 std::array<long, dim>& hi) const;
 
   const Image<dim>* image_;
   double shift_ = 0.0;
   long row_length_ = 0;             // size[0] + 1 prefix entries per row
   std::vector<double> prefix_;      // rows × (size[0] + 1) interleaved pairs (Σ(h−shift), Σ(h−shift)²)
   Point centre_;                    // c* in index space
+  // Summed-area table ((size+1) per axis) of "edge" voxels: those whose value differs from one of
+  // their axis neighbours. A box holding none is uniform (it is connected through axis neighbours).
+  std::vector<std::int32_t> edges_;
 };
 
 extern template class VoxelStatistics<2>;
