@@ -107,34 +107,43 @@ VoxelStatistics<dim>::VoxelStatistics(const Image<dim>& image) : image_(&image) 
   }
   for (int a = 0; a < dim; ++a) centre_[a] = 0.5 * static_cast<double>(image.size[a] - 1);
 
-  // Edge voxels and their summed-area table: edges_[(i+1)] = Σ_{j ≤ i} edge(j) over every axis.
-  std::array<long, dim> ext;  // table extent per axis
-  for (int a = 0; a < dim; ++a) ext[a] = image.size[a] + 1;
+  // Edge voxels and their summed-area table: entry (i_0+1, …, i_{d−1}+1) counts the edge voxels j ≤ i.
+  std::array<long, dim> ext, stride_img, stride_tab;
   long table = 1;
-  for (int a = 0; a < dim; ++a) table *= ext[a];
+  for (int a = 0; a < dim; ++a) {
+    ext[a] = image.size[a] + 1;
+    stride_img[a] = a == 0 ? 1 : stride_img[a - 1] * image.size[a - 1];
+    stride_tab[a] = a == 0 ? 1 : stride_tab[a - 1] * ext[a - 1];
+    table *= ext[a];
+  }
   edges_.assign(static_cast<std::size_t>(table), 0);
-  std::array<long, dim> stride_img, stride_tab;
-  stride_img[0] = stride_tab[0] = 1;
-  for (int a = 1; a < dim; ++a) {
-    stride_img[a] = stride_img[a - 1] * image.size[a - 1];
-    stride_tab[a] = stride_tab[a - 1] * ext[a - 1];
-  }
-  for (std::size_t k = 0; k < image.data.size(); ++k) {
-    const auto i = image.index_of(k);
-    const float v = image.data[k];
-    bool edge = false;
-    long t = 0;
-    for (int a = 0; a < dim; ++a) {
-      if (i[a] > 0 && image.data[k - static_cast<std::size_t>(stride_img[a])] != v) edge = true;
-      if (i[a] + 1 < image.size[a] && image.data[k + static_cast<std::size_t>(stride_img[a])] != v) edge = true;
-      t += (i[a] + 1) * stride_tab[a];
+  const long n1 = dim >= 2 ? image.size[1] : 1, n2 = dim == 3 ? image.size[dim - 1] : 1;
+  const float* h = image.data.data();
+  for (long k2 = 0; k2 < n2; ++k2)
+    for (long k1 = 0; k1 < n1; ++k1) {
+      const long row = k1 * stride_img[1] + (dim == 3 ? k2 * stride_img[dim - 1] : 0);
+      std::int32_t* out = edges_.data() + (k1 + 1) * stride_tab[1] + (dim == 3 ? (k2 + 1) * stride_tab[dim - 1] : 0) + 1;
+      const std::array<long, 2> idx{k1, k2};
+      for (long t = 0; t < n0; ++t) {
+        const float v = h[row + t];
+        bool edge = (t > 0 && h[row + t - 1] != v) || (t + 1 < n0 && h[row + t + 1] != v);
+        for (int a = 1; a < dim; ++a) {
+          const long i = idx[static_cast<std::size_t>(a - 1)], st = stride_img[a];
+          edge = edge || (i > 0 && h[row + t - st] != v) || (i + 1 < image.size[a] && h[row + t + st] != v);
+        }
+        out[t] = edge ? 1 : 0;
+      }
     }
-    edges_[static_cast<std::size_t>(t)] = edge ? 1 : 0;
+  // Prefix sums along each axis in turn (the zero border row/column/slab stays zero).
+  for (int a = 0; a < dim; ++a) {
+    const long st = stride_tab[a], block = st * ext[a];
+    for (long o = 0; o < table; o += block)
+      for (long i = 1; i < ext[a]; ++i) {
+        std::int32_t* cur = edges_.data() + o + i * st;
+        const std::int32_t* prev = cur - st;
+        for (long j = 0; j < st; ++j) cur[j] += prev[j];
+      }
   }
-  for (int a = 0; a < dim; ++a)  // prefix sums along each axis in turn
-    for (long t = 0; t < table; ++t)
-      if ((t / stride_tab[a]) % ext[a] > 0)
-        edges_[static_cast<std::size_t>(t)] += edges_[static_cast<std::size_t>(t - stride_tab[a])];
 }
 
 template <int dim>
