@@ -51,6 +51,7 @@ VimOptions RunOptions::vim_options() const {
   v.lambda = lambda;
   v.max_dihedral_deg = max_dihedral_deg;
   v.max_iterations = max_iterations;
+  v.search_width = search_width;
   v.threads = threads;
   v.seed = seed;
   v.check_invariants = check_invariants;
@@ -213,6 +214,12 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
                      "; range [0, 100000]); the run stops earlier when v < 1e-3 (Eq. 9)")
       ->type_name("K")
       ->check(CLI::Range(0, 100000));
+  app.add_option("--search-width", o.search_width,
+                 "Node update: probe every line-search direction at two points and search only the W best "
+                 "in full; 0 = search every direction, as in the paper (slower, about the same fit) "
+                 "(default " + std::to_string(d.search_width) + "; range [0, 1000])")
+      ->type_name("W")
+      ->check(CLI::Range(0, 1000));
   app.add_option("--threads", o.threads,
                  "Worker threads (default 0 = all cores; range [0, 1024]); results do not depend on it")
       ->type_name("T")
@@ -295,6 +302,7 @@ json options_json(const RunOptions& o) {
   j["lambda"] = o.lambda;
   j["max_dihedral_deg"] = o.max_dihedral_deg;
   j["max_iterations"] = o.max_iterations;
+  j["search_width"] = o.search_width;
   j["threads"] = o.threads;
   j["seed"] = o.seed;
   j["check_invariants"] = o.check_invariants;

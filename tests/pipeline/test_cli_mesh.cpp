@@ -263,7 +263,7 @@ TEST(CliMesh, HelpVersionInfo) {
   const auto h = run_pipeline("--help");
   EXPECT_EQ(h.code, 0);
   for (const char* opt : {"--out", "--nodes", "--spacing", "--lambda", "--max-dihedral", "--max-iterations",
-                          "--threads", "--seed", "--sizing", "--threshold", "--mesher", "--degree", "--simulate",
+                          "--search-width", "--threads", "--seed", "--sizing", "--threshold", "--mesher", "--degree", "--simulate",
                           "--export", "--overwrite", "--quiet", "--verbose", "--version", "--info", "Examples:"})
     EXPECT_NE(h.out.find(opt), std::string::npos) << opt;
   char lambda[64];

@@ -30,6 +30,7 @@ struct RunOptions {
   double lambda = VimOptions{}.lambda;
   double max_dihedral_deg = VimOptions{}.max_dihedral_deg;
   int max_iterations = VimOptions{}.max_iterations;
+  int search_width = VimOptions{}.search_width;  // --search-width: 0 = the paper's full search
   int threads = 0;                   // 0 = all cores (TBB default)
   std::uint64_t seed = 1;
   bool check_invariants = kCheckedBuild;  // --check-invariants (on by default in a VIM_CHECKED build)
