@@ -87,17 +87,11 @@ double VimOptimizer<dim>::evaluate_candidate(const Point& p, Scratch& s, double 
     x[s.local[k]] = p;
     CellCache& c = s.trial[k];
     typename VoxelStatistics<dim>::Sums sum;
-    if (!stats_->varied_sums(x, sum)) {
-      // Uniform: E_D = 0, as evaluate() gives; the sums are taken only if this candidate is committed.
-      c.n = -1;
-      c.ed = 0.0;
-      s.ed_cost[k] = 0.0;
-      continue;
-    }
+    const bool varied = stats_->varied_sums(x, sum);  // as in evaluate()
     c.n = sum.n;
     c.s = sum.s;
     c.q = sum.q;
-    c.ed = discretization_energy(c.volume, element_variance(sum.n, sum.s, sum.q));
+    c.ed = varied ? discretization_energy(c.volume, element_variance(sum.n, sum.s, sum.q)) : 0.0;
     const double d = wd_ * c.ed;
     c.cost += d;
     s.ed_cost[k] = d;
@@ -148,6 +142,8 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
 
   // Moving the node keeps the 1-ring's union fixed, so if the voxels in it are all equal (variance
   // zero up to round-off), E_D is zero for every candidate and the search skips the voxel sums.
+  // (Uniform elements contribute a one-voxel stand-in of their value: the variance is still zero iff
+  // every value is equal; an empty element whose box holds another value only makes this stricter.)
   bool image = stats_ != nullptr && wd_ > 0.0;
   if (image && element_variance(ring_n, ring_s, ring_q) == 0.0) image = false;
   const bool exact = image || stats_ == nullptr;  // otherwise the winner is re-evaluated exactly
@@ -318,15 +314,6 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
     }
     if (!(total < threshold)) return false;
   }
-  for (std::size_t k = 0; k < m; ++k)
-    if (s.best[k].n < 0) {  // a uniform element whose sums the search skipped
-      Simplex x = s.base[k];
-      x[s.local[k]] = best_p;
-      const auto sum = stats_->sums(x);
-      s.best[k].n = sum.n;
-      s.best[k].s = sum.s;
-      s.best[k].q = sum.q;
-    }
   mesh_.points[node] = best_p;
   for (std::size_t k = 0; k < m; ++k) cache_[s.ring[k]] = s.best[k];
   if (moved_sq) *moved_sq = (best_p - x0).squaredNorm();

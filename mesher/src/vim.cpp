@@ -93,12 +93,14 @@ CellCache VimOptimizer<dim>::evaluate(const Simplex& x) const {
   c.eg = geometric_energy_of_volume<dim>(x, c.volume);
   if (density_) c.eg *= density_->interpolate(centroid<dim>(x));
   if (stats_) {
-    const auto s = stats_->sums(x);
+    // A uniform element (a box of equal voxels) has E_D = 0 exactly and keeps a one-voxel stand-in
+    // for its sums (VoxelStatistics::varied_sums), which is all the 1-ring uniformity test needs.
+    typename VoxelStatistics<dim>::Sums s;
+    const bool varied = stats_->varied_sums(x, s);
     c.n = s.n;
     c.s = s.s;
     c.q = s.q;
-    // A box of equal voxels has variance 0 exactly (the sums' round-off is not left to the snap).
-    c.ed = stats_->uniform(x) ? 0.0 : discretization_energy(std::abs(c.volume), element_variance(s.n, s.s, s.q));
+    c.ed = varied ? discretization_energy(std::abs(c.volume), element_variance(s.n, s.s, s.q)) : 0.0;
   }
   c.cost = cost_of(c);
   return c;

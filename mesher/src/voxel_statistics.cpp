@@ -185,9 +185,16 @@ bool VoxelStatistics<dim>::uniform(const Simplex& x) const {
 template <int dim>
 bool VoxelStatistics<dim>::varied_sums(const Simplex& x, Sums& out) const {
   Faces f;
+  out = Sums{};
   if (!index_box(x, f.vertex, f.margin, f.lo, f.hi)) return false;  // no voxel centre: uniform
-  if (uniform_box(f.lo, f.hi)) return false;
-  out = prepare_faces(f) ? scan(f) : Sums{};
+  if (uniform_box(f.lo, f.hi)) {
+    std::array<long, dim> i;
+    for (int a = 0; a < dim; ++a) i[a] = f.lo[a];
+    const double h = static_cast<double>(image_->at(i)) - shift_;
+    out = {1, h, h * h};
+    return false;
+  }
+  if (prepare_faces(f)) out = scan(f);
   return true;
 }
 

@@ -258,6 +258,11 @@ void expect_uniform_is_exact(long n, int trials, unsigned seed) {
     const auto ref = stats.sums_per_voxel(x);
     if (uniform) {
       ++uniform_seen;
+      if (ref.n > 0) {  // the one-voxel stand-in holds the value of every centre in x
+        EXPECT_EQ(vs.n, 1);
+        EXPECT_NEAR(vs.s, ref.s / static_cast<double>(ref.n), 1e-12);
+        EXPECT_NEAR(vs.q, vs.s * vs.s, 1e-12);
+      }
       EXPECT_NEAR(stats.value(x).variance, 0.0, 1e-12) << "trial " << t;  // round-off of the sums only
       if (ref.n > 0) {
         EXPECT_NEAR(ref.q * static_cast<double>(ref.n), ref.s * ref.s, 1e-9 * (1.0 + ref.s * ref.s));

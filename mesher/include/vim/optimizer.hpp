@@ -22,8 +22,9 @@
 
 namespace vim {
 
-// Per-element cache: voxel sums (n, S, Q shifted by the image mean), volume, E_G (density
-// weighted), E_D and the element's share of the normalised objective.
+// Per-element cache: voxel sums (n, S, Q shifted by the image mean; a one-voxel stand-in for a
+// uniform element, see VoxelStatistics::varied_sums), volume, E_G (density weighted), E_D and the
+// element's share of the normalised objective.
 struct CellCache {
   long n = 0;
   double s = 0.0, q = 0.0;

@@ -46,7 +46,9 @@ class VoxelStatistics {
   // range sums() scans) holds the same value, so x's variance is 0. Exact (an integer count of
   // "edge" voxels over the box, O(1)); false only means "not known to be uniform".
   bool uniform(const Simplex& x) const;
-  // sums() unless x is uniform (then false, `out` untouched): one bounding-box computation for both.
+  // sums() if x is not uniform (returns true). If it is (returns false), no scan: `out` is a one-voxel
+  // stand-in {1, h − shift, (h − shift)²} for the box's value h, or {0, 0, 0} if the box holds no
+  // voxel centre. Sums of stand-ins and true sums still have zero variance iff all values are equal.
   bool varied_sums(const Simplex& x, Sums& out) const;
   // Whether the voxel centre with this index belongs to x under the tie rule.
   bool contains(const Simplex& x, const typename Image<dim>::Index& index) const;
