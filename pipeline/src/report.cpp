@@ -83,6 +83,7 @@ json history_json(const std::vector<IterationRecord>& history) {
                  {"E_D", r.discretization},
                  {"v", r.v},
                  {"moves", r.moves},
+                 {"evaluations", r.evaluations},
                  {"swaps", r.swaps},
                  {"seconds", r.seconds}});
   return h;

@@ -138,7 +138,11 @@ void check_mesh_output(const OrientedImage<dim>& im, const std::filesystem::path
   EXPECT_TRUE(report["options"].contains("lambda"));
   const auto& h = report["optimization"]["history"];
   ASSERT_GE(h.size(), 1u);
-  for (const char* k : {"E", "E_G", "E_D", "v", "moves", "swaps"}) EXPECT_TRUE(h[0].contains(k)) << k;
+  for (const char* k : {"E", "E_G", "E_D", "v", "moves", "evaluations", "swaps"}) EXPECT_TRUE(h[0].contains(k)) << k;
+  if (h.size() > 1) {
+    EXPECT_GT(h[1]["evaluations"].get<long>(), 0);  // iteration 1 searched every node
+  }
+  EXPECT_EQ(report["options"]["search_width"].get<int>(), vim::VimOptions{}.search_width);
   EXPECT_TRUE(report["optimization"].contains("converged"));
   EXPECT_TRUE(report["timing"].contains("read_image"));
   EXPECT_TRUE(report["timing"].contains("total"));
