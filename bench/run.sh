@@ -29,7 +29,7 @@ cmake --build "$BUILD" -j"${JOBS:-2}" --target bench_cgal_mesh3 >/dev/null 2>&1 
 if [ -x "$BUILD/bench/bench_cgal_mesh3" ]; then
   echo
   echo "VIM (all cores) vs CGAL Mesh_3 (sequential) at 4096 nodes (docs/cgal_comparison.md):"
-  "$BUILD/bench/bench_cgal_mesh3" --nodes 4096
+  "$BUILD/bench/bench_cgal_mesh3" --nodes 4096 --match-tf
   echo
   echo "Both sequential: VIM --threads 1 vs CGAL Mesh_3 at 4096 nodes:"
   "$BUILD/bench/bench_cgal_mesh3" --nodes 4096 --threads 1

@@ -16,7 +16,11 @@
 // (--search-width 0, row "VIM-full"); the ratio column is against the first. --threads 1 runs VIM
 // sequential, as CGAL is here.
 //
-//   bench_cgal_mesh3 [--n 100] [--nodes 4096] [--threads 0] [--search-width 3] [--max-tuning 8]
+// --match-tf adds an equal-accuracy row "CGAL-pe@TF": s is bisected on refinement-only runs until
+// CGAL's TF% (same metric) is at most VIM's, then that s is timed with perturb + exude; its node
+// count is whatever that takes.
+//
+//   bench_cgal_mesh3 [--n 100] [--nodes 4096] [--threads 0] [--search-width 3] [--max-tuning 8] [--match-tf]
 #include "../metrics.hpp"
 
 #include <vim/initial_mesh.hpp>
@@ -104,14 +108,14 @@ Mesh_criteria criteria_for(double s) {
 }
 
 void print_header() {
-  std::printf("%-9s %6s %8s %8s %8s %8s %7s %7s %7s %7s %9s %9s\n", "method", "nodes", "elements", "minNRR", "minDA",
+  std::printf("%-10s %6s %8s %8s %8s %8s %7s %7s %7s %7s %9s %9s\n", "method", "nodes", "elements", "minNRR", "minDA",
               "maxDA", "FN", "FP", "TF", "TF%", "seconds", "VIM/this");
 }
 
 void print_row(const char* method, const vim::SimplexMesh<3>& mesh, const vim::metrics::SphereMetrics& m,
                double seconds, double vim_seconds) {
   const auto q = vim::metrics::quality<3>(mesh);
-  std::printf("%-9s %6zu %8zu %8.5f %8.4f %8.3f %7ld %7ld %7ld %6.2f%% %9.2f %9.3f\n", method, mesh.n_points(),
+  std::printf("%-10s %6zu %8zu %8.5f %8.4f %8.3f %7ld %7ld %7ld %6.2f%% %9.2f %9.3f\n", method, mesh.n_points(),
               mesh.n_cells(), q.min_nrr, q.min_angle, q.max_angle, m.fn, m.fp, m.tf, m.tf_percent, seconds,
               vim_seconds / seconds);
 }
@@ -121,6 +125,7 @@ void print_row(const char* method, const vim::SimplexMesh<3>& mesh, const vim::m
 int main(int argc, char** argv) try {
   long n = 100, budget = 4096;
   int max_tuning = 8;
+  bool match_tf = false;
   vim::VimOptions options;
   for (int i = 1; i < argc; ++i) {
     auto value = [&](const char* name) {
@@ -131,6 +136,7 @@ int main(int argc, char** argv) try {
     else if (!std::strcmp(argv[i], "--nodes")) budget = std::atol(value("--nodes"));
     else if (!std::strcmp(argv[i], "--threads")) options.threads = std::atoi(value("--threads"));
     else if (!std::strcmp(argv[i], "--search-width")) options.search_width = std::atoi(value("--search-width"));
+    else if (!std::strcmp(argv[i], "--match-tf")) match_tf = true;
     else if (!std::strcmp(argv[i], "--max-tuning")) max_tuning = std::atoi(value("--max-tuning"));
     else throw std::invalid_argument(std::string("unknown argument ") + argv[i]);
   }
@@ -217,6 +223,37 @@ int main(int argc, char** argv) try {
     rows.push_back({"CGAL-ol", extract(c3t3), sec});
   }
 
+  if (match_tf) {
+    // Equal accuracy: the largest s whose refinement reaches VIM's TF% (TF falls as s shrinks, up to
+    // the noise of CGAL's random initial points), by geometric bisection from the equal-node s.
+    std::printf("\nEqual-accuracy tuning: CGAL TF%% <= VIM's %.2f%% (refinement only, VIM object rule)\n", vm.tf_percent);
+    double meets = 0.0, fails = s, t = s / 1.6;
+    for (int run = 0; run < 2 * max_tuning; ++run) {
+      const Mesh_domain domain = domain_of();
+      t0 = std::chrono::steady_clock::now();
+      const C3t3 c3t3 = CGAL::make_mesh_3<C3t3>(domain, criteria_for(t), params::no_perturb(), params::no_exude());
+      const double sec = seconds_since(t0);
+      const CgalMesh m = extract(c3t3);
+      const auto tm = vim::metrics::table1_metrics<3>(image, m.mesh, centre, 1.0);
+      std::printf("  tuning %d: s=%.5f -> %zu nodes, TF %.2f%% (%.2f s)\n", run, t, m.mesh.n_points(), tm.tf_percent, sec);
+      std::fflush(stdout);
+      if (tm.tf_percent <= vm.tf_percent) meets = std::max(meets, t);
+      else fails = std::min(fails, t);
+      if (meets > 0.0 && fails / meets < 1.03) break;
+      t = meets > 0.0 ? std::sqrt(meets * fails) : t / 1.6;
+    }
+    if (meets > 0.0) {
+      const Mesh_domain domain = domain_of();
+      t0 = std::chrono::steady_clock::now();
+      const C3t3 c3t3 = CGAL::make_mesh_3<C3t3>(domain, criteria_for(meets));
+      const double sec = seconds_since(t0);
+      rows.push_back({"CGAL-pe@TF", extract(c3t3), sec});
+      std::printf("  CGAL-pe@TF: s=%.5f\n", meets);
+    } else {
+      std::printf("  no tuning run reached VIM's TF%%: CGAL-pe@TF not run\n");
+    }
+  }
+
   std::printf("\nCGAL s=%.5f (facet_size=cell_size=s, facet_distance=s/4, facet_angle=25, radius_edge=3)\n", s);
   std::printf("CGAL-pe = refine+perturb+exude; CGAL-ol = refine+ODT+Lloyd(+perturb+exude)\n");
   print_header();
@@ -232,7 +269,7 @@ int main(int argc, char** argv) try {
     std::vector<bool> object(row.mesh.subdomain.size());
     for (std::size_t c = 0; c < object.size(); ++c) object[c] = row.mesh.subdomain[c] == 2;
     const auto m = vim::metrics::sphere_metrics<3>(image, row.mesh.mesh, object, centre, 1.0);
-    std::printf("%-9s FN %7ld FP %7ld TF %7ld TF%% %6.2f%%  (node ratio CGAL/VIM %.3f)\n", row.name, m.fn, m.fp, m.tf,
+    std::printf("%-10s FN %7ld FP %7ld TF %7ld TF%% %6.2f%%  (node ratio CGAL/VIM %.3f)\n", row.name, m.fn, m.fp, m.tf,
                 m.tf_percent, static_cast<double>(row.mesh.mesh.n_points()) / static_cast<double>(target));
   }
   return 0;
