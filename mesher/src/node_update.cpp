@@ -181,26 +181,33 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
     // direction is probed at the first interior point of its golden-section search, t = 1 − φ⁻¹,
     // and at (1 − φ⁻¹)², nearer the node; only the w directions with the lowest probe values are then
     // searched in full. A probe already above the w-th lowest so far stops early (its value only
-    // decides that it is not kept). Every probe is a candidate like any other.
+    // decides that it is not kept). Every probe is a candidate like any other. The first probe is
+    // the golden-section search's first interior point, so its exact value (when it was not stopped
+    // early) is handed to the search of a kept direction instead of being evaluated again.
+    std::vector<double>& known_f1 = s.known_f1;  // per direction: exact value at t = 1 − φ⁻¹, or NaN
+    known_f1.clear();
     auto screen = [&]() {
+      known_f1.clear();
       const std::size_t w = static_cast<std::size_t>(options_.search_width);
       if (w == 0 || dirs.size() <= w) return;
-      constexpr double kProbe = 1.0 - kGolden;
-      auto& top = s.top;  // (probe value, direction), ascending, at most w
+      auto& top = s.top;  // ascending by probe value, at most w
       top.clear();
       for (std::size_t k = 0; k < dirs.size(); ++k) {
         const Point d = project(dirs[k] - x0);
         if (d.norm() <= tiny) continue;
-        const double bound = top.size() < w ? kInf : top.back().first;
-        double f = consider(x0 + kProbe * d, bound);
-        f = std::min(f, consider(x0 + (kProbe * kProbe) * d, std::min(bound, f)));
-        if (top.size() == w && !(f < top.back().first)) continue;
+        const double bound = top.size() < w ? kInf : top.back().value;
+        const double f1 = consider(x0 + (1.0 - kGolden) * d, bound);
+        const double f = std::min(f1, consider(x0 + ((1.0 - kGolden) * (1.0 - kGolden)) * d, std::min(bound, f1)));
+        if (top.size() == w && !(f < top.back().value)) continue;
         if (top.size() == w) top.pop_back();
-        top.emplace_back(f, k);
-        for (std::size_t r = top.size() - 1; r > 0 && top[r].first < top[r - 1].first; --r) std::swap(top[r], top[r - 1]);
+        top.push_back({f, f1 <= bound ? f1 : std::numeric_limits<double>::quiet_NaN(), k});
+        for (std::size_t r = top.size() - 1; r > 0 && top[r].value < top[r - 1].value; --r) std::swap(top[r], top[r - 1]);
       }
       s.kept.clear();
-      for (const auto& t : top) s.kept.push_back(dirs[t.second]);
+      for (const auto& t : top) {
+        s.kept.push_back(dirs[t.direction]);
+        known_f1.push_back(t.f1);
+      }
       dirs.swap(s.kept);
     };
     auto search = [&]() {
@@ -216,7 +223,7 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
         consider(x0 + d, best);
         double a = 0.0, b = 1.0;
         double t1 = b - kGolden * (b - a), t2 = a + kGolden * (b - a);
-        double f1 = consider(x0 + t1 * d, kInf);
+        double f1 = k < known_f1.size() && !std::isnan(known_f1[k]) ? known_f1[k] : consider(x0 + t1 * d, kInf);
         double f2 = consider(x0 + t2 * d, f1);
         while ((b - a) * len > min_step_) {
           if (f1 <= f2) {

@@ -137,7 +137,12 @@ class VimOptimizer {
     std::vector<Simplex> base;
     std::vector<CellCache> trial, best;
     std::vector<Point> dirs, kept;
-    std::vector<std::pair<double, std::size_t>> top;  // screening: (probe value, direction)
+    struct Probe {
+      double value, f1;       // lower probe value; exact value at the first probe point (or NaN)
+      std::size_t direction;
+    };
+    std::vector<Probe> top;       // screening: the best directions so far
+    std::vector<double> known_f1; // per kept direction: Probe::f1
     std::vector<FixedFace<dim>> faces;  // per 1-ring element: the face opposite the node
     std::vector<int> order;             // 1-ring positions by decreasing current E_D (voxel sums first)
     std::vector<double> ed_cost;        // per 1-ring element: the candidate's weighted E_D term
