@@ -16,6 +16,10 @@
 // Needle diagnostics: [--near-radius R] (the "far" error leaves out voxel centres within R mm of the
 // needle path; default 4), [--shaft] (each shaft point's final axial force over its friction limit),
 // [--sample-spacing S] (the same shaft point pitch, in mm, for all three models).
+// Probe support: [--support-stiffness K] (every fixed volume region, e.g. the probe cylinder, becomes an
+// elastic support of stiffness K kPa/mm² for all three models; 0 clamps the nodes in it),
+// [--support-spacing H] (its sample lattice pitch in mm).
+// [--cutting-distance C] (the needle's cutting distance in mm, all three models; default: the scenario's).
 #include <vim/fem/elasticity.hpp>
 #include <vim/initial_mesh.hpp>
 #include <vim/pipeline/figures.hpp>
@@ -212,6 +216,8 @@ int main(int argc, char** argv) try {
   unsigned degree = 1;
   double sample_spacing = 0.0;  // --sample-spacing: shaft point pitch for every model (0: the scenario's)
   double near_radius = 4.0;  // mm: the "far" error excludes voxel centres this close to the needle path
+  double support_stiffness = -1.0, support_spacing = 0.0;  // --support-stiffness / --support-spacing
+  double cutting_distance = -1.0;  // --cutting-distance: the needle's cutting distance (mm), all models
   for (int i = 1; i < argc; ++i) {
     auto value = [&] {
       if (i + 1 >= argc) throw std::invalid_argument(std::string(argv[i]) + " needs a value");
@@ -234,6 +240,9 @@ int main(int argc, char** argv) try {
     else if (!std::strcmp(argv[i], "--near-radius")) near_radius = std::atof(value());
     else if (!std::strcmp(argv[i], "--shaft")) g_shaft = true;
     else if (!std::strcmp(argv[i], "--sample-spacing")) sample_spacing = std::atof(value());
+    else if (!std::strcmp(argv[i], "--support-stiffness")) support_stiffness = std::atof(value());
+    else if (!std::strcmp(argv[i], "--support-spacing")) support_spacing = std::atof(value());
+    else if (!std::strcmp(argv[i], "--cutting-distance")) cutting_distance = std::atof(value());
     else budgets.push_back(std::atol(argv[i]));
   }
   if (budgets.empty()) budgets = {125, 343, 1000};
@@ -245,7 +254,24 @@ int main(int argc, char** argv) try {
   if (nu_arg) sc.poisson_ratio = *nu_arg;
   if (sample_spacing > 0.0)
     for (auto& nd : sc.needles) nd.sample_spacing = sample_spacing;
+  if (cutting_distance >= 0.0)
+    for (auto& nd : sc.needles) nd.cutting_distance = cutting_distance;
   if (degree != 1) sc.degree = degree;
+  // --support-stiffness K (> 0): every fixed volume region becomes an elastic support of stiffness K
+  // (with --support-spacing H); 0: back to clamping the nodes in the region.
+  for (auto& bc : sc.boundary_conditions) {
+    if (bc.type != BoundaryConditionSpec::Type::fixed || bc.region.kind == RegionSpec::Kind::box_face) continue;
+    if (support_stiffness > 0.0) {
+      bc.support = BoundaryConditionSpec::Support::elastic;
+      bc.support_stiffness = support_stiffness;
+    } else if (support_stiffness == 0.0) {
+      bc.support = BoundaryConditionSpec::Support::nodes;
+    }
+    if (support_spacing > 0.0) bc.support_spacing = support_spacing;
+    if (bc.support == BoundaryConditionSpec::Support::elastic)
+      std::printf("# %s: elastic support, stiffness %g, spacing %g (0 = region size / 6)\n", bc.region.describe().c_str(),
+                  bc.support_stiffness, bc.support_spacing);
+  }
   g_scenario = &sc;
   const std::string suffix = degree == 1 ? "" : "_p" + std::to_string(degree);  // plot file names
   vo.lambda = lambda_arg ? *lambda_arg : sc.lambda.value_or(0.3);

@@ -373,6 +373,26 @@ void ElasticModel<dim>::add_surface_load(const SurfaceLoad<dim>& load) {
 }
 
 template <int dim>
+void ElasticModel<dim>::add_volume_support(const VolumeSupport<dim>& sup) {
+  const std::string where = "add_volume_support: support '" + sup.name + "'";
+  if (!(sup.stiffness > 0.0) || !std::isfinite(sup.stiffness))
+    throw std::invalid_argument(where + ": stiffness must be finite and > 0, got " + std::to_string(sup.stiffness));
+  if (sup.points.size() != sup.weights.size())
+    throw std::invalid_argument(where + ": " + std::to_string(sup.points.size()) + " points but " +
+                                std::to_string(sup.weights.size()) + " weights");
+  for (std::size_t i = 0; i < sup.points.size(); ++i)
+    if (!sup.points[i].allFinite() || !(sup.weights[i] >= 0.0) || !std::isfinite(sup.weights[i]))
+      throw std::invalid_argument(where + ": point " + std::to_string(i) + " or its weight is not finite (or the weight < 0)");
+  impl_->supports.push_back(sup);
+  invalidate(*impl_);
+}
+
+template <int dim>
+std::size_t ElasticModel<dim>::volume_support_points_outside() const {
+  return impl_->support_outside;
+}
+
+template <int dim>
 void ElasticModel<dim>::set_body_force(const Vec<dim>& f) {
   if (!f.allFinite()) throw std::invalid_argument("set_body_force: body force is not finite");
   impl_->body_force = f;
@@ -578,6 +598,55 @@ void ElasticModel<dim>::Impl::local_system(const typename DoFHandler<dim>::activ
 
 namespace {
 template <int dim, class Impl>
+std::pair<typename Triangulation<dim>::active_cell_iterator, Point<dim>> locate(const Impl& m, const Point<dim>& x,
+                                                                             bool* verified_first);
+
+// Volume supports (VolumeSupport): k w_p N_i(x_p) N_j(x_p) for DoFs i, j of the same component, added to
+// K (not to K_full: the strain energy and the Dirichlet reactions stay those of the elastic body).
+// Points are grouped by their cell, one FEValues per cell.
+template <int dim, class Impl>
+void assemble_supports(Impl& m) {
+  m.support_outside = 0;
+  if (m.supports.empty()) return;
+  const FiniteElement<dim>& fe = *m.fe;
+  const unsigned dpc = fe.n_dofs_per_cell();
+  std::map<std::pair<int, int>, std::pair<std::vector<Point<dim>>, std::vector<double>>> by_cell;
+  for (const auto& sup : m.supports)
+    for (std::size_t p = 0; p < sup.points.size(); ++p) {
+      if (sup.weights[p] == 0.0) continue;
+      const auto found = locate<dim>(m, to_point<dim>(sup.points[p]), nullptr);
+      if (found.first == m.tria.end()) {
+        ++m.support_outside;
+        continue;
+      }
+      auto& e = by_cell[{found.first->level(), found.first->index()}];
+      e.first.push_back(found.second);
+      e.second.push_back(sup.stiffness * sup.weights[p]);
+    }
+  FullMatrix<double> Ke(dpc, dpc);
+  Vector<double> Fe(dpc);
+  std::vector<types::global_dof_index> idx(dpc);
+  for (const auto& [key, pts] : by_cell) {
+    const typename DoFHandler<dim>::active_cell_iterator cell(&m.tria, key.first, key.second, &m.dof);
+    Quadrature<dim> q(pts.first);
+    FEValues<dim> fv(*m.mapping, fe, q, update_values);
+    fv.reinit(cell);
+    Ke = 0.0;
+    Fe = 0.0;
+    for (unsigned k = 0; k < q.size(); ++k)
+      for (unsigned i = 0; i < dpc; ++i) {
+        const unsigned ci = fe.system_to_component_index(i).first;
+        const double vi = fv.shape_value(i, k) * pts.second[k];
+        if (vi == 0.0) continue;
+        for (unsigned j = 0; j < dpc; ++j)
+          if (fe.system_to_component_index(j).first == ci) Ke(i, j) += vi * fv.shape_value(j, k);
+      }
+    cell->get_dof_indices(idx);
+    m.constraints.distribute_local_to_global(Ke, Fe, idx, m.K, m.f);
+  }
+}
+
+template <int dim, class Impl>
 void assemble(Impl& m) {
   if (m.assembled) return;
   Timer timer;
@@ -623,6 +692,10 @@ void assemble(Impl& m) {
     constrained.emplace_back(m.support_points[i], component[i]);
   }
   m.constraints.close();
+  // A volume support holds every component at its sample points: it removes rigid motions too.
+  for (const auto& sup : m.supports)
+    for (const auto& x : sup.points)
+      for (unsigned c = 0; c < unsigned(dim); ++c) constrained.emplace_back(to_point<dim>(x), c);
   m.check_rigid_modes_removed(constrained);
 
   DynamicSparsityPattern dsp(n, n);
@@ -646,6 +719,7 @@ void assemble(Impl& m) {
     m.K_full.add(idx, Ke);
     m.f_full.add(idx, Fe);
   }
+  assemble_supports<dim>(m);
   m.assembled = true;
   m.assemble_seconds = timer.wall_time();
 }
@@ -791,7 +865,7 @@ unsigned apply_inverse(const Impl& m, const Vector<double>& b, Vector<double>& x
 // cell, and mapping back to x); if it fails, all cells are searched (as a last resort only).
 template <int dim, class Impl>
 std::pair<typename Triangulation<dim>::active_cell_iterator, Point<dim>> locate(const Impl& m, const Point<dim>& x,
-                                                                             bool* verified_first = nullptr) {
+                                                                             bool* verified_first) {
   const double tol = 1e-10;
   auto ok = [&](const typename Triangulation<dim>::active_cell_iterator& cell, const Point<dim>& xi) {
     if (!cell->reference_cell().contains_point(xi, tol)) return false;
@@ -829,7 +903,7 @@ std::pair<typename Triangulation<dim>::active_cell_iterator, Point<dim>> locate(
 // Dirichlet DoFs moved to the right-hand side.
 template <int dim, class Impl>
 ConstraintRow constraint_row(const Impl& m, const Vec<dim>& x, unsigned c, double g, std::size_t which) {
-  const auto found = locate<dim>(m, to_point<dim>(x));
+  const auto found = locate<dim>(m, to_point<dim>(x), nullptr);
   if (found.first == m.tria.end()) {
     std::ostringstream s;
     s << "point constraint " << which << " at " << fmt_point(x.data(), dim) << " lies outside the mesh";
@@ -1309,7 +1383,7 @@ std::vector<Vec<dim>> ElasticModel<dim>::sample(const std::vector<Vec<dim>>& poi
     }
   std::vector<types::global_dof_index> idx(m.fe->n_dofs_per_cell());
   for (std::size_t i = 0; i < pts.size(); ++i) {
-    if (where[i].first == m.tria.end()) where[i] = locate<dim>(m, pts[i]);
+    if (where[i].first == m.tria.end()) where[i] = locate<dim>(m, pts[i], nullptr);
     if (where[i].first == m.tria.end()) continue;
     const typename DoFHandler<dim>::active_cell_iterator cell(&m.tria, where[i].first->level(), where[i].first->index(), &m.dof);
     Quadrature<dim> q(std::vector<Point<dim>>{where[i].second});

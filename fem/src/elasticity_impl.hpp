@@ -90,6 +90,8 @@ struct ElasticModel<dim>::Impl {
   unsigned degree = 1;
   std::vector<DirichletBC<dim>> bcs;
   std::vector<SurfaceLoad<dim>> loads;
+  std::vector<VolumeSupport<dim>> supports;
+  std::size_t support_outside = 0;  // support points outside the mesh (set by assemble)
   Vec<dim> body_force = Vec<dim>::Zero();
 
   // ---- discretisation ----------------------------------------------------------------------

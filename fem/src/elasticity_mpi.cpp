@@ -79,6 +79,8 @@ Solution<dim> ElasticModel<dim>::solve_distributed(MPI_Comm comm, const SolverOp
   if (!(opt.tolerance > 0.0) || !std::isfinite(opt.tolerance))
     throw std::invalid_argument("SolverOptions: tolerance must be finite and > 0, got " + std::to_string(opt.tolerance));
   if (opt.max_iterations == 0) throw std::invalid_argument("SolverOptions: max_iterations must be > 0");
+  if (!m.supports.empty())
+    throw std::invalid_argument("solve_distributed: volume supports (add_volume_support) are not supported; use solve()");
   Timer timer;
   const unsigned n_ranks = Utilities::MPI::n_mpi_processes(comm);
   std::optional<OneThreadPerRank> one_thread;

@@ -240,7 +240,7 @@ RegionSpec parse_region(const Reader& r, const YAML::Node& n, const std::string&
 
 NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string& path, int dim) {
   const Fields f = r.check_keys(n, path, {"name", "entry", "direction", "depth", "steps", "diameter", "model", "friction",
-                                          "sample_spacing", "tip_force", "friction_per_length"});
+                                          "sample_spacing", "cutting_distance", "tip_force", "friction_per_length"});
   NeedleSpec s;
   s.line = Reader::line(n);
   if (f["name"]) {
@@ -275,6 +275,11 @@ NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string&
     }
   }
   if (f["sample_spacing"]) s.sample_spacing = r.positive(f["sample_spacing"], path + ".sample_spacing");
+  if (const YAML::Node& c = f["cutting_distance"]) {
+    s.cutting_distance = r.number(c, path + ".cutting_distance");
+    if (s.cutting_distance < 0.0) r.fail(c, path + ".cutting_distance must be >= 0, got " + fmt(s.cutting_distance));
+    if (s.cutting_distance >= s.depth) r.fail(c, path + ".cutting_distance must be less than the depth (" + fmt(s.depth) + ")");
+  }
   const bool force = s.model == NeedleSpec::Model::force;
   for (const char* k : {"tip_force", "friction_per_length"}) {
     const YAML::Node& x = f[k];
@@ -400,7 +405,7 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
     for (std::size_t i = 0; i < bcs.size(); ++i) {
       const std::string p = "boundary_conditions[" + std::to_string(i) + "]";
       const YAML::Node b = bcs[i];
-      const Fields f = r.check_keys(b, p, {"type", "region", "value", "components"});
+      const Fields f = r.check_keys(b, p, {"type", "region", "value", "components", "support"});
       BoundaryConditionSpec bc;
       bc.line = Reader::line(b);
       const std::string t = r.choice(r.require(f, "type", p + ".type"), p + ".type", {"fixed", "displacement", "pressure", "traction"});
@@ -416,8 +421,24 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
       } else {
         bc.value = r.vector(r.require(f, "value", p + ".value"), p + ".value", dim);
       }
+      if (const YAML::Node& sn = f["support"]) {
+        const std::string sp = p + ".support";
+        if (bc.type != BoundaryConditionSpec::Type::fixed || bc.region.kind == RegionSpec::Kind::box_face)
+          r.fail(sn, sp + " applies only to type fixed on a volume region (box, sphere, cylinder)");
+        if (sn.IsScalar()) {
+          const std::string v = r.choice(sn, sp, {"nodes", "elastic"});
+          if (v == "elastic") r.fail(sn, sp + ": elastic needs a stiffness, e.g. {elastic: {stiffness: 15}} (modulus per length^2)");
+        } else {
+          const Fields sf = r.check_keys(sn, sp, {"elastic"});
+          const Fields ef = r.check_keys(r.require(sf, "elastic", sp + ".elastic"), sp + ".elastic", {"stiffness", "spacing"});
+          bc.support = BoundaryConditionSpec::Support::elastic;
+          bc.support_stiffness = r.positive(r.require(ef, "stiffness", sp + ".elastic.stiffness"), sp + ".elastic.stiffness");
+          if (const YAML::Node& h = ef["spacing"]) bc.support_spacing = r.positive(h, sp + ".elastic.spacing");
+        }
+      }
       bc.components.assign(dim, true);
       if (const YAML::Node& c = f["components"]) {
+        if (bc.support == BoundaryConditionSpec::Support::elastic) r.fail(c, p + ".components cannot be combined with an elastic support");
         if (!bc.is_dirichlet()) r.fail(c, p + ".components applies only to fixed and displacement conditions");
         if (!c.IsSequence() || c.size() == 0) r.fail(c, p + ".components must be a non-empty list of axis names (x, y" + (dim == 3 ? ", z)" : ")"));
         bc.components.assign(dim, false);

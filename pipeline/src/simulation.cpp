@@ -66,6 +66,7 @@ struct NeedleSimulation<dim>::Impl {
 
   void setup(const std::vector<Vec>& vertices);
   fem::Region<dim> region(const RegionSpec& r) const;
+  fem::VolumeSupport<dim> volume_support(const BoundaryConditionSpec& bc, const std::string& where) const;
   NeedleRun<dim> run_needle(const NeedleSpec& spec, const std::string& prefix, json& needle_report);
   void write_step(const std::string& path, const fem::Solution<dim>* s) const;
 };
@@ -88,6 +89,71 @@ fem::Region<dim> NeedleSimulation<dim>::Impl::region(const RegionSpec& r) const 
   return {r.describe(), [world, t](const Vec& x) { return world(t.to_world(x)); }};
 }
 
+// Elastic support of a volume region: a lattice of pitch h anchored at the region (its centre; a box's
+// lower corner), points at anchor + (i + ½)·h along the world axes, kept when inside the region and
+// inside the model's box; weight h^dim each. The lattice depends only on the region, the pitch and the
+// box, so every mesh of the same image (and the voxel reference) gets the same points.
+template <int dim>
+fem::VolumeSupport<dim> NeedleSimulation<dim>::Impl::volume_support(const BoundaryConditionSpec& bc,
+                                                                   const std::string& where) const {
+  const RegionSpec& r = bc.region;
+  Vec anchor, lo, hi;
+  double size = 0.0;
+  // World bounding box of the model's box.
+  lo = hi = tf.to_world(box_min);
+  for (int corner = 0; corner < (1 << dim); ++corner) {
+    Vec x;
+    for (int d = 0; d < dim; ++d) x[d] = (corner >> d) & 1 ? box_max[d] : box_min[d];
+    const Vec w = tf.to_world(x);
+    lo = lo.cwiseMin(w), hi = hi.cwiseMax(w);
+  }
+  if (r.kind == RegionSpec::Kind::box) {
+    anchor = vec<dim>(r.lo);
+    lo = lo.cwiseMax(vec<dim>(r.lo)), hi = hi.cwiseMin(vec<dim>(r.hi));
+    size = (vec<dim>(r.hi) - vec<dim>(r.lo)).minCoeff();
+  } else {
+    anchor = vec<dim>(r.center);
+    size = r.radius;
+    if (r.kind == RegionSpec::Kind::sphere) lo = lo.cwiseMax((anchor.array() - r.radius).matrix()), hi = hi.cwiseMin((anchor.array() + r.radius).matrix());
+  }
+  const double h = bc.support_spacing > 0.0 ? bc.support_spacing : size / 6.0;
+  if (!(h > 0.0)) throw ScenarioError(where + ": the region has no extent for an elastic support");
+  std::array<long, dim> i0, i1;
+  double count = 1.0;
+  for (int d = 0; d < dim; ++d) {
+    i0[d] = static_cast<long>(std::floor((lo[d] - anchor[d]) / h - 0.5));
+    i1[d] = static_cast<long>(std::ceil((hi[d] - anchor[d]) / h - 0.5));
+    count *= std::max(0L, i1[d] - i0[d] + 1);
+  }
+  if (count > 5e7)
+    throw ScenarioError(where + ": the elastic support's spacing " + std::to_string(h) + " gives too many sample points; "
+                        "set a larger support.elastic.spacing");
+  const fem::Region<dim> reg = region(r);
+  fem::VolumeSupport<dim> sup;
+  sup.name = r.describe();
+  sup.stiffness = bc.support_stiffness;
+  const double weight = std::pow(h, dim);
+  const double tol = 1e-9 * (box_max - box_min).norm();
+  std::array<long, dim> i = i0;
+  while (true) {
+    Vec w;
+    for (int d = 0; d < dim; ++d) w[d] = anchor[d] + (static_cast<double>(i[d]) + 0.5) * h;
+    const Vec x = tf.to_frame(w);
+    bool in = reg.contains(x);
+    for (int d = 0; d < dim && in; ++d) in = x[d] >= box_min[d] - tol && x[d] <= box_max[d] + tol;
+    if (in) {
+      sup.points.push_back(x);
+      sup.weights.push_back(weight);
+    }
+    int d = 0;
+    while (d < dim && ++i[d] > i1[d]) i[d] = i0[d], ++d;
+    if (d == dim) break;
+  }
+  if (sup.points.empty())
+    throw ScenarioError(where + ": region " + r.describe() + " holds no sample point of the elastic support inside the image box");
+  return sup;
+}
+
 template <int dim>
 void NeedleSimulation<dim>::Impl::setup(const std::vector<Vec>& vertices) {
   // Geometry checks against the model's box (the image box), then the boundary conditions.
@@ -101,6 +167,10 @@ void NeedleSimulation<dim>::Impl::setup(const std::vector<Vec>& vertices) {
   for (std::size_t i = 0; i < sc.boundary_conditions.size(); ++i) {
     const auto& bc = sc.boundary_conditions[i];
     const std::string where = sc.where(bc.line) + "boundary_conditions[" + std::to_string(i) + "]";
+    if (bc.support == BoundaryConditionSpec::Support::elastic) {
+      model->add_volume_support(volume_support(bc, where));
+      continue;
+    }
     const fem::Region<dim> reg = region(bc.region);
     std::size_t hits = 0;
     for (const auto& v : vertices) hits += reg.contains(v) ? 1 : 0;
@@ -416,17 +486,19 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
     active.clear();
     // Pick-up: the tip reaches a material point when it reaches the point's current position
     // s_j + u_j·a (the tissue ahead of the tip has been pushed forward), so it never jumps back.
-    for (std::size_t j = 0; j < np && shaft[j].s < d - 1e-9 * spec.depth; ++j) {
+    // With a cutting distance δ the tip must pass that position by δ; the point is cut δ behind the tip.
+    const double cut = d - spec.cutting_distance;
+    for (std::size_t j = 0; j < np && shaft[j].s < cut - 1e-9 * spec.depth; ++j) {
       if (picked[j]) continue;
       double ua = 0.0;
       if (have_solution) ua = model->sample({shaft[j].position})[0].dot(a);
-      if (shaft[j].s + ua >= d - 1e-9 * spec.depth) break;
+      if (shaft[j].s + ua >= cut - 1e-9 * spec.depth) break;
       picking[j] = true;
     }
     for (std::size_t j = 0; j < np; ++j) {
       if (picked[j] || picking[j]) {
         picking[j] = false;
-        w_stick[j] = picked[j] ? w[j] + dd : d - shaft[j].s;
+        w_stick[j] = picked[j] ? w[j] + dd : cut - shaft[j].s;
         if (!picked[j]) w[j] = w_stick[j];
         else if (!sliding[j]) w[j] = w_stick[j];
         picked[j] = true;
@@ -557,6 +629,7 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
     rep["tip_force"] = spec.tip_force;
     rep["friction_per_length"] = spec.friction_per_length;
   }
+  if (!force_model) rep["cutting_distance"] = spec.cutting_distance;
   rep["shaft_points"] = np;
   rep["shaft_pitch"] = pitch;
   if (!prefix.empty()) rep["folder"] = prefix;

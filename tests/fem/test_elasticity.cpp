@@ -518,3 +518,102 @@ TEST(BadInput, PointConstraintsAndOptions) {
   ElasticModel<3> fresh(unit_tets(), std::vector<double>(48, 1.0), 0.3);
   EXPECT_THAT(message_of([&] { fresh.sample({Vec<3>(0.5, 0.5, 0.5)}); }), HasSubstr("no solution yet"));
 }
+
+// ---- volume supports (elastic foundation) ---------------------------------------------------------
+namespace {
+
+// Lattice of pitch h over the box [0, L]×[0, W]×[0, W] (cell centres), weight h³ each.
+VolumeSupport<3> foundation(double L, double W, double h, double k) {
+  VolumeSupport<3> s;
+  s.name = "foundation";
+  s.stiffness = k;
+  const int nx = static_cast<int>(std::lround(L / h)), ny = static_cast<int>(std::lround(W / h));
+  for (int i = 0; i < nx; ++i)
+    for (int j = 0; j < ny; ++j)
+      for (int l = 0; l < ny; ++l) {
+        s.points.emplace_back((i + 0.5) * h, (j + 0.5) * h, (l + 0.5) * h);
+        s.weights.push_back(h * h * h);
+      }
+  return s;
+}
+
+// Bar on an elastic foundation: ν = 0, the x = 0 face pushed by u0 along x (other components free),
+// every other face traction-free, foundation k over the whole bar. u = (g(x), 0, 0) with E g'' = k g,
+// g(0) = u0, g'(L) = 0: g(x) = u0 cosh((L − x)/ℓ) / cosh(L/ℓ), ℓ = sqrt(E/k). Without the support the
+// bar would just translate (g = u0).
+double foundation_bar_error(ElasticModel<3>& model, double L, double W, double u0, double ell) {
+  DirichletBC<3> push;
+  push.region = box_face_region<3>(Vec<3>(0, 0, 0), Vec<3>(L, W, W), 0, false, 1e-9);
+  push.components = {{true, false, false}};
+  push.value = Vec<3>(u0, 0, 0);
+  model.add_dirichlet(push);
+  model.solve();
+  std::vector<Vec<3>> probes;
+  for (double x : {0.5, 1.0, 2.0, 3.0}) probes.emplace_back(x, 0.5 * W, 0.5 * W);
+  const auto u = model.sample(probes);
+  double err = 0.0;
+  for (std::size_t i = 0; i < probes.size(); ++i) {
+    const double g = u0 * std::cosh((L - probes[i][0]) / ell) / std::cosh(L / ell);
+    err = std::max(err, (u[i] - Vec<3>(g, 0, 0)).norm() / u0);
+  }
+  return err;
+}
+
+}  // namespace
+
+TEST(VolumeSupport, BarOnAnElasticFoundationMatchesTheCoshSolution) {
+  const double L = 4.0, W = 0.5, E = 2.0, k = 2.0, u0 = 0.1;  // ℓ = 1
+  double previous = 1.0;
+  for (int cells : {8, 16, 32}) {
+    const auto mesh = test::kuhn_box<3>({{cells, 2, 2}}, {{0, 0, 0}}, {{L, W, W}});
+    ElasticModel<3> model(mesh, std::vector<double>(mesh.n_cells(), E), 0.0, 2);
+    model.add_volume_support(foundation(L, W, 0.05, k));
+    const double err = foundation_bar_error(model, L, W, u0, 1.0);
+    EXPECT_EQ(model.volume_support_points_outside(), 0u);
+    EXPECT_LT(err, previous) << cells << " cells";  // converges under refinement
+    previous = err;
+  }
+  EXPECT_LT(previous, 2e-3);  // 32 P2 cells along the bar; the lattice quadrature (h = 0.05) is the limit
+  // The voxel (Q1) reference with the same points: the same solution.
+  auto voxel = ElasticModel<3>::voxel_grid({{40, 5, 5}}, Vec<3>(0, 0, 0), Vec<3>(L, W, W), std::vector<double>(1000, E), 0.0);
+  voxel.add_volume_support(foundation(L, W, 0.05, k));
+  EXPECT_LT(foundation_bar_error(voxel, L, W, u0, 1.0), 1e-2);
+  // Without the support the x-only push leaves the bar free: a rigid motion.
+  const auto mesh = test::kuhn_box<3>({{4, 1, 1}}, {{0, 0, 0}}, {{L, W, W}});
+  ElasticModel<3> free_bar(mesh, std::vector<double>(mesh.n_cells(), E), 0.0, 1);
+  EXPECT_THAT(message_of([&] { foundation_bar_error(free_bar, L, W, u0, 1.0); }), HasSubstr("rigid-body motion"));
+}
+
+TEST(VolumeSupport, HoldsTheBodyWhereNoNodeIsAndRejectsBadInput) {
+  // One coarse cell layer; the support is a small ball around an interior point that is no node.
+  const auto mesh = test::kuhn_box<3>({{2, 2, 2}}, {{0, 0, 0}}, {{1, 1, 1}});
+  ElasticModel<3> model(mesh, std::vector<double>(mesh.n_cells(), 1.0), 0.3, 1);
+  VolumeSupport<3> ball;
+  ball.name = "ball";
+  ball.stiffness = 1e6;
+  for (double x : {0.2, 0.25, 0.3})
+    for (double y : {0.2, 0.25, 0.3})
+      for (double z : {0.2, 0.25, 0.3}) ball.points.emplace_back(x, y, z), ball.weights.push_back(1e-3);
+  ball.points.emplace_back(5, 5, 5);  // outside the mesh: ignored and counted
+  ball.weights.push_back(1e-3);
+  model.add_volume_support(ball);
+  model.set_body_force(Vec<3>(0, 0, -1));
+  const auto s = model.solve();  // the support alone removes the rigid motions
+  EXPECT_EQ(model.volume_support_points_outside(), 1u);
+  const auto u = model.sample({Vec<3>(0.25, 0.25, 0.25), Vec<3>(0.9, 0.9, 0.9)});
+  EXPECT_LT(u[0].norm(), 1e-3 * u[1].norm());  // held where the points are
+  EXPECT_GT(u[1].norm(), 0.1);                  // the far corner hangs from it
+  // Equilibrium: the support carries the whole body force (weight 1 × volume 1): Σ k w_p u(x_p) = (0, 0, −1).
+  std::vector<Vec<3>> inside(ball.points.begin(), ball.points.end() - 1);
+  Vec<3> reaction = Vec<3>::Zero();
+  for (const auto& up : model.sample(inside)) reaction += ball.stiffness * 1e-3 * up;
+  EXPECT_NEAR(reaction[2], -1.0, 1e-8);
+  EXPECT_NEAR(reaction.head<2>().norm(), 0.0, 1e-8);
+  VolumeSupport<3> bad = ball;
+  bad.stiffness = 0.0;
+  EXPECT_THAT(message_of([&] { model.add_volume_support(bad); }), HasSubstr("stiffness must be finite and > 0"));
+  bad = ball;
+  bad.weights.pop_back();
+  EXPECT_THAT(message_of([&] { model.add_volume_support(bad); }), HasSubstr("weights"));
+  EXPECT_THROW(model.solve_distributed(MPI_COMM_SELF), std::invalid_argument);
+}

@@ -313,3 +313,40 @@ TEST(Scenario, ModulusImageNeedsClampForNegativeOrNaN) {
   const Scenario constant = parse_scenario_text(std::string(kMinimal) + "material: {youngs_modulus: 5}\n", 3);
   EXPECT_NO_THROW(check_modulus_image(constant, img));
 }
+
+TEST(Scenario, ElasticRegionSupportAndCuttingDistance) {
+  const std::string base = R"(boundary_conditions:
+  - {type: fixed, region: {box_face: z_max}}
+  - {type: fixed, region: {cylinder: {center: [0, -20, 0], axis: [0, 0, 1], radius: 6}}, support: SUPPORT}
+needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 1, cutting_distance: 0.5}
+)";
+  const Scenario s = parse_scenario_text(replace(base, "SUPPORT", "{elastic: {stiffness: 15, spacing: 0.5}}"), 3);
+  EXPECT_EQ(s.boundary_conditions[0].support, BoundaryConditionSpec::Support::nodes);  // the default
+  EXPECT_EQ(s.boundary_conditions[1].support, BoundaryConditionSpec::Support::elastic);
+  EXPECT_DOUBLE_EQ(s.boundary_conditions[1].support_stiffness, 15.0);
+  EXPECT_DOUBLE_EQ(s.boundary_conditions[1].support_spacing, 0.5);
+  EXPECT_DOUBLE_EQ(s.needles[0].cutting_distance, 0.5);
+  const Scenario n = parse_scenario_text(replace(base, "SUPPORT", "nodes"), 3);
+  EXPECT_EQ(n.boundary_conditions[1].support, BoundaryConditionSpec::Support::nodes);
+  EXPECT_DOUBLE_EQ(parse_scenario_text(kMinimal, 3).needles[0].cutting_distance, 0.0);  // default
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"elastic", "elastic needs a stiffness"},
+      {"{elastic: {stiffness: 0}}", "support.elastic.stiffness must be > 0"},
+      {"{elastic: {stiffness: 1, spacing: -1}}", "support.elastic.spacing must be > 0"},
+      {"{elastic: {stifness: 1}}", "unknown key 'boundary_conditions[1].support.elastic.stifness'"},
+      {"{elastic: {spacing: 1}}", "missing key 'boundary_conditions[1].support.elastic.stiffness'"},
+      {"glue", "support = 'glue' is not valid"},
+  };
+  for (const auto& [value, expect] : bad) {
+    const std::string msg = error_of(replace(base, "SUPPORT", value));
+    EXPECT_NE(msg.find(expect), std::string::npos) << value << ": " << msg;
+  }
+  EXPECT_NE(error_of(replace(replace(base, "SUPPORT", "nodes"), "{box_face: z_max}}", "{box_face: z_max}, support: nodes}"))
+                .find("support applies only to type fixed on a volume region"),
+            std::string::npos);
+  const std::string plain = replace(base, "SUPPORT", "nodes");
+  EXPECT_NE(error_of(replace(plain, "cutting_distance: 0.5", "cutting_distance: -1")).find("needle.cutting_distance must be >= 0"),
+            std::string::npos);
+  EXPECT_NE(error_of(replace(plain, "cutting_distance: 0.5", "cutting_distance: 10")).find("less than the depth"),
+            std::string::npos);
+}

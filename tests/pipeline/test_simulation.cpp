@@ -297,6 +297,65 @@ TEST(Simulation, RegionThatSelectsNoNodeIsAnError) {
   }
 }
 
+// A fixed cylinder that holds no node of a 2 mm grid (axis at x = y = 3, radius 0.9): clamping nodes
+// rejects it, the elastic support (a stiff foundation over the cylinder) holds the tissue there; on a
+// 1 mm mesh (whose nodes do fall in the cylinder) and on the 1 mm voxel model it gives the same field.
+TEST(Simulation, ElasticRegionSupportHoldsTheTissueWhereNoNodeIs) {
+  auto E = [](const V3&) { return 10.0; };
+  const MeshModel<3> coarse = block(V3(-6, -6, 0), V3(6, 6, 24), {{7, 7, 13}}, E);
+  const MeshModel<3> fine = block(V3(-6, -6, 0), V3(6, 6, 24), {{13, 13, 25}}, E);
+  const std::string targets = "[{name: probe, position: [3, 3, 12]}, {name: side, position: [1, 2, 13]}]";
+  const std::string cylinder = "{type: fixed, region: {cylinder: {center: [3, 3, 0], axis: [0, 0, 1], radius: 0.9}}";
+  auto scenario = [&](const std::string& support) {
+    return parse_scenario_text(yaml(kStick, targets, "{poisson_ratio: 0.3}",
+                                    "[{type: fixed, region: {box_face: z_max}}, " + cylinder + support + "}]"),
+                               3, "s.yaml");
+  };
+  EXPECT_THROW(NeedleSimulation<3>(coarse, scenario(""), quiet()), ScenarioError);  // no node in it
+  const Scenario elastic = scenario(", support: {elastic: {stiffness: 1000}}");
+  const Scenario free = parse_scenario_text(yaml(kStick, targets, "{poisson_ratio: 0.3}"), 3);
+  const auto held = run_simulation<3>(coarse, elastic, quiet()).needles[0].target_displacement.back();
+  const auto loose = run_simulation<3>(coarse, free, quiet()).needles[0].target_displacement.back();
+  ASSERT_GT(loose[0].norm(), 0.1);
+  EXPECT_LT(held[0].norm(), 0.02 * loose[0].norm());  // held where no node is
+  // The same support on other models of the same body: the 1 mm mesh and the 1 mm voxel model.
+  const auto on_fine = run_simulation<3>(fine, elastic, quiet()).needles[0].target_displacement.back();
+  Image<3> img({{12, 12, 24}}, {{1, 1, 1}}, {{-5.5, -5.5, 0.5}}, 10.0f);
+  auto voxel = NeedleSimulation<3>::voxel(img, WorldTransform<3>{}, elastic, quiet());
+  const auto on_voxel = voxel.run().needles[0].target_displacement.back();
+  EXPECT_LT(on_fine[0].norm(), 0.02 * loose[0].norm());
+  EXPECT_LT(on_voxel[0].norm(), 0.02 * loose[0].norm());
+  const double side = on_voxel[1].norm();
+  ASSERT_GT(side, 0.1);
+  EXPECT_LT((on_fine[1] - on_voxel[1]).norm(), (held[1] - on_voxel[1]).norm());  // closer on the finer mesh
+  EXPECT_LT((on_fine[1] - on_voxel[1]).norm(), 0.2 * side);  // 2.2 mm from the needle's point loads: measured 0.15
+}
+
+// Cutting distance δ (pure stick): a point joins the shaft once the tip has passed it by δ and then
+// moves with the needle, so every shaft node ends δ behind the tip: u_z = depth − δ − z (without δ:
+// depth − z, StickFieldIsSymmetricAboutTheNeedleAxis).
+TEST(Simulation, CuttingDistanceLeavesTheShaftTissueThatFarBehindTheTip) {
+  const MeshModel<3> model = axis_block();
+  const std::string needle = "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, cutting_distance: 1}";
+  const auto res = run_simulation<3>(model, parse_scenario_text(yaml(needle), 3), quiet());
+  const auto& u = res.needles[0].vertex_displacement.back();
+  EXPECT_NEAR(max_norm(u), 11.0, 1e-6);  // the entry node, dragged to 1 behind the tip
+  int checked = 0;
+  for (std::size_t i = 0; i < model.mesh.n_points(); ++i) {
+    const V3& p = model.mesh.points[i];
+    if (std::abs(p[0]) < 1e-9 && std::abs(p[1]) < 1e-9 && p[2] < 9.0) {
+      EXPECT_NEAR(u[i][2], 11.0 - p[2], 1e-6) << "z = " << p[2];
+      EXPECT_LT(std::hypot(u[i][0], u[i][1]), 1e-6);
+      ++checked;
+    }
+  }
+  EXPECT_GE(checked, 4);
+  // No shaft point within δ of the final tip is held.
+  const auto& r = res.needles[0];
+  for (std::size_t j = 0; j < r.point_s.size(); ++j)
+    if (r.point_s[j] > 12.0 - 1.0) EXPECT_EQ(r.point_axial_force.back()[j], 0.0) << "s = " << r.point_s[j];
+}
+
 TEST(Simulation, VoxelModelAgreesWithTheGridMeshInSign) {
   Image<3> img({{6, 6, 12}}, {{2, 2, 2}}, {{-5, -5, 1}}, 10.0f);  // box [-6,6]^2 x [0,24]
   const Scenario sc = parse_scenario_text(yaml(kStick, "[{name: ahead, position: [0, 0, 16]}]"), 3);

@@ -10,9 +10,10 @@
 // 891 nodes on, where the full sweep shows it.
 //
 // The needle test runs the scenario's insertion (2 steps of 18 mm instead of 36 of 1 mm: the final
-// state is the stick-slip friction limit on every model) at 891 nodes, P2 and P1. Below ~900 nodes the
-// probe cylinder (radius 6 mm) selects a different number of nodes on each mesh (252 nodes: 14 on the
-// grid, 7 on VIM), so the two models have different supports; the doc starts the needle sweep at 891.
+// state is the stick-slip friction limit on every model) at 891 nodes, P2 and P1. The scenario's probe
+// is an elastic support over its cylinder (the same on every mesh and on the reference; clamping the
+// nodes that fall in the cylinder gave the grid and VIM different supports) and the needle cuts at one
+// diameter behind the tip (no shaft point picked up at the tip sticks short of the friction limit).
 #include <vim/fem/elasticity.hpp>
 #include <vim/initial_mesh.hpp>
 #include <vim/pipeline/phantoms.hpp>
@@ -115,7 +116,7 @@ TEST(ProstateCompression, VimBeatsGridAt252And891NodesAndConverges) {
   }
 }
 
-TEST(ProstateNeedle, VimBeatsGridAt891Nodes) {
+TEST(ProstateNeedle, VimBelowGridAt891NodesP2WithTheElasticProbe) {
   Prostate s;
   for (auto& nd : s.sc.needles) nd.steps = 2;
   s.sc.output_every = 0;
@@ -125,7 +126,8 @@ TEST(ProstateNeedle, VimBeatsGridAt891Nodes) {
   vim::pipeline::SimulationOptions opt;
   opt.progress = false;
   auto ref_sim = vim::pipeline::NeedleSimulation<3>::voxel(s.img.image, tf, s.sc, opt);
-  ref_sim.run();
+  const auto ref_run = ref_sim.run();
+  EXPECT_NEAR(ref_run.needles[0].axial_force.back(), 540.0, 1e-6 * 540.0);  // 15 mN/mm × 36 mm
   const auto ref = ref_sim.model().sample(s.points);
 
   const auto axis = vim::nodes_per_axis_for_budget<3>(s.lo, s.hi, 1000);
@@ -141,19 +143,24 @@ TEST(ProstateNeedle, VimBeatsGridAt891Nodes) {
   vim.mesh = std::move(r.mesh);
   vim.values = std::move(r.values);
   double err[3][2] = {};  // [degree][grid, VIM]
+  const double limit = s.sc.needles[0].max_shear_per_length * s.sc.needles[0].depth;  // 540 mN
   for (unsigned p : {1u, 2u}) {
     s.sc.degree = p;
     int k = 0;
     for (const auto* m : {&grid, &vim}) {
       vim::pipeline::NeedleSimulation<3> sim(*m, s.sc, opt);
-      sim.run();
+      const auto r = sim.run();
+      // Every shaft point slides at its friction limit at the end, as in the reference: the same load.
+      EXPECT_NEAR(r.needles[0].axial_force.back(), limit, 1e-6 * limit) << "P" << p << (k ? " VIM" : " grid");
       err[p][k++] = relative_l2(sim.model().sample(s.points), ref);
     }
     std::printf("needle, 891 nodes, P%u: relL2 grid %.4f, VIM %.4f, ratio %.3f\n", p, err[p][0], err[p][1],
                 err[p][1] / err[p][0]);
   }
-  EXPECT_LT(err[2][1], 0.7 * err[2][0]);  // full run (6 steps): 0.405
-  EXPECT_LT(err[1][1], 0.95 * err[1][0]); // full run (6 steps): 0.81
+  // P2: VIM below the grid (2 and 6 steps: 0.938 / 0.939). P1 (measured 1.078) is not asserted: with the
+  // same probe support the P1 needle comparison is a tie or a loss below 4050 nodes (docs/validation.md).
+  EXPECT_LT(err[2][1], err[2][0]);
+  EXPECT_LT(err[2][1], 0.08);  // measured 0.0503 (grid 0.0536)
 }
 
 }  // namespace

@@ -56,6 +56,21 @@ struct SurfaceLoad {
   double pressure = 0.0;
 };
 
+// Elastic support (a Winkler foundation) inside a volume: adds the energy ½ k Σ_p w_p |u(x_p)|², a
+// quadrature of ½ ∫_R k |u|² dx over the sample points x_p (weights w_p in volume units), to the
+// stiffness. Unlike a DirichletBC, which holds the nodes that happen to lie in a region, it does not
+// depend on where the mesh puts its nodes: the same points, weights and k give every mesh (simplex or
+// voxel) the same support, and a region that holds no node still holds the tissue. As k → ∞ the
+// support tends to u = 0 on every cell that holds a sample point. Points outside the mesh are ignored
+// (counted in n_outside after the first solve). Serial solves only (not solve_distributed).
+template <int dim>
+struct VolumeSupport {
+  std::string name;
+  std::vector<Vec<dim>> points;
+  std::vector<double> weights;  // one per point (volume each point stands for)
+  double stiffness = 0.0;       // k > 0: force per length^(dim+1) (modulus per length²)
+};
+
 // u(position) = displacement (selected components), for a point anywhere inside the mesh:
 // a linear constraint on the DoFs of the cell containing it, through its shape functions.
 template <int dim>
@@ -148,6 +163,11 @@ class ElasticModel {
   void add_dirichlet(const DirichletBC<dim>& bc);
   void add_surface_load(const SurfaceLoad<dim>& load);
   void set_body_force(const Vec<dim>& f);
+  // Elastic support over sample points (see VolumeSupport); throws std::invalid_argument for
+  // k ≤ 0 or not finite, sizes that differ, negative or non-finite weights or points.
+  void add_volume_support(const VolumeSupport<dim>& support);
+  // Sample points of the volume supports that lie outside the mesh (known after the first assembly).
+  std::size_t volume_support_points_outside() const;
 
   unsigned n_dofs() const;
   unsigned n_cells() const;

@@ -40,6 +40,16 @@ struct BoundaryConditionSpec {
   std::vector<double> value;  // displacement / traction: dim values (world axes); pressure: 1 value
   std::vector<bool> components;  // fixed/displacement: which world components (default all)
   int line = 0;                  // YAML line (1-based) of the list entry
+  // How a `fixed` condition on a volume region (box, sphere, cylinder) holds the tissue:
+  //  * nodes: the mesh nodes (support points) inside the region are clamped. On a coarse mesh the
+  //    support then depends on where the nodes happen to fall (a region may hold no node at all).
+  //  * elastic: an elastic foundation of stiffness k (modulus per length²) on a lattice of sample
+  //    points filling the region (pitch `spacing`, anchored at the region, weights spacing^dim): the
+  //    energy ½ ∫_R k |u|² dx, the same for every mesh and for the voxel reference
+  //    (fem::VolumeSupport). Box faces are always clamped node by node (every mesh has nodes on them).
+  enum class Support { nodes, elastic } support = Support::nodes;
+  double support_stiffness = 0.0;  // elastic: k
+  double support_spacing = 0.0;    // elastic: lattice pitch; 0 = automatic (region size / 6)
   bool is_dirichlet() const { return type == Type::fixed || type == Type::displacement; }
 };
 
@@ -53,6 +63,11 @@ struct NeedleSpec {
   enum class Friction { stick, stick_slip } friction = Friction::stick;
   double max_shear_per_length = 0.0;  // stick-slip limit (force per unit length of shaft)
   double sample_spacing = 0.0;        // distance between embedded shaft points; 0 = automatic
+  // Kinematic model: the tip cuts a material point (it joins the shaft) once the tip has passed the
+  // point's current position by this distance; until then it is tissue ahead of the tip (not held by
+  // the needle). 0 = as soon as the tip reaches it. A length of the needle (e.g. its bevel), the same
+  // for every mesh.
+  double cutting_distance = 0.0;
   double tip_force = 0.0;             // force model: cutting force at the tip (force units)
   double friction_per_length = 0.0;   // force model: friction force per unit shaft length
   int line = 0;

@@ -9,7 +9,10 @@
 //    from the previous step: tissue ahead of the tip is pushed before it is pierced); from then on it
 //    moves with the rigid needle: u_j = (d − s_j)·a, lateral displacement 0 (it stays on the shaft). The most
 //    recently picked-up point is the one the tip pushes. Pure stick drags the shaft's tissue along
-//    with the needle; it is the upper bound of tissue drag.
+//    with the needle; it is the upper bound of tissue drag. With the needle's cutting_distance δ > 0
+//    a point is picked up only once the tip has passed its current position by δ (s_j + u_j·a < d − δ)
+//    and is then held δ behind the tip (u_j = (d − δ − s_j)·a): no point is picked up just behind the
+//    tip at the end of a step only to be held back by the needle.
 //  * kinematic / stick-slip: the same, but a point whose axial load exceeds max_shear_per_length × (the
 //    shaft length it carries: its segment of the path as far as the tip has passed; the point the tip
 //    pushes carries everything up to the tip, so the limits sum to max_shear_per_length × depth) slides: its axial value is solved (conjugate gradients on the condensed map, each
