@@ -122,7 +122,7 @@ VoxelStatistics<dim>::VoxelStatistics(const Image<dim>& image) : image_(&image) 
   for (long k2 = 0; k2 < n2; ++k2)
     for (long k1 = 0; k1 < n1; ++k1) {
       const long row = k1 * stride_img[1] + (dim == 3 ? k2 * stride_img[dim - 1] : 0);
-      std::int32_t* out = edges_.data() + (k1 + 1) * stride_tab[1] + (dim == 3 ? (k2 + 1) * stride_tab[dim - 1] : 0) + 1;
+      std::uint32_t* out = edges_.data() + (k1 + 1) * stride_tab[1] + (dim == 3 ? (k2 + 1) * stride_tab[dim - 1] : 0) + 1;
       const std::array<long, 2> idx{k1, k2};
       for (long t = 0; t < n0; ++t) {
         const float v = h[row + t];
@@ -139,8 +139,8 @@ VoxelStatistics<dim>::VoxelStatistics(const Image<dim>& image) : image_(&image) 
     const long st = stride_tab[a], block = st * ext[a];
     for (long o = 0; o < table; o += block)
       for (long i = 1; i < ext[a]; ++i) {
-        std::int32_t* cur = edges_.data() + o + i * st;
-        const std::int32_t* prev = cur - st;
+        std::uint32_t* cur = edges_.data() + o + i * st;
+        const std::uint32_t* prev = cur - st;
         for (long j = 0; j < st; ++j) cur[j] += prev[j];
       }
   }
@@ -201,17 +201,20 @@ bool VoxelStatistics<dim>::varied_sums(const Simplex& x, Sums& out) const {
 template <int dim>
 bool VoxelStatistics<dim>::uniform_box(const std::array<long, dim>& lo, const std::array<long, dim>& hi) const {
   // Inclusion–exclusion over the 2^dim corners of [lo, hi] in the table (offset by one).
-  long count = 0;
+  // Unsigned arithmetic wraps modulo 2^32, so the count is exact for any box of fewer than 2^32
+  // voxels even when the table's running sums wrap (images of 2^32 voxels or more).
+  std::uint32_t count = 0;
   for (int corner = 0; corner < (1 << dim); ++corner) {
     long t = 0, stride = 1;
-    int sign = 1;
+    bool add = true;
     for (int a = 0; a < dim; ++a) {
       const bool upper = (corner >> a) & 1;
       t += (upper ? hi[a] + 1 : lo[a]) * stride;
-      if (!upper) sign = -sign;
+      if (!upper) add = !add;
       stride *= image_->size[a] + 1;
     }
-    count += sign * static_cast<long>(edges_[static_cast<std::size_t>(t)]);
+    const std::uint32_t e = edges_[static_cast<std::size_t>(t)];
+    count = add ? count + e : count - e;
   }
   return count == 0;
 }

@@ -78,7 +78,8 @@ class VoxelStatistics {
   Point centre_;                    // c* in index space
   // Summed-area table ((size+1) per axis) of "edge" voxels: those whose value differs from one of
   // their axis neighbours. A box holding none is uniform (it is connected through axis neighbours).
-  std::vector<std::int32_t> edges_;
+  // Counts are kept modulo 2^32 (see uniform_box).
+  std::vector<std::uint32_t> edges_;
 };
 
 extern template class VoxelStatistics<2>;
