@@ -104,6 +104,7 @@ double VimOptimizer<dim>::evaluate_candidate(const Point& p, Scratch& s, double 
 
 template <int dim>
 bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, double* moved_sq) {
+  s.evaluations = 0;
   const std::uint8_t mask = fixed_[node];
   if (mask == (1u << dim) - 1) return false;  // corner
   const auto& ring = adj_.cells_of(node);
@@ -185,7 +186,6 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
     // the golden-section search's first interior point, so its exact value (when it was not stopped
     // early) is handed to the search of a kept direction instead of being evaluated again.
     std::vector<double>& known_f1 = s.known_f1;  // per direction: exact value at t = 1 − φ⁻¹, or NaN
-    known_f1.clear();
     auto screen = [&]() {
       known_f1.clear();
       const std::size_t w = static_cast<std::size_t>(options_.search_width);
@@ -355,7 +355,6 @@ long VimOptimizer<dim>::update_nodes(int iteration, double* sum_sq, long* search
           dirty_[node] = 0;  // only this task touches this node's flag during the class
           ran[node] = 1;
           double sq = 0.0;
-          s.evaluations = 0;
           const bool moved_node = update_node_impl(node, iteration, s, &sq);
           evals[node] = s.evaluations;
           if (moved_node) {
