@@ -27,6 +27,7 @@
 #include <vim/pipeline/scenario.hpp>
 #include <vim/pipeline/simulation.hpp>
 #include <vim/quality.hpp>
+#include <vim/sizing.hpp>
 #include <vim/vim.hpp>
 #include <vim/voxel_statistics.hpp>
 
@@ -116,20 +117,21 @@ void describe(const char* name, const MeshModel<3>& m) {
               regions.c_str());
 }
 
-Meshes make_meshes(const OrientedImage<3>& img, long budget, const VimOptions& vo) {
+Meshes make_meshes(const OrientedImage<3>& img, long budget, const VimOptions& vo, const Image<3>* density) {
   Meshes m;
   const auto lo = img.image.box_min(), hi = img.image.box_max();
   const auto axis = nodes_per_axis_for_budget<3>(lo, hi, budget);
   const SimplexMesh<3> initial = regular_grid_mesh<3>(lo, hi, axis);
   const VoxelStatistics<3> stats(img.image);
+  const auto t = Clock::now();
+  // As the CLI: with a needle density, a density-weighted E_G initialisation, then VIM keeping it.
+  VimResult<3> r = density ? optimize_sized<3>(img.image, *density, initial, vo) : optimize<3>(img.image, initial, vo);
   for (MeshModel<3>* mm : {&m.grid, &m.vim}) {
     mm->transform.origin = img.origin();
     mm->transform.direction = img.direction;
   }
   m.grid.mesh = initial;
   for (std::size_t c = 0; c < initial.n_cells(); ++c) m.grid.values.push_back(stats.value(cell_points(initial, c)));
-  const auto t = Clock::now();
-  VimResult<3> r = optimize<3>(img.image, initial, vo);
   m.vim_seconds = since(t);
   m.vim.mesh = std::move(r.mesh);
   m.vim.values = std::move(r.values);
@@ -218,6 +220,7 @@ int main(int argc, char** argv) try {
   double near_radius = 4.0;  // mm: the "far" error excludes voxel centres this close to the needle path
   double support_stiffness = -1.0, support_spacing = 0.0;  // --support-stiffness / --support-spacing
   double cutting_distance = -1.0;  // --cutting-distance: the needle's cutting distance (mm), all models
+  double refine_ratio = -1.0, refine_radius = -1.0;  // --needle-refine / --needle-radius (VIM only)
   for (int i = 1; i < argc; ++i) {
     auto value = [&] {
       if (i + 1 >= argc) throw std::invalid_argument(std::string(argv[i]) + " needs a value");
@@ -243,6 +246,8 @@ int main(int argc, char** argv) try {
     else if (!std::strcmp(argv[i], "--support-stiffness")) support_stiffness = std::atof(value());
     else if (!std::strcmp(argv[i], "--support-spacing")) support_spacing = std::atof(value());
     else if (!std::strcmp(argv[i], "--cutting-distance")) cutting_distance = std::atof(value());
+    else if (!std::strcmp(argv[i], "--needle-refine")) refine_ratio = std::atof(value());
+    else if (!std::strcmp(argv[i], "--needle-radius")) refine_radius = std::atof(value());
     else budgets.push_back(std::atol(argv[i]));
   }
   if (budgets.empty()) budgets = {125, 343, 1000};
@@ -257,6 +262,13 @@ int main(int argc, char** argv) try {
   if (cutting_distance >= 0.0)
     for (auto& nd : sc.needles) nd.cutting_distance = cutting_distance;
   if (degree != 1) sc.degree = degree;
+  if (refine_ratio > 0.0 || refine_radius > 0.0) {  // override (or add) the scenario's needle refinement
+    Scenario::NeedleRefinement nr = sc.needle_refinement.value_or(Scenario::NeedleRefinement{1.0, 10.0});
+    if (refine_ratio > 0.0) nr.size_ratio = refine_ratio;
+    if (refine_radius > 0.0) nr.radius = refine_radius;
+    sc.needle_refinement = nr;
+  }
+  if (refine_ratio == 1.0) sc.needle_refinement.reset();  // --needle-refine 1: off
   // --support-stiffness K (> 0): every fixed volume region becomes an elastic support of stiffness K
   // (with --support-spacing H); 0: back to clamping the nodes in the region.
   for (auto& bc : sc.boundary_conditions) {
@@ -286,6 +298,7 @@ int main(int argc, char** argv) try {
 
   // Sample points: every voxel centre (frame), flagged when inside the gland (world ellipsoid at 0).
   Samples s;
+  const std::vector<NeedlePath<3>> paths = needle_paths<3>(sc, tf);
   const phantoms::ProstateGeometry g;
   for (std::size_t k = 0; k < img.image.voxel_count(); ++k) {
     const V3 p = img.image.point_of(img.image.index_of(k));
@@ -294,12 +307,7 @@ int main(int argc, char** argv) try {
     for (int a = 0; a < 3; ++a) q += (w[a] / g.gland_semi_axes[a]) * (w[a] / g.gland_semi_axes[a]);
     s.points.push_back(p);
     s.gland.push_back(q <= 1.0);
-    if (!sc.needles.empty()) {
-      const auto& nd = sc.needles[0];
-      const V3 e(nd.entry.data()), a = V3(nd.direction.data()).normalized();
-      const double t = std::clamp((w - e).dot(a), 0.0, nd.depth);
-      s.far.push_back((w - e - t * a).norm() > near_radius);
-    }
+    if (!paths.empty()) s.far.push_back(paths[0].distance(p) > near_radius);
   }
   long in_gland = 0;
   for (bool b : s.gland) in_gland += b;
@@ -309,9 +317,16 @@ int main(int argc, char** argv) try {
               sc.poisson_ratio, lambda, sc.needles.empty() ? 0 : sc.needles[0].steps);
   std::fflush(stdout);
 
+  std::optional<Image<3>> density;
+  if (sc.needle_refinement) {
+    density = needle_density<3>(img.image, needle_paths<3>(sc, tf), sc.needle_refinement->size_ratio,
+                                sc.needle_refinement->radius);
+    std::printf("# VIM with needle refinement: size ratio %.3g, radius %.3g mm\n", sc.needle_refinement->size_ratio,
+                sc.needle_refinement->radius);
+  }
   std::vector<Meshes> meshes;
   for (long b : budgets) {
-    meshes.push_back(make_meshes(img, b, vo));
+    meshes.push_back(make_meshes(img, b, vo, density ? &*density : nullptr));
     std::printf("mesh budget %ld: %zu nodes, grid %zu cells, VIM %zu cells (%.1f s)\n", b, meshes.back().nodes,
                 meshes.back().cells_grid, meshes.back().cells_vim, meshes.back().vim_seconds);
     describe("grid", meshes.back().grid);

@@ -10,9 +10,7 @@
 namespace vim {
 
 template <int dim>
-SimplexMesh<dim> size_initial_mesh(const Image<dim>& density, SimplexMesh<dim> mesh, int iterations,
-                                   const VimOptions& options) {
-  if (iterations < 0) throw std::invalid_argument("sizing iterations must be >= 0");
+void validate_density(const Image<dim>& density) {
   if (density.data.empty() || density.data.size() != density.voxel_count())
     throw std::invalid_argument("sizing image is empty or its data does not match its size");
   for (float v : density.data)
@@ -21,6 +19,13 @@ SimplexMesh<dim> size_initial_mesh(const Image<dim>& density, SimplexMesh<dim> m
       m << "sizing image has value " << v << ": densities must be finite and > 0";
       throw std::invalid_argument(m.str());
     }
+}
+
+template <int dim>
+SimplexMesh<dim> size_initial_mesh(const Image<dim>& density, SimplexMesh<dim> mesh, int iterations,
+                                   const VimOptions& options) {
+  if (iterations < 0) throw std::invalid_argument("sizing iterations must be >= 0");
+  validate_density(density);
   VimOptions geometric = options;
   geometric.lambda = 0.0;
   geometric.insert_nodes = 0;
@@ -36,6 +41,19 @@ SimplexMesh<dim> size_initial_mesh(const Image<dim>& density, SimplexMesh<dim> m
   return opt.compact_mesh();
 }
 
+template <int dim>
+VimResult<dim> optimize_sized(const Image<dim>& image, const Image<dim>& density, SimplexMesh<dim> initial,
+                              const VimOptions& options, const ProgressCallback& progress) {
+  SimplexMesh<dim> sized = size_initial_mesh<dim>(density, std::move(initial), options.max_iterations, options);
+  return optimize<dim>(image, std::move(sized), options, progress, &density);
+}
+
+template VimResult<2> optimize_sized<2>(const Image<2>&, const Image<2>&, SimplexMesh<2>, const VimOptions&,
+                                        const ProgressCallback&);
+template VimResult<3> optimize_sized<3>(const Image<3>&, const Image<3>&, SimplexMesh<3>, const VimOptions&,
+                                        const ProgressCallback&);
+template void validate_density<2>(const Image<2>&);
+template void validate_density<3>(const Image<3>&);
 template SimplexMesh<2> size_initial_mesh<2>(const Image<2>&, SimplexMesh<2>, int, const VimOptions&);
 template SimplexMesh<3> size_initial_mesh<3>(const Image<3>&, SimplexMesh<3>, int, const VimOptions&);
 

@@ -4,6 +4,7 @@
 #include <vim/energy.hpp>
 #include <vim/initial_mesh.hpp>
 #include <vim/optimizer.hpp>
+#include <vim/sizing.hpp>
 #include <vim/vim.hpp>
 
 #include <Eigen/Geometry>
@@ -352,8 +353,9 @@ template class VimOptimizer<3>;
 // insertion, until v < options.convergence (Eq. 9) or options.max_iterations.
 template <int dim>
 VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const VimOptions& options,
-                        const ProgressCallback& progress) {
+                        const ProgressCallback& progress, const Image<dim>* density) {
   options.validate();
+  if (density) validate_density(*density);
   for (int a = 0; a < dim; ++a)
     if (image.size[a] < 2) {
       std::ostringstream m;
@@ -365,7 +367,7 @@ VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const
   using clock = std::chrono::steady_clock;
   const auto t_start = clock::now();
   VoxelStatistics<dim> stats(image);
-  VimOptimizer<dim> opt(std::move(initial), &stats, nullptr, options);
+  VimOptimizer<dim> opt(std::move(initial), &stats, density, options);
 
   if (options.check_invariants) opt.check_invariants("set-up", 0, std::numeric_limits<double>::infinity());
   VimResult<dim> result;
@@ -435,7 +437,9 @@ VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const
   return result;
 }
 
-template VimResult<2> optimize<2>(const Image<2>&, SimplexMesh<2>, const VimOptions&, const ProgressCallback&);
-template VimResult<3> optimize<3>(const Image<3>&, SimplexMesh<3>, const VimOptions&, const ProgressCallback&);
+template VimResult<2> optimize<2>(const Image<2>&, SimplexMesh<2>, const VimOptions&, const ProgressCallback&,
+                                  const Image<2>*);
+template VimResult<3> optimize<3>(const Image<3>&, SimplexMesh<3>, const VimOptions&, const ProgressCallback&,
+                                  const Image<3>*);
 
 }  // namespace vim

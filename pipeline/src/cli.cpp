@@ -27,6 +27,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdarg>
 #include <cstdio>
 #include <iostream>
@@ -498,6 +499,18 @@ int run_dim(const RunOptions& given) {
     sim_options.output_file = [&out](const std::string& rel) { return out.file(rel); };
     sim_options.degree = static_cast<unsigned>(o.degree);
   }
+  // mesh.needle_refinement: a density around the needle paths that VIM keeps in E_G (§VI-E).
+  std::optional<Image<dim>> needle_rho;
+  if (scenario && scenario->needle_refinement && o.mesher == MesherKind::vim) {
+    if (sizing)
+      throw InputError("--sizing " + o.sizing + " and " + scenario->source +
+                       ": mesh.needle_refinement both set the mesh density; give only one of them");
+    const auto& nr = *scenario->needle_refinement;
+    needle_rho = needle_density<dim>(img.image, needle_paths<dim>(*scenario, model.transform), nr.size_ratio, nr.radius);
+    report["needle_refinement"] = {{"size_ratio", nr.size_ratio},
+                                   {"radius", nr.radius},
+                                   {"peak_density", std::pow(nr.size_ratio, -static_cast<double>(dim + 2))}};
+  }
 
   // Every input is checked; from here on progress goes to stderr.
   Log::info("image", fmt("%s: %dD, %zu voxels, values %.4g..%.4g", o.image.c_str(), dim, img.image.voxel_count(),
@@ -543,11 +556,14 @@ int run_dim(const RunOptions& given) {
       t.stop();
     } else {
       // 3. VIM optimisation (paper §IV).
-      if (sizing) {
+      // The needle density is kept during VIM; a --sizing image only initialises (paper §VI-E, Fig. 13).
+      const Image<dim>* density = needle_rho ? &*needle_rho : nullptr;
+      if (sizing || density) {
         // E_G-only initialisation weighted by the density image (§VI-E), then VIM from there.
         StageTimer ts(report, "sizing");
-        initial = size_initial_mesh<dim>(sizing->image, std::move(initial), vo.max_iterations, vo);
-        Log::info("sizing", fmt("density-weighted initialisation from %s done", o.sizing.c_str()));
+        initial = size_initial_mesh<dim>(sizing ? sizing->image : *density, std::move(initial), vo.max_iterations, vo);
+        Log::info("sizing", fmt("density-weighted initialisation from %s done",
+                                sizing ? o.sizing.c_str() : "mesh.needle_refinement"));
         ts.stop();
       }
       StageTimer t(report, "optimize");
@@ -561,7 +577,7 @@ int run_dim(const RunOptions& given) {
                              r.iteration, r.energy, r.geometric, r.discretization, r.v, r.moves, r.swaps, el,
                              left.c_str()));
       };
-      VimResult<dim> result = optimize<dim>(img.image, std::move(initial), vo, progress);
+      VimResult<dim> result = optimize<dim>(img.image, std::move(initial), vo, progress, density);
       t.stop();
       if (result.ed0 == 0.0)
         Log::warning("vim", "the image is constant inside the box (E_D0 = 0): the mesh is optimised for E_G only");

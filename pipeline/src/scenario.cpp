@@ -380,7 +380,7 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
   }
 
   if (const YAML::Node& m = top["mesh"]) {
-    const Fields f = r.check_keys(m, "mesh", {"nodes", "lambda", "degree"});
+    const Fields f = r.check_keys(m, "mesh", {"nodes", "lambda", "degree", "needle_refinement"});
     if (const YAML::Node& x = f["nodes"]) {
       const long v = r.integer(x, "mesh.nodes");
       if (v < 8) r.fail(x, "mesh.nodes must be >= 8, got " + std::to_string(v));
@@ -395,6 +395,17 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
       const long v = r.integer(x, "mesh.degree");
       if (v != 1 && v != 2) r.fail(x, "mesh.degree must be 1 or 2, got " + std::to_string(v));
       s.degree = static_cast<unsigned>(v);
+    }
+    if (const YAML::Node& x = f["needle_refinement"]) {
+      const Fields g = r.check_keys(x, "mesh.needle_refinement", {"size_ratio", "radius"});
+      Scenario::NeedleRefinement nr;
+      const YAML::Node& ratio = r.require(g, "size_ratio", "mesh.needle_refinement.size_ratio");
+      nr.size_ratio = r.number(ratio, "mesh.needle_refinement.size_ratio");
+      if (!(nr.size_ratio > 0.0 && nr.size_ratio <= 1.0))
+        r.fail(ratio, "mesh.needle_refinement.size_ratio must be in (0, 1] (element size on the needle path / "
+                      "far from it, e.g. 0.5), got " + fmt(nr.size_ratio));
+      nr.radius = r.positive(r.require(g, "radius", "mesh.needle_refinement.radius"), "mesh.needle_refinement.radius");
+      s.needle_refinement = nr;
     }
   }
 
@@ -617,6 +628,25 @@ std::vector<double> scenario_modulus(const Scenario& s, const std::vector<double
   return e;
 }
 
+template <int dim>
+std::vector<NeedlePath<dim>> needle_paths(const Scenario& s, const WorldTransform<dim>& tf) {
+  std::vector<NeedlePath<dim>> paths;
+  for (const auto& n : s.needles) {
+    NeedlePath<dim> p;
+    for (int d = 0; d < dim; ++d) {
+      p.entry[d] = n.entry[static_cast<std::size_t>(d)];
+      p.axis[d] = n.direction[static_cast<std::size_t>(d)];
+    }
+    p.entry = tf.to_frame(p.entry);
+    p.axis = tf.vector_to_frame(p.axis).normalized();
+    p.depth = n.depth;
+    paths.push_back(p);
+  }
+  return paths;
+}
+
+template std::vector<NeedlePath<2>> needle_paths<2>(const Scenario&, const WorldTransform<2>&);
+template std::vector<NeedlePath<3>> needle_paths<3>(const Scenario&, const WorldTransform<3>&);
 template void check_scenario_geometry<2>(const Scenario&, const Eigen::Matrix<double, 2, 1>&, const Eigen::Matrix<double, 2, 1>&, const WorldTransform<2>&);
 template void check_scenario_geometry<3>(const Scenario&, const Eigen::Matrix<double, 3, 1>&, const Eigen::Matrix<double, 3, 1>&, const WorldTransform<3>&);
 template void check_modulus_image<2>(const Scenario&, const Image<2>&);

@@ -145,3 +145,31 @@ TEST(AxialMap, ProbedMapAndForceControlMatchADirectSolve) {
       EXPECT_EQ(w[i], w0[i]);
   }
 }
+
+// needle_density: ρ = 1 + (ρ_max − 1)·exp(−(d/R)²), ρ_max = size_ratio^−(dim+2), d = distance to the
+// nearest path (brute force here), on the grid of the given image; bad parameters are rejected.
+TEST(NeedleDensity, ProfileAroundThePathsAndBadParameters) {
+  Image<3> like({20, 10, 10}, {1.0, 1.0, 1.0}, {0.5, 0.5, 0.5}, 3.0f);
+  NeedlePath<3> a{Eigen::Vector3d(0, 5, 5), Eigen::Vector3d(1, 0, 0), 12.0};
+  NeedlePath<3> b{Eigen::Vector3d(20, 2, 2), Eigen::Vector3d(0, 1, 0), 6.0};
+  const double ratio = 0.5, radius = 2.0, peak = 32.0;
+  const Image<3> rho = needle_density<3>(like, {a, b}, ratio, radius);
+  ASSERT_EQ(rho.size, like.size);
+  ASSERT_EQ(rho.data.size(), like.data.size());
+  double on_path = 0.0;
+  for (std::size_t k = 0; k < rho.data.size(); ++k) {
+    const Eigen::Vector3d p = rho.point_of(rho.index_of(k));
+    // Brute force: nearest of many points sampled on each segment.
+    double d = 1e300;
+    for (const auto* path : {&a, &b})
+      for (int i = 0; i <= 12000; ++i) d = std::min(d, (p - path->entry - (path->depth * i / 12000.0) * path->axis).norm());
+    const double expect = 1.0 + (peak - 1.0) * std::exp(-(d / radius) * (d / radius));
+    ASSERT_NEAR(rho.data[k], expect, 2e-3 * expect) << "voxel " << k;
+    on_path = std::max(on_path, static_cast<double>(rho.data[k]));
+  }
+  EXPECT_GT(on_path, 0.8 * peak);  // voxel centres half a voxel from the path: 1 + 31·e^(−0.125)
+  EXPECT_THROW(needle_density<3>(like, {a}, 0.0, radius), std::invalid_argument);
+  EXPECT_THROW(needle_density<3>(like, {a}, 1.2, radius), std::invalid_argument);
+  EXPECT_THROW(needle_density<3>(like, {a}, ratio, 0.0), std::invalid_argument);
+  EXPECT_THROW(needle_density<3>(like, {}, ratio, radius), std::invalid_argument);
+}

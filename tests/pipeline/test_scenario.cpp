@@ -350,3 +350,47 @@ needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 
   EXPECT_NE(error_of(replace(plain, "cutting_distance: 0.5", "cutting_distance: 10")).find("less than the depth"),
             std::string::npos);
 }
+
+// mesh.needle_refinement: parsed, validated with messages naming the key; needle_paths gives each
+// needle's segment in frame coordinates (rotated image: frame = direction^T (world − origin) + origin).
+TEST(Scenario, NeedleRefinementAndPaths) {
+  const std::string base = std::string(kMinimal) + "mesh: {nodes: 500, needle_refinement: REFINE}\n";
+  const Scenario s = parse_scenario_text(replace(base, "REFINE", "{size_ratio: 0.5, radius: 6}"), 3);
+  ASSERT_TRUE(s.needle_refinement.has_value());
+  EXPECT_DOUBLE_EQ(s.needle_refinement->size_ratio, 0.5);
+  EXPECT_DOUBLE_EQ(s.needle_refinement->radius, 6.0);
+  EXPECT_FALSE(parse_scenario_text(kMinimal, 3).needle_refinement.has_value());
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"{size_ratio: 0, radius: 6}", "mesh.needle_refinement.size_ratio must be in (0, 1]"},
+      {"{size_ratio: 1.5, radius: 6}", "got 1.5"},
+      {"{size_ratio: 0.5, radius: -2}", "mesh.needle_refinement.radius must be > 0"},
+      {"{size_ratio: 0.5}", "missing key 'mesh.needle_refinement.radius'"},
+      {"{size_ratio: 0.5, radius: 6, width: 2}", "unknown key 'mesh.needle_refinement.width'"},
+      {"0.5", "mesh.needle_refinement must be a mapping"},
+  };
+  for (const auto& [value, expect] : bad) {
+    const std::string msg = error_of(replace(base, "REFINE", value));
+    EXPECT_NE(msg.find(expect), std::string::npos) << value << ": " << msg;
+  }
+
+  // A frame rotated by 90° about z around origin o: world = o + R (frame − o).
+  WorldTransform<3> tf;
+  tf.origin = Eigen::Vector3d(1, 2, 3);
+  tf.direction << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+  Scenario two = parse_scenario_text(R"(boundary_conditions:
+  - {type: fixed, region: {box_face: z_max}}
+needles:
+  - {entry: [1, 2, 3], direction: [0, 2, 0], depth: 10, steps: 5, diameter: 1}
+  - {entry: [0, 0, 0], direction: [0, 0, 1], depth: 4, steps: 5, diameter: 1}
+)", 3);
+  const auto paths = needle_paths<3>(two, tf);
+  ASSERT_EQ(paths.size(), 2u);
+  EXPECT_LT((paths[0].entry - Eigen::Vector3d(1, 2, 3)).norm(), 1e-12);
+  EXPECT_LT((paths[0].axis - Eigen::Vector3d(1, 0, 0)).norm(), 1e-12);  // R^T (0, 1, 0)
+  EXPECT_DOUBLE_EQ(paths[0].depth, 10.0);
+  EXPECT_LT((tf.to_world(paths[1].entry) - Eigen::Vector3d(0, 0, 0)).norm(), 1e-12);
+  // Distance to the segment: beside it, beyond the tip, behind the entry.
+  EXPECT_NEAR(paths[0].distance(Eigen::Vector3d(5, 5, 3)), 3.0, 1e-12);
+  EXPECT_NEAR(paths[0].distance(Eigen::Vector3d(14, 2, 7)), 5.0, 1e-12);
+  EXPECT_NEAR(paths[0].distance(Eigen::Vector3d(-2, 6, 3)), 5.0, 1e-12);
+}

@@ -9,6 +9,11 @@
 
 namespace vim {
 
+// Throws std::invalid_argument if the density image is empty, its data does not match its size, or
+// it has a value that is not finite and > 0.
+template <int dim>
+void validate_density(const Image<dim>& density);
+
 // Runs up to `iterations` sweeps of density-weighted E_G node updates (and swaps if options.swaps)
 // with the box constraints and quality bound of `options` (λ is ignored). Returns the sized mesh
 // (same nodes, positively oriented). Throws std::invalid_argument if iterations < 0, the density
@@ -16,5 +21,13 @@ namespace vim {
 template <int dim>
 SimplexMesh<dim> size_initial_mesh(const Image<dim>& density, SimplexMesh<dim> mesh, int iterations,
                                    const VimOptions& options = {});
+
+// VIM with a sizing field kept throughout (paper §VI-E, "E_G can be modified using a sizing field"):
+// size_initial_mesh(density, initial, options.max_iterations, options), then optimize() with each
+// element's E_G weighted by the density at its centroid. Where the image is uniform the optimum's
+// element size is ∝ density^(−1/(dim+2)). Throws as size_initial_mesh and optimize.
+template <int dim>
+VimResult<dim> optimize_sized(const Image<dim>& image, const Image<dim>& density, SimplexMesh<dim> initial,
+                              const VimOptions& options, const ProgressCallback& progress = {});
 
 }  // namespace vim

@@ -96,8 +96,13 @@ using ProgressCallback = std::function<void(const IterationRecord&)>;
 // off and VIM is pure (normalised) ODT smoothing. Implementation: optimizer.hpp and src/vim.cpp.
 // Throws std::invalid_argument for invalid options, an image with < 2 voxels along an axis (the
 // message names the axis), or an initial mesh with an inverted or degenerate element.
+// `density` (optional, paper §VI-E "E_G can be modified using a sizing field"): each element's E_G is
+// weighted by the density sampled at its centroid during the whole run, so the optimum keeps the
+// density's sizing (element size ∝ density^(−1/(dim+2)) where the image is uniform); it is in the
+// mesh's frame like `image` (any grid) and must be finite and > 0 (throws otherwise). Without it
+// the geometric term drives toward uniform sizes (a sized initial mesh drifts back).
 template <int dim>
 VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const VimOptions& options,
-                        const ProgressCallback& progress = {});
+                        const ProgressCallback& progress = {}, const Image<dim>* density = nullptr);
 
 }  // namespace vim

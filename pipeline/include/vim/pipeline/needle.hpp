@@ -3,11 +3,13 @@
 // the embedded points, which the stick-slip and force models use for force control.
 #pragma once
 
+#include <vim/image.hpp>
 #include <vim/simplex_mesh.hpp>
 
 #include <Eigen/Core>
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <array>
 #include <functional>
 #include <vector>
@@ -70,5 +72,26 @@ struct AxialMap {
   // Sets the free entries of w so that the forces there equal target (the other entries are kept).
   void solve_free(Eigen::VectorXd& w, const std::vector<bool>& free, const Eigen::VectorXd& target) const;
 };
+
+// A straight needle path in frame coordinates: the segment from `entry` to `entry + depth·axis`.
+template <int dim>
+struct NeedlePath {
+  Eigen::Matrix<double, dim, 1> entry, axis;  // axis of unit length
+  double depth = 0.0;
+  double distance(const Eigen::Matrix<double, dim, 1>& p) const {
+    const double s = std::clamp((p - entry).dot(axis), 0.0, depth);
+    return (p - entry - s * axis).norm();
+  }
+};
+
+// Mesh density for needle-path refinement (paper §VI-E sizing), on the grid of `like` (frame
+// coordinates): ρ(x) = 1 + (ρ_max − 1)·exp(−(d(x)/radius)²), d = distance to the nearest path,
+// ρ_max = size_ratio^−(dim+2). Weighting E_G by ρ makes the optimal element size (where the image
+// is uniform) ∝ ρ^(−1/(dim+2)), so elements on a path are about size_ratio times the size of elements
+// far from every path. Throws std::invalid_argument unless 0 < size_ratio <= 1, radius > 0 and
+// there is at least one path.
+template <int dim>
+Image<dim> needle_density(const Image<dim>& like, const std::vector<NeedlePath<dim>>& paths, double size_ratio,
+                          double radius);
 
 }  // namespace vim::pipeline

@@ -6,6 +6,7 @@
 #include <vim/image.hpp>
 #include <vim/pipeline/image_io.hpp>
 #include <vim/pipeline/model.hpp>
+#include <vim/pipeline/needle.hpp>
 
 #include <Eigen/Core>
 
@@ -97,6 +98,13 @@ struct Scenario {
   std::optional<long> nodes;
   std::optional<double> lambda;
   std::optional<unsigned> degree;
+  // mesh.needle_refinement: VIM keeps elements near the needle paths about size_ratio times the size
+  // of the others (a density-weighted E_G, paper §VI-E; pipeline::needle_density).
+  struct NeedleRefinement {
+    double size_ratio = 1.0;  // (0, 1]
+    double radius = 0.0;      // length units: the refined tube's 1/e radius around each path
+  };
+  std::optional<NeedleRefinement> needle_refinement;
 
   std::vector<BoundaryConditionSpec> boundary_conditions;
   std::vector<NeedleSpec> needles;
@@ -126,6 +134,10 @@ Scenario read_scenario(const std::string& path, int dim);
 template <int dim>
 void check_scenario_geometry(const Scenario& scenario, const Eigen::Matrix<double, dim, 1>& box_min,
                              const Eigen::Matrix<double, dim, 1>& box_max, const WorldTransform<dim>& transform);
+
+// Each needle's straight path (entry → entry + depth·direction) in frame coordinates.
+template <int dim>
+std::vector<NeedlePath<dim>> needle_paths(const Scenario& scenario, const WorldTransform<dim>& transform);
 
 // A modulus image with negative, zero or NaN values (after `scale`) needs `material.clamp`.
 template <int dim>
