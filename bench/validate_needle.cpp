@@ -317,10 +317,8 @@ int main(int argc, char** argv) try {
               sc.poisson_ratio, lambda, sc.needles.empty() ? 0 : sc.needles[0].steps);
   std::fflush(stdout);
 
-  std::optional<Image<3>> density;
-  if (sc.needle_refinement) {
-    density = needle_density<3>(img.image, needle_paths<3>(sc, tf), sc.needle_refinement->size_ratio,
-                                sc.needle_refinement->radius);
+  const std::optional<Image<3>> density = needle_refinement_density<3>(sc, img.image, tf);
+  if (density) {
     std::printf("# VIM with needle refinement: size ratio %.3g, radius %.3g mm\n", sc.needle_refinement->size_ratio,
                 sc.needle_refinement->radius);
   }

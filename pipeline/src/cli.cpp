@@ -506,7 +506,7 @@ int run_dim(const RunOptions& given) {
       throw InputError("--sizing " + o.sizing + " and " + scenario->source +
                        ": mesh.needle_refinement both set the mesh density; give only one of them");
     const auto& nr = *scenario->needle_refinement;
-    needle_rho = needle_density<dim>(img.image, needle_paths<dim>(*scenario, model.transform), nr.size_ratio, nr.radius);
+    needle_rho = needle_refinement_density<dim>(*scenario, img.image, model.transform);
     report["needle_refinement"] = {{"size_ratio", nr.size_ratio},
                                    {"radius", nr.radius},
                                    {"peak_density", std::pow(nr.size_ratio, -static_cast<double>(dim + 2))}};

@@ -645,6 +645,16 @@ std::vector<NeedlePath<dim>> needle_paths(const Scenario& s, const WorldTransfor
   return paths;
 }
 
+template <int dim>
+std::optional<Image<dim>> needle_refinement_density(const Scenario& s, const Image<dim>& image,
+                                                    const WorldTransform<dim>& tf) {
+  if (!s.needle_refinement) return std::nullopt;
+  return needle_density<dim>(image, needle_paths<dim>(s, tf), s.needle_refinement->size_ratio,
+                             s.needle_refinement->radius);
+}
+
+template std::optional<Image<2>> needle_refinement_density<2>(const Scenario&, const Image<2>&, const WorldTransform<2>&);
+template std::optional<Image<3>> needle_refinement_density<3>(const Scenario&, const Image<3>&, const WorldTransform<3>&);
 template std::vector<NeedlePath<2>> needle_paths<2>(const Scenario&, const WorldTransform<2>&);
 template std::vector<NeedlePath<3>> needle_paths<3>(const Scenario&, const WorldTransform<3>&);
 template void check_scenario_geometry<2>(const Scenario&, const Eigen::Matrix<double, 2, 1>&, const Eigen::Matrix<double, 2, 1>&, const WorldTransform<2>&);

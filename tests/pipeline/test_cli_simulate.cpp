@@ -251,6 +251,7 @@ TEST(CliSimulate, ReadmeScenarioReferenceParses) {
   ASSERT_EQ(sc.needles.size(), 1u);
   EXPECT_EQ(sc.targets.size(), 1u);
   EXPECT_EQ(sc.nodes.value_or(0), 3000);
+  EXPECT_TRUE(sc.needle_refinement.has_value());
   EXPECT_NEAR(sc.needles[0].depth, 40.0, 0);
   EXPECT_EQ(sc.solver_type, "auto");
   // Every top-level key of the reference is one the parser knows (it would have thrown otherwise);

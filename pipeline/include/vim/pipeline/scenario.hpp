@@ -139,6 +139,12 @@ void check_scenario_geometry(const Scenario& scenario, const Eigen::Matrix<doubl
 template <int dim>
 std::vector<NeedlePath<dim>> needle_paths(const Scenario& scenario, const WorldTransform<dim>& transform);
 
+// The mesh density of mesh.needle_refinement on the grid of `image` (needle_density over
+// needle_paths), or nothing when the scenario has no needle refinement.
+template <int dim>
+std::optional<Image<dim>> needle_refinement_density(const Scenario& scenario, const Image<dim>& image,
+                                                    const WorldTransform<dim>& transform);
+
 // A modulus image with negative, zero or NaN values (after `scale`) needs `material.clamp`.
 template <int dim>
 void check_modulus_image(const Scenario& scenario, const Image<dim>& image);
