@@ -12,7 +12,7 @@
 //                   [--plots DIR] [--skip-needle] [--skip-compression] [nodes ...]
 // Diagnostics (same options for the VIM and the grid model; the reference never changes with them
 // except through --nu): [--lambda L] [--min-dihedral D] [--min-rr R] [--max-dihedral D] [--no-swaps]
-// [--degree 2] [--nu 0.3] [--ref-cache FILE] (reuse the compression reference of an earlier run).
+// [--degree D] (default: the scenario's) [--nu 0.3] [--ref-cache FILE] (reuse the compression reference of an earlier run).
 // Needle diagnostics: [--near-radius R] (the "far" error leaves out voxel centres within R mm of the
 // needle path; default 4), [--shaft] (each shaft point's final axial force over its friction limit),
 // [--sample-spacing S] (the same shaft point pitch, in mm, for all three models).
@@ -215,7 +215,7 @@ int main(int argc, char** argv) try {
   VimOptions vo;
   std::optional<double> lambda_arg, nu_arg;
   std::string ref_cache;
-  unsigned degree = 1;
+  unsigned degree = 0;  // --degree; 0 = the scenario's mesh.degree (1 if it has none)
   double sample_spacing = 0.0;  // --sample-spacing: shaft point pitch for every model (0: the scenario's)
   double near_radius = 4.0;  // mm: the "far" error excludes voxel centres this close to the needle path
   double support_stiffness = -1.0, support_spacing = 0.0;  // --support-stiffness / --support-spacing
@@ -261,7 +261,8 @@ int main(int argc, char** argv) try {
     for (auto& nd : sc.needles) nd.sample_spacing = sample_spacing;
   if (cutting_distance >= 0.0)
     for (auto& nd : sc.needles) nd.cutting_distance = cutting_distance;
-  if (degree != 1) sc.degree = degree;
+  if (degree == 0) degree = sc.degree.value_or(1);
+  sc.degree = degree;
   if (refine_ratio > 0.0 || refine_radius > 0.0) {  // override (or add) the scenario's needle refinement
     Scenario::NeedleRefinement nr = sc.needle_refinement.value_or(Scenario::NeedleRefinement{1.0, 10.0});
     if (refine_ratio > 0.0) nr.size_ratio = refine_ratio;
