@@ -26,16 +26,16 @@ echo '```'
 echo '```'
 "$BUILD/bench/bench_fem_validate" --scenario all 125 343 1000 4096 | tee "$TABLES/deformation.md"
 # Prostate (docs/validation.md): compression on the 1 mm image (60x50x50 voxels) with P2 elements (the
-# element for nu = 0.45; P1 locks) and, for the record, P1; the needle insertion on the 2 mm image
-# (30x25x25) from 1000 nodes on (below that the probe cylinder selects a different number of nodes on
-# each mesh, see the doc), P2 and P1. The compression reference is solved once and cached.
+# element for nu = 0.45; P1 locks) and, for the record, P1; the needle insertion of the scenario (its
+# elastic probe support, cutting distance and, for VIM, its mesh.needle_refinement) on the 2 mm image
+# (30x25x25), P2 and P1. The compression reference is solved once and cached.
 for deg in 2 1; do
   (cd "$SRC" && "$BUILD/bench/validate_needle" --n 60 --skip-needle --degree $deg --ref-cache "$TABLES/ref60.bin" \
      --plots "$PLOTS" 125 343 1000 4096)
 done
 for deg in 2 1; do
   (cd "$SRC" && "$BUILD/bench/validate_needle" --n 30 --steps 6 --skip-compression --degree $deg --plots "$PLOTS" \
-     343 1000 4096)
+     125 343 1000 4096)
 done
 "$BUILD/bench/validation_plots" "$PLOTS" "$TABLES/table1.txt" "$TABLES/deformation.md" >&2
 
