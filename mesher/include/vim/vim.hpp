@@ -36,8 +36,8 @@ struct VimOptions {
   double line_search_step = 0.5;       // golden-section stops below this many (minimum) voxel sizes
   // Node-update search width: 0 = a golden-section search toward every direction (the paper's §IV-B);
   // w > 0 = probe every direction at two points and search only the w best in full. Default 3: on the
-  // Table I phantom TF 5.43 / 2.31 / 0.29% at 125 / 343 / 4096 nodes (0: 5.30 / 2.38 / 0.34%) in
-  // about a third of the time at 4096 nodes (docs/performance.md).
+  // Table I phantom TF 5.40 / 2.29 / 0.40% at 125 / 343 / 4096 nodes (0: 5.35 / 2.32 / 0.41%) in
+  // less than half the time at 4096 nodes (docs/performance.md).
   int search_width = 3;
   enum class NodeStrategy { centroid_line_search, random_walk } strategy = NodeStrategy::centroid_line_search;
   int random_walk_samples = 16;        // candidates per node for the random-walk strategy
