@@ -629,19 +629,19 @@ std::vector<double> scenario_modulus(const Scenario& s, const std::vector<double
 }
 
 template <int dim>
+NeedlePath<dim> needle_path(const NeedleSpec& n, const WorldTransform<dim>& tf) {
+  Eigen::Matrix<double, dim, 1> entry, direction;
+  for (int d = 0; d < dim; ++d) {
+    entry[d] = n.entry[static_cast<std::size_t>(d)];
+    direction[d] = n.direction[static_cast<std::size_t>(d)];
+  }
+  return {tf.to_frame(entry), tf.vector_to_frame(direction.normalized()).normalized(), n.depth};
+}
+
+template <int dim>
 std::vector<NeedlePath<dim>> needle_paths(const Scenario& s, const WorldTransform<dim>& tf) {
   std::vector<NeedlePath<dim>> paths;
-  for (const auto& n : s.needles) {
-    NeedlePath<dim> p;
-    for (int d = 0; d < dim; ++d) {
-      p.entry[d] = n.entry[static_cast<std::size_t>(d)];
-      p.axis[d] = n.direction[static_cast<std::size_t>(d)];
-    }
-    p.entry = tf.to_frame(p.entry);
-    p.axis = tf.vector_to_frame(p.axis).normalized();
-    p.depth = n.depth;
-    paths.push_back(p);
-  }
+  for (const auto& n : s.needles) paths.push_back(needle_path<dim>(n, tf));
   return paths;
 }
 
@@ -655,6 +655,8 @@ std::optional<Image<dim>> needle_refinement_density(const Scenario& s, const Ima
 
 template std::optional<Image<2>> needle_refinement_density<2>(const Scenario&, const Image<2>&, const WorldTransform<2>&);
 template std::optional<Image<3>> needle_refinement_density<3>(const Scenario&, const Image<3>&, const WorldTransform<3>&);
+template NeedlePath<2> needle_path<2>(const NeedleSpec&, const WorldTransform<2>&);
+template NeedlePath<3> needle_path<3>(const NeedleSpec&, const WorldTransform<3>&);
 template std::vector<NeedlePath<2>> needle_paths<2>(const Scenario&, const WorldTransform<2>&);
 template std::vector<NeedlePath<3>> needle_paths<3>(const Scenario&, const WorldTransform<3>&);
 template void check_scenario_geometry<2>(const Scenario&, const Eigen::Matrix<double, 2, 1>&, const Eigen::Matrix<double, 2, 1>&, const WorldTransform<2>&);

@@ -349,8 +349,9 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
   const Vec a_world = vec<dim>(spec.direction).normalized();
   run.axis = a_world;
   const Vec entry_w = vec<dim>(spec.entry);
-  const Vec entry = tf.to_frame(entry_w);
-  const Vec a = tf.vector_to_frame(a_world).normalized();
+  const NeedlePath<dim> path = needle_path<dim>(spec, tf);
+  const Vec& entry = path.entry;
+  const Vec& a = path.axis;
   const double pitch = spec.sample_spacing > 0.0 ? spec.sample_spacing : 0.5 * locator.mean_edge_length();
   const std::vector<ShaftPoint<dim>> shaft = sample_shaft<dim>(locator, entry, a, spec.depth, pitch, blocked);
   if (shaft.empty())

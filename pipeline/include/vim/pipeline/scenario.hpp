@@ -135,7 +135,10 @@ template <int dim>
 void check_scenario_geometry(const Scenario& scenario, const Eigen::Matrix<double, dim, 1>& box_min,
                              const Eigen::Matrix<double, dim, 1>& box_max, const WorldTransform<dim>& transform);
 
-// Each needle's straight path (entry → entry + depth·direction) in frame coordinates.
+// A needle's straight path (entry → entry + depth·direction) in frame coordinates; needle_paths: every
+// needle's.
+template <int dim>
+NeedlePath<dim> needle_path(const NeedleSpec& needle, const WorldTransform<dim>& transform);
 template <int dim>
 std::vector<NeedlePath<dim>> needle_paths(const Scenario& scenario, const WorldTransform<dim>& transform);
 
