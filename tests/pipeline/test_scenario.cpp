@@ -60,6 +60,15 @@ std::string replace(std::string s, const std::string& from, const std::string& t
   return s;
 }
 
+// Every (value, expected message part): `base` with `placeholder` replaced by value must fail with it.
+void expect_errors(const std::string& base, const std::string& placeholder,
+                   const std::vector<std::pair<std::string, std::string>>& cases) {
+  for (const auto& [value, expect] : cases) {
+    const std::string msg = error_of(replace(base, placeholder, value));
+    EXPECT_NE(msg.find(expect), std::string::npos) << value << ": " << msg;
+  }
+}
+
 const char* kMinimal = R"(boundary_conditions:
   - {type: fixed, region: {box_face: z_max}}
 needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 1}
@@ -337,10 +346,7 @@ needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 
       {"{elastic: {spacing: 1}}", "missing key 'boundary_conditions[1].support.elastic.stiffness'"},
       {"glue", "support = 'glue' is not valid"},
   };
-  for (const auto& [value, expect] : bad) {
-    const std::string msg = error_of(replace(base, "SUPPORT", value));
-    EXPECT_NE(msg.find(expect), std::string::npos) << value << ": " << msg;
-  }
+  expect_errors(base, "SUPPORT", bad);
   EXPECT_NE(error_of(replace(replace(base, "SUPPORT", "nodes"), "{box_face: z_max}}", "{box_face: z_max}, support: nodes}"))
                 .find("support applies only to type fixed on a volume region"),
             std::string::npos);
@@ -368,10 +374,7 @@ TEST(Scenario, NeedleRefinementAndPaths) {
       {"{size_ratio: 0.5, radius: 6, width: 2}", "unknown key 'mesh.needle_refinement.width'"},
       {"0.5", "mesh.needle_refinement must be a mapping"},
   };
-  for (const auto& [value, expect] : bad) {
-    const std::string msg = error_of(replace(base, "REFINE", value));
-    EXPECT_NE(msg.find(expect), std::string::npos) << value << ": " << msg;
-  }
+  expect_errors(base, "REFINE", bad);
 
   // A frame rotated by 90° about z around origin o: world = o + R (frame − o).
   WorldTransform<3> tf;
