@@ -300,31 +300,20 @@ template <int dim>
 typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::scan(const Faces& f) const {
   Sums out;
   std::array<long, dim> j = f.lo;  // j[0] unused
-  // Two passes per batch of rows: clipping records each row's interval and prefetches its two prefix
-  // entries; the sums are taken once the batch is full. The prefix table (16 bytes per voxel) rarely
-  // fits in cache, and this keeps many row loads in flight instead of one miss per row in sequence.
-  constexpr int kBatch = 32;
-  std::array<const double*, kBatch> span_lo, span_hi;
-  int pending = 0;
-  auto flush = [&]() {
-    for (int k = 0; k < pending; ++k) {
-      out.s += span_hi[k][0] - span_lo[k][0];
-      out.q += span_hi[k][1] - span_lo[k][1];
-    }
-    pending = 0;
-  };
+  // Each non-empty row adds its interval's prefix-sum differences. The row's prefix entries are
+  // addressed from per-scan constants (the compiler cannot hoist them out of the member loads).
+  const double* const table = prefix_.data();
+  const long row_stride = 2 * row_length_, slab_rows = dim == 3 ? image_->size[1] : 0;
+  double sum_s = 0.0, sum_q = 0.0;
+  long count = 0;
   auto add_row = [&](long a, long b) {
     if (a > b) return;
-    long row = 0;
-    if constexpr (dim == 2) row = j[1];
-    if constexpr (dim == 3) row = j[1] + image_->size[1] * j[2];
-    const double* p = prefix_.data() + 2 * row * row_length_;
-    out.n += b - a + 1;
-    span_lo[pending] = p + 2 * a;
-    span_hi[pending] = p + 2 * (b + 1);
-    __builtin_prefetch(span_lo[pending]);
-    __builtin_prefetch(span_hi[pending]);
-    if (++pending == kBatch) flush();
+    long row = j[1];
+    if constexpr (dim == 3) row += slab_rows * j[2];
+    const double* p = table + row * row_stride;
+    count += b - a + 1;
+    sum_s += p[2 * (b + 1)] - p[2 * a];
+    sum_q += p[2 * (b + 1) + 1] - p[2 * a + 1];
   };
   auto clip_row = [&]() {
     long a = f.lo[0], b = f.hi[0];
@@ -476,7 +465,9 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::scan(const Faces& f) c
       }
     }
   }
-  flush();
+  out.n = count;
+  out.s = sum_s;
+  out.q = sum_q;
   return out;
 }
 
