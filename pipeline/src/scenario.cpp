@@ -569,14 +569,24 @@ void check_scenario_geometry(const Scenario& s, const Eigen::Matrix<double, dim,
     wlo = wlo.cwiseMin(w);
     whi = whi.cwiseMax(w);
   }
-  const std::string box = "the image box (world " + str(wlo) + " .. " + str(whi) + ")";
+  const bool oblique = !tf.direction.isIdentity(0.0);
+  const std::string box = oblique ? "the image box (an oblique box: the world bounding box of its corners is " + str(wlo) +
+                                        " .. " + str(whi) + ", its centre " + str(tf.to_world(0.5 * (box_min + box_max))) + ")"
+                                  : "the image box (world " + str(wlo) + " .. " + str(whi) + ")";
+  // For an oblique image a point can lie inside the bounding box but outside the image: say where it
+  // is along the image's own axes (the direction's columns, from voxel 0's centre).
+  auto along_axes = [&](const V& world) -> std::string {
+    if (!oblique) return "";
+    return "; along the image axes from voxel 0's centre it is at " + str(tf.to_frame(world) - tf.origin) +
+           ", the box spans " + str(box_min - tf.origin) + " .. " + str(box_max - tf.origin);
+  };
   for (std::size_t i = 0; i < s.needles.size(); ++i) {
     const auto& n = s.needles[i];
     const std::string p = s.needle_list ? "needles[" + std::to_string(i) + "]" : "needle";
     const V entry = tf.to_frame(vec(n.entry));
     if (!inside(entry))
       throw ScenarioError(s.where(n.line) + p + ".entry " + str(vec(n.entry)) + " is outside " + box +
-                          "; the entry must be inside the image or on its surface");
+                          along_axes(vec(n.entry)) + "; the entry must be inside the image or on its surface");
     const V dir = tf.vector_to_frame(vec(n.direction));
     // Largest travel that stays in the box.
     double tmax = std::numeric_limits<double>::infinity();
@@ -593,7 +603,8 @@ void check_scenario_geometry(const Scenario& s, const Eigen::Matrix<double, dim,
   }
   for (const auto& t : s.targets)
     if (!inside(tf.to_frame(vec(t.position))))
-      throw ScenarioError(s.where(t.line) + "target '" + t.name + "' position " + str(vec(t.position)) + " is outside " + box);
+      throw ScenarioError(s.where(t.line) + "target '" + t.name + "' position " + str(vec(t.position)) + " is outside " + box +
+                          along_axes(vec(t.position)));
   // Geometric regions that cannot touch the box are caught later (selects no node), with the BC index.
 }
 

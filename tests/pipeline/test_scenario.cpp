@@ -301,6 +301,22 @@ TEST(Scenario, GeometryAgainstTheImageBox) {
   EXPECT_EQ(msg("{entry: [-10, 5, 20], direction: [1, 0, 0], depth: 20, steps: 2, diameter: 1}", "[5, 0, 1]", rot), "no error");
   EXPECT_NE(msg("{entry: [-10, 5, 20], direction: [1, 0, 0], depth: 21, steps: 2, diameter: 1}", "[5, 0, 1]", rot).find("largest depth"),
             std::string::npos);
+  // An oblique image (Rz(45°)): the world point (13, 3, 5) lies inside the bounding box of the box's
+  // corners (|x|, |y| <= 14.14) but outside the image; the message says where it is along the image's
+  // axes: D^T (13, 3, 5) = (11.3137, -7.07107, 5), beyond the box's 10.
+  WorldTransform<3> obl;
+  const double c = std::sqrt(0.5);
+  obl.direction << c, -c, 0, c, c, 0, 0, 0, 1;
+  const std::string m = msg(ok, "[13, 3, 5]", obl);
+  EXPECT_NE(m.find("target 't' position [13, 3, 5] is outside the image box (an oblique box: the world bounding box of its corners is "
+                   "[-14.1421, -14.1421, 0] .. [14.1421, 14.1421, 40], its centre [0, 0, 20])"),
+            std::string::npos)
+      << m;
+  EXPECT_NE(m.find("along the image axes from voxel 0's centre it is at [11.3137, -7.07107, 5], the box spans [-10, -10, 0] .. [10, 10, 40]"),
+            std::string::npos)
+      << m;
+  EXPECT_EQ(msg(ok, "[0, 0, 1]", id).find("along the image axes"), std::string::npos);  // axis-aligned: no frame part
+  EXPECT_EQ(msg(ok, "[9, 3, 5]", obl), "no error");  // D^T (9, 3, 5) = (8.49, -4.24, 5): inside
 }
 
 TEST(Scenario, ModulusImageNeedsClampForNegativeOrNaN) {
