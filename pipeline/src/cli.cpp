@@ -402,6 +402,9 @@ UnstructuredGrid voxel_grid(const OrientedImage<dim>& img) {
   return g;
 }
 
+// Poisson ratio from which a degree-1 simulation warns about volumetric locking.
+constexpr double kLockingPoisson = 0.4;
+
 // Scenario mesh keys (nodes, lambda, degree) apply unless the option was given on the command line.
 RunOptions with_scenario_mesh(const RunOptions& given, const Scenario& sc) {
   auto on_command_line = [&](const std::string& flag) {
@@ -498,6 +501,17 @@ int run_dim(const RunOptions& given) {
     check_modulus_image<dim>(*scenario, img.image);
     sim_options.output_file = [&out](const std::string& rel) { return out.file(rel); };
     sim_options.degree = static_cast<unsigned>(o.degree);
+    if (o.degree == 1 && o.mesher != MesherKind::voxel && scenario->poisson_ratio >= kLockingPoisson) {
+      // Linear tetrahedra lock for nearly incompressible material: the displacements come out too small
+      // on the coarse meshes VIM is for (docs/validation.md, "Why VIM lost at 80 nodes").
+      std::ostringstream m;
+      m << scenario->source << ": material.poisson_ratio = " << scenario->poisson_ratio
+        << " with linear (degree 1) elements: P1 tetrahedra lock for poisson_ratio >= " << kLockingPoisson
+        << ", so the displacements come out too small on coarse meshes; set mesh.degree: 2 in the scenario"
+        << " (or --degree 2) for quadratic elements (about 5x the solve time)";
+      Log::warning("simulate", m.str());
+      report["warnings"].push_back(m.str());
+    }
   }
   // mesh.needle_refinement: a density around the needle paths that VIM keeps in E_G (§VI-E).
   std::optional<Image<dim>> needle_rho;

@@ -368,3 +368,50 @@ TEST(CliSimulate, NeedleRefinementRefinesTheMeshAlongThePath) {
   EXPECT_NE(both.err.find("mesh.needle_refinement"), std::string::npos) << both.err;
   EXPECT_FALSE(fs::exists(dir.path / "both" / "mesh.vtu"));
 }
+
+// A degree-1 (P1) simulation of nearly incompressible tissue (poisson_ratio >= 0.4) warns about
+// volumetric locking on stderr and in report.json, naming the fix; degree 2, a lower Poisson ratio
+// and the voxel reference (hexahedra, not P1 tetrahedra) do not warn.
+TEST(CliSimulate, LinearElementsWarnAboutLockingForNearlyIncompressibleTissue) {
+  vim::test::TempDir dir("clilock");
+  auto im = phantoms::table1(12);
+  write_image(im, dir / "in.mha");
+  auto scenario = [&](const std::string& name, double nu) {
+    std::ofstream(dir / name) << "material: {youngs_modulus: image, poisson_ratio: " << nu
+                              << "}\nboundary_conditions:\n  - {type: fixed, region: {box_face: z_max}}\n"
+                                 "needle: {entry: [1.5, 1.5, 0], direction: [0, 0, 1], depth: 1.0, steps: 1, diameter: 0.1}\n"
+                                 "output: {every: 0}\n";
+    return quote(dir / name);
+  };
+  const std::string nearly = scenario("nu045.yaml", 0.45), compressible = scenario("nu03.yaml", 0.3);
+  struct Case {
+    std::string args, out;
+    bool warns;
+  };
+  const std::vector<Case> cases = {{"--simulate " + nearly, "p1", true},
+                                   {"--simulate " + nearly + " --mesher grid", "p1grid", true},
+                                   {"--simulate " + nearly + " --degree 2", "p2", false},
+                                   {"--simulate " + compressible, "p1nu03", false},
+                                   {"--simulate " + nearly + " --mesher voxel", "voxel", false}};
+  for (const Case& c : cases) {
+    const auto r = run_pipeline(quote(dir / "in.mha") + " --nodes 64 --max-iterations 2 --export none " + c.args +
+                                " --out " + quote(dir / c.out));
+    ASSERT_EQ(r.code, 0) << c.out << ": " << r.err;
+    const auto rep = nlohmann::json::parse(vim::test::slurp(dir.path / c.out / "report.json"));
+    const bool in_stderr = r.err.find("P1 tetrahedra lock for poisson_ratio >= 0.4") != std::string::npos;
+    EXPECT_EQ(in_stderr, c.warns) << c.out << ": " << r.err;
+    ASSERT_EQ(rep.contains("warnings"), c.warns) << c.out;
+    if (c.warns) {
+      ASSERT_EQ(rep["warnings"].size(), 1u) << c.out;
+      const std::string w = rep["warnings"][0].get<std::string>();
+      EXPECT_NE(w.find("nu045.yaml: material.poisson_ratio = 0.45"), std::string::npos) << w;
+      EXPECT_NE(w.find("set mesh.degree: 2"), std::string::npos) << w;
+    }
+  }
+  // --quiet keeps stderr free of it, the report still records it.
+  const auto q = run_pipeline(quote(dir / "in.mha") + " --nodes 64 --max-iterations 2 --export none --quiet --simulate " +
+                              nearly + " --out " + quote(dir / "quiet"));
+  ASSERT_EQ(q.code, 0) << q.err;
+  EXPECT_EQ(q.err.find("lock"), std::string::npos) << q.err;
+  EXPECT_TRUE(nlohmann::json::parse(vim::test::slurp(dir.path / "quiet" / "report.json")).contains("warnings"));
+}
