@@ -59,6 +59,9 @@ json image_json(const OrientedImage<dim>& image, const std::string& file) {
   j["extent"] = extent;
   j["world_bounds"] = {{"min", std::vector<double>(lo.data(), lo.data() + dim)},
                        {"max", std::vector<double>(hi.data(), hi.data() + dim)}};
+  // The voxel box's centre in world coordinates (for an oblique image not the bounds' midpoint).
+  const P centre = image.to_world(0.5 * (bmin + bmax));
+  j["world_centre"] = std::vector<double>(centre.data(), centre.data() + dim);
   const ImageSummary s = summarize(image.image);
   j["voxels"] = s.voxels;
   j["values"] = {{"min", s.min}, {"max", s.max}, {"mean", s.mean}, {"stddev", s.stddev}};
@@ -109,6 +112,7 @@ void print_image_info(std::ostream& out, const json& im) {
   out << "  extent:     " << vec(im["extent"]) << "  (voxel box, image units)\n";
   out << "  origin:     " << vec(im["origin"]) << "  (centre of voxel 0)\n";
   out << "  world box:  [" << vec(im["world_bounds"]["min"]) << "] .. [" << vec(im["world_bounds"]["max"]) << "]\n";
+  if (im.contains("world_centre")) out << "  centre:     " << vec(im["world_centre"]) << "  (world, centre of the voxel box)\n";
   bool identity = true;
   const int dim = im["dimension"].get<int>();
   for (int a = 0; a < dim; ++a)

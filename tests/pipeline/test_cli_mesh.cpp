@@ -130,6 +130,12 @@ void check_mesh_output(const OrientedImage<dim>& im, const std::filesystem::path
     for (int b = 0; b < dim; ++b)
       EXPECT_NEAR(report["input"]["direction"][a * dim + b].get<double>(), im.direction(a, b), 1e-12);
   }
+  // The voxel box's centre in world coordinates: the centre of the middle voxel index (size − 1)/2.
+  Eigen::Matrix<double, dim, 1> mid;
+  for (int a = 0; a < dim; ++a) mid[a] = 0.5 * static_cast<double>(im.image.size[a] - 1);
+  const Eigen::Matrix<double, dim, 1> centre = world_of_index(im, mid);
+  for (int a = 0; a < dim; ++a)
+    EXPECT_NEAR(report["input"]["world_centre"][a].get<double>(), centre[a], 1e-9) << "axis " << a;
   EXPECT_EQ(report["mesh"]["nodes"].get<long>(), g->GetNumberOfPoints());
   EXPECT_EQ(report["mesh"]["elements"].get<long>(), g->GetNumberOfCells());
   EXPECT_TRUE(report["mesh"]["quality"].contains("max_dihedral_deg"));
@@ -285,4 +291,5 @@ TEST(CliMesh, HelpVersionInfo) {
   EXPECT_NE(i.out.find("10 x 10 x 10"), std::string::npos) << i.out;
   EXPECT_NE(i.out.find("extent:     3 x 3 x 3"), std::string::npos) << i.out;
   EXPECT_NE(i.out.find("min 1  max 2"), std::string::npos) << i.out;
+  EXPECT_NE(i.out.find("centre:     1.5 x 1.5 x 1.5  (world, centre of the voxel box)"), std::string::npos) << i.out;
 }
