@@ -4,7 +4,8 @@
 // uniaxial compression. Prints relative L2 / max displacement error, strain-energy error and the
 // VIM/grid error ratio.
 //
-//   bench_fem_validate [--scenario sphere|inclusions|all] [--n3 40] [--n2 128] [nodes ...]
+//   bench_fem_validate [--scenario sphere|inclusions|all|random] [--seed 1] [--n3 40] [--n2 128] [nodes ...]
+// (random: 3–6 spheres of random centre, radius and modulus from --seed; not part of "all")
 #include "deformation.hpp"
 #include "metrics.hpp"
 
@@ -57,7 +58,7 @@ void sweep(const char* name, const vim::Image<dim>& image, const std::vector<lon
 int main(int argc, char** argv) try {
   dealii::Utilities::MPI::MPI_InitFinalize mpi(argc, argv, 1);
   std::string scenario = "all";
-  long n3 = 40, n2 = 128;
+  long n3 = 40, n2 = 128, seed = 1;
   std::vector<long> budgets;
   for (int i = 1; i < argc; ++i) {
     auto value = [&] {
@@ -67,12 +68,22 @@ int main(int argc, char** argv) try {
     if (!std::strcmp(argv[i], "--scenario")) scenario = value();
     else if (!std::strcmp(argv[i], "--n3")) n3 = std::atol(value());
     else if (!std::strcmp(argv[i], "--n2")) n2 = std::atol(value());
+    else if (!std::strcmp(argv[i], "--seed")) seed = std::atol(value());
     else budgets.push_back(std::atol(argv[i]));
   }
   if (budgets.empty()) budgets = {125, 343, 1000, 4096};
   if (scenario == "sphere" || scenario == "all")
     sweep<3>("sphere compression (Table I geometry, sphere 10x stiffer)",
              vim::metrics::inclusion_phantom<3>(n3, 3.0, {{{1.5, 1.5, 1.5}, 1.0, 10.0f}}, 1.0f), budgets, 2);
+  if (scenario == "random") {
+    // A synthetic elastogram not tuned to anything (metrics::random_spheres).
+    const auto spheres = vim::metrics::random_spheres(static_cast<unsigned>(seed));
+    for (std::size_t i = 0; i < spheres.size(); ++i)
+      std::printf("# sphere %zu: centre (%.2f, %.2f, %.2f), radius %.2f, modulus %.2f\n", i, spheres[i].centre[0],
+                  spheres[i].centre[1], spheres[i].centre[2], spheres[i].radius, spheres[i].value);
+    sweep<3>("random spheres compression (seeded)", vim::metrics::random_spheres_phantom(n3, static_cast<unsigned>(seed)),
+             budgets, 2);
+  }
   if (scenario == "inclusions" || scenario == "all")
     sweep<2>("2D two-inclusion compression (inclusions 10x stiffer)",
              vim::metrics::inclusion_phantom<2>(n2, 1.0, {{{0.32, 0.34, 0.0}, 0.16, 10.0f}, {{0.66, 0.65, 0.0}, 0.2, 10.0f}},

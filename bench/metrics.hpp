@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <map>
 #include <numeric>
+#include <random>
 #include <vector>
 
 namespace vim::metrics {
@@ -51,6 +52,28 @@ Image<dim> inclusion_phantom(long n, double side, const std::vector<Inclusion>& 
     }
   }
   return image;
+}
+
+// A synthetic 3D elastogram that is not tuned to anything: the cube [0,3]³ (n³ voxels, background
+// modulus 1) with 3 to 6 spheres of random centre (in the cube), radius (0.225–0.9) and modulus
+// (30%: softer, [0.2, 0.5]; otherwise stiffer, [2, 10]), later spheres over earlier ones. The draws
+// use std::mt19937 directly (rng() / 2^32), so a seed gives the same image on every platform.
+inline std::vector<Inclusion> random_spheres(unsigned seed) {
+  std::mt19937 rng(seed);
+  auto u01 = [&] { return static_cast<double>(rng()) / 4294967296.0; };
+  std::vector<Inclusion> spheres;
+  const int k = 3 + static_cast<int>(rng() % 4);
+  for (int i = 0; i < k; ++i) {
+    Inclusion s{};
+    s.radius = 1.5 * (0.15 + 0.45 * u01());
+    for (double& c : s.centre) c = 3.0 * u01();
+    s.value = static_cast<float>(u01() < 0.3 ? 0.2 + 0.3 * u01() : 2.0 + 8.0 * u01());
+    spheres.push_back(s);
+  }
+  return spheres;
+}
+inline Image<3> random_spheres_phantom(long n, unsigned seed) {
+  return inclusion_phantom<3>(n, 3.0, random_spheres(seed), 1.0f);
 }
 
 // Paper §VI-A: 100³ voxels, cube [0,3]³, sphere r = 1 at the centre, 2.0 inside / 1.0 outside.
