@@ -11,6 +11,9 @@
 
 #include <gtest/gtest.h>
 
+#include <string>
+#include <vector>
+
 namespace {
 
 constexpr double kNu = 0.3, kStrain = 0.05;
@@ -24,19 +27,23 @@ struct Errors {
   double vim, grid;
 };
 
-Errors errors_at(const vim::Image<2>& image, const vim::validation::Reference<2>& ref, long budget) {
-  const auto axis = vim::nodes_per_axis_for_budget<2>(image.box_min(), image.box_max(), budget);
-  const auto grid = vim::regular_grid_mesh<2>(image.box_min(), image.box_max(), axis);
-  const auto g = vim::validation::coarse_error<2>(image, grid, vim::validation::element_moduli<2>(image, grid), kNu,
-                                                  kStrain, ref);
-  const auto r = vim::optimize<2>(image, grid, vim::VimOptions{});
+// VIM and grid models at one node budget against the reference; prints both errors and the ratio
+// after `label`.
+template <int dim>
+Errors errors_at(const vim::Image<dim>& image, const vim::validation::Reference<dim>& ref, long budget,
+                 const std::string& label = "") {
+  const auto axis = vim::nodes_per_axis_for_budget<dim>(image.box_min(), image.box_max(), budget);
+  const auto grid = vim::regular_grid_mesh<dim>(image.box_min(), image.box_max(), axis);
+  const auto g = vim::validation::coarse_error<dim>(image, grid, vim::validation::element_moduli<dim>(image, grid), kNu,
+                                                    kStrain, ref);
+  const auto r = vim::optimize<dim>(image, grid, vim::VimOptions{});
   std::vector<double> moduli;
   for (const auto& v : r.values) moduli.push_back(v.mean);  // Eq. 15
-  const auto v = vim::validation::coarse_error<2>(image, r.mesh, moduli, kNu, kStrain, ref);
-  std::printf("nodes %4zu: grid rel-L2 %.4f (max %.2e, energy %.3f)  VIM rel-L2 %.4f (max %.2e, energy %.3f)  "
+  const auto v = vim::validation::coarse_error<dim>(image, r.mesh, moduli, kNu, kStrain, ref);
+  std::printf("%snodes %4zu: grid rel-L2 %.4f (max %.2e, energy %.3f)  VIM rel-L2 %.4f (max %.2e, energy %.3f)  "
               "ratio %.3f  [%zu points]\n",
-              grid.n_points(), g.relative_l2, g.max, g.energy_relative, v.relative_l2, v.max, v.energy_relative,
-              v.relative_l2 / g.relative_l2, v.points);
+              label.c_str(), grid.n_points(), g.relative_l2, g.max, g.energy_relative, v.relative_l2, v.max,
+              v.energy_relative, v.relative_l2 / g.relative_l2, v.points);
   EXPECT_GT(v.points, ref.points.size() * 9 / 10);
   return {v.relative_l2, g.relative_l2};
 }
@@ -46,7 +53,7 @@ TEST(Deformation, TwoInclusion2dVimBeatsGridAndConverges) {
   const auto ref = vim::validation::solve_reference<2>(image, kNu, kStrain);
   ASSERT_GT(ref.points.size(), 16000u);
   std::vector<Errors> e;
-  for (long budget : {121L, 289L, 625L}) e.push_back(errors_at(image, ref, budget));
+  for (long budget : {121L, 289L, 625L}) e.push_back(errors_at<2>(image, ref, budget));
   for (std::size_t k = 0; k < e.size(); ++k) EXPECT_LT(e[k].vim, e[k].grid) << "budget index " << k;
   for (std::size_t k = 1; k < e.size(); ++k) {
     EXPECT_LT(e[k].vim, e[k - 1].vim * 1.05) << "VIM error does not fall, step " << k;
@@ -62,19 +69,7 @@ TEST(Deformation, Sphere3dVimBeatsGridAndConverges) {
   const auto image = vim::metrics::inclusion_phantom<3>(24, 3.0, {{{1.5, 1.5, 1.5}, 1.0, 10.0f}}, 1.0f);
   const auto ref = vim::validation::solve_reference<3>(image, kNu, kStrain);
   std::vector<Errors> e;
-  for (long budget : {125L, 343L}) {
-    const auto axis = vim::nodes_per_axis_for_budget<3>(image.box_min(), image.box_max(), budget);
-    const auto grid = vim::regular_grid_mesh<3>(image.box_min(), image.box_max(), axis);
-    const auto g = vim::validation::coarse_error<3>(image, grid, vim::validation::element_moduli<3>(image, grid), kNu,
-                                                    kStrain, ref);
-    const auto r = vim::optimize<3>(image, grid, vim::VimOptions{});
-    std::vector<double> moduli;
-    for (const auto& v : r.values) moduli.push_back(v.mean);  // Eq. 15
-    const auto v = vim::validation::coarse_error<3>(image, r.mesh, moduli, kNu, kStrain, ref);
-    std::printf("sphere, nodes %zu: grid rel-L2 %.4f, VIM rel-L2 %.4f, ratio %.3f\n", grid.n_points(), g.relative_l2,
-                v.relative_l2, v.relative_l2 / g.relative_l2);
-    e.push_back({v.relative_l2, g.relative_l2});
-  }
+  for (long budget : {125L, 343L}) e.push_back(errors_at(image, ref, budget, "sphere, "));
   for (std::size_t k = 0; k < e.size(); ++k) EXPECT_LT(e[k].vim, 0.8 * e[k].grid) << "budget index " << k;
   EXPECT_LT(e[1].vim, e[0].vim);
   EXPECT_LT(e[1].grid, e[0].grid);
@@ -91,19 +86,8 @@ TEST(Deformation, RandomSpherePhantomsVimBeatsGridFrom343Nodes) {
     const auto image = vim::metrics::random_spheres_phantom(24, seed);
     const auto ref = vim::validation::solve_reference<3>(image, kNu, kStrain);
     std::vector<Errors> e;
-    for (long budget : {125L, 343L, 1000L}) {
-      const auto axis = vim::nodes_per_axis_for_budget<3>(image.box_min(), image.box_max(), budget);
-      const auto grid = vim::regular_grid_mesh<3>(image.box_min(), image.box_max(), axis);
-      const auto g = vim::validation::coarse_error<3>(image, grid, vim::validation::element_moduli<3>(image, grid), kNu,
-                                                      kStrain, ref);
-      const auto r = vim::optimize<3>(image, grid, vim::VimOptions{});
-      std::vector<double> moduli;
-      for (const auto& v : r.values) moduli.push_back(v.mean);  // Eq. 15
-      const auto v = vim::validation::coarse_error<3>(image, r.mesh, moduli, kNu, kStrain, ref);
-      std::printf("random spheres seed %u, nodes %zu: grid rel-L2 %.4f, VIM rel-L2 %.4f, ratio %.3f\n", seed,
-                  grid.n_points(), g.relative_l2, v.relative_l2, v.relative_l2 / g.relative_l2);
-      e.push_back({v.relative_l2, g.relative_l2});
-    }
+    for (long budget : {125L, 343L, 1000L})
+      e.push_back(errors_at(image, ref, budget, "random spheres seed " + std::to_string(seed) + ", "));
     for (std::size_t k = 1; k < e.size(); ++k) EXPECT_LT(e[k].vim, e[k].grid) << "seed " << seed << ", budget index " << k;
     EXPECT_LT(e[2].vim, e[1].vim) << "seed " << seed;
     EXPECT_LT(e[2].grid, e[1].grid) << "seed " << seed;
