@@ -405,6 +405,12 @@ UnstructuredGrid voxel_grid(const OrientedImage<dim>& img) {
 // Poisson ratio from which a degree-1 simulation warns about volumetric locking.
 constexpr double kLockingPoisson = 0.4;
 
+// A warning of the run: on stderr (unless --quiet) and in report.json "warnings".
+void warn(json& report, const std::string& stage, const std::string& message) {
+  Log::warning(stage, message);
+  report["warnings"].push_back(message);
+}
+
 // Scenario mesh keys (nodes, lambda, degree) apply unless the option was given on the command line.
 RunOptions with_scenario_mesh(const RunOptions& given, const Scenario& sc) {
   auto on_command_line = [&](const std::string& flag) {
@@ -509,8 +515,7 @@ int run_dim(const RunOptions& given) {
         << " with linear (degree 1) elements: P1 tetrahedra lock for poisson_ratio >= " << kLockingPoisson
         << ", so the displacements come out too small on coarse meshes; set mesh.degree: 2 in the scenario"
         << " (or --degree 2) for quadratic elements (about 5x the solve time)";
-      Log::warning("simulate", m.str());
-      report["warnings"].push_back(m.str());
+      warn(report, "simulate", m.str());
     }
   }
   // mesh.needle_refinement: a density around the needle paths that VIM keeps in E_G (§VI-E).
@@ -594,7 +599,7 @@ int run_dim(const RunOptions& given) {
       VimResult<dim> result = optimize<dim>(img.image, std::move(initial), vo, progress, density);
       t.stop();
       if (result.ed0 == 0.0)
-        Log::warning("vim", "the image is constant inside the box (E_D0 = 0): the mesh is optimised for E_G only");
+        warn(report, "vim", "the image is constant inside the box (E_D0 = 0): the mesh is optimised for E_G only");
       model.mesh = std::move(result.mesh);
       model.values = std::move(result.values);
       energy_history = result.history;

@@ -575,9 +575,9 @@ void check_scenario_geometry(const Scenario& s, const Eigen::Matrix<double, dim,
                                   : "the image box (world " + str(wlo) + " .. " + str(whi) + ")";
   // For an oblique image a point can lie inside the bounding box but outside the image: say where it
   // is along the image's own axes (the direction's columns, from voxel 0's centre).
-  auto along_axes = [&](const V& world) -> std::string {
+  auto along_axes = [&](const V& frame) -> std::string {
     if (!oblique) return "";
-    return "; along the image axes from voxel 0's centre it is at " + str(tf.to_frame(world) - tf.origin) +
+    return "; along the image axes from voxel 0's centre it is at " + str(frame - tf.origin) +
            ", the box spans " + str(box_min - tf.origin) + " .. " + str(box_max - tf.origin);
   };
   for (std::size_t i = 0; i < s.needles.size(); ++i) {
@@ -586,7 +586,7 @@ void check_scenario_geometry(const Scenario& s, const Eigen::Matrix<double, dim,
     const V entry = tf.to_frame(vec(n.entry));
     if (!inside(entry))
       throw ScenarioError(s.where(n.line) + p + ".entry " + str(vec(n.entry)) + " is outside " + box +
-                          along_axes(vec(n.entry)) + "; the entry must be inside the image or on its surface");
+                          along_axes(entry) + "; the entry must be inside the image or on its surface");
     const V dir = tf.vector_to_frame(vec(n.direction));
     // Largest travel that stays in the box.
     double tmax = std::numeric_limits<double>::infinity();
@@ -601,10 +601,12 @@ void check_scenario_geometry(const Scenario& s, const Eigen::Matrix<double, dim,
       throw ScenarioError(s.where(n.line) + p + ".depth = " + fmt(n.depth) + " takes the tip out of " + box +
                           "; the largest depth from this entry along this direction is " + fmt(tmax));
   }
-  for (const auto& t : s.targets)
-    if (!inside(tf.to_frame(vec(t.position))))
+  for (const auto& t : s.targets) {
+    const V position = tf.to_frame(vec(t.position));
+    if (!inside(position))
       throw ScenarioError(s.where(t.line) + "target '" + t.name + "' position " + str(vec(t.position)) + " is outside " + box +
-                          along_axes(vec(t.position)));
+                          along_axes(position));
+  }
   // Geometric regions that cannot touch the box are caught later (selects no node), with the BC index.
 }
 
