@@ -315,8 +315,11 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::scan(const Faces& f) c
     sum_s += p[2 * (b + 1)] - p[2 * a];
     sum_q += p[2 * (b + 1) + 1] - p[2 * a + 1];
   };
-  auto clip_row = [&]() {
-    long a = f.lo[0], b = f.hi[0];
+  // The row j's interval [a, b] (empty if a > b). It does not touch the sums, so they can stay in
+  // registers when this larger lambda is not inlined.
+  auto clip_row = [&f, &j](long& a, long& b) {
+    a = f.lo[0];
+    b = f.hi[0];
     bool decided = false;
     if (f.all_fast) {
       // The row interval is [max of the crossings of faces with n_0 > 0, min of the others]; only a
@@ -330,7 +333,10 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::scan(const Faces& f) c
         else
           upper = std::min(upper, t);
       }
-      if (lower > upper + 1e-6) return;
+      if (lower > upper + 1e-6) {
+        b = a - 1;
+        return;
+      }
       const long fl = floor_long(lower), fu = floor_long(upper);
       const double rl = lower - static_cast<double>(fl), ru = upper - static_cast<double>(fu);
       if (rl > 1e-6 && rl < 1.0 - 1e-6 && ru > 1e-6 && ru < 1.0 - 1e-6) {
@@ -393,10 +399,14 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::scan(const Faces& f) c
         b = t1;
       }
     }
+  };
+  auto clip_and_add_row = [&]() {
+    long a, b;
+    clip_row(a, b);
     add_row(a, b);
   };
   if constexpr (dim == 2) {
-    for (j[1] = f.lo[1]; j[1] <= f.hi[1]; ++j[1]) clip_row();
+    for (j[1] = f.lo[1]; j[1] <= f.hi[1]; ++j[1]) clip_and_add_row();
   } else {
     // Per slab j_2, only rows within the cross-section's extent along axis 1 can be non-empty:
     // intersect the 6 edges with the plane x_2 = j_2.
@@ -425,7 +435,7 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::scan(const Faces& f) c
       const long r0 = std::max(f.lo[1], ceil_long(std::max(ymin - f.margin, static_cast<double>(f.lo[1]) - 1.0)));
       const long r1 = std::min(f.hi[1], floor_long(std::min(ymax + f.margin, static_cast<double>(f.hi[1]) + 1.0)));
       if (!f.slab_fast) {
-        for (j[1] = r0; j[1] <= r1; ++j[1]) clip_row();
+        for (j[1] = r0; j[1] <= r1; ++j[1]) clip_and_add_row();
         continue;
       }
       // Inlined fast path of clip_row: per slab, each face's crossing is linear in j_1. Rows whose
@@ -461,7 +471,7 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::scan(const Faces& f) c
         if (rl > 1e-6 && rl < 1.0 - 1e-6 && ru > 1e-6 && ru < 1.0 - 1e-6)
           add_row(fl + 1, fu);
         else
-          clip_row();
+          clip_and_add_row();
       }
     }
   }
