@@ -4,7 +4,8 @@
 // printed beside the paper's VIM rows.
 //
 //   table1 [--n 100] [--lambda 0.5] [--max-iterations 50] [--convergence 1e-3] [--threads 0]
-//          [--line-search-step 0.5] [--search-width 3] [--random-walk SAMPLES] [--verbose] [nodes ...]
+//          [--line-search-step 0.5] [--search-width 3] [--random-walk SAMPLES] [--max-dihedral 150]
+//          [--min-dihedral 0] [--min-rr 0] [--verbose] [nodes ...]
 // --verbose prints one line per iteration (E, v of Eq. 9, moves, swaps, seconds) to stderr.
 #include "metrics.hpp"
 
@@ -70,6 +71,9 @@ int main(int argc, char** argv) try {
       options.random_walk_samples = std::atoi(value("--random-walk"));
     }
     else if (!std::strcmp(argv[i], "--search-width")) options.search_width = std::atoi(value("--search-width"));
+    else if (!std::strcmp(argv[i], "--max-dihedral")) options.max_dihedral_deg = std::atof(value("--max-dihedral"));
+    else if (!std::strcmp(argv[i], "--min-dihedral")) options.min_dihedral_deg = std::atof(value("--min-dihedral"));
+    else if (!std::strcmp(argv[i], "--min-rr")) options.min_radius_ratio = std::atof(value("--min-rr"));
     else if (!std::strcmp(argv[i], "--verbose")) verbose = true;
     else budgets.push_back(std::atol(argv[i]));
   }
@@ -80,6 +84,9 @@ int main(int argc, char** argv) try {
   const Eigen::Vector3d centre(1.5, 1.5, 1.5), lo = image.box_min(), hi = image.box_max();
   std::printf("Table I phantom: %ld^3 voxels, cube [0,3]^3, sphere r=1 (2.0 in / 1.0 out); lambda=%g, convergence=%g\n",
               n, options.lambda, options.convergence);
+  if (options.max_dihedral_deg != 150.0 || options.min_dihedral_deg > 0.0 || options.min_radius_ratio > 0.0)
+    std::printf("quality bound: max dihedral %g, min dihedral %g, min NRR %g\n", options.max_dihedral_deg,
+                options.min_dihedral_deg, options.min_radius_ratio);
   print_header();
   for (long budget : budgets) {
     const auto axis = vim::nodes_per_axis_for_budget<3>(lo, hi, budget);

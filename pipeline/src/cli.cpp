@@ -51,6 +51,8 @@ VimOptions RunOptions::vim_options() const {
   VimOptions v;
   v.lambda = lambda;
   v.max_dihedral_deg = max_dihedral_deg;
+  v.min_dihedral_deg = min_dihedral_deg;
+  v.min_radius_ratio = min_radius_ratio;
   v.max_iterations = max_iterations;
   v.search_width = search_width;
   v.threads = threads;
@@ -210,6 +212,17 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
                      std::to_string(static_cast<int>(d.max_dihedral_deg)) + "; range (90, 180))")
       ->type_name("DEG")
       ->check(open_interval(90.0, 180.0));
+  app.add_option("--min-dihedral", o.min_dihedral_deg,
+                 "Optional quality bound: smallest dihedral angle in 3D / interior angle in 2D, degrees; VIM "
+                 "then makes no element below it (slivers; the regular grid starts at 45) (default 0 = off; "
+                 "range [0, 60))")
+      ->type_name("DEG")
+      ->check(number_in(0.0, 60.0, true));
+  app.add_option("--min-radius-ratio", o.min_radius_ratio,
+                 "Optional quality bound: smallest normalised radius ratio d*r_in/R_circ (1 = regular "
+                 "simplex) (default 0 = off; range [0, 1))")
+      ->type_name("R")
+      ->check(half_open_unit());
   app.add_option("--max-iterations", o.max_iterations,
                  "Cap on VIM iterations (default " + std::to_string(d.max_iterations) +
                      "; range [0, 100000]); the run stops earlier when v < 1e-3 (Eq. 9)")
@@ -302,6 +315,8 @@ json options_json(const RunOptions& o) {
   j["spacing"] = o.spacing;
   j["lambda"] = o.lambda;
   j["max_dihedral_deg"] = o.max_dihedral_deg;
+  j["min_dihedral_deg"] = o.min_dihedral_deg;
+  j["min_radius_ratio"] = o.min_radius_ratio;
   j["max_iterations"] = o.max_iterations;
   j["search_width"] = o.search_width;
   j["threads"] = o.threads;
@@ -596,11 +611,34 @@ int run_dim(const RunOptions& given) {
                              r.iteration, r.energy, r.geometric, r.discretization, r.v, r.moves, r.swaps, el,
                              left.c_str()));
       };
+      const bool lower_bound = vo.min_dihedral_deg > 0.0 || vo.min_radius_ratio > 0.0;
+      const MeshQuality initial_quality = lower_bound ? mesh_quality(initial) : MeshQuality{};
       VimResult<dim> result = optimize<dim>(img.image, std::move(initial), vo, progress, density);
       t.stop();
       if (result.ed0 == 0.0)
         warn(report, "vim", "the image is constant inside the box (E_D0 = 0): the mesh is optimised for E_G only");
       model.mesh = std::move(result.mesh);
+      if (lower_bound) {
+        // VIM never makes an element below a lower bound, but it keeps those of the initial mesh
+        // until a move or swap repairs them (e.g. a grid on a very elongated box).
+        long below = 0;
+        for (std::size_t c = 0; c < model.mesh.n_cells(); ++c) {
+          const auto x = cell_points(model.mesh, c);
+          below += min_dihedral_deg<dim>(x) < vo.min_dihedral_deg ||
+                   (vo.min_radius_ratio > 0.0 && normalized_radius_ratio<dim>(x) < vo.min_radius_ratio);
+        }
+        if (below > 0) {
+          std::string bound;
+          if (vo.min_dihedral_deg > 0.0) bound = fmt("--min-dihedral %g", vo.min_dihedral_deg);
+          if (vo.min_radius_ratio > 0.0)
+            bound += (bound.empty() ? "" : " or ") + fmt("--min-radius-ratio %g", vo.min_radius_ratio);
+          warn(report, "vim",
+               fmt("%ld of %zu elements are below %s: the initial mesh already had such elements (smallest "
+                   "angle %.3g deg, radius ratio %.3g) and VIM only keeps or repairs them; use a smaller bound",
+                   below, model.mesh.n_cells(), bound.c_str(), initial_quality.min_dihedral_deg,
+                   initial_quality.min_nrr));
+        }
+      }
       model.values = std::move(result.values);
       energy_history = result.history;
       report["optimization"] = {{"iterations", result.history.empty() ? 0 : result.history.back().iteration},

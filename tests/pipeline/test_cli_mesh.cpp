@@ -8,6 +8,7 @@
 
 #include "run_cli.hpp"
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -18,7 +19,9 @@
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLUnstructuredGridReader.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 using namespace vim;
 using namespace vim::pipeline;
@@ -245,6 +248,84 @@ TEST(CliMesh, ThreeDimensionalObliqueAnisotropic) {
   EXPECT_EQ(rep["mesh"]["mesher"], "grid");
 }
 
+// Smallest dihedral angle (3D; degrees) or interior angle (2D) over the cells of a mesh.vtu, from
+// the point coordinates: in 3D the angle along edge (i, j) is the one between the normals of the
+// faces (i, j, k) and (i, j, l); in 2D the angle at each corner between its two edges.
+double smallest_angle_deg(vtkUnstructuredGrid* g, int dim) {
+  double smallest = 180.0;
+  for (vtkIdType c = 0; c < g->GetNumberOfCells(); ++c) {
+    vtkIdType n = 0;
+    const vtkIdType* ids = nullptr;
+    g->GetCellPoints(c, n, ids);
+    std::vector<Eigen::Vector3d> p(static_cast<std::size_t>(n));
+    for (vtkIdType i = 0; i < n; ++i) g->GetPoint(ids[i], p[static_cast<std::size_t>(i)].data());
+    auto angle = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+      return std::acos(std::clamp(a.dot(b) / (a.norm() * b.norm()), -1.0, 1.0)) * 180.0 / M_PI;
+    };
+    if (dim == 3) {
+      for (int i = 0; i < 4; ++i)
+        for (int j = i + 1; j < 4; ++j) {
+          int k = 0;
+          while (k == i || k == j) ++k;
+          const int l = 6 - i - j - k;
+          const Eigen::Vector3d e = p[j] - p[i];
+          smallest = std::min(smallest, angle(e.cross(p[k] - p[i]), e.cross(p[l] - p[i])));
+        }
+    } else {
+      for (int i = 0; i < 3; ++i)
+        smallest = std::min(smallest, angle(p[(i + 1) % 3] - p[i], p[(i + 2) % 3] - p[i]));
+    }
+  }
+  return smallest;
+}
+
+// --min-dihedral: without it these meshes have angles below the bound; with it none is below, the
+// report records the option, and a bound the initial grid cannot meet gives one warning (stderr and
+// report.json) and a valid, unchanged mesh.
+TEST(CliMesh, MinimumDihedralBoundHoldsOnEveryElement) {
+  vim::test::TempDir dir("mindihedral");
+  auto im3 = phantoms::table1(24);
+  im3.image.spacing = {0.13, 0.12, 0.125};
+  write_image(im3, dir / "t.mha");
+  write_image(phantoms::two_inclusions(40), dir / "d.mha");
+  struct Case {
+    std::string image, args;
+    int dim;
+    double bound;
+  };
+  for (const Case& c : {Case{"t.mha", "--nodes 343 --max-iterations 6", 3, 20.0},
+                        Case{"d.mha", "--nodes 80 --max-iterations 6", 2, 35.0}}) {
+    const auto free_out = dir.path / ("free_" + c.image), bounded_out = dir.path / ("bounded_" + c.image);
+    const std::string common = quote(dir / c.image) + " " + c.args + " -q --export none --out ";
+    const auto a = run_pipeline(common + quote(free_out.string()));
+    ASSERT_EQ(a.code, 0) << a.err;
+    char bound[64];
+    std::snprintf(bound, sizeof bound, " --min-dihedral %g", c.bound);
+    const auto b = run_pipeline(common + quote(bounded_out.string()) + bound);
+    ASSERT_EQ(b.code, 0) << b.err;
+    EXPECT_TRUE(b.err.empty()) << b.err;
+    const double free_min = smallest_angle_deg(read_vtu((free_out / "mesh.vtu").string()), c.dim);
+    const double bounded_min = smallest_angle_deg(read_vtu((bounded_out / "mesh.vtu").string()), c.dim);
+    EXPECT_LT(free_min, c.bound) << c.image << ": the bound would not be active";
+    EXPECT_GE(bounded_min, c.bound - 1e-9) << c.image;
+    const auto rep = nlohmann::json::parse(vim::test::slurp(bounded_out / "report.json"));
+    EXPECT_EQ(rep["options"]["min_dihedral_deg"].get<double>(), c.bound);
+    EXPECT_NEAR(rep["mesh"]["quality"]["min_dihedral_deg"].get<double>(), bounded_min, 1e-6);
+    EXPECT_FALSE(rep.contains("warnings")) << rep["warnings"];
+  }
+
+  // 50° is above the regular grid's 45°: nothing can move, and the run says so.
+  const auto out = dir.path / "too_high";
+  const auto r = run_pipeline(quote(dir / "d.mha") + " --nodes 80 --min-dihedral 50 --export none --out " +
+                              quote(out.string()));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("warning: vim: 98 of 98 elements are below --min-dihedral 50"), std::string::npos) << r.err;
+  const auto rep = nlohmann::json::parse(vim::test::slurp(out / "report.json"));
+  ASSERT_EQ(rep["warnings"].size(), 1u);
+  EXPECT_NE(rep["warnings"][0].get<std::string>().find("smallest angle 45 deg"), std::string::npos) << rep["warnings"];
+  EXPECT_NEAR(smallest_angle_deg(read_vtu((out / "mesh.vtu").string()), 2), 45.0, 1e-9);
+}
+
 TEST(CliMesh, UsageErrorsExitWithTwo) {
   vim::test::TempDir dir("usage");
   write_image(phantoms::diamond(20), dir / "d.mha");
@@ -256,6 +337,9 @@ TEST(CliMesh, UsageErrorsExitWithTwo) {
   for (const Case& c : {Case{img + out + " --lambda 1", "--lambda"}, Case{img + out + " --lambda -0.1", "--lambda"},
                         Case{img + out + " --max-dihedral 90", "--max-dihedral"},
                         Case{img + out + " --max-dihedral 200", "--max-dihedral"},
+                        Case{img + out + " --min-dihedral 60", "--min-dihedral"},
+                        Case{img + out + " --min-dihedral -1", "--min-dihedral"},
+                        Case{img + out + " --min-radius-ratio 1", "--min-radius-ratio"},
                         Case{img + out + " --nodes 2", "--nodes"}, Case{img + out + " --mesher tetgen", "--mesher"},
                         Case{img + out + " --degree 3", "--degree"}, Case{img + out + " --export stl", "--export"},
                         Case{img, "--out"}, Case{out, "image"}, Case{img + out + " --bogus", "--bogus"},
@@ -272,7 +356,8 @@ TEST(CliMesh, UsageErrorsExitWithTwo) {
 TEST(CliMesh, HelpVersionInfo) {
   const auto h = run_pipeline("--help");
   EXPECT_EQ(h.code, 0);
-  for (const char* opt : {"--out", "--nodes", "--spacing", "--lambda", "--max-dihedral", "--max-iterations",
+  for (const char* opt : {"--out", "--nodes", "--spacing", "--lambda", "--max-dihedral", "--min-dihedral",
+                          "--min-radius-ratio", "--max-iterations",
                           "--search-width", "--threads", "--seed", "--sizing", "--threshold", "--mesher", "--degree", "--simulate",
                           "--export", "--overwrite", "--quiet", "--verbose", "--version", "--info", "Examples:"})
     EXPECT_NE(h.out.find(opt), std::string::npos) << opt;

@@ -29,6 +29,8 @@ struct RunOptions {
   double spacing = 0.0;              // --spacing: initial grid edge length in image units (0 = use --nodes)
   double lambda = VimOptions{}.lambda;
   double max_dihedral_deg = VimOptions{}.max_dihedral_deg;
+  double min_dihedral_deg = 0.0;      // --min-dihedral: optional lower bound (0 = off)
+  double min_radius_ratio = 0.0;      // --min-radius-ratio: optional d·r_in/R_circ lower bound (0 = off)
   int max_iterations = VimOptions{}.max_iterations;
   int search_width = VimOptions{}.search_width;  // --search-width: 0 = the paper's full search
   int threads = 0;                   // 0 = all cores (TBB default)
