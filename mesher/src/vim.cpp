@@ -165,9 +165,47 @@ FixedFace<dim> fixed_face(const std::array<Eigen::Matrix<double, dim, 1>, dim + 
 template FixedFace<2> fixed_face<2>(const std::array<Eigen::Vector2d, 3>&, int);
 template FixedFace<3> fixed_face<3>(const std::array<Eigen::Vector3d, 4>&, int);
 
+namespace {
+// The normalised radius ratio d·r_in/R_circ against `bound` from closed forms (circumcentre by
+// Cramer's rule, facets by cross products): +1 clearly above, −1 clearly below, 0 too close to
+// call or too flat for the closed form to be trusted (then vim::acceptable decides, with its own
+// evaluation). The margin 1e-9 is far above the round-off of either evaluation for simplices
+// with volume > 1e-4·longest^dim.
+int ratio_side(const std::array<Eigen::Vector2d, 3>& x, double bound) {
+  const Eigen::Vector2d a = x[1] - x[0], b = x[2] - x[0];
+  const double det = a.x() * b.y() - a.y() * b.x();  // 2 · area
+  const double la = a.norm(), lb = b.norm(), lc = (x[2] - x[1]).norm();
+  const double longest = std::max({la, lb, lc});
+  if (!(det > 1e-4 * longest * longest)) return 0;
+  const double a2 = a.squaredNorm(), b2 = b.squaredNorm();
+  const Eigen::Vector2d c((a2 * b.y() - b2 * a.y()) / (2.0 * det), (b2 * a.x() - a2 * b.x()) / (2.0 * det));
+  const double nrr = 2.0 * (det / (la + lb + lc)) / c.norm();  // r_in = 2·area / perimeter
+  return nrr > bound + 1e-9 ? 1 : nrr < bound - 1e-9 ? -1 : 0;
+}
+int ratio_side(const std::array<Eigen::Vector3d, 4>& x, double bound) {
+  const Eigen::Vector3d a = x[1] - x[0], b = x[2] - x[0], c = x[3] - x[0];
+  const Eigen::Vector3d bc = b.cross(c), ca = c.cross(a), ab = a.cross(b);
+  const double det = a.dot(bc);  // 6 · volume
+  double longest2 = std::max({a.squaredNorm(), b.squaredNorm(), c.squaredNorm(), (b - a).squaredNorm(),
+                              (c - a).squaredNorm(), (c - b).squaredNorm()});
+  if (!(det > 6e-4 * longest2 * std::sqrt(longest2))) return 0;
+  const Eigen::Vector3d centre = (a.squaredNorm() * bc + b.squaredNorm() * ca + c.squaredNorm() * ab) / (2.0 * det);
+  // Facet areas ×2: the faces opposite x_1, x_2, x_3 are spanned by (b, c), (c, a), (a, b).
+  const double facets2 = bc.norm() + ca.norm() + ab.norm() + (c - a).cross(b - a).norm();
+  const double nrr = 3.0 * (det / facets2) / centre.norm();  // r_in = 3V / Σ areas = det / Σ (2·areas)
+  return nrr > bound + 1e-9 ? 1 : nrr < bound - 1e-9 ? -1 : 0;
+}
+}  // namespace
+
 template <int dim>
 bool VimOptimizer<dim>::acceptable(const Simplex& x, double vol, const FixedFace<dim>* fixed) const {
-  if (bound_.min_radius_ratio > 0.0) return vim::acceptable<dim>(x, bound_);
+  if (bound_.min_radius_ratio > 0.0) {
+    // Clearly above the ratio bound: the angle bounds below decide (their deferral to
+    // vim::acceptable checks the ratio again, exactly).
+    const int side = vol > 0.0 ? ratio_side(x, bound_.min_radius_ratio) : -1;
+    if (side < 0) return false;
+    if (side == 0) return vim::acceptable<dim>(x, bound_);
+  }
   // Longest edge (max is exact in any order, so the fixed face's edges may come precomputed).
   double longest2 = fixed ? fixed->longest2 : 0.0;
   for (int i = 0; i <= dim; ++i)

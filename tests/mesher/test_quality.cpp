@@ -106,12 +106,14 @@ TEST(Quality, MeshSummaryOfKuhnGrid) {
 // The optimiser's fast quality test (cosines, or squared cosines without square roots for a max
 // bound alone, with or without the precomputed fixed face) must reach the decision of
 // vim::acceptable on every tetrahedron: random ones, and ones whose largest dihedral angle sits within
-// 1e-3 … 1e-13 of the bound (found by bisection on the exact angle).
+// 1e-3 … 1e-13 of the bound (found by bisection on the exact angle, or on the exact normalised
+// radius ratio for the cases with a ratio bound, which the optimiser decides by closed forms).
 TEST(Quality, OptimizerFastTestAgreesWithReference) {
   struct Case {
-    double max_deg, min_deg;
+    double max_deg, min_deg, min_rr;
   };
-  const Case cases[] = {{150.0, 0.0}, {120.0, 0.0}, {95.0, 0.0}, {150.0, 12.0}};
+  const Case cases[] = {{150.0, 0.0, 0.0}, {120.0, 0.0, 0.0}, {95.0, 0.0, 0.0},
+                        {150.0, 12.0, 0.0}, {150.0, 0.0, 0.3}, {150.0, 10.0, 0.2}};
   std::mt19937_64 rng(20261123);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   auto random_point = [&] { return Eigen::Vector3d(u(rng), u(rng), u(rng)); };
@@ -119,18 +121,20 @@ TEST(Quality, OptimizerFastTestAgreesWithReference) {
     VimOptions o;
     o.max_dihedral_deg = cs.max_deg;
     o.min_dihedral_deg = cs.min_deg;
+    o.min_radius_ratio = cs.min_rr;
     VimOptimizer<3> opt(regular_grid_mesh<3>(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 1, 1), {2, 2, 2}),
                         nullptr, nullptr, o);
     QualityBound b;
     b.max_dihedral_deg = cs.max_deg;
     b.min_dihedral_deg = cs.min_deg;
+    b.min_radius_ratio = cs.min_rr;
     long checked = 0, accepted = 0, near = 0;
     auto check = [&](const T3& x, int moving) {
       const double vol = signed_volume<3>(x);
       const bool want = acceptable<3>(x, b);
       const FixedFace<3> face = fixed_face<3>(x, moving);
-      ASSERT_EQ(opt.acceptable(x, vol), want) << "bound " << cs.max_deg << "/" << cs.min_deg;
-      ASSERT_EQ(opt.acceptable(x, vol, &face), want) << "bound " << cs.max_deg << "/" << cs.min_deg;
+      ASSERT_EQ(opt.acceptable(x, vol), want) << "bound " << cs.max_deg << "/" << cs.min_deg << "/" << cs.min_rr;
+      ASSERT_EQ(opt.acceptable(x, vol, &face), want) << "bound " << cs.max_deg << "/" << cs.min_deg << "/" << cs.min_rr;
       ++checked;
       accepted += want;
     };
@@ -144,7 +148,8 @@ TEST(Quality, OptimizerFastTestAgreesWithReference) {
       auto above = [&](double t) {
         T3 y = x;
         y[moving] += t * d;
-        return !(signed_volume<3>(y) > 0.0) || max_dihedral_deg<3>(y) > cs.max_deg;
+        if (!(signed_volume<3>(y) > 0.0)) return true;
+        return cs.min_rr > 0.0 ? normalized_radius_ratio<3>(y) < cs.min_rr : max_dihedral_deg<3>(y) > cs.max_deg;
       };
       const bool a0 = above(0.0);
       double lo = 0.0, hi = 0.0;
@@ -167,6 +172,59 @@ TEST(Quality, OptimizerFastTestAgreesWithReference) {
     EXPECT_GT(accepted, checked / 20) << cs.max_deg;
     EXPECT_LT(accepted, checked - checked / 20) << cs.max_deg;
     EXPECT_GT(near, 1000) << cs.max_deg;
+  }
+}
+
+// 2D: the optimiser's closed-form radius-ratio test reaches vim::acceptable's decision on random
+// triangles and on triangles whose ratio sits within 1e-3 … 1e-13 of the bound.
+TEST(Quality, OptimizerRadiusRatioTestAgreesWithReference2D) {
+  std::mt19937_64 rng(20261124);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto random_point = [&] { return Eigen::Vector2d(u(rng), u(rng)); };
+  for (double rr : {0.2, 0.5, 0.8}) {
+    VimOptions o;
+    o.min_radius_ratio = rr;
+    VimOptimizer<2> opt(regular_grid_mesh<2>(Eigen::Vector2d(0, 0), Eigen::Vector2d(1, 1), {2, 2}), nullptr, nullptr, o);
+    QualityBound b;
+    b.min_radius_ratio = rr;
+    long checked = 0, accepted = 0, near = 0;
+    auto check = [&](const std::array<Eigen::Vector2d, 3>& x) {
+      const bool want = acceptable<2>(x, b);
+      ASSERT_EQ(opt.acceptable(x, signed_volume<2>(x)), want) << "bound " << rr;
+      ++checked;
+      accepted += want;
+    };
+    for (int trial = 0; trial < 4000; ++trial) {
+      std::array<Eigen::Vector2d, 3> x{random_point(), random_point(), random_point()};
+      if (signed_volume<2>(x) < 0.0) std::swap(x[0], x[1]);
+      check(x);
+      const int moving = trial % 3;
+      const Eigen::Vector2d d = random_point();
+      auto below = [&](double t) {
+        auto y = x;
+        y[moving] += t * d;
+        return !(signed_volume<2>(y) > 0.0) || normalized_radius_ratio<2>(y) < rr;
+      };
+      const bool b0 = below(0.0);
+      double lo = 0.0, hi = 0.0;
+      for (double t = 0.05; t <= 2.0 && hi == 0.0; t += 0.05)
+        if (below(t) != b0) hi = t;
+      if (hi == 0.0) continue;
+      for (int it = 0; it < 200 && hi - lo > 1e-15; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        (below(mid) == b0 ? lo : hi) = mid;
+      }
+      for (double delta : {-1e-3, -1e-7, -1e-10, -1e-13, 0.0, 1e-13, 1e-10, 1e-7, 1e-3}) {
+        auto y = x;
+        y[moving] += (lo + delta) * d;
+        if (!(signed_volume<2>(y) > 0.0)) continue;
+        check(y);
+        ++near;
+      }
+    }
+    EXPECT_GT(accepted, checked / 20) << rr;
+    EXPECT_LT(accepted, checked - checked / 20) << rr;
+    EXPECT_GT(near, 1000) << rr;
   }
 }
 
