@@ -54,6 +54,8 @@ VimOptions RunOptions::vim_options() const {
   v.min_dihedral_deg = min_dihedral_deg;
   v.min_radius_ratio = min_radius_ratio;
   v.max_iterations = max_iterations;
+  v.convergence = convergence;
+  v.energy_convergence = energy_convergence;
   v.search_width = search_width;
   v.threads = threads;
   v.seed = seed;
@@ -225,9 +227,21 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
       ->check(half_open_unit());
   app.add_option("--max-iterations", o.max_iterations,
                  "Cap on VIM iterations (default " + std::to_string(d.max_iterations) +
-                     "; range [0, 100000]); the run stops earlier when v < 1e-3 (Eq. 9)")
+                     "; range [0, 100000]); the run stops earlier when it converges (--convergence)")
       ->type_name("K")
       ->check(CLI::Range(0, 100000));
+  app.add_option("--convergence", o.convergence,
+                 fmt("Stop when the RMS node move of an iteration over the bounding-box diagonal (v, Eq. 9) is "
+                     "below this and E has settled (--energy-convergence) (default %g, the paper's; range (0, 1))",
+                     d.convergence))
+      ->type_name("V")
+      ->check(open_interval(0.0, 1.0));
+  app.add_option("--energy-convergence", o.energy_convergence,
+                 fmt("Convergence also needs the iteration to lower E by less than this fraction (default %g; range [0, 1); 0 = "
+                     "Eq. 9 alone, the paper's rule, which can stop after one iteration when most nodes lie in "
+                     "uniform regions)", d.energy_convergence))
+      ->type_name("R")
+      ->check(half_open_unit());
   app.add_option("--search-width", o.search_width,
                  "Node update: probe every line-search direction at two points and search only the W best "
                  "in full; 0 = search every direction, as in the paper (slower, about the same fit) "
@@ -318,6 +332,8 @@ json options_json(const RunOptions& o) {
   j["min_dihedral_deg"] = o.min_dihedral_deg;
   j["min_radius_ratio"] = o.min_radius_ratio;
   j["max_iterations"] = o.max_iterations;
+  j["convergence"] = o.convergence;
+  j["energy_convergence"] = o.energy_convergence;
   j["search_width"] = o.search_width;
   j["threads"] = o.threads;
   j["seed"] = o.seed;

@@ -340,6 +340,8 @@ TEST(CliMesh, UsageErrorsExitWithTwo) {
                         Case{img + out + " --min-dihedral 60", "--min-dihedral"},
                         Case{img + out + " --min-dihedral -1", "--min-dihedral"},
                         Case{img + out + " --min-radius-ratio 1", "--min-radius-ratio"},
+                        Case{img + out + " --convergence 0", "--convergence"},
+                        Case{img + out + " --energy-convergence 1", "--energy-convergence"},
                         Case{img + out + " --nodes 2", "--nodes"}, Case{img + out + " --mesher tetgen", "--mesher"},
                         Case{img + out + " --degree 3", "--degree"}, Case{img + out + " --export stl", "--export"},
                         Case{img, "--out"}, Case{out, "image"}, Case{img + out + " --bogus", "--bogus"},
@@ -357,7 +359,7 @@ TEST(CliMesh, HelpVersionInfo) {
   const auto h = run_pipeline("--help");
   EXPECT_EQ(h.code, 0);
   for (const char* opt : {"--out", "--nodes", "--spacing", "--lambda", "--max-dihedral", "--min-dihedral",
-                          "--min-radius-ratio", "--max-iterations",
+                          "--min-radius-ratio", "--max-iterations", "--convergence", "--energy-convergence",
                           "--search-width", "--threads", "--seed", "--sizing", "--threshold", "--mesher", "--degree", "--simulate",
                           "--export", "--overwrite", "--quiet", "--verbose", "--version", "--info", "Examples:"})
     EXPECT_NE(h.out.find(opt), std::string::npos) << opt;

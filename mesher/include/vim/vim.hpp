@@ -33,6 +33,10 @@ struct VimOptions {
   double min_radius_ratio = 0.0;       // optional normalised radius-ratio lower bound in [0,1) (0 = off)
   int max_iterations = 50;             // cap on node-update + swap sweeps
   double convergence = 1e-3;           // Eq. 9 threshold on v
+  // ... and the last iteration lowered E by less than this fraction (0 = Eq. 9 alone, the paper's
+  // rule). Eq. 9 is an RMS over all nodes: when most nodes sit in uniform regions (many nodes for
+  // the image's features) it falls below 1e-3 while the few image nodes still lower E a lot.
+  double energy_convergence = 1e-2;
   double line_search_step = 0.5;       // golden-section stops below this many (minimum) voxel sizes
   // Node-update search width: 0 = a golden-section search toward every direction (the paper's §IV-B);
   // w > 0 = probe every direction at two points and search only the w best in full. Default 3: on the

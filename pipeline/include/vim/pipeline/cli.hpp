@@ -32,6 +32,8 @@ struct RunOptions {
   double min_dihedral_deg = 0.0;      // --min-dihedral: optional lower bound (0 = off)
   double min_radius_ratio = 0.0;      // --min-radius-ratio: optional d·r_in/R_circ lower bound (0 = off)
   int max_iterations = VimOptions{}.max_iterations;
+  double convergence = VimOptions{}.convergence;                // --convergence: Eq. 9 threshold on v
+  double energy_convergence = VimOptions{}.energy_convergence;  // --energy-convergence: and E falling less than this per iteration
   int search_width = VimOptions{}.search_width;  // --search-width: 0 = the paper's full search
   int threads = 0;                   // 0 = all cores (TBB default)
   std::uint64_t seed = 1;
