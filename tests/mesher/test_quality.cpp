@@ -17,6 +17,32 @@ namespace {
 using T2 = std::array<Eigen::Vector2d, 3>;
 using T3 = std::array<Eigen::Vector3d, 4>;
 
+// Moves vertex `moving` of the simplex x along d until the predicate `outside` (on the moved
+// simplex) changes, locates the crossing by bisection, and calls `visit` on the positive simplices
+// 1e-3 … 1e-13 before and after it, and at it. Does nothing if `outside` does not change for t ≤ 2.
+template <class S, class V, class Outside, class Visit>
+void visit_near_bound(const S& x, int moving, const V& d, Outside&& outside, Visit&& visit) {
+  constexpr int dim = static_cast<int>(std::tuple_size<S>::value) - 1;
+  auto moved = [&](double t) {
+    S y = x;
+    y[moving] += t * d;
+    return y;
+  };
+  const bool o0 = outside(moved(0.0));
+  double lo = 0.0, hi = 0.0;
+  for (double t = 0.05; t <= 2.0 && hi == 0.0; t += 0.05)
+    if (outside(moved(t)) != o0) hi = t;
+  if (hi == 0.0) return;
+  for (int it = 0; it < 200 && hi - lo > 1e-15; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (outside(moved(mid)) == o0 ? lo : hi) = mid;
+  }
+  for (double delta : {-1e-3, -1e-7, -1e-10, -1e-13, 0.0, 1e-13, 1e-10, 1e-7, 1e-3}) {
+    const S y = moved(lo + delta);
+    if (signed_volume<dim>(y) > 0.0) visit(y);
+  }
+}
+
 const double kRad = 180.0 / M_PI;
 
 TEST(Quality, RegularTetrahedron) {
@@ -143,30 +169,15 @@ TEST(Quality, OptimizerFastTestAgreesWithReference) {
       if (signed_volume<3>(x) < 0.0) std::swap(x[0], x[1]);
       const int moving = trial % 4;
       check(x, moving);
-      // Move one vertex along a random direction until the largest angle crosses the bound.
-      const Eigen::Vector3d d = random_point();
-      auto above = [&](double t) {
-        T3 y = x;
-        y[moving] += t * d;
+      // Move one vertex along a random direction until the largest angle (or the ratio) crosses the bound.
+      auto outside = [&](const T3& y) {
         if (!(signed_volume<3>(y) > 0.0)) return true;
         return cs.min_rr > 0.0 ? normalized_radius_ratio<3>(y) < cs.min_rr : max_dihedral_deg<3>(y) > cs.max_deg;
       };
-      const bool a0 = above(0.0);
-      double lo = 0.0, hi = 0.0;
-      for (double t = 0.05; t <= 2.0 && hi == 0.0; t += 0.05)
-        if (above(t) != a0) hi = t;
-      if (hi == 0.0) continue;
-      for (int it = 0; it < 200 && hi - lo > 1e-15; ++it) {
-        const double mid = 0.5 * (lo + hi);
-        (above(mid) == a0 ? lo : hi) = mid;
-      }
-      for (double delta : {-1e-3, -1e-7, -1e-10, -1e-13, 0.0, 1e-13, 1e-10, 1e-7, 1e-3}) {
-        T3 y = x;
-        y[moving] += (lo + delta) * d;
-        if (!(signed_volume<3>(y) > 0.0)) continue;
+      visit_near_bound(x, moving, random_point(), outside, [&](const T3& y) {
         check(y, moving);
         ++near;
-      }
+      });
     }
     // Both decisions occur, and many tetrahedra sit at the bound.
     EXPECT_GT(accepted, checked / 20) << cs.max_deg;
@@ -198,29 +209,12 @@ TEST(Quality, OptimizerRadiusRatioTestAgreesWithReference2D) {
       std::array<Eigen::Vector2d, 3> x{random_point(), random_point(), random_point()};
       if (signed_volume<2>(x) < 0.0) std::swap(x[0], x[1]);
       check(x);
-      const int moving = trial % 3;
-      const Eigen::Vector2d d = random_point();
-      auto below = [&](double t) {
-        auto y = x;
-        y[moving] += t * d;
-        return !(signed_volume<2>(y) > 0.0) || normalized_radius_ratio<2>(y) < rr;
-      };
-      const bool b0 = below(0.0);
-      double lo = 0.0, hi = 0.0;
-      for (double t = 0.05; t <= 2.0 && hi == 0.0; t += 0.05)
-        if (below(t) != b0) hi = t;
-      if (hi == 0.0) continue;
-      for (int it = 0; it < 200 && hi - lo > 1e-15; ++it) {
-        const double mid = 0.5 * (lo + hi);
-        (below(mid) == b0 ? lo : hi) = mid;
-      }
-      for (double delta : {-1e-3, -1e-7, -1e-10, -1e-13, 0.0, 1e-13, 1e-10, 1e-7, 1e-3}) {
-        auto y = x;
-        y[moving] += (lo + delta) * d;
-        if (!(signed_volume<2>(y) > 0.0)) continue;
+      using T2 = std::array<Eigen::Vector2d, 3>;
+      auto outside = [&](const T2& y) { return !(signed_volume<2>(y) > 0.0) || normalized_radius_ratio<2>(y) < rr; };
+      visit_near_bound(x, trial % 3, random_point(), outside, [&](const T2& y) {
         check(y);
         ++near;
-      }
+      });
     }
     EXPECT_GT(accepted, checked / 20) << rr;
     EXPECT_LT(accepted, checked - checked / 20) << rr;
