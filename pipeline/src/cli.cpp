@@ -442,7 +442,7 @@ void warn(json& report, const std::string& stage, const std::string& message) {
   report["warnings"].push_back(message);
 }
 
-// Scenario mesh keys (nodes, lambda, degree) apply unless the option was given on the command line.
+// Scenario mesh keys (nodes, lambda, degree, min_dihedral) apply unless the option was given on the command line.
 RunOptions with_scenario_mesh(const RunOptions& given, const Scenario& sc) {
   auto on_command_line = [&](const std::string& flag) {
     for (const auto& a : given.command_line)
@@ -453,6 +453,7 @@ RunOptions with_scenario_mesh(const RunOptions& given, const Scenario& sc) {
   if (sc.nodes && !on_command_line("--nodes") && !on_command_line("--spacing")) o.nodes = *sc.nodes;
   if (sc.lambda && !on_command_line("--lambda")) o.lambda = *sc.lambda;
   if (sc.degree && !on_command_line("--degree")) o.degree = static_cast<int>(*sc.degree);
+  if (sc.min_dihedral && !on_command_line("--min-dihedral")) o.min_dihedral_deg = *sc.min_dihedral;
   return o;
 }
 

@@ -380,7 +380,7 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
   }
 
   if (const YAML::Node& m = top["mesh"]) {
-    const Fields f = r.check_keys(m, "mesh", {"nodes", "lambda", "degree", "needle_refinement"});
+    const Fields f = r.check_keys(m, "mesh", {"nodes", "lambda", "degree", "min_dihedral", "needle_refinement"});
     if (const YAML::Node& x = f["nodes"]) {
       const long v = r.integer(x, "mesh.nodes");
       if (v < 8) r.fail(x, "mesh.nodes must be >= 8, got " + std::to_string(v));
@@ -395,6 +395,12 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
       const long v = r.integer(x, "mesh.degree");
       if (v != 1 && v != 2) r.fail(x, "mesh.degree must be 1 or 2, got " + std::to_string(v));
       s.degree = static_cast<unsigned>(v);
+    }
+    if (const YAML::Node& x = f["min_dihedral"]) {
+      const double v = r.number(x, "mesh.min_dihedral");
+      if (!(v >= 0.0 && v < 60.0))
+        r.fail(x, "mesh.min_dihedral must be in [0, 60) degrees (0 = off; e.g. 10), got " + fmt(v));
+      s.min_dihedral = v;
     }
     if (const YAML::Node& x = f["needle_refinement"]) {
       const Fields g = r.check_keys(x, "mesh.needle_refinement", {"size_ratio", "radius"});

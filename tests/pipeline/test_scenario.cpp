@@ -18,7 +18,7 @@ material:
   scale: 2.5
   clamp: [1.0, 1000.0]
   poisson_ratio: 0.45
-mesh: {nodes: 3000, lambda: 0.3, degree: 2}
+mesh: {nodes: 3000, lambda: 0.3, degree: 2, min_dihedral: 12.5}
 boundary_conditions:
   - {type: fixed, region: {box_face: y_min}}
   - {type: fixed, region: {cylinder: {center: [0, -20, 0], axis: [0, 0, 2], radius: 10}}}
@@ -89,6 +89,7 @@ TEST(Scenario, EveryKeyIsParsed) {
   EXPECT_EQ(*s.nodes, 3000);
   EXPECT_DOUBLE_EQ(*s.lambda, 0.3);
   EXPECT_EQ(*s.degree, 2u);
+  EXPECT_DOUBLE_EQ(*s.min_dihedral, 12.5);
 
   ASSERT_EQ(s.boundary_conditions.size(), 6u);
   const auto& b = s.boundary_conditions;
@@ -200,6 +201,7 @@ TEST(Scenario, BadInputsNameKeyValueAndLine) {
       {"degree: 2", "degree: 3", {"mesh.degree must be 1 or 2", "3"}},
       {"nodes: 3000", "nodes: 1.5", {"mesh.nodes must be an integer", "'1.5'"}},
       {"lambda: 0.3", "lambda: 1.0", {"mesh.lambda", "[0, 1)"}},
+      {"min_dihedral: 12.5", "min_dihedral: 60", {"mesh.min_dihedral must be in [0, 60) degrees", "60"}},
       {"box_face: y_min", "box_face: y_low", {"box_face = 'y_low'", "x_min, x_max, y_min, y_max, z_min, z_max", "s.yaml:9:"}},
       {"{type: fixed, region: {box_face: y_min}}", "{type: clamped, region: {box_face: y_min}}",
        {"boundary_conditions[0].type = 'clamped'", "fixed, displacement, pressure, traction"}},
@@ -229,7 +231,7 @@ TEST(Scenario, BadInputsNameKeyValueAndLine) {
       {"{name: apex,", "{name: 2apex,", {"targets[1].name = '2apex' must be an identifier"}},
       {"position: [5, 2, 10]", "position: [5, 2, 10, 1]", {"targets[0].position must be a list of 3 numbers"}},
       {"needle:", "needel:", {"unknown key 'needel'"}},
-      {"mesh: {nodes: 3000, lambda: 0.3, degree: 2}", "mesh: [3000]", {"mesh must be a mapping, got a list", "s.yaml:7:"}},
+      {"mesh: {nodes: 3000, lambda: 0.3, degree: 2, min_dihedral: 12.5}", "mesh: [3000]", {"mesh must be a mapping, got a list", "s.yaml:7:"}},
   };
   for (const auto& c : cases) {
     const std::string msg = error_of(replace(kFull, c.from, c.to));

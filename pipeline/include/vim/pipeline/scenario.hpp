@@ -98,6 +98,7 @@ struct Scenario {
   std::optional<long> nodes;
   std::optional<double> lambda;
   std::optional<unsigned> degree;
+  std::optional<double> min_dihedral;  // mesh.min_dihedral: VIM quality floor in degrees (--min-dihedral)
   // mesh.needle_refinement: VIM keeps elements near the needle paths about size_ratio times the size
   // of the others (a density-weighted E_G, paper §VI-E; pipeline::needle_density).
   struct NeedleRefinement {
