@@ -34,4 +34,9 @@ void VimOptions::validate() const {
   if (node_budget < 0) bad("node-budget", static_cast<double>(node_budget), ">= 0");
 }
 
+bool VimOptions::converged(double v, double e_before, double e_after) const {
+  const bool settled = energy_convergence == 0.0 || !(e_before - e_after > energy_convergence * e_before);
+  return v < convergence && settled;
+}
+
 }  // namespace vim

@@ -31,12 +31,17 @@ SimplexMesh<dim> size_initial_mesh(const Image<dim>& density, SimplexMesh<dim> m
   geometric.insert_nodes = 0;
   VimOptimizer<dim> opt(std::move(mesh), nullptr, &density, geometric);
   const double b = opt.bbox_diagonal();
+  double e_before = opt.totals().energy;
   for (int it = 1; it <= iterations; ++it) {
     double sum_sq = 0.0;
     opt.update_nodes(it, &sum_sq);
     const double v = std::sqrt(sum_sq / static_cast<double>(opt.mesh().n_points())) / b;
     if (geometric.swaps && opt.swap_pass() > 0) opt.recolour();
-    if (v < geometric.convergence) break;
+    // The convergence rule of optimize(): Eq. 9 and E settled (a density that is flat over most of
+    // the domain leaves most nodes still, which dilutes Eq. 9's RMS).
+    const double e = opt.totals().energy;
+    if (geometric.converged(v, e_before, e)) break;
+    e_before = e;
   }
   return opt.compact_mesh();
 }

@@ -464,9 +464,7 @@ VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const
     // Eq. 9 (node motion), and E no longer falling by options.energy_convergence per iteration.
     // Also requiring an iteration without swaps was tried: Table I TF was unchanged (2.67% at 343,
     // 0.50% at 4096 nodes) while 4096 nodes took 23 instead of ~9 iterations.
-    const bool settled =
-        options.energy_convergence == 0.0 || !(e_before - r.energy > options.energy_convergence * e_before);
-    if (r.v < options.convergence && settled && to_insert == 0) {
+    if (options.converged(r.v, e_before, r.energy) && to_insert == 0) {
       result.converged = true;
       break;
     }

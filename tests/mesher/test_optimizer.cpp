@@ -269,6 +269,49 @@ TEST(Optimizer, InsertionAddsNodesUpToTheBudget) {
   EXPECT_NEAR(brute.eg, r.history.back().geometric, 1e-9 * brute.eg);
 }
 
+// The convergence rule on its own: Eq. 9 below the threshold and, unless energy_convergence is 0, a
+// relative drop of E below energy_convergence (strictly: a drop of exactly that fraction still counts
+// as falling only when above it).
+TEST(Optimizer, ConvergenceRuleNeedsBothCriteria) {
+  VimOptions o;  // convergence 1e-3, energy_convergence 1e-2
+  EXPECT_TRUE(o.converged(0.9e-3, 1.0, 0.995));
+  EXPECT_FALSE(o.converged(1.1e-3, 1.0, 0.995));  // nodes still moving
+  EXPECT_FALSE(o.converged(0.9e-3, 1.0, 0.98));   // E still falling by 2%
+  EXPECT_TRUE(o.converged(0.9e-3, 2.0, 2.0));     // E unchanged
+  EXPECT_TRUE(o.converged(0.9e-3, 0.0, 0.0));     // E already 0
+  o.energy_convergence = 0.0;                     // the paper's rule alone
+  EXPECT_TRUE(o.converged(0.9e-3, 1.0, 0.5));
+  EXPECT_FALSE(o.converged(1.1e-3, 1.0, 1.0));
+}
+
+// The sizing stage uses the same rule: a density that is flat except for a small peak leaves most of
+// 3600 nodes still, so Eq. 9 alone stops while the peak is still pulling nodes in; the default rule
+// keeps going and ends with more nodes in the peak and a lower density-weighted E_G.
+TEST(Sizing, ConvergenceWaitsForTheEnergyToSettle) {
+  Image<2> density({200, 200}, {0.005, 0.005}, {0.0025, 0.0025}, 1.0f);
+  const Eigen::Vector2d centre(0.5, 0.5);
+  for (std::size_t k = 0; k < density.voxel_count(); ++k)
+    density.data[k] = static_cast<float>(
+        1.0 + 50.0 * std::exp(-(density.point_of(density.index_of(k)) - centre).squaredNorm() / 0.002));
+  const auto initial = grid_for(density, 60);
+  VimOptions paper, settled;
+  paper.energy_convergence = 0.0;
+  const auto a = size_initial_mesh<2>(density, initial, 50, paper);
+  const auto b = size_initial_mesh<2>(density, initial, 50, settled);
+  auto inside = [&](const SimplexMesh<2>& m) {
+    long n = 0;
+    for (const auto& p : m.points) n += (p - centre).norm() < 0.06;
+    return n;
+  };
+  auto weighted_eg = [&](const SimplexMesh<2>& m) {
+    VimOptions g;
+    g.lambda = 0.0;
+    return VimOptimizer<2>(m, nullptr, &density, g).totals().geometric;
+  };
+  EXPECT_GT(inside(b), inside(a));
+  EXPECT_LT(weighted_eg(b), weighted_eg(a));
+}
+
 // §VI-E: a density peaked at the centre pulls nodes toward it; corners stay fixed.
 TEST(Sizing, DensityConcentratesNodes) {
   Image<2> density({50, 50}, {0.02, 0.02}, {0.01, 0.01}, 1.0f);

@@ -56,6 +56,9 @@ struct VimOptions {
   bool check_invariants = kCheckedBuild;
 
   void validate() const;
+  // The convergence rule: v (Eq. 9) below `convergence` and E, which went from e_before to e_after
+  // in the iteration, no longer falling by `energy_convergence` (0: Eq. 9 alone).
+  bool converged(double v, double e_before, double e_after) const;
 };
 
 // Per-element voxel statistics: n voxel centres inside, their mean and variance (paper Eq. 4–6).
