@@ -3,6 +3,7 @@
 #include <vim/optimizer.hpp>
 #include <vim/sizing.hpp>
 
+#include <chrono>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -23,7 +24,7 @@ void validate_density(const Image<dim>& density) {
 
 template <int dim>
 SimplexMesh<dim> size_initial_mesh(const Image<dim>& density, SimplexMesh<dim> mesh, int iterations,
-                                   const VimOptions& options) {
+                                   const VimOptions& options, const ProgressCallback& progress) {
   if (iterations < 0) throw std::invalid_argument("sizing iterations must be >= 0");
   validate_density(density);
   VimOptions geometric = options;
@@ -33,15 +34,25 @@ SimplexMesh<dim> size_initial_mesh(const Image<dim>& density, SimplexMesh<dim> m
   const double b = opt.bbox_diagonal();
   double e_before = opt.totals().energy;
   for (int it = 1; it <= iterations; ++it) {
+    const auto t0 = std::chrono::steady_clock::now();
+    IterationRecord r;
+    r.iteration = it;
     double sum_sq = 0.0;
-    opt.update_nodes(it, &sum_sq);
-    const double v = std::sqrt(sum_sq / static_cast<double>(opt.mesh().n_points())) / b;
-    if (geometric.swaps && opt.swap_pass() > 0) opt.recolour();
+    r.moves = opt.update_nodes(it, &sum_sq, &r.searched, &r.evaluations);
+    r.v = std::sqrt(sum_sq / static_cast<double>(opt.mesh().n_points())) / b;
+    if (geometric.swaps) {
+      r.swaps = opt.swap_pass();
+      if (r.swaps > 0) opt.recolour();
+    }
     // The convergence rule of optimize(): Eq. 9 and E settled (a density that is flat over most of
     // the domain leaves most nodes still, which dilutes Eq. 9's RMS).
-    const double e = opt.totals().energy;
-    if (geometric.converged(v, e_before, e)) break;
-    e_before = e;
+    const EnergyTotals t = opt.totals();
+    r.energy = t.energy;
+    r.geometric = t.geometric;
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (progress) progress(r);
+    if (geometric.converged(r.v, e_before, r.energy)) break;
+    e_before = r.energy;
   }
   return opt.compact_mesh();
 }
@@ -59,7 +70,9 @@ template VimResult<3> optimize_sized<3>(const Image<3>&, const Image<3>&, Simple
                                         const ProgressCallback&);
 template void validate_density<2>(const Image<2>&);
 template void validate_density<3>(const Image<3>&);
-template SimplexMesh<2> size_initial_mesh<2>(const Image<2>&, SimplexMesh<2>, int, const VimOptions&);
-template SimplexMesh<3> size_initial_mesh<3>(const Image<3>&, SimplexMesh<3>, int, const VimOptions&);
+template SimplexMesh<2> size_initial_mesh<2>(const Image<2>&, SimplexMesh<2>, int, const VimOptions&,
+                                              const ProgressCallback&);
+template SimplexMesh<3> size_initial_mesh<3>(const Image<3>&, SimplexMesh<3>, int, const VimOptions&,
+                                              const ProgressCallback&);
 
 }  // namespace vim

@@ -612,7 +612,15 @@ int run_dim(const RunOptions& given) {
       if (sizing || density) {
         // E_G-only initialisation weighted by the density image (§VI-E), then VIM from there.
         StageTimer ts(report, "sizing");
-        initial = size_initial_mesh<dim>(sizing ? sizing->image : *density, std::move(initial), vo.max_iterations, vo);
+        const auto sizing_start = std::chrono::steady_clock::now();
+        auto sizing_progress = [&](const IterationRecord& r) {
+          const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - sizing_start).count();
+          Log::info("sizing", fmt("iteration %d: density-weighted E_G %.5g (%.4f of the start), v %.2e, moves %ld, "
+                                  "swaps %ld, %.1fs",
+                                  r.iteration, r.geometric, r.energy, r.v, r.moves, r.swaps, el));
+        };
+        initial = size_initial_mesh<dim>(sizing ? sizing->image : *density, std::move(initial), vo.max_iterations, vo,
+                                         sizing_progress);
         Log::info("sizing", fmt("density-weighted initialisation from %s done",
                                 sizing ? o.sizing.c_str() : "mesh.needle_refinement"));
         ts.stop();

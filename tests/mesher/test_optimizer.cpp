@@ -297,7 +297,18 @@ TEST(Sizing, ConvergenceWaitsForTheEnergyToSettle) {
   VimOptions paper, settled;
   paper.energy_convergence = 0.0;
   const auto a = size_initial_mesh<2>(density, initial, 50, paper);
-  const auto b = size_initial_mesh<2>(density, initial, 50, settled);
+  std::vector<IterationRecord> seen;
+  const auto b = size_initial_mesh<2>(density, initial, 50, settled, [&](const IterationRecord& r) { seen.push_back(r); });
+  // One progress record per sweep; E_G (density-weighted) never rises, and the run stops at the first
+  // sweep that meets the rule.
+  ASSERT_GE(seen.size(), 2u);
+  double before = 1.0;
+  for (std::size_t t = 0; t < seen.size(); ++t) {
+    EXPECT_EQ(seen[t].iteration, static_cast<int>(t) + 1);
+    EXPECT_LE(seen[t].energy, before * (1.0 + 1e-12));
+    EXPECT_EQ(settled.converged(seen[t].v, before, seen[t].energy), t + 1 == seen.size()) << "sweep " << t + 1;
+    before = seen[t].energy;
+  }
   auto inside = [&](const SimplexMesh<2>& m) {
     long n = 0;
     for (const auto& p : m.points) n += (p - centre).norm() < 0.06;

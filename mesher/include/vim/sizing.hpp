@@ -18,9 +18,12 @@ void validate_density(const Image<dim>& density);
 // with the box constraints and quality bound of `options` (λ is ignored). Returns the sized mesh
 // (same nodes, positively oriented). Throws std::invalid_argument if iterations < 0, the density
 // image is empty or has a value that is not finite and > 0, or the mesh has an inverted element.
+// Stops early on the convergence rule of optimize() (VimOptions::converged). `progress` (if set) is
+// called after every sweep with the iteration's v, moves, swaps and the density-weighted E_G (as
+// `geometric`; `energy` is it normalised by the initial value, `discretization` is 0).
 template <int dim>
 SimplexMesh<dim> size_initial_mesh(const Image<dim>& density, SimplexMesh<dim> mesh, int iterations,
-                                   const VimOptions& options = {});
+                                   const VimOptions& options = {}, const ProgressCallback& progress = {});
 
 // VIM with a sizing field kept throughout (paper §VI-E, "E_G can be modified using a sizing field"):
 // size_initial_mesh(density, initial, options.max_iterations, options), then optimize() with each
