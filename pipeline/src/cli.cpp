@@ -462,18 +462,30 @@ RunOptions with_scenario_mesh(const RunOptions& given, const Scenario& sc) {
 template <int dim>
 void write_simulation_figures(const SimulationResult<dim>& result, const MeshModel<dim>* model, OutputDirectory& out,
                               json& report) {
+  // Axis titles in the scenario's units: force = modulus × length² (kPa·mm² = mN).
+  std::string length = "mm", modulus = "kPa";
+  if (result.report.contains("units")) {
+    length = result.report["units"].value("length", length);
+    modulus = result.report["units"].value("modulus", modulus);
+  }
+  const std::string force = length == "mm" && modulus == "kPa" ? "mN" : modulus + "·" + length + "²";
   for (const auto& run : result.needles) {
     if (run.depth.empty()) continue;
     const std::string prefix = result.needles.size() > 1 ? run.name + "_" : "";
     json& fig = report["figures"]["simulation"][run.name.empty() ? std::string("needle") : run.name];
     fig["force"] = write_line_plot(out.file("figures/" + prefix + "needle_force.png"), run.depth,
-                                   {run.axial_force, run.lateral_force}, {"axial_force", "lateral_force"});
+                                   {run.axial_force, run.lateral_force}, {"axial force", "lateral force"},
+                                   "needle depth [" + length + "]", "force on the needle [" + force + "]");
     fig["force"]["file"] = "figures/" + prefix + "needle_force.png";
     if (!run.target_displacement.empty() && !run.target_displacement.front().empty()) {
       std::vector<std::vector<double>> series(run.target_displacement.front().size());
       for (const auto& step : run.target_displacement)
         for (std::size_t t = 0; t < step.size() && t < series.size(); ++t) series[t].push_back(step[t].norm());
-      fig["targets"] = write_line_plot(out.file("figures/" + prefix + "target_displacement.png"), run.depth, series);
+      std::vector<std::string> names;
+      for (std::size_t t = 0; t < series.size(); ++t)
+        names.push_back(t < result.target_names.size() ? result.target_names[t] : "target " + std::to_string(t + 1));
+      fig["targets"] = write_line_plot(out.file("figures/" + prefix + "target_displacement.png"), run.depth, series,
+                                       names, "needle depth [" + length + "]", "target displacement |u| [" + length + "]");
       fig["targets"]["file"] = "figures/" + prefix + "target_displacement.png";
     }
     if (model && !run.vertex_displacement.empty() && run.vertex_displacement.back().size() == model->mesh.n_points()) {
@@ -481,7 +493,8 @@ void write_simulation_figures(const SimulationResult<dim>& result, const MeshMod
       u.reserve(model->mesh.n_points());
       for (const auto& w : run.vertex_displacement.back()) u.push_back(model->transform.vector_to_frame(w));
       const Eigen::Matrix<double, dim, 1> tip = model->transform.to_frame(run.tip.back());
-      fig["deformed"] = write_deformed_slice<dim>(*model, u, out.file("figures/" + prefix + "deformed.png"), tip);
+      fig["deformed"] = write_deformed_slice<dim>(*model, u, out.file("figures/" + prefix + "deformed.png"), tip,
+                                                  dim - 1, "|u| [" + length + "]");
       fig["deformed"]["file"] = "figures/" + prefix + "deformed.png";
     }
   }

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 
@@ -14,18 +15,36 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr int kMargin = 12;
-constexpr int kBar = 14;  // colour-bar height
+constexpr int kBar = 14;    // colour-bar height
+constexpr int kLabel = 18;  // text row under a colour bar (its range and caption)
+constexpr int kFont = 12;   // tick labels, colour-bar labels
 
 struct Range {
   double lo = 0.0, hi = 1.0;
   double t(double x) const { return hi > lo ? (x - lo) / (hi - lo) : 0.5; }
 };
 
-void draw_colorbar(Canvas& canvas, const SliceView& view, int y0) {
+// A number as a tick or range label: 6 significant digits, and 0 for values that are round-off
+// next to `scale` (e.g. 5.6e-17 on an axis from -1 to 1).
+std::string number_label(double t, double scale) {
+  if (std::abs(t) < 1e-9 * std::abs(scale)) t = 0.0;
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", t);
+  return buf;
+}
+
+// The viridis bar under a panel, from lo (left) to hi (right), with both values and the caption on
+// the text row below it (kLabel pixels).
+void draw_colorbar(Canvas& canvas, const SliceView& view, int y0, double lo, double hi, const std::string& caption) {
   for (int x = 0; x < view.width; ++x) {
     const Rgb c = viridis(view.width > 1 ? static_cast<double>(x) / (view.width - 1) : 0.5);
     for (int y = y0; y < y0 + kBar; ++y) canvas.set(view.x_offset + x, y, c);
   }
+  const double scale = std::max(std::abs(lo), std::abs(hi));
+  const int ty = y0 + kBar + 2;
+  canvas.text(view.x_offset, ty, number_label(lo, scale), colors::axis, kFont);
+  canvas.text(view.x_offset + view.width, ty, number_label(hi, scale), colors::axis, kFont, Canvas::Align::end);
+  canvas.text(view.x_offset + view.width / 2, ty, caption, colors::axis, kFont, Canvas::Align::centre);
 }
 
 // In-plane axes of a slice with normal `axis`, ascending.
@@ -235,7 +254,7 @@ void write_mesh_figures(const OrientedImage<dim>& oriented, const MeshModel<dim>
       const auto views = mesh_figure_views(image, axis);
       const SliceView& left = views[0];
       const SliceView& right = views[1];
-      Canvas canvas(right.x_offset + right.width + kMargin, left.height + 3 * kMargin + kBar);
+      Canvas canvas(right.x_offset + right.width + kMargin, left.height + 3 * kMargin + kBar + kLabel);
       render_image(canvas, left);
       const auto cut = sections(axis, centre[axis]);
       for (const auto& [c, poly] : cut)
@@ -244,7 +263,7 @@ void write_mesh_figures(const OrientedImage<dim>& oriented, const MeshModel<dim>
         draw_outline(canvas, to_pixels(left, poly), colors::outline);
         draw_outline(canvas, to_pixels(right, poly), colors::black);
       }
-      draw_colorbar(canvas, right, left.y_offset + left.height + kMargin);
+      draw_colorbar(canvas, right, left.y_offset + left.height + kMargin, range.lo, range.hi, "element mean");
       const fs::path file = fig_dir / (std::string("slice_") + slice_name(axis) + ".png");
       canvas.write_png(file);
       info["files"].push_back(file.string());
@@ -279,8 +298,9 @@ void write_mesh_figures(const OrientedImage<dim>& oriented, const MeshModel<dim>
 }
 
 nlohmann::json write_line_plot(const fs::path& path, const std::vector<double>& x,
-                               const std::vector<std::vector<double>>& series, const std::vector<std::string>& names) {
-  constexpr int W = 640, H = 420, L = 60, R = 20, T = 20, B = 40;
+                               const std::vector<std::vector<double>>& series, const std::vector<std::string>& names,
+                               const std::string& x_label, const std::string& y_label) {
+  constexpr int W = 700, H = 460, L = 90, R = 20, T = 20, B = 58;
   double xlo = INFINITY, xhi = -INFINITY, ylo = INFINITY, yhi = -INFINITY;
   for (std::size_t k = 0; k < x.size(); ++k) {
     if (!std::isfinite(x[k])) continue;
@@ -310,6 +330,17 @@ nlohmann::json write_line_plot(const fs::path& path, const std::vector<double>& 
   canvas.line(L, H - B, W - R, H - B, colors::axis);
   canvas.line(L, T, W - R, T, colors::axis);
   canvas.line(W - R, T, W - R, H - B, colors::axis);
+  // Tick values, axis titles.
+  const double xs = std::max(std::abs(ax.lo), std::abs(ax.hi)), ys = std::max(std::abs(ay.lo), std::abs(ay.hi));
+  for (double t : ax.ticks)
+    canvas.text(static_cast<int>(std::lround(px(t))), H - B + 8, number_label(t, xs), colors::axis, kFont,
+                Canvas::Align::centre);
+  for (double t : ay.ticks)
+    canvas.text(L - 8, static_cast<int>(std::lround(py(t))), number_label(t, ys), colors::axis, kFont, Canvas::Align::end,
+                Canvas::Align::centre);
+  canvas.text(L + (W - L - R) / 2, H - 6, x_label, colors::black, kFont + 1, Canvas::Align::centre, Canvas::Align::end);
+  canvas.text(4, T + (H - T - B) / 2, y_label, colors::black, kFont + 1, Canvas::Align::start, Canvas::Align::centre,
+              true);
 
   nlohmann::json names_json = nlohmann::json::array();
   for (std::size_t s = 0; s < series.size(); ++s) {
@@ -330,9 +361,24 @@ nlohmann::json write_line_plot(const fs::path& path, const std::vector<double>& 
     names_json.push_back({{"name", s < names.size() ? names[s] : "series " + std::to_string(s)},
                           {"color", {col.r, col.g, col.b}}});
   }
+  // Legend in the plot's top-left corner, on white: a line sample and the name of each series.
+  if (!names.empty()) {
+    int width = 0;
+    Canvas probe(1, 1);
+    for (const auto& n : names) width = std::max(width, probe.text(0, 0, n, colors::black, kFont)[2]);
+    const int rows = static_cast<int>(std::min(names.size(), series.size()));
+    canvas.fill_rect(L + 6, T + 6, L + 6 + 34 + width + 8, T + 6 + 18 * rows + 4, colors::white);
+    for (int k = 0; k < rows; ++k) {
+      const int y = T + 6 + 18 * k + 11;
+      canvas.line(L + 12, y, L + 34, y, series_color(k), 2);
+      canvas.text(L + 40, y, names[static_cast<std::size_t>(k)], colors::black, kFont, Canvas::Align::start,
+                  Canvas::Align::centre);
+    }
+  }
   canvas.write_png(path);
   return {{"file", path.string()}, {"x_range", {ax.lo, ax.hi}}, {"y_range", {ay.lo, ay.hi}},
-          {"x_ticks", ax.ticks},   {"y_ticks", ay.ticks},       {"series", names_json}};
+          {"x_ticks", ax.ticks},   {"y_ticks", ay.ticks},       {"series", names_json},
+          {"x_label", x_label},    {"y_label", y_label},        {"plot_area", {L, T, W - R, H - B}}};
 }
 
 nlohmann::json write_energy_plot(const std::vector<vim::IterationRecord>& history, const fs::path& path) {
@@ -346,7 +392,8 @@ nlohmann::json write_energy_plot(const std::vector<vim::IterationRecord>& histor
     eg.push_back(ratio(h.geometric, h0.geometric));
     ed.push_back(ratio(h.discretization, h0.discretization));
   }
-  nlohmann::json j = write_line_plot(path, it, {e, eg, ed}, {"E/E(0)", "E_G/E_G(0)", "E_D/E_D(0)"});
+  nlohmann::json j = write_line_plot(path, it, {e, eg, ed}, {"E/E(0)", "E_G/E_G(0)", "E_D/E_D(0)"}, "iteration",
+                                     "energy relative to the initial mesh");
   j["normalisation"] = "each series divided by its value at history[0] (the initial mesh)";
   return j;
 }
@@ -355,7 +402,7 @@ template <int dim>
 nlohmann::json write_deformed_slice(const MeshModel<dim>& model,
                                     const std::vector<Eigen::Matrix<double, dim, 1>>& displacement,
                                     const fs::path& path, const Eigen::Matrix<double, dim, 1>& slice_point,
-                                    int normal_axis) {
+                                    int normal_axis, const std::string& caption) {
   using Point = Eigen::Matrix<double, dim, 1>;
   const auto& mesh = model.mesh;
   if (displacement.size() != mesh.n_points())
@@ -381,7 +428,7 @@ nlohmann::json write_deformed_slice(const MeshModel<dim>& model,
   const double pad = 0.02 * (hi - lo).maxCoeff() + 1e-12;
   SliceView view = make_slice_view(axis, u, v, lo.array() - pad, hi.array() + pad, 480);
   view.x_offset = view.y_offset = kMargin;
-  Canvas canvas(view.width + 2 * kMargin, view.height + 3 * kMargin + kBar);
+  Canvas canvas(view.width + 2 * kMargin, view.height + 3 * kMargin + kBar + kLabel);
   const double s = dim == 3 ? slice_point[std::max(axis, 0)] : 0.0;
   Range range{0.0, umax > 0.0 ? umax : 1.0};
 
@@ -407,7 +454,7 @@ nlohmann::json write_deformed_slice(const MeshModel<dim>& model,
   for (std::size_t k = 0; k < deformed_polys.size(); ++k)
     if (deformed_polys[k].size() >= 3) canvas.fill_polygon(deformed_polys[k], viridis(range.t(magnitude[k])));
   for (const auto& p : deformed_polys) draw_outline(canvas, p, colors::black);
-  draw_colorbar(canvas, view, view.y_offset + view.height + kMargin);
+  draw_colorbar(canvas, view, view.y_offset + view.height + kMargin, range.lo, range.hi, caption);
   canvas.write_png(path);
   nlohmann::json j = {{"file", path.string()},
                       {"normal_axis", axis},
@@ -425,8 +472,10 @@ template void write_mesh_figures<2>(const OrientedImage<2>&, const MeshModel<2>&
 template void write_mesh_figures<3>(const OrientedImage<3>&, const MeshModel<3>&, const fs::path&,
                                     const Eigen::Matrix<double, 3, 1>*, nlohmann::json&);
 template nlohmann::json write_deformed_slice<2>(const MeshModel<2>&, const std::vector<Eigen::Matrix<double, 2, 1>>&,
-                                                const fs::path&, const Eigen::Matrix<double, 2, 1>&, int);
+                                                const fs::path&, const Eigen::Matrix<double, 2, 1>&, int,
+                                                const std::string&);
 template nlohmann::json write_deformed_slice<3>(const MeshModel<3>&, const std::vector<Eigen::Matrix<double, 3, 1>>&,
-                                                const fs::path&, const Eigen::Matrix<double, 3, 1>&, int);
+                                                const fs::path&, const Eigen::Matrix<double, 3, 1>&, int,
+                                                const std::string&);
 
 }  // namespace vim::pipeline

@@ -674,6 +674,7 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
   json& rep = res.report;
   rep["scenario"] = {{"file", m.sc.source}, {"yaml", m.sc.text}};
   rep["units"] = {{"length", m.sc.length_unit}, {"modulus", m.sc.modulus_unit}};
+  for (const auto& t : m.sc.targets) res.target_names.push_back(t.name);
   double emin = std::numeric_limits<double>::infinity(), emax = -emin, esum = 0.0;
   for (double e : m.E) {
     emin = std::min(emin, e);

@@ -105,6 +105,54 @@ TEST(Canvas, PrimitivesAndPngRoundTrip) {
   EXPECT_EQ(grey(1.0), colors::white);
 }
 
+// Pixels that differ from white inside and outside a box {left, top, width, height}.
+std::pair<long, long> inked(const Canvas& c, const std::array<int, 4>& box) {
+  long in = 0, out = 0;
+  for (int y = 0; y < c.height(); ++y)
+    for (int x = 0; x < c.width(); ++x) {
+      if (c.at(x, y) == colors::white) continue;
+      const bool inside = x >= box[0] && x < box[0] + box[2] && y >= box[1] && y < box[1] + box[3];
+      (inside ? in : out) += 1;
+    }
+  return {in, out};
+}
+
+// Text lands inside the box it reports, placed by the alignments; a longer string is wider; the
+// vertical box is the horizontal one turned; the strokes are dark (blended with the font's coverage).
+TEST(Canvas, TextIsDrawnInsideItsAlignedBox) {
+  Canvas a(200, 60);
+  const auto box = a.text(10, 5, "depth 123 [mm]", colors::black, 14);
+  EXPECT_EQ(box[0], 10);
+  EXPECT_EQ(box[1], 5);
+  EXPECT_GT(box[2], 60);
+  EXPECT_GT(box[3], 10);
+  EXPECT_LT(box[3], 30);
+  const auto [in, out] = inked(a, box);
+  EXPECT_GT(in, 100);
+  EXPECT_EQ(out, 0);
+  long dark = 0;  // the font is antialiased: count pixels mostly covered
+  for (int y = 0; y < a.height(); ++y)
+    for (int x = 0; x < a.width(); ++x) dark += a.at(x, y).r < 100 && a.at(x, y).g < 100 && a.at(x, y).b < 100;
+  EXPECT_GT(dark, 40);
+
+  Canvas b(200, 60);
+  const auto right = b.text(190, 30, "depth 123 [mm]", colors::black, 14, Canvas::Align::end, Canvas::Align::centre);
+  EXPECT_EQ(right[0] + right[2], 190);
+  EXPECT_EQ(right[2], box[2]);
+  EXPECT_NEAR(right[1] + right[3] / 2.0, 30, 1);
+  EXPECT_EQ(inked(b, right).second, 0);
+  EXPECT_GT(b.text(0, 0, "depth 123 [mm] and more", colors::black, 14)[2], box[2]);
+
+  Canvas v(60, 200);
+  const auto up = v.text(5, 100, "depth 123 [mm]", colors::black, 14, Canvas::Align::start, Canvas::Align::centre, true);
+  EXPECT_EQ(up[2], box[3]);
+  EXPECT_EQ(up[3], box[2]);
+  const auto [vin, vout] = inked(v, up);
+  EXPECT_EQ(vin, in);  // the same glyph coverage, turned
+  EXPECT_EQ(vout, 0);
+  EXPECT_EQ(Canvas(5, 5).text(1, 1, "", colors::black)[2], 0);
+}
+
 TEST(Figures, TetSlicePolygonIsTheCrossSection) {
   const std::array<Eigen::Vector3d, 4> x = {{Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(2, 0, 0),
                                              Eigen::Vector3d(0, 2, 0), Eigen::Vector3d(0, 0, 2)}};
@@ -141,7 +189,7 @@ TEST(Figures, ThreeSlicesShowImageAndMeshCrossSection) {
     const int w = static_cast<int>(std::ceil(eu * scale - 1e-9)), h = static_cast<int>(std::ceil(ev * scale - 1e-9));
     const int right_x0 = 24 + w;
     EXPECT_EQ(c.width(), right_x0 + w + 12);
-    EXPECT_EQ(c.height(), h + 3 * 12 + 14);
+    EXPECT_EQ(c.height(), h + 3 * 12 + 14 + 18);  // + the colour bar's text row
     EXPECT_GT(pixel_variance(c), 0.0);
     auto left_px = [&](const Eigen::Vector3d& p) {
       return Eigen::Vector2d(12 + (p[u] - bmin[u]) * scale, 12 + (p[v] - bmin[v]) * scale);
@@ -251,17 +299,20 @@ TEST(Figures, EnergyPlotIsNormalisedToTheFirstIteration) {
   for (int k = 0; k < 4; ++k) h[k].iteration = k, h[k].energy = e[k], h[k].geometric = g[k], h[k].discretization = d[k];
   const auto j = write_energy_plot(h, dir / "energy.png");
   const Canvas c = Canvas::read_png(dir / "energy.png");
-  EXPECT_EQ(c.width(), 640);
-  EXPECT_EQ(c.height(), 420);
+  EXPECT_EQ(c.width(), 700);
+  EXPECT_EQ(c.height(), 460);
   EXPECT_GT(pixel_variance(c), 0.0);
   const auto xr = j["x_range"].get<std::vector<double>>(), yr = j["y_range"].get<std::vector<double>>();
+  const auto area = j["plot_area"].get<std::vector<int>>();  // left, top, right, bottom
+  ASSERT_EQ(area.size(), 4u);
+  EXPECT_EQ(j["x_label"], "iteration");
   EXPECT_LE(xr[0], 0.0);
   EXPECT_GE(xr[1], 3.0);
   EXPECT_LE(yr[0], 0.3);  // E_D/E_D0 at the last iteration
   EXPECT_GE(yr[1], 1.0);
   EXPECT_LT(yr[1] - yr[0], 2.0);  // normalised, not absolute (E_G would reach 10)
-  auto px = [&](double x) { return 60 + (x - xr[0]) / (xr[1] - xr[0]) * 560; };
-  auto py = [&](double y) { return 380 - (y - yr[0]) / (yr[1] - yr[0]) * 360; };
+  auto px = [&](double x) { return area[0] + (x - xr[0]) / (xr[1] - xr[0]) * (area[2] - area[0]); };
+  auto py = [&](double y) { return area[3] - (y - yr[0]) / (yr[1] - yr[0]) * (area[3] - area[1]); };
   for (int k = 1; k < 4; ++k) {
     EXPECT_TRUE(near_colour(c, px(k), py(e[k] / e[0]), series_color(0), 2)) << k;
     EXPECT_TRUE(near_colour(c, px(k), py(g[k] / g[0]), series_color(1), 2)) << k;
@@ -276,6 +327,39 @@ TEST(Figures, LinePlotSkipsNonFiniteValues) {
   EXPECT_TRUE(fs::exists(dir / "force.png"));
   EXPECT_EQ(j["y_range"][1].get<double>(), 3.0);
   EXPECT_EQ(j["series"][0]["name"], "force");
+}
+
+// Tick values under the x axis and left of the y axis, both axis titles and the legend are drawn:
+// ink in those margins, none where a plot without text leaves them white.
+TEST(Figures, LinePlotHasTickValuesTitlesAndLegend) {
+  const auto dir = fresh_dir("labels");
+  auto plot = [&](const std::string& name, std::vector<std::string> names, const std::string& xl, const std::string& yl) {
+    const auto j = write_line_plot(dir / name, {0, 10, 20}, {{0.0, 5.0, 40.0}, {1.0, 2.0, 3.0}}, names, xl, yl);
+    return std::make_pair(j, Canvas::read_png(dir / name));
+  };
+  const auto [j, c] = plot("with.png", {"axial force", "lateral force"}, "needle depth [mm]", "force [mN]");
+  const auto [j0, c0] = plot("without.png", {}, "", "");
+  const auto area = j["plot_area"].get<std::vector<int>>();
+  auto ink = [](const Canvas& canvas, int x0, int y0, int x1, int y1) {
+    long n = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) n += canvas.at(x, y) != colors::white;
+    return n;
+  };
+  // y tick values: between the y title's column and the tick marks; x tick values: under the ticks.
+  EXPECT_GT(ink(c, 24, area[1], area[0] - 6, area[3]), 50);
+  EXPECT_GT(ink(c, area[0], area[3] + 7, area[2], area[3] + 24), 50);
+  // Titles: the x title at the bottom, the y title in the leftmost column; absent without labels.
+  EXPECT_GT(ink(c, area[0], c.height() - 22, area[2], c.height()), 50);
+  EXPECT_GT(ink(c, 0, area[1], 22, area[3]), 50);
+  EXPECT_EQ(ink(c0, area[0], c0.height() - 22, area[2], c0.height()), 0);
+  EXPECT_EQ(ink(c0, 0, area[1], 22, area[3]), 0);
+  // Legend: names next to their line samples in the top-left corner of the plot.
+  EXPECT_GT(ink(c, area[0] + 40, area[1] + 6, area[0] + 140, area[1] + 44), 100);
+  EXPECT_TRUE(near_colour(c, area[0] + 20, area[1] + 17, series_color(0), 1));
+  EXPECT_TRUE(near_colour(c, area[0] + 20, area[1] + 35, series_color(1), 1));
+  EXPECT_EQ(j["x_label"], "needle depth [mm]");
+  EXPECT_EQ(j["y_label"], "force [mN]");
 }
 
 TEST(Figures, DeformedSliceFollowsTheDisplacement) {

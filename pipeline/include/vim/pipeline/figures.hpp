@@ -63,11 +63,13 @@ void write_mesh_figures(const OrientedImage<dim>& image, const MeshModel<dim>& m
                         const std::filesystem::path& dir, const Eigen::Matrix<double, dim, 1>* slice_point,
                         nlohmann::json& report);
 
-// Line chart with axes and tick marks at 1-2-5 steps (no text). Non-finite values break a series.
-// Returns {x_range, y_range, x_ticks, y_ticks, series} for report["figures"].
+// Line chart with axes, ticks at 1-2-5 steps with their values, axis titles and a legend of `names`
+// (none if empty). Non-finite values break a series. Returns {x_range, y_range, x_ticks, y_ticks,
+// series, x_label, y_label, plot_area = [left, top, right, bottom] pixels} for report["figures"].
 nlohmann::json write_line_plot(const std::filesystem::path& path, const std::vector<double>& x,
                                const std::vector<std::vector<double>>& series,
-                               const std::vector<std::string>& names = {});
+                               const std::vector<std::string>& names = {}, const std::string& x_label = "",
+                               const std::string& y_label = "");
 
 // Fig. 9: E, E_G/E_G0 and E_D/E_D0 against the iteration, each normalised to history[0].
 nlohmann::json write_energy_plot(const std::vector<vim::IterationRecord>& history,
@@ -75,11 +77,13 @@ nlohmann::json write_energy_plot(const std::vector<vim::IterationRecord>& histor
 
 // The mesh after displacement (per node, frame axes) cut by the plane x[normal_axis] =
 // slice_point[normal_axis] in 3D (2D: the whole deformed mesh): undeformed outline in light grey,
-// deformed elements filled by |u| (viridis) with black outlines. Returns the ranges for the report.
+// deformed elements filled by |u| (viridis) with black outlines, a colour bar labelled with its range
+// and `caption`. Returns the ranges for the report.
 template <int dim>
 nlohmann::json write_deformed_slice(const MeshModel<dim>& model,
                                     const std::vector<Eigen::Matrix<double, dim, 1>>& displacement,
                                     const std::filesystem::path& path,
-                                    const Eigen::Matrix<double, dim, 1>& slice_point, int normal_axis = dim - 1);
+                                    const Eigen::Matrix<double, dim, 1>& slice_point, int normal_axis = dim - 1,
+                                    const std::string& caption = "|u|");
 
 }  // namespace vim::pipeline

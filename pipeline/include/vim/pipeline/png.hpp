@@ -1,6 +1,7 @@
-// A tiny RGB raster canvas for the figures (no display, no fonts): pixels, Bresenham lines, filled
-// polygons (scanline, pixel centres), rectangles, a viridis-like colormap and grey ramp, and PNG
-// output through ITK's PNGImageIO under a temporary name (write_atomically).
+// A tiny RGB raster canvas for the figures (no display): pixels, Bresenham lines, filled polygons
+// (scanline, pixel centres), rectangles, antialiased text (VTK's embedded Arial through FreeType), a
+// viridis-like colormap and grey ramp, and PNG output through ITK's PNGImageIO under a temporary
+// name (write_atomically).
 #pragma once
 
 #include <Eigen/Core>
@@ -8,6 +9,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <string>
 #include <vector>
 
 namespace vim::pipeline {
@@ -52,6 +54,15 @@ class Canvas {
   // Fills every pixel whose centre (x + 0.5, y + 0.5) is inside the polygon (even-odd rule).
   void fill_polygon(const std::vector<Eigen::Vector2d>& pts, Rgb c);
   void fill_rect(int x0, int y0, int x1, int y1, Rgb c);  // inclusive corners
+
+  // Text of `size` pixels (font size; the box is about 1.2·size high), blended over the canvas with
+  // the font's coverage, its bounding box placed at (x, y) by `h` (start = box's left edge at x) and
+  // `v` (start = box's top edge at y). `vertical` turns it 90° counter-clockwise (reads bottom to
+  // top; the alignments then apply to the turned box). Returns the box {left, top, width, height}
+  // ({x, y, 0, 0} for an empty string).
+  enum class Align { start, centre, end };
+  std::array<int, 4> text(int x, int y, const std::string& s, Rgb c, int size = 12, Align h = Align::start,
+                          Align v = Align::start, bool vertical = false);
 
   // Writes an 8-bit RGB PNG (ITK PNGImageIO) via a temporary name + rename.
   void write_png(const std::filesystem::path& path) const;

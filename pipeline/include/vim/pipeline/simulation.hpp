@@ -75,6 +75,7 @@ struct NeedleRun {
 template <int dim>
 struct SimulationResult {
   std::vector<NeedleRun<dim>> needles;
+  std::vector<std::string> target_names;  // the scenario's targets, in the order of target_displacement
   nlohmann::json report;  // for report.json["simulation"]
 };
 
