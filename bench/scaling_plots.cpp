@@ -40,7 +40,8 @@ void write(const std::filesystem::path& path, const Series& series, const char* 
     ys.push_back(y);
     names.push_back(std::string(key_name) + " " + std::to_string(key));
   }
-  const auto info = vim::pipeline::write_line_plot(path, x, ys, names);
+  const auto info = vim::pipeline::write_line_plot(path, x, ys, names, std::string("log10 ") + x_name,
+                                                    "log10 seconds per iteration");
   std::printf("wrote %s: x = log10 %s, y = log10 s/iteration, x axis %s, y axis %s, series %s\n", path.c_str(),
               x_name, info["x_range"].dump().c_str(),
               info["y_range"].dump().c_str(), info["series"].dump().c_str());

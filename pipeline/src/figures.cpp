@@ -300,7 +300,7 @@ void write_mesh_figures(const OrientedImage<dim>& oriented, const MeshModel<dim>
 nlohmann::json write_line_plot(const fs::path& path, const std::vector<double>& x,
                                const std::vector<std::vector<double>>& series, const std::vector<std::string>& names,
                                const std::string& x_label, const std::string& y_label) {
-  constexpr int W = 700, H = 460, L = 90, R = 20, T = 20, B = 58;
+  constexpr int W = 700, H = 470, L = 90, R = 20, T = 34, B = 58;
   double xlo = INFINITY, xhi = -INFINITY, ylo = INFINITY, yhi = -INFINITY;
   for (std::size_t k = 0; k < x.size(); ++k) {
     if (!std::isfinite(x[k])) continue;
@@ -361,19 +361,14 @@ nlohmann::json write_line_plot(const fs::path& path, const std::vector<double>& 
     names_json.push_back({{"name", s < names.size() ? names[s] : "series " + std::to_string(s)},
                           {"color", {col.r, col.g, col.b}}});
   }
-  // Legend in the plot's top-left corner, on white: a line sample and the name of each series.
-  if (!names.empty()) {
-    int width = 0;
-    Canvas probe(1, 1);
-    for (const auto& n : names) width = std::max(width, probe.text(0, 0, n, colors::black, kFont)[2]);
-    const int rows = static_cast<int>(std::min(names.size(), series.size()));
-    canvas.fill_rect(L + 6, T + 6, L + 6 + 34 + width + 8, T + 6 + 18 * rows + 4, colors::white);
-    for (int k = 0; k < rows; ++k) {
-      const int y = T + 6 + 18 * k + 11;
-      canvas.line(L + 12, y, L + 34, y, series_color(k), 2);
-      canvas.text(L + 40, y, names[static_cast<std::size_t>(k)], colors::black, kFont, Canvas::Align::start,
-                  Canvas::Align::centre);
-    }
+  // Legend above the plot (never over the data): a line sample and the name of each series, in a row.
+  int legend_x = L;
+  for (std::size_t k = 0; k < std::min(names.size(), series.size()); ++k) {
+    const int y = T / 2;
+    canvas.line(legend_x, y, legend_x + 22, y, series_color(static_cast<int>(k)), 2);
+    const auto box = canvas.text(legend_x + 28, y, names[k], colors::black, kFont, Canvas::Align::start,
+                                 Canvas::Align::centre);
+    legend_x = box[0] + box[2] + 18;
   }
   canvas.write_png(path);
   return {{"file", path.string()}, {"x_range", {ax.lo, ax.hi}}, {"y_range", {ay.lo, ay.hi}},

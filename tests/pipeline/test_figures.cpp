@@ -300,7 +300,7 @@ TEST(Figures, EnergyPlotIsNormalisedToTheFirstIteration) {
   const auto j = write_energy_plot(h, dir / "energy.png");
   const Canvas c = Canvas::read_png(dir / "energy.png");
   EXPECT_EQ(c.width(), 700);
-  EXPECT_EQ(c.height(), 460);
+  EXPECT_EQ(c.height(), 470);
   EXPECT_GT(pixel_variance(c), 0.0);
   const auto xr = j["x_range"].get<std::vector<double>>(), yr = j["y_range"].get<std::vector<double>>();
   const auto area = j["plot_area"].get<std::vector<int>>();  // left, top, right, bottom
@@ -354,10 +354,13 @@ TEST(Figures, LinePlotHasTickValuesTitlesAndLegend) {
   EXPECT_GT(ink(c, 0, area[1], 22, area[3]), 50);
   EXPECT_EQ(ink(c0, area[0], c0.height() - 22, area[2], c0.height()), 0);
   EXPECT_EQ(ink(c0, 0, area[1], 22, area[3]), 0);
-  // Legend: names next to their line samples in the top-left corner of the plot.
-  EXPECT_GT(ink(c, area[0] + 40, area[1] + 6, area[0] + 140, area[1] + 44), 100);
-  EXPECT_TRUE(near_colour(c, area[0] + 20, area[1] + 17, series_color(0), 1));
-  EXPECT_TRUE(near_colour(c, area[0] + 20, area[1] + 35, series_color(1), 1));
+  // Legend: names next to their line samples in a row above the plot, not over the data.
+  EXPECT_GT(ink(c, area[0] + 28, 0, area[2], area[1] - 2), 100);
+  EXPECT_EQ(ink(c0, area[0], 0, c0.width(), area[1] - 2), 0);  // (left of the axis: the top tick value)
+  EXPECT_TRUE(near_colour(c, area[0] + 11, area[1] / 2, series_color(0), 1));
+  long second = 0;  // the second sample sits after the first name
+  for (int x = area[0] + 60; x < area[2]; ++x) second += c.at(x, area[1] / 2) == series_color(1);
+  EXPECT_GT(second, 10);
   EXPECT_EQ(j["x_label"], "needle depth [mm]");
   EXPECT_EQ(j["y_label"], "force [mN]");
 }
