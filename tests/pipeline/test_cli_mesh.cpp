@@ -6,6 +6,7 @@
 #include <vim/pipeline/phantoms.hpp>
 #include <vim/vim.hpp>
 
+#include "mesh_angles.hpp"
 #include "run_cli.hpp"
 
 #include <Eigen/Geometry>
@@ -248,37 +249,6 @@ TEST(CliMesh, ThreeDimensionalObliqueAnisotropic) {
   EXPECT_EQ(rep["mesh"]["mesher"], "grid");
 }
 
-// Smallest dihedral angle (3D; degrees) or interior angle (2D) over the cells of a mesh.vtu, from
-// the point coordinates: in 3D the angle along edge (i, j) is the one between the normals of the
-// faces (i, j, k) and (i, j, l); in 2D the angle at each corner between its two edges.
-double smallest_angle_deg(vtkUnstructuredGrid* g, int dim) {
-  double smallest = 180.0;
-  for (vtkIdType c = 0; c < g->GetNumberOfCells(); ++c) {
-    vtkIdType n = 0;
-    const vtkIdType* ids = nullptr;
-    g->GetCellPoints(c, n, ids);
-    std::vector<Eigen::Vector3d> p(static_cast<std::size_t>(n));
-    for (vtkIdType i = 0; i < n; ++i) g->GetPoint(ids[i], p[static_cast<std::size_t>(i)].data());
-    auto angle = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-      return std::acos(std::clamp(a.dot(b) / (a.norm() * b.norm()), -1.0, 1.0)) * 180.0 / M_PI;
-    };
-    if (dim == 3) {
-      for (int i = 0; i < 4; ++i)
-        for (int j = i + 1; j < 4; ++j) {
-          int k = 0;
-          while (k == i || k == j) ++k;
-          const int l = 6 - i - j - k;
-          const Eigen::Vector3d e = p[j] - p[i];
-          smallest = std::min(smallest, angle(e.cross(p[k] - p[i]), e.cross(p[l] - p[i])));
-        }
-    } else {
-      for (int i = 0; i < 3; ++i)
-        smallest = std::min(smallest, angle(p[(i + 1) % 3] - p[i], p[(i + 2) % 3] - p[i]));
-    }
-  }
-  return smallest;
-}
-
 // --min-dihedral: without it these meshes have angles below the bound; with it none is below, the
 // report records the option, and a bound the initial grid cannot meet gives one warning (stderr and
 // report.json) and a valid, unchanged mesh.
@@ -304,8 +274,8 @@ TEST(CliMesh, MinimumDihedralBoundHoldsOnEveryElement) {
     const auto b = run_pipeline(common + quote(bounded_out.string()) + bound);
     ASSERT_EQ(b.code, 0) << b.err;
     EXPECT_TRUE(b.err.empty()) << b.err;
-    const double free_min = smallest_angle_deg(read_vtu((free_out / "mesh.vtu").string()), c.dim);
-    const double bounded_min = smallest_angle_deg(read_vtu((bounded_out / "mesh.vtu").string()), c.dim);
+    const double free_min = vim::test::smallest_angle_deg(read_vtu((free_out / "mesh.vtu").string()), c.dim);
+    const double bounded_min = vim::test::smallest_angle_deg(read_vtu((bounded_out / "mesh.vtu").string()), c.dim);
     EXPECT_LT(free_min, c.bound) << c.image << ": the bound would not be active";
     EXPECT_GE(bounded_min, c.bound - 1e-9) << c.image;
     const auto rep = nlohmann::json::parse(vim::test::slurp(bounded_out / "report.json"));
@@ -323,7 +293,7 @@ TEST(CliMesh, MinimumDihedralBoundHoldsOnEveryElement) {
   const auto rep = nlohmann::json::parse(vim::test::slurp(out / "report.json"));
   ASSERT_EQ(rep["warnings"].size(), 1u);
   EXPECT_NE(rep["warnings"][0].get<std::string>().find("smallest angle 45 deg"), std::string::npos) << rep["warnings"];
-  EXPECT_NEAR(smallest_angle_deg(read_vtu((out / "mesh.vtu").string()), 2), 45.0, 1e-9);
+  EXPECT_NEAR(vim::test::smallest_angle_deg(read_vtu((out / "mesh.vtu").string()), 2), 45.0, 1e-9);
 }
 
 TEST(CliMesh, UsageErrorsExitWithTwo) {

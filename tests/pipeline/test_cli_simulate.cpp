@@ -8,6 +8,7 @@
 #include <vim/pipeline/png.hpp>
 #include <vim/pipeline/scenario.hpp>
 
+#include "mesh_angles.hpp"
 #include "run_cli.hpp"
 
 #include <Eigen/Geometry>
@@ -428,23 +429,6 @@ TEST(CliSimulate, ScenarioMeshKeysApplyUnlessGivenOnTheCommandLine) {
                                    "boundary_conditions:\n  - {type: fixed, region: {box_face: z_max}}\n"
                                    "needle: {entry: [1.5, 1.5, 0], direction: [0, 0, 1], depth: 1.0, steps: 1, diameter: 0.1}\n"
                                    "output: {every: 0}\n";
-  auto smallest_dihedral = [](const fs::path& vtu) {
-    const auto g = read_vtu(vtu);
-    double smallest = 180.0;
-    for (vtkIdType c = 0; c < g->GetNumberOfCells(); ++c) {
-      std::array<Eigen::Vector3d, 4> p;
-      for (int i = 0; i < 4; ++i) g->GetPoint(g->GetCell(c)->GetPointId(i), p[i].data());
-      for (int i = 0; i < 4; ++i)
-        for (int j = i + 1; j < 4; ++j) {
-          int k = 0;
-          while (k == i || k == j) ++k;
-          const int l = 6 - i - j - k;
-          const Eigen::Vector3d e = p[j] - p[i], n1 = e.cross(p[k] - p[i]), n2 = e.cross(p[l] - p[i]);
-          smallest = std::min(smallest, std::acos(std::clamp(n1.dot(n2) / (n1.norm() * n2.norm()), -1.0, 1.0)) * 180.0 / M_PI);
-        }
-    }
-    return smallest;
-  };
   const std::string common = quote(dir / "in.mha") + " --max-iterations 4 --export none -q --simulate " + quote(dir / "s.yaml");
   const auto a = run_pipeline(common + " --out " + quote(dir / "scenario"));
   ASSERT_EQ(a.code, 0) << a.err;
@@ -457,6 +441,6 @@ TEST(CliSimulate, ScenarioMeshKeysApplyUnlessGivenOnTheCommandLine) {
   EXPECT_EQ(ra["options"]["nodes"].get<long>(), 343);
   EXPECT_EQ(rb["options"]["min_dihedral_deg"].get<double>(), 0.0);
   EXPECT_EQ(rb["options"]["lambda"].get<double>(), 0.5);
-  EXPECT_GE(smallest_dihedral(dir.path / "scenario" / "mesh.vtu"), 20.0 - 1e-9);
-  EXPECT_LT(smallest_dihedral(dir.path / "cli" / "mesh.vtu"), 20.0) << "the bound would not be active";
+  EXPECT_GE(vim::test::smallest_angle_deg(read_vtu(dir.path / "scenario" / "mesh.vtu"), 3), 20.0 - 1e-9);
+  EXPECT_LT(vim::test::smallest_angle_deg(read_vtu(dir.path / "cli" / "mesh.vtu"), 3), 20.0) << "the bound would not be active";
 }
