@@ -33,11 +33,12 @@ std::string number_label(double t, double scale) {
   return buf;
 }
 
-// The viridis bar under a panel, from lo (left) to hi (right), with both values and the caption on
-// the text row below it (kLabel pixels).
-void draw_colorbar(Canvas& canvas, const SliceView& view, int y0, double lo, double hi, const std::string& caption) {
+// The colour bar (viridis unless `map`) under a panel, from lo (left) to hi (right), with both values
+// and the caption on the text row below it (kLabel pixels).
+void draw_colorbar(Canvas& canvas, const SliceView& view, int y0, double lo, double hi, const std::string& caption,
+                   Rgb (*map)(double) = viridis) {
   for (int x = 0; x < view.width; ++x) {
-    const Rgb c = viridis(view.width > 1 ? static_cast<double>(x) / (view.width - 1) : 0.5);
+    const Rgb c = map(view.width > 1 ? static_cast<double>(x) / (view.width - 1) : 0.5);
     for (int y = y0; y < y0 + kBar; ++y) canvas.set(view.x_offset + x, y, c);
   }
   const double scale = std::max(std::abs(lo), std::abs(hi));
@@ -280,14 +281,17 @@ void write_mesh_figures(const OrientedImage<dim>& oriented, const MeshModel<dim>
     const auto views = mesh_figure_views(image, -1);
     const SliceView& view = views[0];
     const auto cut = sections(-1, 0.0);
-    Canvas overlay(view.width + 2 * kMargin, view.height + 2 * kMargin);
+    const int bar_y = view.y_offset + view.height + kMargin;
+    Canvas overlay(view.width + 2 * kMargin, view.height + 3 * kMargin + kBar + kLabel);
     render_image(overlay, view);
     for (const auto& [c, poly] : cut) draw_outline(overlay, to_pixels(view, poly), colors::outline);
+    draw_colorbar(overlay, view, bar_y, range.lo, range.hi, "image value", grey);
     const fs::path f1 = fig_dir / "mesh_overlay.png";
     overlay.write_png(f1);
 
-    Canvas discretized(view.width + 2 * kMargin, view.height + 2 * kMargin);
+    Canvas discretized(view.width + 2 * kMargin, view.height + 3 * kMargin + kBar + kLabel);
     for (const auto& [c, poly] : cut) discretized.fill_polygon(to_pixels(view, poly), grey(range.t(model.values[c].mean)));
+    draw_colorbar(discretized, view, bar_y, range.lo, range.hi, "element mean", grey);
     const fs::path f2 = fig_dir / "discretized.png";
     discretized.write_png(f2);
     info["files"] = {f1.string(), f2.string()};

@@ -269,8 +269,12 @@ TEST(Figures, TwoDimensionalOverlayAndDiscretizedImage) {
   const int h = static_cast<int>(std::ceil((bmax[1] - bmin[1]) * scale - 1e-9));
   for (const Canvas* c : {&overlay, &disc}) {
     EXPECT_EQ(c->width(), w + 24);
-    EXPECT_EQ(c->height(), h + 24);
+    EXPECT_EQ(c->height(), h + 3 * 12 + 14 + 18);  // + the grey bar and its text row
     EXPECT_GT(pixel_variance(*c), 0.0);
+    // The grey bar under the panel: the range's low end (black) on the left, its high end on the right.
+    const int bar_row = 12 + h + 12 + 7;
+    EXPECT_EQ(c->at(12, bar_row), grey(0.0));
+    EXPECT_EQ(c->at(12 + w - 1, bar_row), grey(1.0));
   }
   auto px = [&](const Eigen::Vector2d& p) { return Eigen::Vector2d(12 + (p[0] - bmin[0]) * scale, 12 + (p[1] - bmin[1]) * scale); };
   const double lo = 0.0, hi = 23 + 2 * 17;
