@@ -146,8 +146,8 @@ inline int angle_cosines(const std::array<Eigen::Vector3d, 4>& x, std::array<dou
 }  // namespace
 
 // The quality bound of §IV-B. Fast path: when every angle is clearly (1e-9 in cosine) within the
-// bound, or one is clearly outside it, decide from the cosines; otherwise (and for radius-ratio
-// bounds) defer to vim::acceptable, which defines the bound.
+// bound, or one is clearly outside it, decide from the cosines (and a radius-ratio bound from the
+// closed forms of ratio_side); otherwise defer to vim::acceptable, which defines the bound.
 template <int dim>
 FixedFace<dim> fixed_face(const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>& x, int vertex) {
   FixedFace<dim> f;
