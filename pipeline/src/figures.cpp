@@ -24,6 +24,14 @@ struct Range {
   double t(double x) const { return hi > lo ? (x - lo) / (hi - lo) : 0.5; }
 };
 
+// printf into a std::string (short figure labels).
+template <class... Args>
+std::string printf_string(const char* format, Args... args) {
+  char buf[128];
+  std::snprintf(buf, sizeof buf, format, args...);
+  return buf;
+}
+
 // A number as a tick or range label: 6 significant digits, and 0 for values that are round-off
 // next to `scale` (e.g. 5.6e-17 on an axis from -1 to 1).
 std::string number_label(double t, double scale) {
@@ -265,6 +273,18 @@ void write_mesh_figures(const OrientedImage<dim>& oriented, const MeshModel<dim>
         draw_outline(canvas, to_pixels(right, poly), colors::black);
       }
       draw_colorbar(canvas, right, left.y_offset + left.height + kMargin, range.lo, range.hi, "element mean");
+      // Under the image panel: which slice this is (its world point is in report.json), in the
+      // longest form that fits the panel's width.
+      const long k = static_cast<long>(index[axis]), n = static_cast<long>(image.size[axis]);
+      Canvas probe(1, 1);
+      for (const std::string& where :
+           {printf_string("%s slice: voxel %ld of %ld on image axis %d; image + mesh", slice_name(axis), k, n, axis),
+            printf_string("%s: voxel %ld/%ld, axis %d", slice_name(axis), k, n, axis),
+            printf_string("voxel %ld/%ld", k, n)})
+        if (probe.text(0, 0, where, colors::axis, kFont)[2] <= left.width) {
+          canvas.text(left.x_offset, left.y_offset + left.height + kMargin, where, colors::axis, kFont);
+          break;
+        }
       const fs::path file = fig_dir / (std::string("slice_") + slice_name(axis) + ".png");
       canvas.write_png(file);
       info["files"].push_back(file.string());

@@ -191,6 +191,13 @@ TEST(Figures, ThreeSlicesShowImageAndMeshCrossSection) {
     EXPECT_EQ(c.width(), right_x0 + w + 12);
     EXPECT_EQ(c.height(), h + 3 * 12 + 14 + 18);  // + the colour bar's text row
     EXPECT_GT(pixel_variance(c), 0.0);
+    // Under the image panel, the slice's name and voxel in text; under the element panel, the bar.
+    long ink = 0;
+    for (int y = 12 + h + 12; y < 12 + h + 12 + 16; ++y)
+      for (int x = 12; x < 12 + w; ++x) ink += c.at(x, y) != colors::white;
+    EXPECT_GT(ink, 100) << names[axis];
+    EXPECT_EQ(c.at(right_x0, 12 + h + 12 + 7), viridis(0.0));
+    EXPECT_EQ(c.at(right_x0 + w - 1, 12 + h + 12 + 7), viridis(1.0));
     auto left_px = [&](const Eigen::Vector3d& p) {
       return Eigen::Vector2d(12 + (p[u] - bmin[u]) * scale, 12 + (p[v] - bmin[v]) * scale);
     };
