@@ -195,12 +195,12 @@ NeedleOut finish(NeedleSimulation<3>& sim, const Samples& s) {
 }
 
 void plot(const std::string& dir, const std::string& name, const std::vector<double>& nodes,
-          const std::vector<double>& vim, const std::vector<double>& grid,
-          const std::string& y_label = "relative L2 displacement error vs the voxel reference") {
+          const std::vector<double>& vim, const std::vector<double>& grid) {
   if (dir.empty()) return;
   std::filesystem::create_directories(dir);
   // series_color(0) (blue) = VIM, series_color(1) (red) = grid.
-  const auto info = write_line_plot(std::filesystem::path(dir) / name, nodes, {vim, grid}, {"VIM", "grid"}, "nodes", y_label);
+  const auto info = write_line_plot(std::filesystem::path(dir) / name, nodes, {vim, grid}, {"VIM", "grid"}, "nodes",
+                                    "relative L2 displacement error vs the voxel reference");
   std::printf("wrote %s/%s (blue = VIM, red = grid; x axis %s, y axis %s)\n", dir.c_str(), name.c_str(),
               info["x_range"].dump().c_str(), info["y_range"].dump().c_str());
 }

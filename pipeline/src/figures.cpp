@@ -35,10 +35,7 @@ std::string printf_string(const char* format, Args... args) {
 // A number as a tick or range label: 6 significant digits, and 0 for values that are round-off
 // next to `scale` (e.g. 5.6e-17 on an axis from -1 to 1).
 std::string number_label(double t, double scale) {
-  if (std::abs(t) < 1e-9 * std::abs(scale)) t = 0.0;
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", t);
-  return buf;
+  return printf_string("%.6g", std::abs(t) < 1e-9 * std::abs(scale) ? 0.0 : t);
 }
 
 // The colour bar (viridis unless `map`) under a panel, from lo (left) to hi (right), with both values
@@ -276,12 +273,11 @@ void write_mesh_figures(const OrientedImage<dim>& oriented, const MeshModel<dim>
       // Under the image panel: which slice this is (its world point is in report.json), in the
       // longest form that fits the panel's width.
       const long k = static_cast<long>(index[axis]), n = static_cast<long>(image.size[axis]);
-      Canvas probe(1, 1);
       for (const std::string& where :
            {printf_string("%s slice: voxel %ld of %ld on image axis %d; image + mesh", slice_name(axis), k, n, axis),
             printf_string("%s: voxel %ld/%ld, axis %d", slice_name(axis), k, n, axis),
             printf_string("voxel %ld/%ld", k, n)})
-        if (probe.text(0, 0, where, colors::axis, kFont)[2] <= left.width) {
+        if (Canvas::text_size(where, kFont)[0] <= left.width) {
           canvas.text(left.x_offset, left.y_offset + left.height + kMargin, where, colors::axis, kFont);
           break;
         }

@@ -15,25 +15,38 @@
 
 namespace vim::pipeline {
 
-std::array<int, 4> Canvas::text(int x, int y, const std::string& s, Rgb c, int size, Align h, Align v, bool vertical) {
-  if (s.empty()) return {x, y, 0, 0};
+namespace {
+
+// The string rasterised by VTK: coverage in the alpha channel of `img`, the string occupying pixels
+// [0, dims[0]) × [0, dims[1]) with y up. False for an empty string or a failed render.
+bool render(const std::string& s, int size, vtkImageData* img, int dims[2]) {
+  if (s.empty()) return false;
   vtkNew<vtkTextProperty> prop;
   prop->SetFontFamilyToArial();
   prop->SetFontSize(std::max(1, size));
   prop->SetColor(0.0, 0.0, 0.0);
   prop->SetJustificationToLeft();
   prop->SetVerticalJustificationToBottom();
+  // vtkFreeTypeTools is a process-wide singleton with a glyph cache.
+  static std::mutex m;
+  std::lock_guard<std::mutex> lock(m);
+  return vtkFreeTypeTools::GetInstance()->RenderString(prop, vtkStdString(s), 72, img, dims) && dims[0] > 0 &&
+         dims[1] > 0 && img->GetNumberOfScalarComponents() == 4;
+}
+
+}  // namespace
+
+std::array<int, 2> Canvas::text_size(const std::string& s, int size) {
   vtkNew<vtkImageData> img;
   int dims[2] = {0, 0};
-  {
-    // vtkFreeTypeTools is a process-wide singleton with a glyph cache.
-    static std::mutex m;
-    std::lock_guard<std::mutex> lock(m);
-    if (!vtkFreeTypeTools::GetInstance()->RenderString(prop, vtkStdString(s), 72, img, dims)) return {x, y, 0, 0};
-  }
-  // The string occupies image pixels [0, tw) × [0, th) with y up; its coverage is the alpha channel.
+  return render(s, size, img, dims) ? std::array<int, 2>{dims[0], dims[1]} : std::array<int, 2>{0, 0};
+}
+
+std::array<int, 4> Canvas::text(int x, int y, const std::string& s, Rgb c, int size, Align h, Align v, bool vertical) {
+  vtkNew<vtkImageData> img;
+  int dims[2] = {0, 0};
+  if (!render(s, size, img, dims)) return {x, y, 0, 0};
   const int tw = dims[0], th = dims[1];
-  if (tw <= 0 || th <= 0 || img->GetNumberOfScalarComponents() != 4) return {x, y, 0, 0};
   const int* extent = img->GetDimensions();
   const auto* rgba = static_cast<const unsigned char*>(img->GetScalarPointer());
   const int bw = vertical ? th : tw, bh = vertical ? tw : th;

@@ -63,6 +63,8 @@ class Canvas {
   enum class Align { start, centre, end };
   std::array<int, 4> text(int x, int y, const std::string& s, Rgb c, int size = 12, Align h = Align::start,
                           Align v = Align::start, bool vertical = false);
+  // Width and height of text()'s box for `s` (unturned), without drawing; {0, 0} for an empty string.
+  static std::array<int, 2> text_size(const std::string& s, int size = 12);
 
   // Writes an 8-bit RGB PNG (ITK PNGImageIO) via a temporary name + rename.
   void write_png(const std::filesystem::path& path) const;
