@@ -10,6 +10,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 namespace vim {
 
@@ -405,26 +406,128 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::scan(const Faces& f) c
     clip_row(a, b);
     add_row(a, b);
   };
+  // Inlined fast path of clip_row for the rows r0..r1 of one slab (j_2 fixed in 3D), where each
+  // face's crossing is c_k + s_k·j_1, with the faces in `by_side` order: those bounding rows from
+  // below (n_0 > 0) first, then the others; a face with n_0 == 0 has c = +inf (no bound) and
+  // instead accepts or rejects whole rows by the predicate clip_row applies to it (ok(a) ==
+  // accepts(r, ...) exactly, as n_0·(a − b_0) = ±0). Rows whose bounds fall within 1e-6 of a voxel
+  // centre (possible ties) take clip_row's exact path: the fast bounds are only trusted away from
+  // ties, so rounding here cannot change a result.
+  std::array<int, dim + 1> by_side;
+  int lower_count = 0;
+  for (int i = 0; i <= dim; ++i)
+    if (f.normal[i][0] > 0.0) by_side[lower_count++] = i;
+  for (int i = 0, k = lower_count; i <= dim; ++i)
+    if (!(f.normal[i][0] > 0.0)) by_side[k++] = i;
+  const double lo0 = static_cast<double>(f.lo[0]) - 0.5, hi0 = static_cast<double>(f.hi[0]) + 0.5;
+  auto fast_rows = [&](long r0, long r1, const std::array<double, dim + 1>& c, const std::array<double, dim + 1>& s) {
+    long row = r0;
+    if constexpr (dim == 3) row += slab_rows * j[2];
+    const double* p = table + row * row_stride;
+    // A fixed count of lower faces per instantiation: no per-face side test in the row loop.
+    auto rows = [&](auto lower_faces) {
+      constexpr int nl = decltype(lower_faces)::value;
+      for (j[1] = r0; j[1] <= r1; ++j[1], p += row_stride) {
+        const double y = static_cast<double>(j[1]);
+        if (!f.all_fast) {
+          bool rejected = false;
+          for (int i = 0; i <= dim && !rejected; ++i)
+            if (!f.fast[i]) rejected = !accepts(row_rest<dim>(f.normal[i], f.base[i], j), f.tol[i], f.tie_in[i]);
+          if (rejected) continue;
+        }
+        double lower = lo0, upper = hi0;
+        for (int k = 0; k < nl; ++k) lower = std::max(lower, c[k] + s[k] * y);
+        for (int k = nl; k <= dim; ++k) upper = std::min(upper, c[k] + s[k] * y);
+        if (lower > upper + 1e-6) continue;
+        // Here lower ≥ lo0 ≥ −0.5 and upper > −0.6, so truncating lower + 1 and upper + 1 gives
+        // floor(lower) + 1 and floor(upper) + 1; rounding in the +1 moves the fractions by an ulp,
+        // which only matters within an ulp of a voxel centre, where the tie test sends the row to
+        // the exact path anyway.
+        const double sl = lower + 1.0, su = upper + 1.0;
+        const long a = static_cast<long>(sl), b1 = static_cast<long>(su);
+        const double rl = sl - static_cast<double>(a), ru = su - static_cast<double>(b1);
+        if (std::max(std::abs(rl - 0.5), std::abs(ru - 0.5)) < 0.5 - 1e-6) {
+          // [a, b1 − 1], possibly empty (a == b1): then both differences are exactly 0.
+          count += b1 - a;
+          sum_s += p[2 * b1] - p[2 * a];
+          sum_q += p[2 * b1 + 1] - p[2 * a + 1];
+        } else {
+          clip_and_add_row();
+        }
+      }
+    };
+    switch (lower_count) {
+      case 0: rows(std::integral_constant<int, 0>{}); break;
+      case 1: rows(std::integral_constant<int, 1>{}); break;
+      case 2: rows(std::integral_constant<int, 2>{}); break;
+      case 3: rows(std::integral_constant<int, 3>{}); break;
+      default: rows(std::integral_constant<int, dim + 1>{}); break;
+    }
+  };
   if constexpr (dim == 2) {
-    for (j[1] = f.lo[1]; j[1] <= f.hi[1]; ++j[1]) clip_and_add_row();
+    if (!f.slab_fast) {
+      for (j[1] = f.lo[1]; j[1] <= f.hi[1]; ++j[1]) clip_and_add_row();
+    } else {
+      std::array<double, dim + 1> c, s;
+      for (int k = 0; k <= dim; ++k) {
+        const int i = by_side[k];
+        c[k] = f.fast[i] ? f.cross0[i] : std::numeric_limits<double>::infinity();
+        s[k] = f.fast[i] ? f.slope[i][1] : 0.0;
+      }
+      fast_rows(f.lo[1], f.hi[1], c, s);
+    }
   } else {
     // Per slab j_2, only rows within the cross-section's extent along axis 1 can be non-empty:
-    // intersect the 6 edges with the plane x_2 = j_2.
+    // intersect the edges with the plane x_2 = j_2. With the vertices ordered by x_2, a plane
+    // strictly between the m-th and (m+1)-th vertex (by more than the margin) cuts exactly the edges
+    // from vertices 0..m to vertices m+1..3; other planes take the general edge-by-edge test.
+    std::array<int, dim + 1> o = {0, 1, 2, 3};
+    auto order = [&](int p, int q) {
+      if (f.vertex[o[q]][2] < f.vertex[o[p]][2]) std::swap(o[p], o[q]);
+    };
+    order(0, 1);
+    order(2, 3);
+    order(0, 2);
+    order(1, 3);
+    order(1, 2);
+    std::array<double, dim + 1> zv, yv;
+    for (int k = 0; k <= dim; ++k) {
+      zv[k] = f.vertex[o[k]][2];
+      yv[k] = f.vertex[o[k]][1];
+    }
+    // y on edge (a, b), a < b in that order; only evaluated for zv[a] < z < zv[b].
+    std::array<std::array<double, dim + 1>, dim + 1> dydz{};
+    for (int a = 0; a < dim; ++a)
+      for (int b = a + 1; b <= dim; ++b)
+        if (zv[b] > zv[a]) dydz[a][b] = (yv[b] - yv[a]) / (zv[b] - zv[a]);
+    auto edge_y = [&](int a, int b, double z) { return yv[a] + (z - zv[a]) * dydz[a][b]; };
     for (j[2] = f.lo[2]; j[2] <= f.hi[2]; ++j[2]) {
       const double z = static_cast<double>(j[2]);
       double ymin = std::numeric_limits<double>::infinity(), ymax = -ymin;
-      for (int p = 0; p <= dim; ++p) {
-        const Point& u = f.vertex[p];
-        if (std::abs(u[2] - z) <= f.margin) {
-          ymin = std::min(ymin, u[1]);
-          ymax = std::max(ymax, u[1]);
-        }
-        for (int q = p + 1; q <= dim; ++q) {
-          const Point& w = f.vertex[q];
-          if ((u[2] - z) * (w[2] - z) < 0.0) {
-            const double y = u[1] + (z - u[2]) / (w[2] - u[2]) * (w[1] - u[1]);
-            ymin = std::min(ymin, y);
-            ymax = std::max(ymax, y);
+      const int m = (z > zv[1]) + (z > zv[2]);
+      if (z - zv[m] > f.margin && zv[m + 1] - z > f.margin) {
+        // The cut edges of interval m (repeating one where there are only three).
+        static constexpr int cut[3][4][2] = {{{0, 3}, {0, 1}, {0, 2}, {0, 2}},
+                                             {{0, 3}, {0, 2}, {1, 2}, {1, 3}},
+                                             {{0, 3}, {1, 3}, {2, 3}, {2, 3}}};
+        const double y03 = edge_y(0, 3, z), y1 = edge_y(cut[m][1][0], cut[m][1][1], z),
+                     y2 = edge_y(cut[m][2][0], cut[m][2][1], z), y3 = edge_y(cut[m][3][0], cut[m][3][1], z);
+        ymin = std::min(std::min(y03, y1), std::min(y2, y3));
+        ymax = std::max(std::max(y03, y1), std::max(y2, y3));
+      } else {
+        for (int p = 0; p <= dim; ++p) {
+          const Point& u = f.vertex[p];
+          if (std::abs(u[2] - z) <= f.margin) {
+            ymin = std::min(ymin, u[1]);
+            ymax = std::max(ymax, u[1]);
+          }
+          for (int q = p + 1; q <= dim; ++q) {
+            const Point& w = f.vertex[q];
+            if ((u[2] - z) * (w[2] - z) < 0.0) {
+              const double y = u[1] + (z - u[2]) / (w[2] - u[2]) * (w[1] - u[1]);
+              ymin = std::min(ymin, y);
+              ymax = std::max(ymax, y);
+            }
           }
         }
       }
@@ -434,45 +537,18 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::scan(const Faces& f) c
       }
       const long r0 = std::max(f.lo[1], ceil_long(std::max(ymin - f.margin, static_cast<double>(f.lo[1]) - 1.0)));
       const long r1 = std::min(f.hi[1], floor_long(std::min(ymax + f.margin, static_cast<double>(f.hi[1]) + 1.0)));
+      if (r0 > r1) continue;
       if (!f.slab_fast) {
         for (j[1] = r0; j[1] <= r1; ++j[1]) clip_and_add_row();
         continue;
       }
-      // Inlined fast path of clip_row: per slab, each face's crossing is linear in j_1. Rows whose
-      // bounds fall within 1e-6 of a voxel centre (possible ties) take clip_row's exact path; the
-      // fast bounds are only trusted away from ties, so rounding here cannot change a result.
-      // A face with n_0 == 0 gets crossing +inf (no bound); instead it rejects whole rows by the
-      // predicate clip_row applies to it (ok(a) == accepts(r, ...) exactly, as n_0·(a − b_0) = ±0).
-      std::array<double, dim + 1> c0, s1;
-      for (int i = 0; i <= dim; ++i) {
-        c0[i] = f.fast[i] ? f.cross0[i] + f.slope[i][2] * z : std::numeric_limits<double>::infinity();
-        s1[i] = f.fast[i] ? f.slope[i][1] : 0.0;
+      std::array<double, dim + 1> c, s;
+      for (int k = 0; k <= dim; ++k) {
+        const int i = by_side[k];
+        c[k] = f.fast[i] ? f.cross0[i] + f.slope[i][2] * z : std::numeric_limits<double>::infinity();
+        s[k] = f.fast[i] ? f.slope[i][1] : 0.0;
       }
-      const double lo0 = static_cast<double>(f.lo[0]) - 0.5, hi0 = static_cast<double>(f.hi[0]) + 0.5;
-      for (j[1] = r0; j[1] <= r1; ++j[1]) {
-        const double y = static_cast<double>(j[1]);
-        if (!f.all_fast) {
-          bool rejected = false;
-          for (int i = 0; i <= dim && !rejected; ++i)
-            if (!f.fast[i]) rejected = !accepts(row_rest<dim>(f.normal[i], f.base[i], j), f.tol[i], f.tie_in[i]);
-          if (rejected) continue;
-        }
-        double lower = lo0, upper = hi0;
-        for (int i = 0; i <= dim; ++i) {
-          const double t = c0[i] + s1[i] * y;
-          if (f.normal[i][0] > 0.0)
-            lower = std::max(lower, t);
-          else
-            upper = std::min(upper, t);
-        }
-        if (lower > upper + 1e-6) continue;
-        const long fl = floor_long(lower), fu = floor_long(upper);
-        const double rl = lower - static_cast<double>(fl), ru = upper - static_cast<double>(fu);
-        if (rl > 1e-6 && rl < 1.0 - 1e-6 && ru > 1e-6 && ru < 1.0 - 1e-6)
-          add_row(fl + 1, fu);
-        else
-          clip_and_add_row();
-      }
+      fast_rows(r0, r1, c, s);
     }
   }
   out.n = count;
