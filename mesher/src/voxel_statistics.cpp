@@ -321,32 +321,7 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::scan(const Faces& f) c
   auto clip_row = [&f, &j](long& a, long& b) {
     a = f.lo[0];
     b = f.hi[0];
-    bool decided = false;
-    if (f.all_fast) {
-      // The row interval is [max of the crossings of faces with n_0 > 0, min of the others]; only a
-      // bound within 1e-6 of a voxel centre (a possible tie) needs the exact per-face path below.
-      double lower = static_cast<double>(a) - 0.5, upper = static_cast<double>(b) + 0.5;
-      for (int i = 0; i <= dim; ++i) {
-        double t = f.cross0[i];
-        for (int ax = 1; ax < dim; ++ax) t += f.slope[i][ax] * static_cast<double>(j[ax]);
-        if (f.normal[i][0] > 0.0)
-          lower = std::max(lower, t);
-        else
-          upper = std::min(upper, t);
-      }
-      if (lower > upper + 1e-6) {
-        b = a - 1;
-        return;
-      }
-      const long fl = floor_long(lower), fu = floor_long(upper);
-      const double rl = lower - static_cast<double>(fl), ru = upper - static_cast<double>(fu);
-      if (rl > 1e-6 && rl < 1.0 - 1e-6 && ru > 1e-6 && ru < 1.0 - 1e-6) {
-        a = fl + 1;
-        b = fu;
-        decided = true;
-      }
-    }
-    for (int i = 0; i <= dim && a <= b && !decided; ++i) {
+    for (int i = 0; i <= dim && a <= b; ++i) {
       const Point& n = f.normal[i];
       if (f.fast[i]) {
         // Crossing of the row; trusted unless it is within 1e-6 of a voxel centre (a possible tie),
