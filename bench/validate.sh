@@ -26,7 +26,8 @@ echo '```'
 echo '```'
 "$BUILD/bench/bench_fem_validate" --scenario all 125 343 1000 4096 | tee "$TABLES/deformation.md"
 # Prostate (docs/validation.md): compression on the 1 mm image (60x50x50 voxels) with P2 elements (the
-# element for nu = 0.45; P1 locks) and, for the record, P1; the needle insertion of the scenario (its
+# element for nu = 0.45; P1 locks) and, for the record, P1, on VIM meshes without the scenario's needle
+# refinement (validate_needle applies it to the needle experiment only); the needle insertion of the scenario (its
 # elastic probe support, cutting distance and, for VIM, its mesh.needle_refinement) on the 2 mm image
 # (30x25x25), P2 and P1. The compression reference is solved once and cached.
 for deg in 2 1; do

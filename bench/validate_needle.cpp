@@ -319,22 +319,34 @@ int main(int argc, char** argv) try {
               sc.poisson_ratio, lambda, sc.needles.empty() ? 0 : sc.needles[0].steps);
   std::fflush(stdout);
 
+  // The scenario's needle refinement (mesh.needle_refinement) shapes the VIM meshes of the needle
+  // experiment only; the compression compares the meshes without it (it has no needle path).
   const std::optional<Image<3>> density = needle_refinement_density<3>(sc, img.image, tf);
-  if (density) {
-    std::printf("# VIM with needle refinement: size ratio %.3g, radius %.3g mm\n", sc.needle_refinement->size_ratio,
-                sc.needle_refinement->radius);
-  }
-  std::vector<Meshes> meshes;
-  for (long b : budgets) {
-    meshes.push_back(make_meshes(img, b, vo, density ? &*density : nullptr));
-    std::printf("mesh budget %ld: %zu nodes, grid %zu cells, VIM %zu cells (%.1f s)\n", b, meshes.back().nodes,
-                meshes.back().cells_grid, meshes.back().cells_vim, meshes.back().vim_seconds);
-    describe("grid", meshes.back().grid);
-    describe("VIM ", meshes.back().vim);
-    std::fflush(stdout);
-  }
-  std::vector<double> xs;
-  for (const auto& m : meshes) xs.push_back(static_cast<double>(m.nodes));
+  auto build = [&](const Image<3>* d, const char* purpose) {
+    std::vector<Meshes> out;
+    if (d)
+      std::printf("# VIM meshes for the %s, with the needle refinement: size ratio %.3g, radius %.3g mm\n", purpose,
+                  sc.needle_refinement->size_ratio, sc.needle_refinement->radius);
+    else
+      std::printf("# VIM meshes for the %s, without a needle refinement\n", purpose);
+    for (long b : budgets) {
+      out.push_back(make_meshes(img, b, vo, d));
+      std::printf("mesh budget %ld: %zu nodes, grid %zu cells, VIM %zu cells (%.1f s)\n", b, out.back().nodes,
+                  out.back().cells_grid, out.back().cells_vim, out.back().vim_seconds);
+      describe("grid", out.back().grid);
+      describe("VIM ", out.back().vim);
+      std::fflush(stdout);
+    }
+    return out;
+  };
+  const bool needle_plain = needle && !density;  // the needle experiment on meshes without a refinement
+  const char* plain_purpose = !compression ? "needle" : needle_plain ? "compression and the needle" : "compression";
+  const std::vector<Meshes> plain = compression || needle_plain ? build(nullptr, plain_purpose) : std::vector<Meshes>{};
+  const std::vector<Meshes> refined = needle && density ? build(&*density, "needle") : std::vector<Meshes>{};
+  const std::vector<Meshes>& meshes = plain;                              // compression
+  const std::vector<Meshes>& needle_meshes = density ? refined : plain;  // needle
+  std::vector<double> xs;  // node counts (the same for both sets: one budget, one grid)
+  for (const auto& m : compression ? meshes : needle_meshes) xs.push_back(static_cast<double>(m.nodes));
 
   if (compression) {
     // Reference: the voxel model with the scenario's moduli.
@@ -405,7 +417,7 @@ int main(int argc, char** argv) try {
     for (std::size_t k = 0; k < sc.targets.size(); ++k) std::printf("---|");
     std::printf("---|---|\n");
     std::vector<double> yv, yg;
-    for (const auto& m : meshes) {
+    for (const auto& m : needle_meshes) {
       double rel[2] = {0, 0}, far[2] = {0, 0};
       int i = 0;
       for (const MeshModel<3>* mm : {&m.grid, &m.vim}) {
