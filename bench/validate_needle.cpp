@@ -222,6 +222,7 @@ int main(int argc, char** argv) try {
   double support_stiffness = -1.0, support_spacing = 0.0;  // --support-stiffness / --support-spacing
   double cutting_distance = -1.0;  // --cutting-distance: the needle's cutting distance (mm), all models
   double refine_ratio = -1.0, refine_radius = -1.0;  // --needle-refine / --needle-radius (VIM only)
+  std::optional<double> min_dihedral_arg;  // --min-dihedral (0 = off); default: the scenario's mesh.min_dihedral
   for (int i = 1; i < argc; ++i) {
     auto value = [&] {
       if (i + 1 >= argc) throw std::invalid_argument(std::string(argv[i]) + " needs a value");
@@ -236,7 +237,7 @@ int main(int argc, char** argv) try {
     else if (!std::strcmp(argv[i], "--lambda")) lambda_arg = std::atof(value());
     else if (!std::strcmp(argv[i], "--nu")) nu_arg = std::atof(value());
     else if (!std::strcmp(argv[i], "--degree")) degree = static_cast<unsigned>(std::atoi(value()));
-    else if (!std::strcmp(argv[i], "--min-dihedral")) vo.min_dihedral_deg = std::atof(value());
+    else if (!std::strcmp(argv[i], "--min-dihedral")) min_dihedral_arg = std::atof(value());
     else if (!std::strcmp(argv[i], "--min-rr")) vo.min_radius_ratio = std::atof(value());
     else if (!std::strcmp(argv[i], "--max-dihedral")) vo.max_dihedral_deg = std::atof(value());
     else if (!std::strcmp(argv[i], "--no-swaps")) vo.swaps = false;
@@ -289,6 +290,7 @@ int main(int argc, char** argv) try {
   g_scenario = &sc;
   const std::string suffix = degree == 1 ? "" : "_p" + std::to_string(degree);  // plot file names
   vo.lambda = lambda_arg ? *lambda_arg : sc.lambda.value_or(0.3);
+  vo.min_dihedral_deg = min_dihedral_arg ? *min_dihedral_arg : sc.min_dihedral.value_or(0.0);  // as the CLI
   const double lambda = vo.lambda;
 
   const OrientedImage<3> img = phantoms::prostate(n);
@@ -314,9 +316,9 @@ int main(int argc, char** argv) try {
   long in_gland = 0;
   for (bool b : s.gland) in_gland += b;
   std::printf("# Prostate phantom %ldx%ldx%ld voxels (%.2f mm), %zu sample points (%ld in the gland); nu=%.2f, "
-              "lambda=%.2f, needle steps=%d\n",
+              "lambda=%.2f, VIM min dihedral %g deg (0 = no floor), needle steps=%d\n",
               img.image.size[0], img.image.size[1], img.image.size[2], img.image.spacing[0], s.points.size(), in_gland,
-              sc.poisson_ratio, lambda, sc.needles.empty() ? 0 : sc.needles[0].steps);
+              sc.poisson_ratio, lambda, vo.min_dihedral_deg, sc.needles.empty() ? 0 : sc.needles[0].steps);
   std::fflush(stdout);
 
   // The scenario's needle refinement (mesh.needle_refinement) shapes the VIM meshes of the needle
