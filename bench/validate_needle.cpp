@@ -345,10 +345,9 @@ int main(int argc, char** argv) try {
   const char* plain_purpose = !compression ? "needle" : needle_plain ? "compression and the needle" : "compression";
   const std::vector<Meshes> plain = compression || needle_plain ? build(nullptr, plain_purpose) : std::vector<Meshes>{};
   const std::vector<Meshes> refined = needle && density ? build(&*density, "needle") : std::vector<Meshes>{};
-  const std::vector<Meshes>& meshes = plain;                              // compression
-  const std::vector<Meshes>& needle_meshes = density ? refined : plain;  // needle
+  const std::vector<Meshes>& needle_meshes = density ? refined : plain;
   std::vector<double> xs;  // node counts (the same for both sets: one budget, one grid)
-  for (const auto& m : compression ? meshes : needle_meshes) xs.push_back(static_cast<double>(m.nodes));
+  for (const auto& m : compression ? plain : needle_meshes) xs.push_back(static_cast<double>(m.nodes));
 
   if (compression) {
     // Reference: the voxel model with the scenario's moduli.
@@ -386,7 +385,7 @@ int main(int argc, char** argv) try {
                 "max/|u|max grid | max/|u|max VIM | energy err grid | energy err VIM |\n"
                 "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     std::vector<double> yv, yg;
-    for (const auto& m : meshes) {
+    for (const auto& m : plain) {
       double wg = 0, wv = 0;
       const Err eg = compare(solve_compression(m.grid, sc, lo, hi, s, &wg, degree), ref, s);
       const Err ev = compare(solve_compression(m.vim, sc, lo, hi, s, &wv, degree), ref, s);
