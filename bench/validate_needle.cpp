@@ -289,8 +289,9 @@ int main(int argc, char** argv) try {
   }
   g_scenario = &sc;
   const std::string suffix = degree == 1 ? "" : "_p" + std::to_string(degree);  // plot file names
-  vo.lambda = lambda_arg ? *lambda_arg : sc.lambda.value_or(0.3);
-  vo.min_dihedral_deg = min_dihedral_arg ? *min_dihedral_arg : sc.min_dihedral.value_or(0.0);  // as the CLI
+  vo = scenario_vim_options(sc, vo);  // as the CLI, with the command line first
+  if (lambda_arg) vo.lambda = *lambda_arg;
+  if (min_dihedral_arg) vo.min_dihedral_deg = *min_dihedral_arg;
   const double lambda = vo.lambda;
 
   const OrientedImage<3> img = phantoms::prostate(n);

@@ -594,6 +594,7 @@ int run_dim(const RunOptions& given) {
       NeedleSimulation<dim> sim = NeedleSimulation<dim>::voxel(img.image, model.transform, *scenario, sim_options);
       const SimulationResult<dim> result = sim.run();
       report["simulation"] = result.report;
+      for (const auto& w : result.warnings) warn(report, "simulate", w);
       write_simulation_figures<dim>(result, nullptr, out, report);
       ts.stop();
     }
@@ -718,6 +719,7 @@ int run_dim(const RunOptions& given) {
       model.youngs_modulus = sim.youngs_modulus();
       const SimulationResult<dim> result = sim.run();
       report["simulation"] = result.report;
+      for (const auto& w : result.warnings) warn(report, "simulate", w);
       write_simulation_figures<dim>(result, &model, out, report);
       t.stop();
     }

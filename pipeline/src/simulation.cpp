@@ -476,6 +476,7 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
   Progress progress("needle " + spec.name, spec.steps);
   const auto t_run = Clock::now();
   double d_prev = 0.0;
+  if (slip) run.active_set_sweeps.assign(static_cast<std::size_t>(spec.steps) + 1, 0);
   for (int k = 1; k <= spec.steps; ++k) {
     const double d = spec.depth * static_cast<double>(k) / static_cast<double>(spec.steps);
     const double dd = d - d_prev;
@@ -546,7 +547,9 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
           sl[i] = sliding[active[i]];
           sg[i] = sign[active[i]];
         }
-        for (int iter = 0; iter < 100; ++iter) {
+        bool settled = false;
+        int sweeps = 0;
+        for (; sweeps < std::max(1, opt.max_active_set_iterations) && !settled; ++sweeps) {
           map.solve_free(wc, sl, sg.cwiseProduct(lim));
           const Eigen::VectorXd f = map(wc);
           bool changed = false;
@@ -562,8 +565,10 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
               changed = true;
             }
           }
-          if (!changed) break;
+          settled = !changed;
         }
+        run.active_set_sweeps[static_cast<std::size_t>(k)] = sweeps;
+        if (!settled) run.unsettled_steps.push_back(k);
         expand(wc, w);
         for (std::size_t i = 0; i < m; ++i) {
           sliding[active[i]] = sl[i];
@@ -640,6 +645,10 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
   per["lateral_force"] = run.lateral_force;
   per["active_points"] = run.active_points;
   per["solves"] = run.solves;
+  if (slip) {
+    per["active_set_sweeps"] = run.active_set_sweeps;
+    rep["unsettled_steps"] = run.unsettled_steps;
+  }
   json forces = json::array();
   for (const auto& f : run.force) forces.push_back(to_json<dim>(f));
   per["force"] = forces;
@@ -700,6 +709,17 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
     needles.push_back(nr);
   }
   rep["needles"] = needles;
+  for (const auto& r : res.needles) {
+    if (r.unsettled_steps.empty()) continue;
+    std::ostringstream w;
+    w << (r.name.empty() ? std::string("the needle") : "needle '" + r.name + "'") << ": at "
+      << r.unsettled_steps.size() << " of " << r.depth.size() - 1 << " steps (first: step " << r.unsettled_steps.front()
+      << ") the stick-slip active set still changed after " << std::max(1, m.opt.max_active_set_iterations)
+      << " sweeps; those steps keep the last iterate, so a shaft load may exceed its friction limit "
+         "(try more steps)";
+    res.warnings.push_back(w.str());
+  }
+  if (!res.warnings.empty()) rep["warnings"] = res.warnings;
   if (!res.needles.empty()) {
     // The first needle's headline numbers at the top level (summary / README).
     const auto& r = res.needles.front();

@@ -115,8 +115,8 @@ std::set<std::string> long_options(const std::string& text) {
 TEST(CliSimulate, ObliqueAnisotropicNeedleRunWritesWorldResultsAndFigures) {
   vim::test::TempDir dir("clisim");
   auto im = phantoms::table1(12);  // sphere (2.0) in 1.0; 12³ voxels
-  im.image.spacing = {2.0, 1.5, 2.5};
-  im.image.origin = {3.0, -1.0, 12.0};
+  im.image.spacing = {{2.0, 1.5, 2.5}};
+  im.image.origin = {{3.0, -1.0, 12.0}};
   im.direction = oblique();
   write_image(im, dir / "in.mha");
 
@@ -313,8 +313,8 @@ TEST(CliSimulate, AmgSolverRunsWithoutAnMpiLauncher) {
 TEST(CliSimulate, NeedleRefinementRefinesTheMeshAlongThePath) {
   vim::test::TempDir dir("clirefine");
   auto im = phantoms::table1(16);
-  im.image.spacing = {1.5, 1.5, 1.5};
-  im.image.origin = {3.0, -1.0, 12.0};
+  im.image.spacing = {{1.5, 1.5, 1.5}};
+  im.image.origin = {{3.0, -1.0, 12.0}};
   im.direction = oblique();
   write_image(im, dir / "in.mha");
   const Eigen::Vector3d entry_idx(-0.5, 4.0, 11.0);

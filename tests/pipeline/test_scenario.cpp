@@ -143,6 +143,23 @@ TEST(Scenario, EveryKeyIsParsed) {
   EXPECT_EQ(s.text, kFull);
 }
 
+// The scenario's mesh keys reach the mesher's options; keys it does not give keep the base's values.
+TEST(Scenario, MeshKeysBecomeVimOptions) {
+  vim::VimOptions base;
+  base.lambda = 0.7;
+  base.min_dihedral_deg = 3.0;
+  base.max_iterations = 17;
+  const vim::VimOptions full = vim::pipeline::scenario_vim_options(parse_scenario_text(kFull, 3, "full.yaml"), base);
+  EXPECT_DOUBLE_EQ(full.lambda, 0.3);
+  EXPECT_DOUBLE_EQ(full.min_dihedral_deg, 12.5);
+  EXPECT_EQ(full.max_iterations, 17);
+  const vim::VimOptions minimal = vim::pipeline::scenario_vim_options(parse_scenario_text(kMinimal, 3, "m.yaml"), base);
+  EXPECT_DOUBLE_EQ(minimal.lambda, 0.7);
+  EXPECT_DOUBLE_EQ(minimal.min_dihedral_deg, 3.0);
+  const vim::VimOptions defaults = vim::pipeline::scenario_vim_options(parse_scenario_text(kMinimal, 3, "m.yaml"));
+  EXPECT_DOUBLE_EQ(defaults.lambda, vim::VimOptions{}.lambda);  // what the CLI runs without --lambda
+}
+
 TEST(Scenario, DefaultsAndNumberModulus) {
   const Scenario s = parse_scenario_text(std::string(kMinimal) + "material: {youngs_modulus: 12.5}\n", 3);
   EXPECT_FALSE(s.modulus_from_image);

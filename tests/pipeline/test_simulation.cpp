@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -227,6 +228,41 @@ TEST(Simulation, StickSlipLoadsStayWithinTheFrictionLimit) {
   EXPECT_LT(r.max_displacement, stick.needles[0].max_displacement);
 }
 
+// A stick-slip step whose active set has not settled is reported, not passed off as a solution.
+// Capped at the most sweeps any step needed, the run is the same and nothing is reported; capped at
+// one sweep, the steps where the set changes cannot settle (the first sweep changes it).
+TEST(Simulation, UnsettledStickSlipStepsAreReported) {
+  const std::string needle =
+      "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, friction: {model: stick-slip, "
+      "max_shear_per_length: 2}}";
+  const Scenario sc = parse_scenario_text(yaml(needle), 3);
+  const auto full = run_simulation<3>(axis_block(), sc, quiet());
+  const auto& r = full.needles[0];
+  EXPECT_TRUE(r.unsettled_steps.empty());
+  EXPECT_TRUE(full.warnings.empty());
+  EXPECT_FALSE(full.report.contains("warnings"));
+  ASSERT_EQ(r.active_set_sweeps.size(), r.depth.size());
+  const int most = *std::max_element(r.active_set_sweeps.begin(), r.active_set_sweeps.end());
+  ASSERT_GE(most, 2) << "the scenario no longer exercises the active set";
+
+  SimulationOptions enough = quiet();
+  enough.max_active_set_iterations = most;
+  const auto same = run_simulation<3>(axis_block(), sc, enough);
+  EXPECT_TRUE(same.needles[0].unsettled_steps.empty());
+  EXPECT_EQ(same.needles[0].axial_force, r.axial_force);
+
+  SimulationOptions one = quiet();
+  one.max_active_set_iterations = 1;
+  const auto cut = run_simulation<3>(axis_block(), sc, one);
+  const auto& c = cut.needles[0];
+  ASSERT_FALSE(c.unsettled_steps.empty());
+  for (int k : c.unsettled_steps) EXPECT_EQ(c.active_set_sweeps[static_cast<std::size_t>(k)], 1) << "step " << k;
+  ASSERT_EQ(cut.warnings.size(), 1u);
+  EXPECT_NE(cut.warnings[0].find("active set still changed after 1 sweeps"), std::string::npos) << cut.warnings[0];
+  EXPECT_EQ(cut.report["warnings"].size(), 1u);
+  EXPECT_EQ(cut.report["needles"][0]["unsettled_steps"].size(), c.unsettled_steps.size());
+}
+
 TEST(Simulation, ForceModelAppliesTheGivenForcesTipPushesAheadNotBehind) {
   // Entry inside the block; tip force only. Targets on the axis 4 ahead of the tip and 4 behind the entry.
   const std::string needle =
@@ -352,8 +388,11 @@ TEST(Simulation, CuttingDistanceLeavesTheShaftTissueThatFarBehindTheTip) {
   EXPECT_GE(checked, 4);
   // No shaft point within δ of the final tip is held.
   const auto& r = res.needles[0];
-  for (std::size_t j = 0; j < r.point_s.size(); ++j)
-    if (r.point_s[j] > 12.0 - 1.0) EXPECT_EQ(r.point_axial_force.back()[j], 0.0) << "s = " << r.point_s[j];
+  for (std::size_t j = 0; j < r.point_s.size(); ++j) {
+    if (r.point_s[j] > 12.0 - 1.0) {
+      EXPECT_EQ(r.point_axial_force.back()[j], 0.0) << "s = " << r.point_s[j];
+    }
+  }
 }
 
 TEST(Simulation, VoxelModelAgreesWithTheGridMeshInSign) {

@@ -87,9 +87,7 @@ Row row(const Prostate& s, long budget) {
   const vim::VoxelStatistics<3> stats(s.img.image);
   std::vector<double> grid_mean;
   for (std::size_t c = 0; c < grid.n_cells(); ++c) grid_mean.push_back(stats.value(vim::cell_points(grid, c)).mean);
-  vim::VimOptions vo;  // the scenario's mesh options, as the CLI applies them
-  vo.lambda = s.sc.lambda.value_or(0.3);
-  vo.min_dihedral_deg = s.sc.min_dihedral.value_or(0.0);
+  const vim::VimOptions vo = vim::pipeline::scenario_vim_options(s.sc);  // as the CLI applies them
   const auto r = vim::optimize<3>(s.img.image, grid, vo);
   std::vector<double> vim_mean;
   for (const auto& v : r.values) vim_mean.push_back(v.mean);  // Eq. 15
@@ -153,9 +151,7 @@ TEST(ProstateNeedle, VimBelowGridAt252And891NodesP2WithTheScenariosNeedleRefinem
     grid.mesh = vim::regular_grid_mesh<3>(s.lo, s.hi, axis);
     ASSERT_EQ(grid.mesh.n_points(), c.nodes);
     for (std::size_t k = 0; k < grid.mesh.n_cells(); ++k) grid.values.push_back(stats.value(vim::cell_points(grid.mesh, k)));
-    vim::VimOptions vo;  // the scenario's mesh options, as the CLI applies them
-    vo.lambda = s.sc.lambda.value_or(0.3);
-    vo.min_dihedral_deg = s.sc.min_dihedral.value_or(0.0);
+    const vim::VimOptions vo = vim::pipeline::scenario_vim_options(s.sc);  // as the CLI applies them
     auto r = vim::optimize_sized<3>(s.img.image, *density, grid.mesh, vo);
     ASSERT_EQ(r.mesh.n_points(), c.nodes);
     vim.mesh = std::move(r.mesh);

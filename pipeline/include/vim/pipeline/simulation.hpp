@@ -48,6 +48,9 @@ struct SimulationOptions {
   bool monolithic = false;          // solve each step with solve_monolithic (reference for the fast path)
   bool keep_step_fields = false;    // keep every step's vertex displacement in the result (tests)
   bool progress = true;             // a progress line per step on stderr
+  // Stick-slip: active-set sweeps per step (each one condensed solve). A step whose set still changes
+  // after this many keeps the last iterate and is listed in NeedleRun::unsettled_steps and the warnings.
+  int max_active_set_iterations = 100;
 };
 
 template <int dim>
@@ -63,6 +66,8 @@ struct NeedleRun {
   std::vector<std::vector<Vec>> vertex_displacement;  // world axes: every step if keep_step_fields, else the last
   std::vector<int> active_points;                  // shaft points constrained at each step
   std::vector<int> solves;                         // model solves per step (> 1 with sliding points)
+  std::vector<int> active_set_sweeps;              // stick-slip: active-set sweeps per step (step 0 = rest; 0: sticking held)
+  std::vector<int> unsettled_steps;                // stick-slip steps whose active set did not settle (see SimulationOptions)
   std::vector<double> point_s, point_length;       // shaft points: travel at pick-up, shaft length each stands for
   std::vector<std::vector<double>> point_axial_force;  // [step][point]: axial force on the body (0 if not active)
   double max_displacement = 0.0;                   // largest vertex displacement norm over all steps
@@ -76,6 +81,7 @@ template <int dim>
 struct SimulationResult {
   std::vector<NeedleRun<dim>> needles;
   std::vector<std::string> target_names;  // the scenario's targets, in the order of target_displacement
+  std::vector<std::string> warnings;      // results the user should not take at face value (also in report)
   nlohmann::json report;  // for report.json["simulation"]
 };
 
