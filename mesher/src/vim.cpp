@@ -439,12 +439,15 @@ VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const
       previous = opt.totals().energy;
     };
     r.moves = opt.update_nodes(it, &sum_sq, &r.searched, &r.evaluations);
+    r.node_seconds = std::chrono::duration<double>(clock::now() - t0).count();
     r.v = std::sqrt(sum_sq / static_cast<double>(n_nodes)) / b;
     check("node update");
+    const auto t_swaps = clock::now();
     if (options.swaps) {
       r.swaps = opt.swap_pass();
       check("swap pass");
     }
+    double swap_seconds = std::chrono::duration<double>(clock::now() - t_swaps).count();
     long inserted = 0;
     if (to_insert > 0) {
       const long k = std::min<long>(to_insert, std::max<long>(1, static_cast<long>(n_nodes) / 10));
@@ -452,7 +455,12 @@ VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const
       to_insert = inserted > 0 ? to_insert - inserted : 0;  // stop when no split lowers E
       check("node insertion");
     }
-    if (r.swaps > 0 || inserted > 0) opt.recolour();
+    if (r.swaps > 0 || inserted > 0) {
+      const auto t_colour = clock::now();
+      opt.recolour();
+      swap_seconds += std::chrono::duration<double>(clock::now() - t_colour).count();
+    }
+    r.swap_seconds = swap_seconds;
     const EnergyTotals t = opt.totals();
     const double e_before = result.history.back().energy;
     r.energy = t.energy;

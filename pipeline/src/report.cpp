@@ -88,7 +88,9 @@ json history_json(const std::vector<IterationRecord>& history) {
                  {"moves", r.moves},
                  {"evaluations", r.evaluations},
                  {"swaps", r.swaps},
-                 {"seconds", r.seconds}});
+                 {"seconds", r.seconds},
+                 {"node_seconds", r.node_seconds},
+                 {"swap_seconds", r.swap_seconds}});
   return h;
 }
 

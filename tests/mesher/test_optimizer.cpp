@@ -118,6 +118,10 @@ void check_optimize(const Image<dim>& img, int nodes) {
   for (std::size_t t = 1; t < r.history.size(); ++t) {
     EXPECT_EQ(r.history[t].iteration, static_cast<int>(t));
     EXPECT_LE(r.history[t].energy, r.history[t - 1].energy) << "iteration " << t;
+    // The phase times are parts of the iteration's time.
+    EXPECT_GT(r.history[t].node_seconds, 0.0) << "iteration " << t;
+    EXPECT_GE(r.history[t].swap_seconds, 0.0) << "iteration " << t;
+    EXPECT_LE(r.history[t].node_seconds + r.history[t].swap_seconds, r.history[t].seconds) << "iteration " << t;
   }
   EXPECT_LT(r.history.back().energy, 0.95);
   const auto brute = brute_force_energy(img, r.mesh);

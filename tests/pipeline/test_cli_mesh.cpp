@@ -89,7 +89,9 @@ void check_mesh_output(const OrientedImage<dim>& im, const std::filesystem::path
       EXPECT_GE(c, -0.5 - 1e-9);
       EXPECT_LE(c, im.image.size[a] - 0.5 + 1e-9);
     }
-    if (dim == 2) EXPECT_EQ(p[2], 0.0);
+    if (dim == 2) {
+      EXPECT_EQ(p[2], 0.0);
+    }
   }
 
   // Cell data: every voxel centre in exactly one element, and Σ n·mean = Σ voxel values.
@@ -156,7 +158,9 @@ void check_mesh_output(const OrientedImage<dim>& im, const std::filesystem::path
   EXPECT_TRUE(report["optimization"].contains("converged"));
   EXPECT_TRUE(report["timing"].contains("read_image"));
   EXPECT_TRUE(report["timing"].contains("total"));
-  if (with_segments) EXPECT_GT(report["segmentation"]["object_elements"].get<long>(), 0);
+  if (with_segments) {
+    EXPECT_GT(report["segmentation"]["object_elements"].get<long>(), 0);
+  }
 }
 
 }  // namespace
@@ -164,8 +168,8 @@ void check_mesh_output(const OrientedImage<dim>& im, const std::filesystem::path
 TEST(CliMesh, TwoDimensionalObliqueAnisotropic) {
   vim::test::TempDir dir("cli2");
   auto im = phantoms::two_inclusions(40);
-  im.image.spacing = {1.5, 1.1};
-  im.image.origin = {-20.0, 7.5};
+  im.image.spacing = {{1.5, 1.1}};
+  im.image.origin = {{-20.0, 7.5}};
   const double t = 0.6;
   im.direction << std::cos(t), -std::sin(t), std::sin(t), std::cos(t);
   write_image(im, dir / "in.nrrd");
@@ -194,7 +198,7 @@ TEST(CliMesh, TwoDimensionalObliqueAnisotropic) {
 TEST(CliMesh, CheckInvariantsFlagChecksWithoutChangingTheMesh) {
   vim::test::TempDir dir("cli_inv");
   auto im = phantoms::two_inclusions(40);
-  im.image.spacing = {1.5, 1.1};
+  im.image.spacing = {{1.5, 1.1}};
   write_image(im, dir / "in.mha");
   const auto checked = dir.path / "checked", plain = dir.path / "plain";
   const auto a = run_pipeline(quote(dir / "in.mha") + " --nodes 80 --max-iterations 4 --check-invariants -q --export none --out " +
@@ -217,8 +221,8 @@ TEST(CliMesh, CheckInvariantsFlagChecksWithoutChangingTheMesh) {
 TEST(CliMesh, ThreeDimensionalObliqueAnisotropic) {
   vim::test::TempDir dir("cli3");
   auto im = phantoms::table1(16);
-  im.image.spacing = {0.2, 0.15, 0.25};
-  im.image.origin = {3.0, -1.0, 12.0};
+  im.image.spacing = {{0.2, 0.15, 0.25}};
+  im.image.origin = {{3.0, -1.0, 12.0}};
   im.direction = rotation3();
   write_image(im, dir / "in.mha");
   const auto out = dir.path / "out";
@@ -255,7 +259,7 @@ TEST(CliMesh, ThreeDimensionalObliqueAnisotropic) {
 TEST(CliMesh, MinimumDihedralBoundHoldsOnEveryElement) {
   vim::test::TempDir dir("mindihedral");
   auto im3 = phantoms::table1(24);
-  im3.image.spacing = {0.13, 0.12, 0.125};
+  im3.image.spacing = {{0.13, 0.12, 0.125}};
   write_image(im3, dir / "t.mha");
   write_image(phantoms::two_inclusions(40), dir / "d.mha");
   struct Case {

@@ -151,8 +151,8 @@ TEST(Canvas, TextIsDrawnInsideItsAlignedBox) {
   EXPECT_EQ(vin, in);  // the same glyph coverage, turned
   EXPECT_EQ(vout, 0);
   EXPECT_EQ(Canvas(5, 5).text(1, 1, "", colors::black)[2], 0);
-  EXPECT_EQ(Canvas::text_size("depth 123 [mm]", 14), (std::array<int, 2>{box[2], box[3]}));
-  EXPECT_EQ(Canvas::text_size("", 14), (std::array<int, 2>{0, 0}));
+  EXPECT_EQ(Canvas::text_size("depth 123 [mm]", 14), (std::array<int, 2>{{box[2], box[3]}}));
+  EXPECT_EQ(Canvas::text_size("", 14), (std::array<int, 2>{{0, 0}}));
 }
 
 TEST(Figures, TetSlicePolygonIsTheCrossSection) {

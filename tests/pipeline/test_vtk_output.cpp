@@ -25,7 +25,7 @@ TEST(VtkOutput, TetMeshRoundTripInWorldCoordinates) {
   SimplexMesh<3> m;
   m.points = {Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(2, 2, 3), Eigen::Vector3d(1, 3, 3), Eigen::Vector3d(1, 2, 4),
               Eigen::Vector3d(2, 3, 4)};
-  m.cells = {{0, 1, 2, 3}, {1, 2, 3, 4}};
+  m.cells = {{{0, 1, 2, 3}}, {{1, 2, 3, 4}}};
   WorldTransform<3> t;
   t.origin = Eigen::Vector3d(1, 2, 3);
   t.direction << 0, -1, 0, 1, 0, 0, 0, 0, 1;  // 90° about z
@@ -70,7 +70,7 @@ TEST(VtkOutput, TwoDimensionalVectorsArePaddedAndFieldsChecked) {
   vim::test::TempDir dir("vtu2");
   SimplexMesh<2> m;
   m.points = {Eigen::Vector2d(0, 0), Eigen::Vector2d(1, 0), Eigen::Vector2d(0, 1)};
-  m.cells = {{0, 1, 2}};
+  m.cells = {{{0, 1, 2}}};
   UnstructuredGrid g = simplex_grid(m, WorldTransform<2>{});
   EXPECT_EQ(g.vtk_cell_type, 5);
   g.point_data["u"] = Field{2, {1, 2, 3, 4, 5, 6}};

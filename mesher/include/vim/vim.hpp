@@ -78,7 +78,9 @@ struct IterationRecord {
   long evaluations = 0;   // candidate positions evaluated by the node updates
   long moves = 0;         // accepted node moves
   long swaps = 0;         // accepted connectivity changes
-  double seconds = 0.0;
+  double seconds = 0.0;   // wall time of the iteration, of which:
+  double node_seconds = 0.0;  // the node-update sweep (parallel over colour classes)
+  double swap_seconds = 0.0;  // the swap pass (sequential) and the recolouring after it
 };
 
 template <int dim>
