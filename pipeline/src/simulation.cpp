@@ -715,7 +715,7 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
     w << (r.name.empty() ? std::string("the needle") : "needle '" + r.name + "'") << ": at "
       << r.unsettled_steps.size() << " of " << r.depth.size() - 1 << " steps (first: step " << r.unsettled_steps.front()
       << ") the stick-slip active set still changed after " << std::max(1, m.opt.max_active_set_iterations)
-      << " sweeps; those steps keep the last iterate, so a shaft load may exceed its friction limit "
+      << (m.opt.max_active_set_iterations > 1 ? " sweeps" : " sweep") << "; those steps keep the last iterate, so a shaft load may exceed its friction limit "
          "(try more steps)";
     res.warnings.push_back(w.str());
   }

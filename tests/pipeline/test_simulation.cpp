@@ -258,7 +258,7 @@ TEST(Simulation, UnsettledStickSlipStepsAreReported) {
   ASSERT_FALSE(c.unsettled_steps.empty());
   for (int k : c.unsettled_steps) EXPECT_EQ(c.active_set_sweeps[static_cast<std::size_t>(k)], 1) << "step " << k;
   ASSERT_EQ(cut.warnings.size(), 1u);
-  EXPECT_NE(cut.warnings[0].find("active set still changed after 1 sweeps"), std::string::npos) << cut.warnings[0];
+  EXPECT_NE(cut.warnings[0].find("active set still changed after 1 sweep;"), std::string::npos) << cut.warnings[0];
   EXPECT_EQ(cut.report["warnings"].size(), 1u);
   EXPECT_EQ(cut.report["needles"][0]["unsettled_steps"].size(), c.unsettled_steps.size());
 }
