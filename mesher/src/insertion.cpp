@@ -54,7 +54,7 @@ long VimOptimizer<dim>::insert_nodes(long k) {
       split.push_back(w1);
       split.push_back(w2);
     }
-    if (try_replace(ring, {split})) {
+    if (try_replace(ring.data(), static_cast<int>(ring.size()), split.data(), 1, static_cast<int>(split.size()))) {
       ++inserted;
     } else {
       mesh_.points.pop_back();

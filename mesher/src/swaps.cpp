@@ -13,19 +13,21 @@ namespace vim {
 // one. Each new cell is oriented positively; an alternative whose |volumes| do not sum to the old
 // volume (the new cells overlap / leave the region) or with an unacceptable cell is skipped.
 template <int dim>
-bool VimOptimizer<dim>::try_replace(const std::vector<int>& old_cells,
-                                    const std::vector<std::vector<Cell>>& alternatives) {
+bool VimOptimizer<dim>::try_replace(const int* old_cells, int n_old, const Cell* alternatives, int n_alt, int n_new) {
   double old_cost = 0.0, old_volume = 0.0;
-  for (int c : old_cells) {
-    old_cost += cache_[c].cost;
-    old_volume += cache_[c].volume;
+  for (int i = 0; i < n_old; ++i) {
+    old_cost += cache_[old_cells[i]].cost;
+    old_volume += cache_[old_cells[i]].volume;
   }
   double best = old_cost * (1.0 - 1e-12);
   int best_alt = -1;
-  std::vector<Cell> best_cells;
-  std::vector<CellCache> best_caches, caches;
-  for (std::size_t a = 0; a < alternatives.size(); ++a) {
-    std::vector<Cell> cells = alternatives[a];
+  std::vector<Cell>& cells = swap_cells_;
+  std::vector<Cell>& best_cells = swap_best_cells_;
+  std::vector<CellCache>& caches = swap_caches_;
+  std::vector<CellCache>& best_caches = swap_best_caches_;
+  for (int a = 0; a < n_alt; ++a) {
+    cells.assign(alternatives + static_cast<std::ptrdiff_t>(a) * n_new,
+                 alternatives + static_cast<std::ptrdiff_t>(a + 1) * n_new);
     bool ok = true;
     double volume = 0.0;
     for (Cell& v : cells) {
@@ -62,14 +64,15 @@ bool VimOptimizer<dim>::try_replace(const std::vector<int>& old_cells,
     }
     if (total < best) {
       best = total;
-      best_alt = static_cast<int>(a);
-      best_cells = std::move(cells);
+      best_alt = a;
+      std::swap(best_cells, cells);
       std::swap(best_caches, caches);
     }
   }
   if (best_alt < 0) return false;
 
-  std::vector<int> slots = old_cells;
+  std::vector<int>& slots = swap_slots_;
+  slots.assign(old_cells, old_cells + n_old);
   std::sort(slots.begin(), slots.end());
   for (int c : slots) {
     for (int w : mesh_.cells[c]) dirty_[w] = 1;
@@ -104,7 +107,9 @@ bool VimOptimizer<dim>::try_flip(int cell, int k) {
     int d = -1;
     for (int w : mesh_.cells[nb])
       if (w != a && w != b) d = w;
-    return try_replace({cell, nb}, {{Cell{c, a, d}, Cell{c, d, b}}});
+    const int old[2] = {cell, nb};
+    const Cell alt[2] = {Cell{c, a, d}, Cell{c, d, b}};
+    return try_replace(old, 2, alt, 1, 2);
   }
 }
 
@@ -124,16 +129,17 @@ bool VimOptimizer<dim>::try_swap_23(int cell, int k) {
     int e = -1;
     for (int w : mesh_.cells[nb])
       if (w != f[0] && w != f[1] && w != f[2]) e = w;
-    return try_replace({cell, nb}, {{Cell{d, e, f[0], f[1]}, Cell{d, e, f[1], f[2]}, Cell{d, e, f[2], f[0]}}});
+    const int old[2] = {cell, nb};
+    const Cell alt[3] = {Cell{d, e, f[0], f[1]}, Cell{d, e, f[1], f[2]}, Cell{d, e, f[2], f[0]}};
+    return try_replace(old, 2, alt, 1, 3);
   }
 }
 
 namespace {
-// Orders the link of an edge (the opposite edges (u, v) of its ring cells) into a closed cycle.
-// Returns false if the link is not a single closed cycle (a boundary edge).
-bool link_cycle(const std::vector<std::array<int, 2>>& link, std::vector<int>& cycle) {
-  const std::size_t m = link.size();
-  std::vector<char> used(m, 0);
+// Orders the link of an edge (the opposite edges (u, v) of its m <= 4 ring cells) into a closed
+// cycle. Returns false if the link is not a single closed cycle (a boundary edge).
+bool link_cycle(const std::array<std::array<int, 2>, 4>& link, std::size_t m, std::vector<int>& cycle) {
+  std::array<char, 4> used{};
   cycle.assign(1, link[0][0]);
   int current = link[0][1];
   used[0] = 1;
@@ -146,27 +152,30 @@ bool link_cycle(const std::vector<std::array<int, 2>>& link, std::vector<int>& c
     current = link[j][0] == current ? link[j][1] : link[j][0];
   }
   if (current != cycle[0]) return false;
-  std::vector<int> sorted = cycle;
-  std::sort(sorted.begin(), sorted.end());
-  return std::adjacent_find(sorted.begin(), sorted.end()) == sorted.end();
+  std::array<int, 4> sorted{};
+  std::copy(cycle.begin(), cycle.end(), sorted.begin());
+  std::sort(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(m));
+  return std::adjacent_find(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(m)) ==
+         sorted.begin() + static_cast<std::ptrdiff_t>(m);
 }
 }  // namespace
 
-// The ring of edge (a, b) and its link as a cycle; false unless it is an interior edge with m cells.
+// The ring of edge (a, b) and its link as a cycle; false unless it is an interior edge with m <= 4
+// cells.
 template <int dim>
 static bool edge_ring(const Adjacency<dim>& adj, const std::vector<std::array<int, dim + 1>>& cells, int a, int b,
                       std::size_t m, std::vector<int>& ring, std::vector<int>& cycle) {
   adj.cells_with_edge(a, b, ring);
-  if (ring.size() != m) return false;
-  std::vector<std::array<int, 2>> link;
-  for (int c : ring) {
+  if (ring.size() != m || m > 4) return false;
+  std::array<std::array<int, 2>, 4> link;
+  for (std::size_t r = 0; r < m; ++r) {
     std::array<int, 2> uv{-1, -1};
     int j = 0;
-    for (int w : cells[c])
+    for (int w : cells[ring[r]])
       if (w != a && w != b) uv[j++] = w;
-    link.push_back(uv);
+    link[r] = uv;
   }
-  return link_cycle(link, cycle);
+  return link_cycle(link, m, cycle);
 }
 
 template <int dim>
@@ -174,9 +183,11 @@ bool VimOptimizer<dim>::try_swap_32(int a, int b) {
   if constexpr (dim != 3) {
     return false;
   } else {
-    std::vector<int> ring, p;
+    std::vector<int>& ring = swap_ring_;
+    std::vector<int>& p = swap_cycle_;
     if (!edge_ring<3>(adj_, mesh_.cells, a, b, 3, ring, p)) return false;
-    return try_replace(ring, {{Cell{p[0], p[1], p[2], a}, Cell{p[0], p[1], p[2], b}}});
+    const Cell alt[2] = {Cell{p[0], p[1], p[2], a}, Cell{p[0], p[1], p[2], b}};
+    return try_replace(ring.data(), 3, alt, 1, 2);
   }
 }
 
@@ -185,12 +196,13 @@ bool VimOptimizer<dim>::try_swap_44(int a, int b) {
   if constexpr (dim != 3) {
     return false;
   } else {
-    std::vector<int> ring, p;
+    std::vector<int>& ring = swap_ring_;
+    std::vector<int>& p = swap_cycle_;
     if (!edge_ring<3>(adj_, mesh_.cells, a, b, 4, ring, p)) return false;
-    return try_replace(ring, {{Cell{p[0], p[2], p[1], a}, Cell{p[0], p[2], p[1], b}, Cell{p[0], p[2], p[3], a},
-                               Cell{p[0], p[2], p[3], b}},
-                              {Cell{p[1], p[3], p[0], a}, Cell{p[1], p[3], p[0], b}, Cell{p[1], p[3], p[2], a},
-                               Cell{p[1], p[3], p[2], b}}});
+    const Cell alt[8] = {Cell{p[0], p[2], p[1], a}, Cell{p[0], p[2], p[1], b}, Cell{p[0], p[2], p[3], a},
+                         Cell{p[0], p[2], p[3], b}, Cell{p[1], p[3], p[0], a}, Cell{p[1], p[3], p[0], b},
+                         Cell{p[1], p[3], p[2], a}, Cell{p[1], p[3], p[2], b}};
+    return try_replace(ring.data(), 4, alt, 2, 4);
   }
 }
 
@@ -227,8 +239,8 @@ long VimOptimizer<dim>::swap_pass() {
   return swaps;
 }
 
-template bool VimOptimizer<2>::try_replace(const std::vector<int>&, const std::vector<std::vector<Cell>>&);
-template bool VimOptimizer<3>::try_replace(const std::vector<int>&, const std::vector<std::vector<Cell>>&);
+template bool VimOptimizer<2>::try_replace(const int*, int, const Cell*, int, int);
+template bool VimOptimizer<3>::try_replace(const int*, int, const Cell*, int, int);
 template bool VimOptimizer<2>::try_flip(int, int);
 template bool VimOptimizer<3>::try_flip(int, int);
 template bool VimOptimizer<2>::try_swap_23(int, int);

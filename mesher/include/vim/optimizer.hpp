@@ -150,8 +150,13 @@ class VimOptimizer {
   bool update_node_impl(int node, int iteration, Scratch& s, double* moved_sq);
   double evaluate_candidate(const Point& p, Scratch& s, double bound, bool image) const;
   double cost_of(const CellCache& c) const;
-  // Replaces old_cells by the best of the alternatives (lists of vertex tuples) that lowers E.
-  bool try_replace(const std::vector<int>& old_cells, const std::vector<std::vector<Cell>>& alternatives);
+  // Replaces the n_old cells old_cells[] by the best of n_alt alternatives that lowers E; alternative
+  // a is the n_new vertex tuples alternatives[a·n_new ..]. Uses the swap_* scratch below, so that a
+  // swap pass allocates nothing per candidate (only the adjacency's facet map, per accepted swap).
+  bool try_replace(const int* old_cells, int n_old, const Cell* alternatives, int n_alt, int n_new);
+  std::vector<Cell> swap_cells_, swap_best_cells_;
+  std::vector<CellCache> swap_caches_, swap_best_caches_;
+  std::vector<int> swap_slots_, swap_ring_, swap_cycle_;
   void set_cell(int c, const Cell& v, const CellCache& cache);
   int new_cell_slot();
   std::uint8_t classify(const Point& p) const;
