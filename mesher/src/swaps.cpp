@@ -28,7 +28,9 @@ bool VimOptimizer<dim>::try_replace(const int* old_cells, int n_old, const Cell*
   for (int a = 0; a < n_alt; ++a) {
     cells.assign(alternatives + static_cast<std::ptrdiff_t>(a) * n_new,
                  alternatives + static_cast<std::ptrdiff_t>(a + 1) * n_new);
-    bool ok = true;
+    // The tests in order of cost (the outcome does not depend on it): the tiling, then the E_G
+    // share alone as a lower bound (at or above the best: the voxel sums are not needed), then the
+    // quality bound of each new cell, then the voxel sums.
     double volume = 0.0;
     for (Cell& v : cells) {
       Simplex x;
@@ -36,17 +38,11 @@ bool VimOptimizer<dim>::try_replace(const int* old_cells, int n_old, const Cell*
       double vol = signed_volume<dim>(x);
       if (vol < 0.0) {
         std::swap(v[0], v[1]);
-        std::swap(x[0], x[1]);
         vol = -vol;
-      }
-      if (!acceptable(x)) {
-        ok = false;
-        break;
       }
       volume += vol;
     }
-    if (!ok || std::abs(volume - old_volume) > 1e-9 * old_volume) continue;
-    // Lower bound first: the E_G share alone (cheap) already at or above the best → skip the sums.
+    if (std::abs(volume - old_volume) > 1e-9 * old_volume) continue;
     double geometric = 0.0;
     for (const Cell& v : cells) {
       Simplex x;
@@ -54,6 +50,16 @@ bool VimOptimizer<dim>::try_replace(const int* old_cells, int n_old, const Cell*
       geometric += wg_ * geometric_energy<dim>(x) * (density_ ? density_->interpolate(centroid<dim>(x)) : 1.0);
     }
     if (geometric >= best) continue;
+    bool ok = true;
+    for (const Cell& v : cells) {
+      Simplex x;
+      for (int j = 0; j <= dim; ++j) x[j] = mesh_.points[v[j]];
+      if (!acceptable(x)) {
+        ok = false;
+        break;
+      }
+    }
+    if (!ok) continue;
     caches.clear();
     double total = 0.0;
     for (const Cell& v : cells) {
