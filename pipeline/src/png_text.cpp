@@ -39,13 +39,13 @@ bool render(const std::string& s, int size, vtkImageData* img, int dims[2]) {
 std::array<int, 2> Canvas::text_size(const std::string& s, int size) {
   vtkNew<vtkImageData> img;
   int dims[2] = {0, 0};
-  return render(s, size, img, dims) ? std::array<int, 2>{dims[0], dims[1]} : std::array<int, 2>{0, 0};
+  return render(s, size, img, dims) ? std::array<int, 2>{{dims[0], dims[1]}} : std::array<int, 2>{{0, 0}};
 }
 
 std::array<int, 4> Canvas::text(int x, int y, const std::string& s, Rgb c, int size, Align h, Align v, bool vertical) {
   vtkNew<vtkImageData> img;
   int dims[2] = {0, 0};
-  if (!render(s, size, img, dims)) return {x, y, 0, 0};
+  if (!render(s, size, img, dims)) return {{x, y, 0, 0}};
   const int tw = dims[0], th = dims[1];
   const int* extent = img->GetDimensions();
   const auto* rgba = static_cast<const unsigned char*>(img->GetScalarPointer());
@@ -69,7 +69,7 @@ std::array<int, 4> Canvas::text(int x, int y, const std::string& s, Rgb c, int s
       };
       set(px, py, {mix(c.r, b.r), mix(c.g, b.g), mix(c.b, b.b)});
     }
-  return {left, top, bw, bh};
+  return {{left, top, bw, bh}};
 }
 
 }  // namespace vim::pipeline

@@ -104,7 +104,8 @@ SimplexMesh<3> one_tet(const std::array<V3, 4>& x) {
   return m;
 }
 
-const std::array<V3, 4> kTet = {V3(0.13, 0.21, 0.08), V3(0.91, 0.33, 0.17), V3(0.27, 0.87, 0.24), V3(0.41, 0.38, 0.93)};
+const std::array<V3, 4> kTet = {
+    {V3(0.13, 0.21, 0.08), V3(0.91, 0.33, 0.17), V3(0.27, 0.87, 0.24), V3(0.41, 0.38, 0.93)}};
 
 }  // namespace
 
@@ -277,10 +278,10 @@ TEST(ElementModulus, BlockMean) {
   for (int j = 0; j < 6; ++j)
     for (int i = 0; i < 4; ++i) v[i + 4 * j] = i + 10.0 * j;
   std::array<long, 2> cd;
-  const auto c = block_mean<2>({4, 6}, v, 2, &cd);
-  EXPECT_EQ(cd, (std::array<long, 2>{2, 3}));
+  const auto c = block_mean<2>({{4, 6}}, v, 2, &cd);
+  EXPECT_EQ(cd, (std::array<long, 2>{{2, 3}}));
   ASSERT_EQ(c.size(), 6u);
   for (int J = 0; J < 3; ++J)
     for (int I = 0; I < 2; ++I) EXPECT_DOUBLE_EQ(c[I + 2 * J], 2 * I + 0.5 + 10.0 * (2 * J + 0.5));
-  EXPECT_THROW(block_mean<2>({4, 5}, std::vector<double>(20), 2), std::invalid_argument);
+  EXPECT_THROW(block_mean<2>({{4, 5}}, std::vector<double>(20), 2), std::invalid_argument);
 }
