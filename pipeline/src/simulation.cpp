@@ -52,6 +52,7 @@ struct NeedleSimulation<dim>::Impl {
   using Mat = Eigen::Matrix<double, dim, dim>;
   Scenario sc;
   SimulationOptions opt;
+  int max_sweeps() const { return std::max(1, opt.max_active_set_iterations); }  // stick-slip cap per step
   WorldTransform<dim> tf;
   std::optional<fem::ElasticModel<dim>> model;
   CellLocator<dim> locator;
@@ -549,7 +550,7 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
         }
         bool settled = false;
         int sweeps = 0;
-        for (; sweeps < std::max(1, opt.max_active_set_iterations) && !settled; ++sweeps) {
+        for (; sweeps < max_sweeps() && !settled; ++sweeps) {
           map.solve_free(wc, sl, sg.cwiseProduct(lim));
           const Eigen::VectorXd f = map(wc);
           bool changed = false;
@@ -714,9 +715,9 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
     std::ostringstream w;
     w << (r.name.empty() ? std::string("the needle") : "needle '" + r.name + "'") << ": at "
       << r.unsettled_steps.size() << " of " << r.depth.size() - 1 << " steps (first: step " << r.unsettled_steps.front()
-      << ") the stick-slip active set still changed after " << std::max(1, m.opt.max_active_set_iterations)
-      << (m.opt.max_active_set_iterations > 1 ? " sweeps" : " sweep") << "; those steps keep the last iterate, so a shaft load may exceed its friction limit "
-         "(try more steps)";
+      << ") the stick-slip active set still changed after " << m.max_sweeps()
+      << (m.max_sweeps() > 1 ? " sweeps" : " sweep")
+      << "; those steps keep the last iterate, so a shaft load may exceed its friction limit (try more steps)";
     res.warnings.push_back(w.str());
   }
   if (!res.warnings.empty()) rep["warnings"] = res.warnings;
