@@ -10,6 +10,7 @@ PACKAGES=(
   libinsighttoolkit5-dev
   libvtk9-dev
   libeigen3-dev
+  zlib1g-dev
   libyaml-cpp-dev
   libcli11-dev
   nlohmann-json3-dev

@@ -141,6 +141,27 @@ CLI::Validator number_in(double lo, double hi, bool closed_lo) {
       desc);
 }
 
+// A finite number (NaN and ±inf are refused: a NaN threshold or spacing would silently mean "off");
+// positive: also > 0.
+CLI::Validator finite_number(bool positive) {
+  const std::string desc = positive ? "POSITIVE" : "FINITE";
+  return CLI::Validator(
+      [positive](std::string& s) -> std::string {
+        double v = 0;
+        try {
+          std::size_t pos = 0;
+          v = std::stod(s, &pos);
+          if (pos != s.size()) throw std::invalid_argument(s);
+        } catch (...) {
+          return "value " + s + " is not a number";
+        }
+        if (!std::isfinite(v)) return "value " + s + " is not a finite number";
+        if (positive && !(v > 0.0)) return "value " + s + " is not > 0";
+        return std::string();
+      },
+      desc);
+}
+
 CLI::Validator half_open_unit() { return number_in(0.0, 1.0, true); }
 CLI::Validator open_interval(double lo, double hi) { return number_in(lo, hi, false); }
 
@@ -202,7 +223,7 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
   app.add_option("--spacing", o.spacing,
                  "Initial grid edge length in image units, instead of --nodes (default: off; > 0)")
       ->type_name("MM")
-      ->check(CLI::PositiveNumber)
+      ->check(finite_number(true))
       ->excludes(nodes);
   app.add_option("--lambda", o.lambda,
                  fmt("Weight of the image term in E = (1-λ)E_G/E_G0 + λE_D/E_D0 (default %g; range [0, 1); "
@@ -265,7 +286,8 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
   app.add_option("--threshold", o.threshold,
                  "Segment elements whose mean value is > T into face-connected components; the largest "
                  "is the object (paper §VI-B) (default: off; unit of the image values)")
-      ->type_name("T");
+      ->type_name("T")
+      ->check(finite_number(false));
   std::string mesher = "vim";
   app.add_option("--mesher", mesher,
                  "vim = VIM optimisation; grid = the unoptimised initial grid with the same nodes; voxel = "
@@ -411,8 +433,9 @@ UnstructuredGrid voxel_grid(const OrientedImage<dim>& img) {
     for (int a = 0; a < dim; ++a) q[a] = w[a];
     g.points.push_back(q);
   }
-  // VTK corner order: quad (0,0),(1,0),(1,1),(0,1); hexahedron the same on z=0 then z=1.
-  const int order2[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  // VTK corner order: quad (0,0),(1,0),(1,1),(0,1); hexahedron the same on z=0 then z=1 (reversed
+  // in-plane under a mirroring direction, so the world cells stay positively oriented).
+  const auto order2 = voxel_corner_order(img.direction.determinant() < 0.0);
   Field value{1, {}};
   value.values.reserve(im.voxel_count());
   for (std::size_t k = 0; k < im.voxel_count(); ++k) {
@@ -540,6 +563,7 @@ int run_dim(const RunOptions& given) {
     if (!sizing->direction.isApprox(img.direction, 1e-6))
       throw InputError(o.sizing + ": sizing image direction differs from IMAGE's; both must share one frame");
     report["sizing"] = image_json(*sizing, o.sizing);
+    sizing->image = in_frame_of(img, *sizing);
   }
 
   MeshModel<dim> model;
@@ -654,8 +678,18 @@ int run_dim(const RunOptions& given) {
       const MeshQuality initial_quality = lower_bound ? mesh_quality(initial) : MeshQuality{};
       VimResult<dim> result = optimize<dim>(img.image, std::move(initial), vo, progress, density);
       t.stop();
-      if (result.ed0 == 0.0)
-        warn(report, "vim", "the image is constant inside the box (E_D0 = 0): the mesh is optimised for E_G only");
+      if (result.ed0 == 0.0) {
+        const ImageSummary values = summarize(img.image);
+        if (values.max == values.min)
+          warn(report, "vim", "the image is constant inside the box (E_D0 = 0): the mesh is optimised for E_G only");
+        else
+          warn(report, "vim",
+               fmt("no element of the initial mesh holds voxel centres of different values (E_D0 = 0; %zu nodes "
+                   "for %zu voxels: the elements are about as small as the voxels or smaller, or their faces lie on "
+                   "the image's edges), so the image term is off and the mesh is optimised for E_G only; use fewer "
+                   "--nodes (or another node count or --spacing)",
+                   result.mesh.n_points(), values.voxels));
+      }
       model.mesh = std::move(result.mesh);
       if (lower_bound) {
         // VIM never makes an element below a lower bound, but it keeps those of the initial mesh

@@ -9,10 +9,26 @@
 
 #include <cmath>
 #include <sstream>
+#include <stdexcept>
 
 namespace vim::pipeline {
 
 int image_dimension(const std::string& path) { return itk_io::header_dimension(path); }
+
+template <int dim>
+Image<dim> in_frame_of(const OrientedImage<dim>& reference, const OrientedImage<dim>& other) {
+  if (!other.direction.isApprox(reference.direction, 1e-6))
+    throw std::invalid_argument("in_frame_of: the images' direction matrices differ");
+  // other's frame point of world w = reference.to_world(p) is p + (Dᵀ − I)(o_ref − o_other).
+  using Matrix = Eigen::Matrix<double, dim, dim>;
+  const Eigen::Matrix<double, dim, 1> shift =
+      (reference.direction.transpose() - Matrix::Identity()) * (reference.origin() - other.origin());
+  Image<dim> out = other.image;
+  for (int a = 0; a < dim; ++a) out.origin[a] -= shift[a];
+  return out;
+}
+template Image<2> in_frame_of<2>(const OrientedImage<2>&, const OrientedImage<2>&);
+template Image<3> in_frame_of<3>(const OrientedImage<3>&, const OrientedImage<3>&);
 
 template <int dim>
 OrientedImage<dim> read_image(const std::string& path) {
@@ -25,6 +41,7 @@ OrientedImage<dim> read_image(const std::string& path) {
     for (int b = 0; b < dim; ++b) out.direction(a, b) = raw.direction[a * dim + b];
   }
   out.image.data = std::move(raw.data);
+  const bool raw_double = raw.double_voxels;
 
   const std::size_t n = out.image.data.size();
   long bad = 0;
@@ -37,6 +54,9 @@ OrientedImage<dim> read_image(const std::string& path) {
     m << path << ": " << bad << " voxel" << (bad > 1 ? "s are" : " is") << " NaN or Inf (first at index (";
     for (int a = 0; a < dim; ++a) m << (a ? "," : "") << idx[a];
     m << ")); every voxel must be a finite number";
+    if (raw_double)
+      m << " (the file stores doubles: a finite value beyond ±3.4e38, the largest a float voxel can hold, also reads"
+           " as Inf; rescale the image)";
     throw InputError(m.str());
   }
 

@@ -16,12 +16,16 @@
 #include <algorithm>
 #include <cmath>
 #include <cctype>
+#include <cstdint>
+#include <cstring>
+#include <cerrno>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <sstream>
 #include <unistd.h>
+#include <zlib.h>
 
 namespace vim::pipeline::itk_io {
 
@@ -322,6 +326,171 @@ itk::ImageIOBase::Pointer open_header(const std::string& path) {
   return io;
 }
 
+// Voxel data that ITK 5.2 reads without complaint although it is short or corrupt (found by probing
+// with hand-made files), checked independently before ITK reads it:
+// - zlib-compressed MetaImage (CompressedData = True): MetaIO leaves the voxels of a short or corrupt
+//   stream zero or garbage. The stream must inflate completely (Z_STREAM_END, which also checks its
+//   Adler-32) to exactly the declared number of bytes.
+// - ASCII MetaImage (BinaryData = False): MetaIO stops at the first token that is not a number and
+//   fills the rest. The data must hold the declared number of values, each a whole number token.
+// - NIfTI (.nii, .nii.gz): the reader zero-fills a short file. The (inflated) file must hold
+//   vox_offset + the declared bytes.
+// Data files given as a list or pattern, a non-zero MetaImage HeaderSize and NIfTI header/image
+// pairs are left to ITK.
+class DataCheck {
+ public:
+  DataCheck(std::string path, std::uintmax_t voxels, std::uintmax_t bytes)
+      : path_(std::move(path)), voxels_(voxels), bytes_(bytes) {}
+
+  void metaimage(const MetaImage& mi) {
+    const std::string value = mi.ElementDataFileName();
+    if (value.empty() || value.find('%') != std::string::npos || value.rfind("LIST", 0) == 0) return;
+    const bool local = value == "LOCAL" || value == "Local" || value == "local";
+    fs::path data = local ? fs::path(path_) : fs::path(value);
+    if (data.is_relative() && !local) data = fs::path(path_).parent_path() / data;
+    std::uintmax_t offset = 0;
+    if (local) {
+      offset = local_data_offset();
+    } else if (mi.HeaderSize() != 0) {
+      return;
+    }
+    if (!mi.BinaryData())
+      ascii(data, offset);
+    else if (mi.CompressedData())
+      inflated(data, offset);
+  }
+
+  void nifti() {
+    const std::string name = fs::path(path_).filename().string();
+    const auto ends = [&](const char* e) {
+      const std::string x(e);
+      return name.size() >= x.size() && name.compare(name.size() - x.size(), x.size(), x) == 0;
+    };
+    if (!ends(".nii") && !ends(".nii.gz")) return;
+    gzFile f = gzopen(path_.c_str(), "rb");  // reads uncompressed files as they are
+    if (!f) return;
+    unsigned char h[544] = {};
+    const int got = gzread(f, h, sizeof h);
+    std::int32_t sizeof_hdr = 0;
+    std::memcpy(&sizeof_hdr, h, 4);
+    const bool swapped = sizeof_hdr != 348 && sizeof_hdr != 540;
+    if (swapped) sizeof_hdr = static_cast<std::int32_t>(__builtin_bswap32(static_cast<std::uint32_t>(sizeof_hdr)));
+    double vox_offset = 0.0;
+    if (sizeof_hdr == 348 && got >= 348) {
+      std::uint32_t bits = 0;
+      std::memcpy(&bits, h + 108, 4);
+      if (swapped) bits = __builtin_bswap32(bits);
+      float v = 0.0f;
+      std::memcpy(&v, &bits, 4);
+      vox_offset = std::max(static_cast<double>(v), 352.0);
+    } else if (sizeof_hdr == 540 && got >= 540) {
+      std::uint64_t bits = 0;
+      std::memcpy(&bits, h + 168, 8);
+      if (swapped) bits = __builtin_bswap64(bits);
+      vox_offset = std::max(static_cast<double>(static_cast<std::int64_t>(bits)), 544.0);
+    } else {
+      gzclose(f);
+      return;  // not a header this check understands; ITK has read it already
+    }
+    std::uintmax_t total = got > 0 ? static_cast<std::uintmax_t>(got) : 0;
+    std::vector<unsigned char> buf(1 << 16);
+    int n = 0;
+    while (got == static_cast<int>(sizeof h) && (n = gzread(f, buf.data(), static_cast<unsigned>(buf.size()))) > 0)
+      total += static_cast<std::uintmax_t>(n);
+    int err = Z_OK;
+    const std::string zmsg = n < 0 ? gzerror(f, &err) : "";
+    gzclose(f);
+    if (n < 0)
+      throw InputError(path_ + ": cannot read the voxel data: corrupt compressed data (" + zmsg + ")");
+    const auto need = static_cast<std::uintmax_t>(vox_offset) + bytes_;
+    if (total < need)
+      throw InputError(path_ + ": cannot read the voxel data: truncated (the header declares " + std::to_string(voxels_) +
+                       " voxels, " + std::to_string(bytes_) + " bytes from byte " +
+                       std::to_string(static_cast<std::uintmax_t>(vox_offset)) + ", but the " +
+                       (name.size() > 3 && ends(".gz") ? "inflated " : "") + "file holds only " + std::to_string(total) +
+                       " bytes)");
+  }
+
+ private:
+  // Byte after the line "ElementDataFile = LOCAL" (MetaIO requires it to be the last header line).
+  std::uintmax_t local_data_offset() const {
+    std::ifstream in(path_, std::ios::binary);
+    std::string line;
+    std::uintmax_t offset = 0;
+    while (std::getline(in, line)) {
+      offset += line.size() + 1;
+      std::size_t b = line.find_first_not_of(" \t");
+      if (b != std::string::npos && line.compare(b, 15, "ElementDataFile") == 0) return offset;
+      if (offset > (1u << 20)) break;
+    }
+    throw InputError(path_ + ": MetaImage header has no 'ElementDataFile = LOCAL' line before its voxel data");
+  }
+
+  void inflated(const fs::path& data, std::uintmax_t offset) const {
+    std::ifstream in(data, std::ios::binary);
+    if (!in) return;  // ITK reports an unreadable data file
+    in.seekg(static_cast<std::streamoff>(offset));
+    z_stream z{};
+    if (inflateInit2(&z, 15 + 32) != Z_OK) throw std::runtime_error("zlib: inflateInit2 failed");
+    std::vector<unsigned char> src(1 << 16), dst(1 << 16);
+    std::uintmax_t out = 0;
+    int rc = Z_OK;
+    while (rc != Z_STREAM_END) {
+      if (z.avail_in == 0) {
+        in.read(reinterpret_cast<char*>(src.data()), static_cast<std::streamsize>(src.size()));
+        z.avail_in = static_cast<uInt>(in.gcount());
+        z.next_in = src.data();
+        if (z.avail_in == 0) break;  // input ends before the stream does
+      }
+      z.next_out = dst.data();
+      z.avail_out = static_cast<uInt>(dst.size());
+      rc = inflate(&z, Z_NO_FLUSH);
+      out += dst.size() - z.avail_out;
+      if (rc != Z_OK && rc != Z_STREAM_END && rc != Z_BUF_ERROR) break;
+      if (out > bytes_) break;
+    }
+    const std::string msg = z.msg ? z.msg : "";
+    inflateEnd(&z);
+    if (rc != Z_STREAM_END && rc != Z_OK && rc != Z_BUF_ERROR)
+      throw InputError(path_ + ": cannot read the voxel data: corrupt compressed data (zlib: " +
+                       (msg.empty() ? "error " + std::to_string(rc) : msg) + ")");
+    if (out > bytes_)
+      throw InputError(path_ + ": cannot read the voxel data: the compressed data inflate to more than the " +
+                       std::to_string(bytes_) + " bytes the header declares");
+    if (rc != Z_STREAM_END)
+      throw InputError(path_ + ": cannot read the voxel data: truncated compressed data (the stream ends after " +
+                       std::to_string(out) + " of the " + std::to_string(bytes_) + " bytes the header declares)");
+    if (out != bytes_)
+      throw InputError(path_ + ": cannot read the voxel data: the compressed data hold " + std::to_string(out) +
+                       " bytes; the header declares " + std::to_string(voxels_) + " voxels, " + std::to_string(bytes_) +
+                       " bytes");
+  }
+
+  void ascii(const fs::path& data, std::uintmax_t offset) const {
+    std::ifstream in(data, std::ios::binary);
+    if (!in) return;
+    in.seekg(static_cast<std::streamoff>(offset));
+    std::string token;
+    for (std::uintmax_t k = 0; k < voxels_; ++k) {
+      if (!(in >> token))
+        throw InputError(path_ + ": cannot read the voxel data: truncated (the header declares " + std::to_string(voxels_) +
+                         " ASCII values; the file holds " + std::to_string(k) + ")");
+      char* end = nullptr;
+      errno = 0;
+      const double v = std::strtod(token.c_str(), &end);
+      if (end != token.c_str() + token.size() || token.empty())
+        throw InputError(path_ + ": ASCII voxel " + std::to_string(k) + " is '" + token.substr(0, 40) +
+                         "', not a number");
+      if (!std::isfinite(v))
+        throw InputError(path_ + ": ASCII voxel " + std::to_string(k) + " is '" + token.substr(0, 40) +
+                         "'; every voxel must be a finite number");
+    }
+  }
+
+  std::string path_;
+  std::uintmax_t voxels_, bytes_;
+};
+
 // Temporary sibling that keeps the extension (ITK picks the writer from it): .NAME.tmpPID_K.EXT
 fs::path temporary_image_path(const fs::path& final_path) {
   static int counter = 0;
@@ -341,6 +510,13 @@ RawImage read_dim(const std::string& path, itk::ImageIOBase::Pointer io) {
   for (unsigned a = 0; a < dim; ++a) checked[a] = io->GetDimensions(a);
   reader->SetImageIO(io);
   reader->SetFileName(path);
+  {
+    std::uintmax_t voxels = 1;
+    for (unsigned a = 0; a < dim; ++a) voxels *= checked[a];
+    DataCheck check(path, voxels, static_cast<std::uintmax_t>(io->GetImageSizeInBytes()));
+    if (auto* meta = dynamic_cast<itk::MetaImageIO*>(io.GetPointer())) check.metaimage(*meta->GetMetaImagePointer());
+    if (std::string(io->GetNameOfClass()) == "NiftiImageIO") check.nifti();
+  }
   {
     StreamCapture capture;
     try {
@@ -377,6 +553,7 @@ RawImage read_dim(const std::string& path, itk::ImageIOBase::Pointer io) {
     out.origin.push_back(img->GetOrigin()[a]);
     for (unsigned b = 0; b < dim; ++b) out.direction.push_back(img->GetDirection()(a, b));
   }
+  out.double_voxels = io->GetComponentType() == itk::IOComponentEnum::DOUBLE;
   const float* buf = img->GetBufferPointer();
   out.data.assign(buf, buf + n);  // ITK buffers are axis-0-fastest, as Image<dim>
   return out;

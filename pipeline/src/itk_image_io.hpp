@@ -14,6 +14,7 @@ struct RawImage {
   std::vector<double> origin;
   std::vector<double> direction;   // row-major dim × dim
   std::vector<float> data;
+  bool double_voxels = false;      // the file stores doubles: a finite value beyond ±FLT_MAX reads as ±inf
 };
 
 // Reads and checks the header (existence, format, dimension 2/3, scalar pixels, size, spacing,

@@ -281,7 +281,7 @@ NeedleSimulation<dim> NeedleSimulation<dim>::voxel(const Image<dim>& image, cons
   }
   Vec h;
   for (int d = 0; d < dim; ++d) h[d] = image.spacing[d];
-  const int order2[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  const auto order2 = voxel_corner_order(transform.direction.determinant() < 0.0);
   std::vector<int> sup;
   for (std::size_t k = 0; k < image.voxel_count(); ++k) {
     const auto idx = image.index_of(k);

@@ -33,9 +33,18 @@ UnstructuredGrid simplex_grid(const SimplexMesh<dim>& frame_mesh, const WorldTra
     g.points.push_back(q);
   }
   g.connectivity.reserve(frame_mesh.n_cells() * (dim + 1));
-  for (const auto& c : frame_mesh.cells)
-    for (int k = 0; k <= dim; ++k) g.connectivity.push_back(c[k]);
+  const bool mirrored = transform.direction.determinant() < 0.0;
+  for (const auto& c : frame_mesh.cells) {
+    g.connectivity.push_back(c[mirrored ? 1 : 0]);
+    g.connectivity.push_back(c[mirrored ? 0 : 1]);
+    for (int k = 2; k <= dim; ++k) g.connectivity.push_back(c[k]);
+  }
   return g;
+}
+
+std::array<std::array<int, 2>, 4> voxel_corner_order(bool mirrored) {
+  if (mirrored) return {{{{0, 0}}, {{0, 1}}, {{1, 1}}, {{1, 0}}}};
+  return {{{{0, 0}}, {{1, 0}}, {{1, 1}}, {{0, 1}}}};
 }
 
 template UnstructuredGrid simplex_grid<2>(const SimplexMesh<2>&, const WorldTransform<2>&);

@@ -23,6 +23,8 @@
 #include <thread>
 #include <vector>
 
+#include <zlib.h>
+
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -337,6 +339,129 @@ TEST_F(Robustness, NrrdGzipDataShorterThanDeflateAllows) {
       << std::string(64, 'x');
   out.close();
   expect_bad_image(p, {"truncated", "gzip"});
+}
+
+// Voxel data that ITK 5.2 reads without complaint although it is short or corrupt (it zero-fills or
+// repeats values): checked independently of ITK (itk_image_io.cpp, DataCheck). Each bad file has a
+// good twin, read back exactly, so the check cannot pass by refusing everything.
+namespace {
+
+std::vector<unsigned char> zlib_compress(const std::vector<float>& v) {
+  uLongf n = compressBound(static_cast<uLong>(v.size() * sizeof(float)));
+  std::vector<unsigned char> out(n);
+  EXPECT_EQ(compress2(out.data(), &n, reinterpret_cast<const Bytef*>(v.data()),
+                      static_cast<uLong>(v.size() * sizeof(float)), 6),
+            Z_OK);
+  out.resize(n);
+  return out;
+}
+
+void write_compressed_mha(const fs::path& p, const std::string& dims, const std::vector<unsigned char>& z) {
+  std::ofstream out(p, std::ios::binary);
+  out << "ObjectType = Image\nNDims = 3\nBinaryData = True\nCompressedData = True\nCompressedDataSize = " << z.size()
+      << "\nDimSize = " << dims << "\nElementSpacing = 1 1 1\nElementType = MET_FLOAT\nElementDataFile = LOCAL\n";
+  out.write(reinterpret_cast<const char*>(z.data()), static_cast<std::streamsize>(z.size()));
+}
+
+void write_ascii_mha(const fs::path& p, const std::string& dims, const std::string& values) {
+  std::ofstream(p, std::ios::binary) << "ObjectType = Image\nNDims = 3\nBinaryData = False\nDimSize = " << dims
+                                     << "\nElementSpacing = 1 1 1\nElementType = MET_FLOAT\nElementDataFile = LOCAL\n"
+                                     << values;
+}
+
+std::vector<float> ramp(int n) {
+  std::vector<float> v(static_cast<std::size_t>(n));
+  for (int k = 0; k < n; ++k) v[static_cast<std::size_t>(k)] = 1.0f + 0.25f * static_cast<float>(k % 37);
+  return v;
+}
+
+}  // namespace
+
+TEST_F(Robustness, MhaCompressedDataMustInflateToTheDeclaredSize) {
+  const std::vector<float> v = ramp(512);
+  const fs::path good = dir_ / "zgood.mha";
+  write_compressed_mha(good, "8 8 8", zlib_compress(v));
+  const auto img = read_image<3>(good.string());
+  ASSERT_EQ(img.image.data.size(), v.size());
+  EXPECT_TRUE(std::equal(v.begin(), v.end(), img.image.data.begin()));
+
+  const fs::path half = dir_ / "zhalf.mha";  // a complete stream of half the voxels
+  write_compressed_mha(half, "8 8 8", zlib_compress(std::vector<float>(v.begin(), v.begin() + 256)));
+  expect_bad_image(half, {"compressed data hold 1024 bytes", "512 voxels, 2048 bytes"});
+
+  const fs::path sum = dir_ / "zchecksum.mha";  // every byte but the Adler-32 trailer intact
+  auto z = zlib_compress(v);
+  z[z.size() - 1] ^= 0x5a;
+  write_compressed_mha(sum, "8 8 8", z);
+  expect_bad_image(sum, {"corrupt compressed data", "incorrect data check"});
+
+  const fs::path cut = dir_ / "zcut.mha";  // the stream stops half-way
+  z = zlib_compress(v);
+  z.resize(z.size() / 2);
+  write_compressed_mha(cut, "8 8 8", z);
+  expect_bad_image(cut, {"compressed"});
+}
+
+TEST_F(Robustness, MhaAsciiDataMustHoldTheDeclaredNumbers) {
+  std::ostringstream all, shorter, word, nan;
+  for (int k = 0; k < 216; ++k) all << 0.5 * k << (k % 12 == 11 ? "\n" : " ");
+  for (int k = 0; k < 150; ++k) shorter << 5 << " ";
+  shorter << std::string(200, ' ');
+  for (int k = 0; k < 216; ++k) word << (k == 100 ? "x" : "3") << " ";
+  for (int k = 0; k < 216; ++k) nan << (k == 100 ? "nan" : "3") << " ";
+  const fs::path good = dir_ / "agood.mha";
+  write_ascii_mha(good, "6 6 6", all.str());
+  const auto img = read_image<3>(good.string());
+  ASSERT_EQ(img.image.data.size(), 216u);
+  for (int k = 0; k < 216; ++k) EXPECT_EQ(img.image.data[static_cast<std::size_t>(k)], 0.5f * static_cast<float>(k));
+
+  write_ascii_mha(dir_ / "ashort.mha", "6 6 6", shorter.str());
+  expect_bad_image(dir_ / "ashort.mha", {"truncated", "216 ASCII values; the file holds 150"});
+  write_ascii_mha(dir_ / "aword.mha", "6 6 6", word.str());
+  expect_bad_image(dir_ / "aword.mha", {"ASCII voxel 100 is 'x', not a number"});
+  write_ascii_mha(dir_ / "anan.mha", "6 6 6", nan.str());
+  expect_bad_image(dir_ / "anan.mha", {"ASCII voxel 100 is 'nan'", "finite"});
+}
+
+TEST_F(Robustness, NiftiShorterThanItsHeaderDeclaresIsTruncated) {
+  OrientedImage<3> im;
+  im.image = Image<3>({{10, 10, 10}}, {{1, 1, 1}}, {{0, 0, 0}}, 2.0f);
+  im.image.data[999] = 7.0f;
+  const fs::path good = dir_ / "good.nii";
+  write_image<3>(im, good.string());
+  EXPECT_EQ(read_image<3>(good.string()).image.data[999], 7.0f);
+  const std::string bytes = slurp(good);
+  ASSERT_GE(bytes.size(), 352u + 4000u);
+
+  const fs::path cut = dir_ / "cut.nii";  // the last 100 bytes (25 voxels) missing
+  std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() - 100);
+  expect_bad_image(cut, {"truncated", "1000 voxels, 4000 bytes", "holds only " + std::to_string(bytes.size() - 100)});
+
+  const fs::path gz = dir_ / "cut.nii.gz";  // a valid gzip stream of the cut file
+  gzFile f = gzopen(gz.c_str(), "wb");
+  ASSERT_NE(f, nullptr);
+  const std::string part = bytes.substr(0, bytes.size() - 100);
+  ASSERT_EQ(gzwrite(f, part.data(), static_cast<unsigned>(part.size())), static_cast<int>(part.size()));
+  gzclose(f);
+  expect_bad_image(gz, {"truncated", "inflated file holds only"});
+
+  const fs::path gz_good = dir_ / "good.nii.gz";
+  f = gzopen(gz_good.c_str(), "wb");
+  ASSERT_EQ(gzwrite(f, bytes.data(), static_cast<unsigned>(bytes.size())), static_cast<int>(bytes.size()));
+  gzclose(f);
+  EXPECT_EQ(read_image<3>(gz_good.string()).image.data[999], 7.0f);
+}
+
+TEST_F(Robustness, DoubleVoxelsBeyondFloatRangeAreNamedAsSuch) {
+  const fs::path p = dir_ / "huge_double.mha";
+  std::ofstream out(p, std::ios::binary);
+  out << "ObjectType = Image\nNDims = 3\nBinaryData = True\nDimSize = 4 4 4\nElementSpacing = 1 1 1\n"
+         "ElementType = MET_DOUBLE\nElementDataFile = LOCAL\n";
+  std::vector<double> v(64, 1.0);
+  v[5] = 1e300;
+  out.write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(v.size() * sizeof(double)));
+  out.close();
+  expect_bad_image(p, {"1 voxel is NaN or Inf", "stores doubles", "beyond ±3.4e38"});
 }
 
 // MetaIO reads malformed header lines differently on each of ITK's passes (fuzz finding: a

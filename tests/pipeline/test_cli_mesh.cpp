@@ -15,6 +15,7 @@
 
 #include <vtkCellData.h>
 #include <vtkDataArray.h>
+#include <vtkIdList.h>
 #include <vtkNew.h>
 #include <vtkPointData.h>
 #include <vtkUnstructuredGrid.h>
@@ -55,12 +56,40 @@ Eigen::Matrix<double, dim, 1> world_of_index(const OrientedImage<dim>& im, const
   return o + im.direction * idx.cwiseProduct(s);
 }
 
+// Signed measure of cell c from its world points: a simplex's (times dim!), a quad's or hexahedron's
+// from its corners 0, 1, 3 (and 4), the edges from corner 0 in VTK's corner order. VTK (ParaView's
+// Cell Size, Mesh Quality) takes positive cells: positive here.
+double signed_cell_measure(vtkUnstructuredGrid* g, vtkIdType c, int dim) {
+  vtkNew<vtkIdList> ids;
+  g->GetCellPoints(c, ids);
+  const int type = g->GetCellType(c);
+  const bool lattice = type == 9 || type == 12;
+  const int corners[3] = {1, lattice ? 3 : 2, lattice ? 4 : 3};
+  double p0[3];
+  g->GetPoint(ids->GetId(0), p0);
+  Eigen::Matrix3d e = Eigen::Matrix3d::Identity();
+  for (int k = 0; k < dim; ++k) {
+    double q[3];
+    g->GetPoint(ids->GetId(corners[k]), q);
+    for (int a = 0; a < 3; ++a) e(a, k) = q[a] - p0[a];
+  }
+  return dim == 3 ? e.determinant() : e(0, 0) * e(1, 1) - e(0, 1) * e(1, 0);
+}
+
+template <int dim>
+long count_non_positive_cells(vtkUnstructuredGrid* g) {
+  long bad = 0;
+  for (vtkIdType c = 0; c < g->GetNumberOfCells(); ++c) bad += !(signed_cell_measure(g, c, dim) > 0.0);
+  return bad;
+}
+
 // Checks shared by the 2D and 3D runs.
 template <int dim>
 void check_mesh_output(const OrientedImage<dim>& im, const std::filesystem::path& out, bool with_segments) {
   auto g = read_vtu((out / "mesh.vtu").string());
   ASSERT_GT(g->GetNumberOfCells(), 0);
   EXPECT_EQ(g->GetCellType(0), dim == 3 ? 10 : 5);
+  EXPECT_EQ(count_non_positive_cells<dim>(g), 0) << "cells inside out in world coordinates";
 
   // Every corner of the voxel box (continuous index −½ or size−½) is a mesh node in world
   // coordinates (corners are fixed), and every node maps back inside the box.
@@ -253,6 +282,40 @@ TEST(CliMesh, ThreeDimensionalObliqueAnisotropic) {
   EXPECT_EQ(rep["mesh"]["mesher"], "grid");
 }
 
+// A mirroring direction matrix (det < 0; NIfTI files with qfac = -1 have one) turns positively
+// oriented frame cells inside out in the world. mesh.vtu keeps every cell positive (VTK's convention):
+// the VIM mesh, the grid and the voxel mesher's hexahedra / quads, in 3D and 2D.
+TEST(CliMesh, MirroredDirectionKeepsWorldCellsPositive) {
+  vim::test::TempDir dir("cli_mirror");
+  auto im3 = phantoms::table1(12);
+  im3.image.spacing = {{0.3, 0.2, 0.25}};
+  im3.image.origin = {{-4.0, 2.0, 9.0}};
+  im3.direction = rotation3() * Eigen::Vector3d(1, -1, 1).asDiagonal();
+  ASSERT_LT(im3.direction.determinant(), 0.0);
+  write_image(im3, dir / "m3.mha");
+  auto im2 = phantoms::two_inclusions(30);
+  im2.direction << 0, 1, 1, 0;  // x and y swapped: a reflection
+  write_image(im2, dir / "m2.mha");
+  for (const char* mesher : {"vim", "grid", "voxel"}) {
+    const auto o3 = dir.path / (std::string("o3_") + mesher), o2 = dir.path / (std::string("o2_") + mesher);
+    const auto r3 = run_pipeline(quote(dir / "m3.mha") + " --nodes 40 --max-iterations 2 -q --export none --mesher " +
+                                 mesher + " --out " + quote(o3.string()));
+    ASSERT_EQ(r3.code, 0) << r3.err;
+    const auto r2 = run_pipeline(quote(dir / "m2.mha") + " --nodes 40 --max-iterations 2 -q --export none --mesher " +
+                                 mesher + " --out " + quote(o2.string()));
+    ASSERT_EQ(r2.code, 0) << r2.err;
+    const auto g3 = read_vtu((o3 / "mesh.vtu").string()), g2 = read_vtu((o2 / "mesh.vtu").string());
+    ASSERT_GT(g3->GetNumberOfCells(), 0);
+    ASSERT_GT(g2->GetNumberOfCells(), 0);
+    EXPECT_EQ(count_non_positive_cells<3>(g3), 0) << mesher;
+    EXPECT_EQ(count_non_positive_cells<2>(g2), 0) << mesher;
+    if (std::string(mesher) != "voxel") {
+      check_mesh_output(im3, o3, false);
+      check_mesh_output(im2, o2, false);
+    }
+  }
+}
+
 // --min-dihedral: without it these meshes have angles below the bound; with it none is below, the
 // report records the option, and a bound the initial grid cannot meet gives one warning (stderr and
 // report.json) and a valid, unchanged mesh.
@@ -319,7 +382,10 @@ TEST(CliMesh, UsageErrorsExitWithTwo) {
                         Case{img + out + " --nodes 2", "--nodes"}, Case{img + out + " --mesher tetgen", "--mesher"},
                         Case{img + out + " --degree 3", "--degree"}, Case{img + out + " --export stl", "--export"},
                         Case{img, "--out"}, Case{out, "image"}, Case{img + out + " --bogus", "--bogus"},
-                        Case{img + out + " --nodes 10 --spacing 2", "--spacing"}}) {
+                        Case{img + out + " --nodes 10 --spacing 2", "--spacing"},
+                        Case{img + out + " --spacing nan", "--spacing"}, Case{img + out + " --spacing inf", "--spacing"},
+                        Case{img + out + " --spacing 0", "--spacing"}, Case{img + out + " --threshold nan", "--threshold"},
+                        Case{img + out + " --threshold inf", "--threshold"}}) {
     const auto r = run_pipeline(c.args);
     EXPECT_EQ(r.code, 2) << c.args << "\n" << r.err;
     EXPECT_EQ(r.err.rfind("vim-pipeline: error:", 0), 0u) << r.err;
@@ -353,4 +419,38 @@ TEST(CliMesh, HelpVersionInfo) {
   EXPECT_NE(i.out.find("extent:     3 x 3 x 3"), std::string::npos) << i.out;
   EXPECT_NE(i.out.find("min 1  max 2"), std::string::npos) << i.out;
   EXPECT_NE(i.out.find("centre:     1.5 x 1.5 x 1.5  (world, centre of the voxel box)"), std::string::npos) << i.out;
+}
+
+// E_D0 = 0 has two kinds of cause, and the warning names the right one: a constant image, or an initial
+// mesh none of whose elements holds voxel centres of different values (here: elements smaller than the
+// voxels). With a coarser mesh the same image shapes the mesh and nothing is warned.
+TEST(CliMesh, ImageTermOffWarningNamesItsCause) {
+  vim::test::TempDir dir("cli_ed0");
+  OrientedImage<3> split;
+  split.image = Image<3>({{6, 6, 6}}, {{1, 1, 1}}, {{0, 0, 0}}, 1.0f);
+  for (std::size_t k = 0; k < split.image.data.size(); ++k)
+    if (split.image.index_of(k)[0] >= 3) split.image.data[k] = 2.0f;
+  write_image(split, dir / "split.mha");
+  OrientedImage<3> flat = split;
+  std::fill(flat.image.data.begin(), flat.image.data.end(), 5.0f);
+  write_image(flat, dir / "flat.mha");
+  auto warnings = [&](const std::string& image, const std::string& args) {
+    const auto out = dir.path / ("o_" + std::to_string(vim::test::count_files(dir.path)));
+    const auto r = run_pipeline(quote(dir / image) + " " + args + " --max-iterations 1 -q --export none --out " +
+                                quote(out.string()));
+    EXPECT_EQ(r.code, 0) << r.err;
+    std::string all;
+    const auto report = nlohmann::json::parse(vim::test::slurp(out / "report.json"));
+    for (const auto& w : report["warnings"]) all += w.dump() + "\n";
+    return all;
+  };
+  const std::string fine = warnings("split.mha", "--nodes 1000");
+  EXPECT_NE(fine.find("E_D0 = 0"), std::string::npos) << fine;
+  EXPECT_NE(fine.find("fewer --nodes"), std::string::npos) << fine;
+  EXPECT_EQ(fine.find("constant"), std::string::npos) << fine;
+  // (4 x 4 x 4 nodes: no grid plane on the image's edge at x = 2.5, which would make every element uniform.)
+  const std::string coarse = warnings("split.mha", "--nodes 64");
+  EXPECT_EQ(coarse.find("E_D0"), std::string::npos) << coarse;
+  const std::string constant = warnings("flat.mha", "--nodes 27");
+  EXPECT_NE(constant.find("the image is constant"), std::string::npos) << constant;
 }

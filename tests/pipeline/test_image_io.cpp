@@ -210,3 +210,33 @@ TEST(ImageRead, ErrorsNameTheFileAndProblem) {
   const std::string n = message([&] { read_image<2>(dir / "nan.nrrd"); });
   EXPECT_NE(n.find("2 voxels are NaN or Inf (first at index (3,2))"), std::string::npos) << n;
 }
+
+// in_frame_of: a second image with the same (oblique) direction but another origin, resampled into the
+// first image's frame by moving its origin. Each image's frame turns about its own origin, so using the
+// second image's frame coordinates directly would sample it (Dᵀ − I)(o₁ − o₂) away from the right place
+// (a --sizing image on a rotated elastogram). Checked against to_world / to_frame point by point, and
+// on the voxel that a world point falls in.
+TEST(ImageFrames, InFrameOfMapsThroughWorldCoordinates) {
+  OrientedImage<3> ref, other;
+  ref.image = Image<3>({{10, 10, 4}}, {{1, 1, 2}}, {{0, 0, 0}}, 1.0f);
+  ref.direction = oblique3();
+  other.image = Image<3>({{40, 40, 8}}, {{1, 1, 2}}, {{20, -20, 3}}, 0.0f);
+  other.direction = oblique3();
+  for (std::size_t k = 0; k < other.image.data.size(); ++k) other.image.data[k] = static_cast<float>(k);
+  const Image<3> moved = in_frame_of(ref, other);
+  for (const Eigen::Vector3d& p : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(3.3, -1.2, 5.0), Eigen::Vector3d(9, 9, 6)}) {
+    const Eigen::Vector3d q = other.to_frame(ref.to_world(p));  // other's own frame point of the same world point
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(q[a] - other.image.origin[a], p[a] - moved.origin[a], 1e-9) << a;
+  }
+  // Same direction and origin: nothing moves. Different directions: refused.
+  OrientedImage<3> same = other;
+  same.image.origin = ref.image.origin;
+  const Image<3> unmoved = in_frame_of(ref, same);
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(unmoved.origin[a], ref.image.origin[a], 1e-12);
+  same.direction = Eigen::Matrix3d::Identity();
+  EXPECT_THROW(in_frame_of(ref, same), std::invalid_argument);
+  // With the identity direction the frames are world-aligned and the origin stays.
+  ref.direction = other.direction = Eigen::Matrix3d::Identity();
+  const Image<3> plain = in_frame_of(ref, other);
+  for (int a = 0; a < 3; ++a) EXPECT_DOUBLE_EQ(plain.origin[a], other.image.origin[a]);
+}

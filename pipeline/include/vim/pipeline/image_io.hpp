@@ -7,6 +7,7 @@
 #include <vim/pipeline/input_error.hpp>
 
 #include <Eigen/Core>
+#include <Eigen/LU>  // OrientedImage::to_frame
 
 #include <stdexcept>
 #include <string>
@@ -28,6 +29,13 @@ struct OrientedImage {
   Point to_world(const Point& p) const { return origin() + direction * (p - origin()); }
   Point to_frame(const Point& w) const { return origin() + direction.inverse() * (w - origin()); }
 };
+
+// `other`'s voxels as an Image in `reference`'s axis-aligned frame, for images that share a direction
+// matrix but not an origin (each frame is turned about its own image's origin): the origin is moved so
+// that the frame point p of `reference` falls in the voxel of `other` at world point reference.to_world(p).
+// Throws std::invalid_argument if the directions differ.
+template <int dim>
+Image<dim> in_frame_of(const OrientedImage<dim>& reference, const OrientedImage<dim>& other);
 
 // Number of spatial dimensions in the file's header (2 or 3); throws InputError otherwise.
 int image_dimension(const std::string& path);

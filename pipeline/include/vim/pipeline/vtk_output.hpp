@@ -23,9 +23,16 @@ struct UnstructuredGrid {
   std::size_t n_cells() const { return nodes_per_cell ? connectivity.size() / nodes_per_cell : 0; }
 };
 
-// Grid of a simplex mesh in WORLD coordinates (transform applied), no fields.
+// Grid of a simplex mesh in WORLD coordinates (transform applied), no fields. Cells are positively
+// oriented in the world: a mirroring direction matrix (det < 0, e.g. NIfTI qfac = -1) would turn every
+// positively oriented frame cell inside out, so two of its vertices are then swapped.
 template <int dim>
 UnstructuredGrid simplex_grid(const SimplexMesh<dim>& frame_mesh, const WorldTransform<dim>& transform);
+
+// Corner order of a VTK quad / hexahedron over a voxel, as (x, y) index offsets of each z layer: (0,0),
+// (1,0), (1,1), (0,1), counter-clockwise in the frame; reversed in-plane when the direction matrix
+// mirrors, so that the world cell is positively oriented (VTK's convention) either way.
+std::array<std::array<int, 2>, 4> voxel_corner_order(bool mirrored);
 
 void write_vtu(const std::filesystem::path& path, const UnstructuredGrid& grid);
 
