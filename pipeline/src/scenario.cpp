@@ -113,8 +113,16 @@ class Reader {
   Fields check_keys(const YAML::Node& n, const std::string& path, const std::vector<std::string>& valid) const {
     expect_map(n, path);
     Fields fields(n);
+    std::vector<std::pair<std::string, int>> seen;  // key, line
     for (const auto& kv : n) {
       std::string k = kv.first.Scalar();
+      // yaml-cpp keeps both entries of a repeated key and looks up the first: refuse it instead of
+      // silently ignoring the later value.
+      for (const auto& [key, at] : seen)
+        if (key == k)
+          fail(kv.first, "duplicate key '" + (path.empty() ? k : path + "." + k) + "' (first given on line " +
+                             std::to_string(at) + "); give each key once");
+      seen.emplace_back(k, line(kv.first));
       if (std::find(valid.begin(), valid.end(), k) == valid.end())
         fail(kv.first, "unknown key '" + (path.empty() ? k : path + "." + k) + "'; valid keys" +
                            (path.empty() ? "" : " of " + path) + ": " + join(valid));
@@ -182,9 +190,16 @@ class Reader {
   }
   std::vector<double> nonzero_vector(const YAML::Node& n, const std::string& path, int dim) const {
     std::vector<double> v = vector(n, path, dim);
+    // Scaled by the largest component first, so that neither [1e200, 0, 0] (whose squared norm
+    // overflows) nor [1e-170, 0, 0] (which underflows) loses its direction.
+    double big = 0.0;
+    for (double x : v) big = std::max(big, std::abs(x));
+    if (!(big > 0.0)) fail(n, path + " must be a non-zero vector, got [" + join_numbers(v) + "]");
     double s = 0.0;
-    for (double x : v) s += x * x;
-    if (!(std::sqrt(s) > 1e-12)) fail(n, path + " must be a non-zero vector, got [" + join_numbers(v) + "]");
+    for (double& x : v) {
+      x /= big;
+      s += x * x;
+    }
     for (double& x : v) x /= std::sqrt(s);
     return v;
   }
@@ -263,6 +278,8 @@ NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string&
   if (f["friction"]) {
     const YAML::Node& fn = f["friction"];
     const std::string fp = path + ".friction";
+    if (s.model == NeedleSpec::Model::force)
+      r.fail(fn, fp + " applies only to needle model 'kinematic'; the force model takes friction_per_length");
     const Fields fr = r.check_keys(fn, fp, {"model", "max_shear_per_length"});
     const std::string m = r.choice(r.require(fr, "model", fp + ".model"), fp + ".model", {"stick", "stick-slip"});
     s.friction = m == "stick" ? NeedleSpec::Friction::stick : NeedleSpec::Friction::stick_slip;
@@ -274,7 +291,13 @@ NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string&
       r.fail(fr["max_shear_per_length"], fp + ".max_shear_per_length applies only to model stick-slip");
     }
   }
-  if (f["sample_spacing"]) s.sample_spacing = r.positive(f["sample_spacing"], path + ".sample_spacing");
+  if (f["sample_spacing"]) {
+    s.sample_spacing = r.positive(f["sample_spacing"], path + ".sample_spacing");
+    // One embedded point (one constraint of the FEM solve) per sample_spacing of travel.
+    if (s.depth / s.sample_spacing > 100000.0)
+      r.fail(f["sample_spacing"], path + ".sample_spacing = " + fmt(s.sample_spacing) + " puts more than 100000 shaft points "
+                                  "on the depth of " + fmt(s.depth) + "; use at least " + fmt(s.depth / 100000.0));
+  }
   if (const YAML::Node& c = f["cutting_distance"]) {
     s.cutting_distance = r.number(c, path + ".cutting_distance");
     if (s.cutting_distance < 0.0) r.fail(c, path + ".cutting_distance must be >= 0, got " + fmt(s.cutting_distance));
@@ -362,9 +385,16 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
         s.youngs_modulus = v;
       }
     }
-    if (const YAML::Node& x = f["scale"]) s.scale = r.positive(x, "material.scale");
+    if (const YAML::Node& x = f["scale"]) {
+      s.scale = r.positive(x, "material.scale");
+      if (!s.modulus_from_image && s.scale != 1.0)
+        r.fail(x, "material.scale applies only to youngs_modulus: image (it converts the image's values); with "
+                  "a constant youngs_modulus give the modulus itself and remove scale");
+    }
     if (const YAML::Node& c = f["clamp"]) {
-      if (!c.IsSequence() || c.size() != 2) r.fail(c, "material.clamp must be a list [min, max], got " + scalar_text(c));
+      if (!c.IsSequence() || c.size() != 2)
+        r.fail(c, "material.clamp must be a list [min, max], got " +
+                      (c.IsSequence() ? "a list of " + std::to_string(c.size()) : scalar_text(c)));
       const double lo = r.number(c[0], "material.clamp[0]"), hi = r.number(c[1], "material.clamp[1]");
       if (!(lo > 0.0)) r.fail(c, "material.clamp min must be > 0 (a Young's modulus), got " + fmt(lo));
       if (!(hi >= lo)) r.fail(c, "material.clamp must have min <= max, got [" + fmt(lo) + ", " + fmt(hi) + "]");

@@ -411,13 +411,13 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
     run.solves.push_back(solves);
   };
 
-  // Step 0: rest.
-  record(0.0, nullptr, 0, 0);
-  run.step_seconds.push_back(0.0);
-  if (write) {
-    write_step(prefix + "steps/" + step_file(0), nullptr);
-    pvd.emplace_back(0.0, "steps/" + step_file(0));
-  }
+  // External loads (a prescribed displacement, a pressure, a traction) act from the start: before the
+  // tip reaches the first shaft point (step 0 included) the tissue deforms under them alone, not rest.
+  const bool loaded = std::any_of(sc.boundary_conditions.begin(), sc.boundary_conditions.end(),
+                                  [](const BoundaryConditionSpec& bc) { return bc.type != BoundaryConditionSpec::Type::fixed; });
+  int solves_total = 0;
+  double solve_time = 0.0;
+  fem::Solution<dim> sol;
 
   std::vector<double> w(np, 0.0);       // axial constraint values (displacement along a)
   std::vector<bool> picked(np, false), picking(np, false);  // passed by the tip (before / in this step)
@@ -428,9 +428,6 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
   // tip has reached, and for the point the tip pushes, everything up to the tip (the sum is d).
   std::vector<double> start(np, 0.0), covered(np, 0.0), limit(np, 0.0);
   for (std::size_t j = 1; j < np; ++j) start[j] = start[j - 1] + shaft[j - 1].length;
-  int solves_total = 0;
-  double solve_time = 0.0;
-  fem::Solution<dim> sol;
 
   // Solve with axial values `vals` on the picked points; returns the axial force on the body per point.
   auto solve_with = [&](const std::vector<double>& vals) {
@@ -477,6 +474,14 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
   Progress progress("needle " + spec.name, spec.steps);
   const auto t_run = Clock::now();
   double d_prev = 0.0;
+  // Step 0: rest, or the external loads alone.
+  if (loaded) solve_with(w);
+  record(0.0, loaded ? &sol : nullptr, 0, loaded ? 1 : 0);
+  run.step_seconds.push_back(0.0);
+  if (write) {
+    write_step(prefix + "steps/" + step_file(0), loaded ? &sol : nullptr);
+    pvd.emplace_back(0.0, "steps/" + step_file(0));
+  }
   if (slip) run.active_set_sweeps.assign(static_cast<std::size_t>(spec.steps) + 1, 0);
   for (int k = 1; k <= spec.steps; ++k) {
     const double d = spec.depth * static_cast<double>(k) / static_cast<double>(spec.steps);
@@ -514,9 +519,10 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
       limit[j] = spec.max_shear_per_length * covered[j];
     }
     if (active.empty()) {
-      // The tip has not reached the first embedded point yet: nothing touches the tissue.
-      sol = fem::Solution<dim>{};
-      record(d, nullptr, 0, 0);
+      // The tip has not reached the first embedded point yet: the needle does not touch the tissue.
+      if (loaded) solve_with(w);
+      else sol = fem::Solution<dim>{};
+      record(d, loaded ? &sol : nullptr, 0, solves_total - solves_before);
     } else if (force_model) {
       ensure_map();
       std::vector<double> target(np, 0.0);
@@ -579,11 +585,11 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
       }
       record(d, &sol, static_cast<int>(active.size()), solves_total - solves_before);
     }
-    have_solution = !active.empty();
+    have_solution = !active.empty() || loaded;
     run.stats = sol.stats;
     run.step_seconds.push_back(seconds_since(t_step));
     if (write && (k % sc.output_every == 0 || k == spec.steps)) {
-      write_step(prefix + "steps/" + step_file(k), active.empty() ? nullptr : &sol);
+      write_step(prefix + "steps/" + step_file(k), active.empty() && !loaded ? nullptr : &sol);
       pvd.emplace_back(d, "steps/" + step_file(k));
     }
     if (opt.progress) {

@@ -163,3 +163,14 @@ TEST_F(BadScenario, MissingScenarioFile) {
   EXPECT_EQ(WIFEXITED(s) ? WEXITSTATUS(s) : -1, 1);
   EXPECT_TRUE(out_is_empty());
 }
+TEST_F(BadScenario, DuplicateKey) {
+  expect_error(std::string(kBase) + "material: {youngs_modulus: 99}\n", {"s.yaml:14:", "duplicate key 'material' (first given on line 1)"});
+  expect_error(with("  depth: 8\n", "  depth: 8\n  depth: 5\n"), {"s.yaml:9:", "duplicate key 'needle.depth' (first given on line 8)"});
+}
+TEST_F(BadScenario, FrictionWithTheForceModel) {
+  expect_error(with("  diameter: 1\n", "  diameter: 1\n  model: force\n  tip_force: 5\n  friction: {model: stick}\n"),
+               {"needle.friction applies only to needle model 'kinematic'"});
+}
+TEST_F(BadScenario, SampleSpacingTooSmall) {
+  expect_error(with("  diameter: 1\n", "  diameter: 1\n  sample_spacing: 1.0e-8\n"), {"needle.sample_spacing", "more than 100000 shaft points"});
+}

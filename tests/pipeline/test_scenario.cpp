@@ -432,3 +432,40 @@ needles:
   EXPECT_NEAR(paths[0].distance(Eigen::Vector3d(14, 2, 7)), 5.0, 1e-12);
   EXPECT_NEAR(paths[0].distance(Eigen::Vector3d(-2, 6, 3)), 5.0, 1e-12);
 }
+
+// A repeated key is refused (yaml-cpp would keep both and look up the first, silently dropping the
+// second), at the top level and inside a block, naming both lines.
+TEST(Scenario, DuplicateKeysAreErrors) {
+  const std::string top = error_of(std::string(kMinimal) + "material: {poisson_ratio: 0.3}\nmaterial: {poisson_ratio: 0.2}\n");
+  EXPECT_NE(top.find("s.yaml:5:"), std::string::npos) << top;
+  EXPECT_NE(top.find("duplicate key 'material' (first given on line 4)"), std::string::npos) << top;
+  const std::string inner = error_of(replace(kMinimal, "depth: 10,", "depth: 10, depth: 5,"));
+  EXPECT_NE(inner.find("duplicate key 'needle.depth'"), std::string::npos) << inner;
+}
+
+// Directions are normalised whatever their magnitude: a squared norm that overflows (1e200) or
+// underflows (1e-170) must not turn the direction into zeros or into an error.
+TEST(Scenario, DirectionsOfAnyMagnitudeAreNormalised) {
+  for (const char* d : {"[1e200, 0, 1e200]", "[1e-170, 0, 1e-170]", "[3, 0, 3]"}) {
+    const Scenario s = parse_scenario_text(replace(kMinimal, "direction: [0, 0, 1]", std::string("direction: ") + d), 3);
+    ASSERT_EQ(s.needles.size(), 1u);
+    EXPECT_NEAR(s.needles[0].direction[0], std::sqrt(0.5), 1e-15) << d;
+    EXPECT_EQ(s.needles[0].direction[1], 0.0) << d;
+    EXPECT_NEAR(s.needles[0].direction[2], std::sqrt(0.5), 1e-15) << d;
+  }
+}
+
+// Keys that the chosen model would ignore are refused, as tip_force is with the kinematic model.
+TEST(Scenario, KeysTheModelWouldIgnoreAreErrors) {
+  const std::string friction = error_of(
+      replace(kMinimal, "diameter: 1}", "diameter: 1, model: force, tip_force: 5, friction: {model: stick}}"));
+  EXPECT_NE(friction.find("needle.friction applies only to needle model 'kinematic'"), std::string::npos) << friction;
+  const std::string scale = error_of(std::string(kMinimal) + "material: {youngs_modulus: 20, scale: 3}\n");
+  EXPECT_NE(scale.find("material.scale applies only to youngs_modulus: image"), std::string::npos) << scale;
+  // scale 1 with a constant modulus changes nothing and is accepted.
+  EXPECT_NO_THROW(parse_scenario_text(std::string(kMinimal) + "material: {youngs_modulus: 20, scale: 1}\n", 3));
+  const std::string spacing = error_of(replace(kMinimal, "diameter: 1}", "diameter: 1, sample_spacing: 1.0e-8}"));
+  EXPECT_NE(spacing.find("more than 100000 shaft points"), std::string::npos) << spacing;
+  const std::string clamp = error_of(std::string(kMinimal) + "material: {youngs_modulus: image, clamp: [1, 2, 3]}\n");
+  EXPECT_NE(clamp.find("got a list of 3"), std::string::npos) << clamp;
+}

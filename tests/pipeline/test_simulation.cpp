@@ -465,3 +465,31 @@ output: {every: 2}
   EXPECT_EQ(res.report["needles"][1]["per_step"]["axial_force"].size(), 4u);
   fs::remove_all(dir);
 }
+
+// External loads act from the start: with a prescribed displacement on the entry face and the needle
+// not yet touching the tissue (cutting distance 5, steps of 2), steps 0-2 show the loads-only solution,
+// which for ν = 0 is exactly linear (uniaxial strain u_z = 0.6 (1 - z/24), reproduced by P1) and no
+// needle force. The tip then picks the tissue up and the needle force appears.
+TEST(Simulation, ExternalLoadsActBeforeTheNeedleTouches) {
+  const MeshModel<3> model = block(V3(-6, -6, 0), V3(6, 6, 24), {{5, 5, 9}}, [](const V3&) { return 10.0; });
+  const std::string needle = "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, cutting_distance: 5}";
+  const Scenario sc = parse_scenario_text(
+      yaml(needle, "[{name: t, position: [2, 1, 12]}]", "{poisson_ratio: 0.0}",
+           "[{type: fixed, region: {box_face: z_max}}, {type: displacement, region: {box_face: z_min}, value: [0, 0, 0.6]}]"),
+      3);
+  SimulationOptions o = quiet();
+  o.keep_step_fields = true;
+  const auto res = run_simulation<3>(model, sc, o);
+  const auto& r = res.needles[0];
+  ASSERT_EQ(r.depth.size(), 7u);
+  for (int k = 0; k <= 2; ++k) {
+    EXPECT_EQ(r.active_points[k], 0) << "step " << k;
+    EXPECT_EQ(r.axial_force[k], 0.0) << "step " << k;
+    EXPECT_NEAR(r.target_displacement[k][0][2], 0.3, 1e-8) << "step " << k;
+    EXPECT_NEAR(std::hypot(r.target_displacement[k][0][0], r.target_displacement[k][0][1]), 0.0, 1e-8) << "step " << k;
+    for (std::size_t i = 0; i < model.mesh.n_points(); ++i)
+      EXPECT_NEAR(r.vertex_displacement[k][i][2], 0.6 * (1.0 - model.mesh.points[i][2] / 24.0), 1e-8) << "step " << k;
+  }
+  EXPECT_GT(r.active_points.back(), 0);
+  EXPECT_GT(r.axial_force.back(), 0.0);
+}
