@@ -483,7 +483,7 @@ void ElasticModel<dim>::Impl::check_rigid_modes_removed(const std::vector<std::p
     m << "the Dirichlet conditions constrain " << constrained_size
       << " DoFs but leave a rigid-body motion free (e.g. only one component or one line fixed): "
          "the stiffness matrix is singular; constrain enough components/nodes";
-    throw std::runtime_error(m.str());
+    throw SingularConstraints(m.str());
   }
 }
 

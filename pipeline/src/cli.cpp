@@ -28,6 +28,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iomanip>
 #include <cstdarg>
 #include <cstdio>
 #include <iostream>
@@ -580,9 +581,10 @@ int run_dim(const RunOptions& given) {
       // Linear tetrahedra lock for nearly incompressible material: the displacements come out too small
       // on the coarse meshes VIM is for (docs/validation.md, "Why VIM lost at 80 nodes").
       std::ostringstream m;
-      m << scenario->source << ": material.poisson_ratio = " << scenario->poisson_ratio
+      m << scenario->source << ": material.poisson_ratio = " << std::setprecision(12) << scenario->poisson_ratio
         << " with linear (degree 1) elements: P1 tetrahedra lock for poisson_ratio >= " << kLockingPoisson
-        << ", so the displacements come out too small on coarse meshes; set mesh.degree: 2 in the scenario"
+        << ", so the displacements come out too small on coarse meshes (and towards 0.5 the needle forces can be "
+           "wildly wrong, even of the wrong sign); set mesh.degree: 2 in the scenario"
         << " (or --degree 2) for quadratic elements (about 5x the solve time)";
       warn(report, "simulate", m.str());
     }

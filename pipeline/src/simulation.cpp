@@ -712,7 +712,12 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
   for (const auto& spec : m.sc.needles) {
     json nr;
     const std::string prefix = m.sc.needle_list ? spec.name + "/" : "";
-    res.needles.push_back(m.run_needle(spec, prefix, nr));
+    try {
+      res.needles.push_back(m.run_needle(spec, prefix, nr));
+    } catch (const fem::SingularConstraints& e) {  // the first solve: name the scenario's conditions
+      const int line = m.sc.boundary_conditions.empty() ? 0 : m.sc.boundary_conditions.front().line;
+      throw ScenarioError(m.sc.where(line) + "boundary_conditions: " + e.what());
+    }
     needles.push_back(nr);
   }
   rep["needles"] = needles;

@@ -174,3 +174,9 @@ TEST_F(BadScenario, FrictionWithTheForceModel) {
 TEST_F(BadScenario, SampleSpacingTooSmall) {
   expect_error(with("  diameter: 1\n", "  diameter: 1\n  sample_spacing: 1.0e-8\n"), {"needle.sample_spacing", "more than 100000 shaft points"});
 }
+TEST_F(BadScenario, ConditionsThatLeaveARigidMotionFree) {
+  // Only the x component of one face held: the body can still slide along y and z and rotate about x.
+  expect_error(with("  - {type: fixed, region: {box_face: x_max}}\n  - {type: fixed, region: {cylinder: {center: [0, -6, 0], axis: [1, 0, 0], radius: 2}}}\n",
+                    "  - {type: fixed, region: {box_face: x_max}, components: [x]}\n"),
+               {"s.yaml:3:", "boundary_conditions:", "rigid-body motion free"});
+}

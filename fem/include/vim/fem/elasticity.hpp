@@ -14,6 +14,7 @@
 #include <optional>
 #include <string>
 #include <utility>
+#include <stdexcept>
 #include <vector>
 
 namespace vim::fem {
@@ -95,6 +96,12 @@ std::vector<double> block_mean(const std::array<long, dim>& dims, const std::vec
 
 // Lamé parameters from (E, ν): {λ, μ}. 2D is plane strain everywhere in this module.
 std::pair<double, double> lame_parameters(double youngs_modulus, double poisson_ratio);
+
+// The Dirichlet conditions and volume supports leave a rigid-body motion free: the stiffness matrix is
+// singular. Thrown by the first solve; a distinct type so that callers can name their own input.
+struct SingularConstraints : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
 
 struct SolverOptions {
   enum class Type { automatic, direct, amg } type = Type::automatic;
