@@ -680,17 +680,16 @@ int run_dim(const RunOptions& given) {
       const MeshQuality initial_quality = lower_bound ? mesh_quality(initial) : MeshQuality{};
       VimResult<dim> result = optimize<dim>(img.image, std::move(initial), vo, progress, density);
       t.stop();
-      if (result.ed0 == 0.0) {
-        const ImageSummary values = summarize(img.image);
-        if (values.max == values.min)
-          warn(report, "vim", "the image is constant inside the box (E_D0 = 0): the mesh is optimised for E_G only");
-        else
-          warn(report, "vim",
-               fmt("no element of the initial mesh holds voxel centres of different values (E_D0 = 0; %zu nodes "
-                   "for %zu voxels: the elements are about as small as the voxels or smaller, or their faces lie on "
-                   "the image's edges), so the image term is off and the mesh is optimised for E_G only; use fewer "
-                   "--nodes (or another node count or --spacing)",
-                   result.mesh.n_points(), values.voxels));
+      if (result.ed0_estimated) {
+        warn(report, "vim",
+             fmt("no element of the initial mesh holds voxel centres of different values (E_D = 0 at the start; "
+                 "%zu nodes for %zu voxels: the elements are about as small as the voxels or smaller, or their "
+                 "faces lie on the image's edges), so E_D0 is estimated as |box| var(image) m^(-1/%d) = %.4g for "
+                 "m elements and the image term keeps the fit; with elements smaller than the voxels, fewer "
+                 "--nodes give the image more to shape",
+                 result.mesh.n_points(), img.image.voxel_count(), dim, result.ed0));
+      } else if (result.ed0 == 0.0 && vo.lambda > 0.0) {
+        warn(report, "vim", "the image is constant inside the box (E_D0 = 0): the mesh is optimised for E_G only");
       }
       model.mesh = std::move(result.mesh);
       if (lower_bound) {

@@ -532,5 +532,37 @@ TEST(Optimizer, RejectsBadInput) {
   EXPECT_THROW(optimize<2>(img, mesh, bad_dihedral), std::invalid_argument);
 }
 
+
+// An initial mesh that fits a varying image exactly (the grid plane x = 3.5 on the image's edge, so
+// E_D = 0) gets an estimated E_D0 = |Ω| var(Ω) m^(-1/d) instead of 0, which would switch the image term
+// off and let E_G alone pull the fit apart: with λ > 0 the final E_D is then below the geometry-only
+// run's (λ = 0), whose mesh the old behaviour reproduced exactly. A constant image keeps E_D0 = 0.
+TEST(Optimizer, ExactFitOfAVaryingImageKeepsTheImageTerm) {
+  Image<3> img({8, 8, 8}, {1, 1, 1}, {0, 0, 0}, 1.0f);
+  for (std::size_t k = 0; k < img.voxel_count(); ++k)
+    if (img.index_of(k)[0] >= 4) img.data[k] = 2.0f;
+  const SimplexMesh<3> initial = regular_grid_mesh<3>(Eigen::Vector3d::Constant(-0.5), Eigen::Vector3d::Constant(7.5), {{5, 5, 5}});
+  VimOptions o;
+  o.max_iterations = 10;
+  o.threads = 1;
+  const auto fit = optimize<3>(img, initial, o);
+  EXPECT_TRUE(fit.ed0_estimated);
+  EXPECT_EQ(fit.history[0].discretization, 0.0);
+  const long m = static_cast<long>(initial.n_cells());
+  EXPECT_NEAR(fit.ed0, 512.0 * 0.25 * std::pow(static_cast<double>(m), -1.0 / 3.0), 1e-9);  // var of {1, 2} halves = 1/4
+  VimOptions geometric = o;
+  geometric.lambda = 0.0;
+  const auto plain = optimize<3>(img, initial, geometric);
+  EXPECT_FALSE(plain.ed0_estimated);
+  EXPECT_GT(plain.history.back().discretization, 0.0);  // E_G alone pulls the mesh off the edge
+  EXPECT_LT(fit.history.back().discretization, 0.5 * plain.history.back().discretization);
+  for (std::size_t t = 1; t < fit.history.size(); ++t) EXPECT_LE(fit.history[t].energy, fit.history[t - 1].energy);
+  // The same grid on a constant image: nothing to keep, the term stays off.
+  std::fill(img.data.begin(), img.data.end(), 3.0f);
+  const auto flat = optimize<3>(img, initial, o);
+  EXPECT_FALSE(flat.ed0_estimated);
+  EXPECT_EQ(flat.ed0, 0.0);
+}
+
 }  // namespace
 }  // namespace vim

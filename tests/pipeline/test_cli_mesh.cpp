@@ -421,9 +421,10 @@ TEST(CliMesh, HelpVersionInfo) {
   EXPECT_NE(i.out.find("centre:     1.5 x 1.5 x 1.5  (world, centre of the voxel box)"), std::string::npos) << i.out;
 }
 
-// E_D0 = 0 has two kinds of cause, and the warning names the right one: a constant image, or an initial
-// mesh none of whose elements holds voxel centres of different values (here: elements smaller than the
-// voxels). With a coarser mesh the same image shapes the mesh and nothing is warned.
+// E_D = 0 on the initial mesh has two kinds of cause, and the warning names the right one: a constant
+// image (the image term is off), or an initial mesh none of whose elements holds voxel centres of
+// different values (elements smaller than the voxels, or faces on the image's edges: E_D0 is then
+// estimated). With a mesh that cuts the image's edge nothing is warned.
 TEST(CliMesh, ImageTermOffWarningNamesItsCause) {
   vim::test::TempDir dir("cli_ed0");
   OrientedImage<3> split;
@@ -445,9 +446,13 @@ TEST(CliMesh, ImageTermOffWarningNamesItsCause) {
     return all;
   };
   const std::string fine = warnings("split.mha", "--nodes 1000");
-  EXPECT_NE(fine.find("E_D0 = 0"), std::string::npos) << fine;
+  EXPECT_NE(fine.find("E_D = 0 at the start"), std::string::npos) << fine;
+  EXPECT_NE(fine.find("E_D0 is estimated"), std::string::npos) << fine;
   EXPECT_NE(fine.find("fewer --nodes"), std::string::npos) << fine;
   EXPECT_EQ(fine.find("constant"), std::string::npos) << fine;
+  // 3 x 3 x 3 nodes: grid planes at x = -0.5, 2.5, 5.5, the middle one on the image's edge.
+  const std::string aligned = warnings("split.mha", "--nodes 27");
+  EXPECT_NE(aligned.find("E_D0 is estimated"), std::string::npos) << aligned;
   // (4 x 4 x 4 nodes: no grid plane on the image's edge at x = 2.5, which would make every element uniform.)
   const std::string coarse = warnings("split.mha", "--nodes 64");
   EXPECT_EQ(coarse.find("E_D0"), std::string::npos) << coarse;

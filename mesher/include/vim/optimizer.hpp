@@ -69,10 +69,13 @@ class VimOptimizer {
                const VimOptions& options);
 
   // Fixes E_G0, E_D0 from the current mesh (§IV-C) and recomputes every element's cost.
-  // E_D0 == 0 (constant image, or no image) switches the image term off.
+  // E_D0 == 0 (constant image, or no image) switches the image term off. If the mesh's E_D is 0 but the
+  // image varies inside the box (the mesh fits it exactly), E_D0 is estimated instead (see vim.cpp).
   void fix_normalization();
   double eg0() const { return eg0_; }
   double ed0() const { return ed0_; }
+  // True when E_D0 is the estimate of fix_normalization (the image varies but the mesh fits it exactly).
+  bool ed0_estimated() const { return ed0_estimated_; }
 
   // One node-update sweep over the colour classes (parallel inside a class). Returns accepted moves,
   // writes Σ_i |Δx_i|² to *sum_sq, the number of nodes whose update ran to *searched and the number
@@ -165,6 +168,7 @@ class VimOptimizer {
   std::vector<char> alive_;
   std::vector<int> free_;
   std::size_t n_live_ = 0;
+  bool ed0_estimated_ = false;
   std::vector<CellCache> cache_;
   std::vector<std::uint8_t> fixed_;  // bit a set: coordinate a is fixed (node on an axis-a face)
   Adjacency<dim> adj_;

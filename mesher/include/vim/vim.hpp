@@ -89,6 +89,9 @@ struct VimResult {
   std::vector<ElementValue> values;      // one per cell
   std::vector<IterationRecord> history;  // history[0] is the initial mesh
   double eg0 = 0.0, ed0 = 0.0;           // normalisation constants (§IV-C)
+  // E_D0 was estimated: the initial mesh's E_D is 0 although the image varies (it fits the image
+  // exactly), so E_D0 = |Ω|·var(Ω)·m^(−1/d) for m elements instead of 0, which would switch the image off.
+  bool ed0_estimated = false;
   bool converged = false;
   std::vector<std::uint8_t> boundary_kind; // per node: number of box faces it lies on (dim = corner)
 };
@@ -102,7 +105,8 @@ using ProgressCallback = std::function<void(const IterationRecord&)>;
 // Every accepted change lowers E, so history[t].energy never increases. Box constraints use the
 // initial mesh's bounding box: corners fixed, edge nodes slide along their edge, face nodes within
 // their face. E_G0, E_D0 are fixed from `initial`; if E_D0 == 0 (constant image) the image term is
-// off and VIM is pure (normalised) ODT smoothing. Implementation: optimizer.hpp and src/vim.cpp.
+// off and VIM is pure (normalised) ODT smoothing. An initial mesh that fits a varying image exactly
+// (E_D = 0) gets an estimated E_D0 instead (VimResult::ed0_estimated). Implementation: optimizer.hpp and src/vim.cpp.
 // Throws std::invalid_argument for invalid options, an image with < 2 voxels along an axis (the
 // message names the axis), or an initial mesh with an inverted or degenerate element.
 // `density` (optional, paper §VI-E "E_G can be modified using a sizing field"): each element's E_G is
