@@ -34,6 +34,8 @@
 #include <iostream>
 #include <sstream>
 
+#include <unistd.h>
+
 namespace vim::pipeline {
 
 namespace fs = std::filesystem;
@@ -76,6 +78,14 @@ OutputDirectory::OutputDirectory(fs::path dir, bool overwrite) : dir_(std::move(
     if (!overwrite && !fs::is_empty(dir_, ec))
       throw InputError("--out " + dir_.string() +
                        ": output directory is not empty; choose a new or empty directory, or pass --overwrite");
+  } else {
+    // DIR is made by the first file, after the work: check now that it can be.
+    fs::path ancestor = fs::absolute(dir_, ec).parent_path();
+    while (!ancestor.empty() && !fs::exists(ancestor, ec) && ancestor != ancestor.parent_path()) ancestor = ancestor.parent_path();
+    if (fs::exists(ancestor, ec) && !fs::is_directory(ancestor, ec))
+      throw InputError("--out " + dir_.string() + ": cannot be created: " + ancestor.string() + " is not a directory");
+    if (fs::is_directory(ancestor, ec) && ::access(ancestor.c_str(), W_OK) != 0)
+      throw InputError("--out " + dir_.string() + ": cannot be created: " + ancestor.string() + " is not writable");
   }
 }
 
@@ -101,7 +111,11 @@ fs::path OutputDirectory::file(const std::string& relative) {
     fs::create_directory(*it);
     created_subdirs_.push_back(*it);
   }
-  if (std::find(relative_.begin(), relative_.end(), relative) == relative_.end()) relative_.push_back(relative);
+  if (std::find(relative_.begin(), relative_.end(), relative) == relative_.end()) {
+    std::error_code ec;
+    replaced_ = replaced_ || fs::exists(p, ec);  // a file of an earlier run (--overwrite)
+    relative_.push_back(relative);
+  }
   return p;
 }
 
@@ -109,6 +123,7 @@ OutputDirectory::~OutputDirectory() {
   if (committed_ || !ready_) return;
   std::error_code ec;
   for (const auto& r : relative_) fs::remove(dir_ / r, ec);
+  if (replaced_) fs::remove(dir_ / "report.json", ec);  // it lists files that are gone or not its own
   for (auto it = created_subdirs_.rbegin(); it != created_subdirs_.rend(); ++it)
     if (fs::is_empty(*it, ec)) fs::remove(*it, ec);
   if (created_dir_ && fs::is_empty(dir_, ec)) fs::remove(dir_, ec);

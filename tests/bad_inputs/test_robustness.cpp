@@ -262,6 +262,37 @@ TEST_F(Robustness, FailedRunLeavesNewOutAbsent) {
   EXPECT_FALSE(fs::exists(out_));
 }
 
+// An --out that cannot be created (below a regular file) is refused at once, not after the meshing.
+TEST_F(Robustness, OutBelowARegularFileIsRefusedUpFront) {
+  std::ofstream(dir_ / "afile") << "x";
+  const fs::path out = dir_ / "afile" / "sub";
+  const CliResult r = run({small_image(), "--nodes", "64", "--out", out.string()});
+  expect_one_line_error(r, 1, {"--out", "cannot be created", "is not a directory"});
+  EXPECT_EQ(slurp(dir_ / "afile"), "x");
+}
+
+// A failed --overwrite run removes what it wrote; if that replaced files of the earlier run, the earlier
+// report.json goes too (it would list files that are gone), so nothing left looks like a valid result.
+TEST_F(Robustness, FailedOverwriteRunLeavesNoStaleReport) {
+  const std::string img = small_image();
+  ASSERT_EQ(run({img, "--nodes", "64", "--export", "none", "--out", out_.string(), "-q"}).code, 0);
+  ASSERT_TRUE(fs::exists(out_ / "report.json"));
+  ASSERT_TRUE(fs::exists(out_ / "figures" / "energy.png"));
+  fs::remove(out_ / "figures" / "energy.png");
+  fs::create_directories(out_ / "figures" / "energy.png" / "blocker");  // the rename onto it must fail
+  const CliResult r = run({img, "--nodes", "64", "--export", "none", "--overwrite", "--out", out_.string(), "-q"});
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_FALSE(fs::exists(out_ / "report.json")) << "a stale report.json survived";
+  EXPECT_FALSE(fs::exists(out_ / "mesh.vtu"));
+  // Without an earlier run's files being replaced, a failure keeps the earlier result whole.
+  fs::remove_all(out_);
+  ASSERT_EQ(run({img, "--nodes", "64", "--export", "none", "--out", out_.string(), "-q"}).code, 0);
+  const std::string before = slurp(out_ / "report.json");
+  const CliResult early = run({img, "--nodes", "5", "--overwrite", "--out", out_.string(), "-q"});
+  EXPECT_EQ(early.code, 1);
+  EXPECT_EQ(slurp(out_ / "report.json"), before);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Option values out of range: usage error (exit 2) naming the option, nothing created.
 
