@@ -170,13 +170,17 @@ std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator, const
     const double s = static_cast<double>(i) * pitch;
     const Eigen::Matrix<double, dim, 1> x = entry + s * axis;
     if (locator.locate(x, &sup) < 0 || sup.empty()) continue;
-    if (sup == last) continue;
-    if (std::includes(last.begin(), last.end(), sup.begin(), sup.end()) && !last.empty()) continue;
-    bool free_vertex = false;
-    for (int v : sup) free_vertex = free_vertex || !(static_cast<std::size_t>(v) < blocked.size() && blocked[v]);
-    if (!free_vertex) continue;
+    // Only the free vertices of the support carry the point's constraint (the blocked ones are held by
+    // Dirichlet conditions): a point whose free vertices are those of the last point, or some of them,
+    // would constrain the same few DoFs again (a conflict, e.g. where the path enters a held region).
+    std::vector<int> free;
+    for (int v : sup)
+      if (!(static_cast<std::size_t>(v) < blocked.size() && blocked[v])) free.push_back(v);
+    if (free.empty()) continue;
+    if (free == last) continue;
+    if (std::includes(last.begin(), last.end(), free.begin(), free.end()) && !last.empty()) continue;
     pts.push_back({x, s, 0.0});
-    last = sup;
+    last = free;
   }
   for (std::size_t j = 0; j < pts.size(); ++j) {
     const double a = j == 0 ? 0.0 : 0.5 * (pts[j - 1].s + pts[j].s);

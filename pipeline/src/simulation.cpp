@@ -69,6 +69,7 @@ struct NeedleSimulation<dim>::Impl {
   fem::Region<dim> region(const RegionSpec& r) const;
   fem::VolumeSupport<dim> volume_support(const BoundaryConditionSpec& bc, const std::string& where) const;
   NeedleRun<dim> run_needle(const NeedleSpec& spec, const std::string& prefix, json& needle_report);
+  std::vector<std::string> held_path_warnings(const NeedleSpec& spec) const;
   void write_step(const std::string& path, const fem::Solution<dim>* s) const;
 };
 
@@ -341,6 +342,38 @@ void NeedleSimulation<dim>::Impl::write_step(const std::string& rel, const fem::
   if (sc.wants("von_mises")) g.cell_data["von_mises"] = Field{1, s ? s->von_mises : std::vector<double>(nc, 0.0)};
   if (sc.wants("youngs_modulus")) g.cell_data["youngs_modulus"] = Field{1, E};
   write_vtu(opt.output_file(rel), g);
+}
+
+// The needle's path through held tissue (a fixed or displacement condition, nodes or elastic support):
+// the tissue there cannot follow the needle, so the forces grow with the held length, far beyond those
+// of free tissue. Legitimate (a needle into a clamp) but rarely meant: one warning per condition crossed,
+// with the held length of the path, measured at 1/1000 of the depth.
+template <int dim>
+std::vector<std::string> NeedleSimulation<dim>::Impl::held_path_warnings(const NeedleSpec& spec) const {
+  std::vector<std::string> out;
+  const NeedlePath<dim> path = needle_path<dim>(spec, tf);
+  const int samples = 1000;
+  for (std::size_t i = 0; i < sc.boundary_conditions.size(); ++i) {
+    const auto& bc = sc.boundary_conditions[i];
+    if (!bc.is_dirichlet()) continue;
+    const fem::Region<dim> reg = region(bc.region);
+    int inside = 0;
+    for (int k = 0; k <= samples; ++k)
+      inside += reg.contains(path.entry + (spec.depth * k / samples) * path.axis) ? 1 : 0;
+    if (inside == 0) continue;
+    std::ostringstream w;
+    w << sc.where(bc.line) << (spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'");
+    if (bc.region.kind == RegionSpec::Kind::box_face)
+      w << " touches the held face " << bc.region.describe() << " of boundary_conditions[" << i << "]"
+        << (inside > 1 ? " along its path" : reg.contains(path.entry) ? " at its entry" : " at the end of its path");
+    else
+      w << " runs through the held region " << bc.region.describe() << " of boundary_conditions[" << i << "] over about "
+        << std::setprecision(2) << spec.depth * inside / samples << std::setprecision(6) << " " << sc.length_unit
+        << " of its " << spec.depth << " " << sc.length_unit << " path";
+    w << ": tissue held there cannot follow the needle, so its forces are far larger than in free tissue";
+    out.push_back(w.str());
+  }
+  return out;
 }
 
 template <int dim>
@@ -731,6 +764,8 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
       << "; those steps keep the last iterate, so a shaft load may exceed its friction limit (try more steps)";
     res.warnings.push_back(w.str());
   }
+  for (const auto& spec : m.sc.needles)
+    for (auto& w : m.held_path_warnings(spec)) res.warnings.push_back(std::move(w));
   if (!res.warnings.empty()) rep["warnings"] = res.warnings;
   if (!res.needles.empty()) {
     // The first needle's headline numbers at the top level (summary / README).

@@ -111,6 +111,18 @@ TEST(ShaftSampling, SpacingLengthsAndDistinctSupports) {
   const auto free_pts = sample_shaft<3>(loc, entry, axis, depth, pitch, blocked);
   ASSERT_FALSE(free_pts.empty());
   for (const auto& p : free_pts) EXPECT_GT(p.position[2], 2.0);  // a cell with a vertex above z = 2
+  // Consecutive kept points never constrain the same free vertices, nor a subset of the last point's:
+  // where the path leaves the held region such a point would conflict with the last one.
+  std::vector<int> last_free;
+  for (const auto& p : free_pts) {
+    loc.locate(p.position, &sup);
+    std::vector<int> f;
+    for (int v : sup)
+      if (!blocked[static_cast<std::size_t>(v)]) f.push_back(v);
+    EXPECT_FALSE(!last_free.empty() && std::includes(last_free.begin(), last_free.end(), f.begin(), f.end()))
+        << "s = " << p.s;
+    last_free = f;
+  }
 }
 
 TEST(AxialMap, ProbedMapAndForceControlMatchADirectSolve) {
@@ -149,7 +161,7 @@ TEST(AxialMap, ProbedMapAndForceControlMatchADirectSolve) {
 // needle_density: ρ = 1 + (ρ_max − 1)·exp(−(d/R)²), ρ_max = size_ratio^−(dim+2), d = distance to the
 // nearest path (brute force here), on the grid of the given image; bad parameters are rejected.
 TEST(NeedleDensity, ProfileAroundThePathsAndBadParameters) {
-  Image<3> like({20, 10, 10}, {1.0, 1.0, 1.0}, {0.5, 0.5, 0.5}, 3.0f);
+  Image<3> like({{20, 10, 10}}, {{1.0, 1.0, 1.0}}, {{0.5, 0.5, 0.5}}, 3.0f);
   NeedlePath<3> a{Eigen::Vector3d(0, 5, 5), Eigen::Vector3d(1, 0, 0), 12.0};
   NeedlePath<3> b{Eigen::Vector3d(20, 2, 2), Eigen::Vector3d(0, 1, 0), 6.0};
   const double ratio = 0.5, radius = 2.0, peak = 32.0;

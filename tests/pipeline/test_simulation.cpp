@@ -493,3 +493,28 @@ TEST(Simulation, ExternalLoadsActBeforeTheNeedleTouches) {
   EXPECT_GT(r.active_points.back(), 0);
   EXPECT_GT(r.axial_force.back(), 0.0);
 }
+
+// A needle path through held tissue is legitimate but rarely meant, and it makes the forces huge: each
+// fixed/displacement condition the path crosses is warned about, with the held length (a cylinder of
+// radius 1 across the path at z = 6: 2 of the 12 held), or the held face it enters through. A path
+// clear of every condition gives no warning.
+TEST(Simulation, NeedlePathThroughHeldTissueIsWarnedAbout) {
+  const MeshModel<3> model = axis_block();
+  const auto held = run_simulation<3>(
+      model,
+      parse_scenario_text(yaml(kStick, "[]", "{}",
+                               "[{type: fixed, region: {box_face: z_max}}, "
+                               "{type: fixed, region: {cylinder: {center: [0, 0, 6], axis: [1, 0, 0], radius: 1}}}]"),
+                          3),
+      quiet());
+  ASSERT_EQ(held.warnings.size(), 1u);
+  EXPECT_NE(held.warnings[0].find("runs through the held region"), std::string::npos) << held.warnings[0];
+  EXPECT_NE(held.warnings[0].find("boundary_conditions[1] over about 2 mm of its 12 mm path"), std::string::npos) << held.warnings[0];
+  const auto face = run_simulation<3>(
+      model, parse_scenario_text(yaml(kStick, "[]", "{}", "[{type: fixed, region: {box_face: z_min}}]"), 3), quiet());
+  ASSERT_EQ(face.warnings.size(), 1u);
+  EXPECT_NE(face.warnings[0].find("touches the held face"), std::string::npos) << face.warnings[0];
+  EXPECT_NE(face.warnings[0].find("at its entry"), std::string::npos) << face.warnings[0];
+  const auto clear = run_simulation<3>(model, parse_scenario_text(yaml(kStick), 3), quiet());
+  EXPECT_TRUE(clear.warnings.empty()) << clear.warnings.front();
+}

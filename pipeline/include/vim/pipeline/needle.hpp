@@ -52,9 +52,10 @@ struct ShaftPoint {
   double length = 0.0;
 };
 
-// Shaft points at s = 0, pitch, 2·pitch, … < depth, keeping a candidate only if its support differs
-// from the previous kept point's (at most one point per cell crossed, so the constraints stay linearly
-// independent) and has at least one vertex that is not `blocked` (fully fixed by a Dirichlet condition).
+// Shaft points at s = 0, pitch, 2·pitch, … < depth, keeping a candidate only if the vertices of its
+// support that are not `blocked` (fully fixed by a Dirichlet condition) are not empty and neither equal
+// nor a subset of the previous kept point's (at most one point per cell crossed, so the constraints stay
+// linearly independent, also where the path enters a held region).
 template <int dim>
 std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator, const Eigen::Matrix<double, dim, 1>& entry,
                                           const Eigen::Matrix<double, dim, 1>& axis, double depth, double pitch,
