@@ -137,6 +137,17 @@ namespace {
 std::string fmt(const char* f, ...) __attribute__((format(printf, 1, 2)));
 
 // A real number in an interval; `closed_lo` includes lo ([lo, hi) instead of (lo, hi)).
+// The whole of `s` as a number (std::stod accepts "nan", "inf"); false if it is not one.
+bool parse_number(const std::string& s, double& v) {
+  try {
+    std::size_t pos = 0;
+    v = std::stod(s, &pos);
+    return pos == s.size();
+  } catch (...) {
+    return false;
+  }
+}
+
 CLI::Validator number_in(double lo, double hi, bool closed_lo) {
   std::ostringstream d;
   d << "in " << (closed_lo ? "[" : "(") << lo << ", " << hi << ")";
@@ -144,13 +155,7 @@ CLI::Validator number_in(double lo, double hi, bool closed_lo) {
   return CLI::Validator(
       [lo, hi, closed_lo, desc](std::string& s) -> std::string {
         double v = 0;
-        try {
-          std::size_t pos = 0;
-          v = std::stod(s, &pos);
-          if (pos != s.size()) throw std::invalid_argument(s);
-        } catch (...) {
-          return "value " + s + " is not a number";
-        }
+        if (!parse_number(s, v)) return "value " + s + " is not a number";
         const bool above = closed_lo ? v >= lo : v > lo;
         return (above && v < hi) ? std::string() : "value " + s + " not " + desc;
       },
@@ -164,13 +169,7 @@ CLI::Validator finite_number(bool positive) {
   return CLI::Validator(
       [positive](std::string& s) -> std::string {
         double v = 0;
-        try {
-          std::size_t pos = 0;
-          v = std::stod(s, &pos);
-          if (pos != s.size()) throw std::invalid_argument(s);
-        } catch (...) {
-          return "value " + s + " is not a number";
-        }
+        if (!parse_number(s, v)) return "value " + s + " is not a number";
         if (!std::isfinite(v)) return "value " + s + " is not a finite number";
         if (positive && !(v > 0.0)) return "value " + s + " is not > 0";
         return std::string();
