@@ -983,7 +983,7 @@ void check_dropped_rows(const std::vector<const ConstraintRow*>& rows, const std
         << ") conflicts with earlier point constraints: it is a linear combination of them (e.g. a third point "
            "on a line inside one P1 element, or a repeated point) but asks for a different displacement "
            "(misfit " << cu - g[a] << ")";
-      throw std::runtime_error(s.str());
+      throw DependentPointConstraints(s.str());
     }
   }
 }
@@ -1252,7 +1252,7 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
     if (llt.info() != Eigen::Success) {
       std::ostringstream s;
       s << "the Schur complement of the " << nr << " point-constraint rows is not positive definite (nearly dependent rows)";
-      throw std::runtime_error(s.str());
+      throw DependentPointConstraints(s.str());
     }
     const Eigen::VectorXd x = llt.solve(r);
     for (std::size_t a = 0; a < nr; ++a) {

@@ -326,19 +326,21 @@ void NeedleSimulation<dim>::Impl::write_step(const std::string& rel, const fem::
     }
     g.point_data["displacement"] = std::move(f);
   }
-  auto tensor = [&](const std::vector<Mat>* t) {
+  // 2D is plane strain: ε_zz = 0 and σ_zz = ν (σ_xx + σ_yy) (= λ tr ε), as von_mises includes it.
+  auto tensor = [&](const std::vector<Mat>* t, bool stress) {
     Field f{9, {}};
     f.values.reserve(nc * 9);
     for (std::size_t c = 0; c < nc; ++c) {
       Eigen::Matrix3d w = Eigen::Matrix3d::Zero();
       if (t) w.topLeftCorner<dim, dim>() = D * (*t)[c] * D.transpose();
+      if (t && stress && dim == 2) w(2, 2) = sc.poisson_ratio * (*t)[c].trace();
       for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b) f.values.push_back(w(a, b));
     }
     return f;
   };
-  if (sc.wants("strain")) g.cell_data["strain"] = tensor(s ? &s->cell_strain : nullptr);
-  if (sc.wants("stress")) g.cell_data["stress"] = tensor(s ? &s->cell_stress : nullptr);
+  if (sc.wants("strain")) g.cell_data["strain"] = tensor(s ? &s->cell_strain : nullptr, false);
+  if (sc.wants("stress")) g.cell_data["stress"] = tensor(s ? &s->cell_stress : nullptr, true);
   if (sc.wants("von_mises")) g.cell_data["von_mises"] = Field{1, s ? s->von_mises : std::vector<double>(nc, 0.0)};
   if (sc.wants("youngs_modulus")) g.cell_data["youngs_modulus"] = Field{1, E};
   write_vtu(opt.output_file(rel), g);
@@ -453,6 +455,10 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
   fem::Solution<dim> sol;
 
   std::vector<double> w(np, 0.0);       // axial constraint values (displacement along a)
+  // Lateral displacement each point had when the tip picked it up (loads acting from the start, tissue
+  // pushed aside ahead of the tip): the rigid needle holds it there rather than pulling it back to the
+  // line it had at rest, which would load the needle with the tissue's earlier deformation.
+  std::vector<Vec> lateral(np, Vec::Zero());
   std::vector<bool> picked(np, false), picking(np, false);  // passed by the tip (before / in this step)
   bool have_solution = false;
   std::vector<bool> sliding(np, false); // stick-slip: force-controlled at ±limit
@@ -469,7 +475,7 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
     for (std::size_t j : active) {
       fem::PointConstraint<dim> p;
       p.position = shaft[j].position;
-      p.displacement = vals[j] * a;
+      p.displacement = vals[j] * a + lateral[j];
       pts.push_back(p);
     }
     const auto t = Clock::now();
@@ -509,6 +515,7 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
   double d_prev = 0.0;
   // Step 0: rest, or the external loads alone.
   if (loaded) solve_with(w);
+  have_solution = loaded;
   record(0.0, loaded ? &sol : nullptr, 0, loaded ? 1 : 0);
   run.step_seconds.push_back(0.0);
   if (write) {
@@ -531,10 +538,12 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
     const double cut = d - spec.cutting_distance;
     for (std::size_t j = 0; j < np && shaft[j].s < cut - 1e-9 * spec.depth; ++j) {
       if (picked[j]) continue;
-      double ua = 0.0;
-      if (have_solution) ua = model->sample({shaft[j].position})[0].dot(a);
+      Vec u = Vec::Zero();
+      if (have_solution) u = model->sample({shaft[j].position})[0];
+      const double ua = u.dot(a);
       if (shaft[j].s + ua >= cut - 1e-9 * spec.depth) break;
       picking[j] = true;
+      lateral[j] = u - ua * a;
     }
     for (std::size_t j = 0; j < np; ++j) {
       if (picked[j] || picking[j]) {
@@ -750,6 +759,11 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
     } catch (const fem::SingularConstraints& e) {  // the first solve: name the scenario's conditions
       const int line = m.sc.boundary_conditions.empty() ? 0 : m.sc.boundary_conditions.front().line;
       throw ScenarioError(m.sc.where(line) + "boundary_conditions: " + e.what());
+    } catch (const fem::DependentPointConstraints& e) {
+      throw ScenarioError(m.sc.where(spec.line) + (spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'") +
+                          ": its embedded shaft points constrain nearly the same displacements (" + e.what() +
+                          "); this happens where the path runs along an edge or face of the mesh's elements: set "
+                          "needle.sample_spacing to about twice the element size, or move the path off the edge");
     }
     needles.push_back(nr);
   }

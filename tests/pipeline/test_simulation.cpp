@@ -7,6 +7,12 @@
 
 #include <gtest/gtest.h>
 
+#include <vtkCellData.h>
+#include <vtkDataArray.h>
+#include <vtkNew.h>
+#include <vtkUnstructuredGrid.h>
+#include <vtkXMLUnstructuredGridReader.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -517,4 +523,78 @@ TEST(Simulation, NeedlePathThroughHeldTissueIsWarnedAbout) {
   EXPECT_NE(face.warnings[0].find("at its entry"), std::string::npos) << face.warnings[0];
   const auto clear = run_simulation<3>(model, parse_scenario_text(yaml(kStick), 3), quiet());
   EXPECT_TRUE(clear.warnings.empty()) << clear.warnings.front();
+}
+
+// A load that moves the body rigidly (x_max displaced by (0, -2), nothing else held) changes nothing
+// in linear elasticity but where the tissue is: the needle must then give exactly the forces of the
+// unloaded run, and displacements differing by (0, -2) everywhere. Points picked up keep the lateral
+// displacement they had (here -2); pulling them back to their rest line would load the needle sideways.
+TEST(Simulation, NeedleInRigidlyPreloadedTissueMatchesTheUnloadedRun) {
+  MeshModel<2> m;
+  m.mesh = regular_grid_mesh<2>(Eigen::Vector2d(0, 0), Eigen::Vector2d(20, 10), {{21, 11}});
+  m.values.assign(m.mesh.n_cells(), ElementValue{1, 10.0, 0.0});
+  const std::string rest = "needle: {entry: [0, 5.2], direction: [1, 0], depth: 10, steps: 4, diameter: 1}\n"
+                           "targets: [{name: t, position: [15, 3]}]\n";
+  SimulationOptions o = quiet();
+  o.keep_step_fields = true;
+  const auto a = run_simulation<2>(
+      m, parse_scenario_text("boundary_conditions: [{type: fixed, region: {box_face: x_max}}]\n" + rest, 2), o).needles[0];
+  const auto b = run_simulation<2>(
+      m, parse_scenario_text("boundary_conditions: [{type: displacement, region: {box_face: x_max}, value: [0, -2]}]\n" + rest, 2),
+      o).needles[0];
+  ASSERT_EQ(a.depth.size(), b.depth.size());
+  for (std::size_t k = 0; k < a.depth.size(); ++k) {
+    EXPECT_NEAR(b.axial_force[k], a.axial_force[k], 1e-8 * (1.0 + std::abs(a.axial_force[k]))) << "step " << k;
+    EXPECT_NEAR(b.lateral_force[k], a.lateral_force[k], 1e-8 * (1.0 + a.lateral_force[k])) << "step " << k;
+    EXPECT_NEAR(b.target_displacement[k][0][0], a.target_displacement[k][0][0], 1e-8) << "step " << k;
+    EXPECT_NEAR(b.target_displacement[k][0][1], a.target_displacement[k][0][1] - 2.0, 1e-8) << "step " << k;
+  }
+  EXPECT_GT(a.axial_force.back(), 0.0);
+}
+
+// 2D models are plane strain: the stress tensor written to the step files has σ_zz = ν (σ_xx + σ_yy),
+// consistent with the von_mises field of the same file (recomputed here from the 3 x 3 tensor).
+TEST(Simulation, TwoDimensionalStressHasThePlaneStrainZz) {
+  const fs::path dir = fs::temp_directory_path() / ("vim_sim_pe_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  SimulationOptions o = quiet();
+  o.output_file = [&](const std::string& rel) {
+    const fs::path p = dir / rel;
+    fs::create_directories(p.parent_path());
+    return p;
+  };
+  MeshModel<2> m;
+  m.mesh = regular_grid_mesh<2>(Eigen::Vector2d(-5, 0), Eigen::Vector2d(5, 20), {{11, 21}});
+  m.values.assign(m.mesh.n_cells(), ElementValue{1, 10.0, 0.0});
+  const double nu = 0.3;
+  run_simulation<2>(m,
+                    parse_scenario_text("material: {poisson_ratio: 0.3}\n"
+                                        "boundary_conditions: [{type: fixed, region: {box_face: y_max}}]\n"
+                                        "needle: {entry: [0, 0], direction: [0.2, 1], depth: 8, steps: 2, diameter: 1}\n"
+                                        "output: {every: 1, fields: [stress, von_mises]}\n",
+                                        2),
+                    o);
+  vtkNew<vtkXMLUnstructuredGridReader> r;
+  r->SetFileName((dir / "steps" / "step_0002.vtu").c_str());
+  r->Update();
+  vtkDataArray* sig = r->GetOutput()->GetCellData()->GetArray("stress");
+  vtkDataArray* vm = r->GetOutput()->GetCellData()->GetArray("von_mises");
+  ASSERT_TRUE(sig && vm);
+  double largest = 0.0;
+  for (vtkIdType c = 0; c < r->GetOutput()->GetNumberOfCells(); ++c) {
+    double t[9];
+    sig->GetTuple(c, t);
+    EXPECT_NEAR(t[8], nu * (t[0] + t[4]), 1e-9 * (1.0 + std::abs(t[0]) + std::abs(t[4])));
+    const double tr = (t[0] + t[4] + t[8]) / 3.0;
+    double dev = 0.0;
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) {
+        const double d = t[3 * a + b] - (a == b ? tr : 0.0);
+        dev += d * d;
+      }
+    EXPECT_NEAR(std::sqrt(1.5 * dev), vm->GetTuple1(c), 1e-9 * (1.0 + vm->GetTuple1(c)));
+    largest = std::max(largest, std::abs(t[8]));
+  }
+  EXPECT_GT(largest, 0.0);
+  fs::remove_all(dir);
 }

@@ -103,6 +103,12 @@ struct SingularConstraints : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// Point constraints (embedded needle points) that are linear combinations of earlier ones, numerically,
+// but ask for other displacements: e.g. shaft points close together along an edge of the mesh.
+struct DependentPointConstraints : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 struct SolverOptions {
   enum class Type { automatic, direct, amg } type = Type::automatic;
   double tolerance = 1e-10;       // relative residual for CG
