@@ -288,7 +288,9 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
                  "Worker threads (default 0 = all cores; range [0, 1024]); results do not depend on it")
       ->type_name("T")
       ->check(CLI::Range(0, 1024));
-  app.add_option("--seed", o.seed, "Random seed for tie-breaking and random-walk updates (default 1; >= 0)")
+  app.add_option("--seed", o.seed,
+                 "Seed of the mesher's random-walk node strategy (library option VimOptions::strategy); the "
+                 "line search the CLI runs is deterministic and does not use it (default 1; >= 0)")
       ->type_name("S");
   app.add_flag("--check-invariants", o.check_invariants,
                "Check every mesh invariant (no inverted element, quality bound, conforming tiling, boundary "
@@ -296,7 +298,7 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
                "(default off; on in a VIM_CHECKED build)");
   app.add_option("--sizing", o.sizing,
                  "Sizing/density image (same dimension as IMAGE, values > 0; larger = denser) for an "
-                 "E_G-only initialisation (paper §VI-E) (default: none)")
+                 "E_G-only initialisation (paper §VI-E) of at most --max-iterations iterations (default: none)")
       ->type_name("IMAGE");
   app.add_option("--threshold", o.threshold,
                  "Segment elements whose mean value is > T into face-connected components; the largest "
@@ -591,6 +593,10 @@ int run_dim(const RunOptions& given) {
     check_modulus_image<dim>(*scenario, img.image);
     sim_options.output_file = [&out](const std::string& rel) { return out.file(rel); };
     sim_options.degree = static_cast<unsigned>(o.degree);
+    if (o.degree == 2 && o.mesher == MesherKind::voxel)
+      warn(report, "simulate",
+           "--mesher voxel builds the voxel reference model of trilinear hexahedra (Q1) whatever the degree; "
+           "--degree 2 applies to the simplex meshes (vim, grid)");
     if (o.degree == 1 && o.mesher != MesherKind::voxel && scenario->poisson_ratio >= kLockingPoisson) {
       // Linear tetrahedra lock for nearly incompressible material: the displacements come out too small
       // on the coarse meshes VIM is for (docs/validation.md, "Why VIM lost at 80 nodes").
@@ -689,6 +695,10 @@ int run_dim(const RunOptions& given) {
         Log::info("vim", fmt("iteration %d: E %.6f (E_G %.5g, E_D %.5g), v %.2e, moves %ld, swaps %ld, %.1fs%s",
                              r.iteration, r.energy, r.geometric, r.discretization, r.v, r.moves, r.swaps, el,
                              left.c_str()));
+        if (r.iteration > 0)
+          Log::detail("vim", fmt("iteration %d: %ld nodes searched, %ld candidate positions evaluated, node updates "
+                                 "%.3fs, swap passes %.3fs",
+                                 r.iteration, r.searched, r.evaluations, r.node_seconds, r.swap_seconds));
       };
       const bool lower_bound = vo.min_dihedral_deg > 0.0 || vo.min_radius_ratio > 0.0;
       const MeshQuality initial_quality = lower_bound ? mesh_quality(initial) : MeshQuality{};

@@ -43,7 +43,8 @@ double Progress::seconds() const {
 void Progress::report(double done, const std::string& message) {
   const auto now = std::chrono::steady_clock::now();
   const bool last = done >= total_;
-  if (!last && std::chrono::duration<double>(now - last_).count() < 1.0) return;
+  // At most one line a second, except with --verbose (every call) and for the last one.
+  if (!last && g_verbosity < Verbosity::verbose && std::chrono::duration<double>(now - last_).count() < 1.0) return;
   last_ = now;
   const double elapsed = seconds();
   char buf[160];

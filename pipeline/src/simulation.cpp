@@ -455,9 +455,11 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
   fem::Solution<dim> sol;
 
   std::vector<double> w(np, 0.0);       // axial constraint values (displacement along a)
-  // Lateral displacement each point had when the tip picked it up (loads acting from the start, tissue
-  // pushed aside ahead of the tip): the rigid needle holds it there rather than pulling it back to the
-  // line it had at rest, which would load the needle with the tissue's earlier deformation.
+  // Lateral displacement of each shaft point under the external loads alone (zero without loads): the
+  // needle enters tissue the loads have already moved, so a picked-up point keeps it rather than being
+  // pulled back to its rest line, which would load the needle with the loads' deformation (a rigid
+  // motion of the body would then change the needle forces). The displacement the needle itself causes
+  // ahead of the tip is not kept: the point joins the needle on its line, as without loads.
   std::vector<Vec> lateral(np, Vec::Zero());
   std::vector<bool> picked(np, false), picking(np, false);  // passed by the tip (before / in this step)
   bool have_solution = false;
@@ -514,7 +516,13 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
   const auto t_run = Clock::now();
   double d_prev = 0.0;
   // Step 0: rest, or the external loads alone.
-  if (loaded) solve_with(w);
+  if (loaded) {
+    solve_with(w);
+    std::vector<Vec> at;
+    for (const auto& p : shaft) at.push_back(p.position);
+    const std::vector<Vec> u = model->sample(at);
+    for (std::size_t j = 0; j < np; ++j) lateral[j] = u[j] - u[j].dot(a) * a;
+  }
   have_solution = loaded;
   record(0.0, loaded ? &sol : nullptr, 0, loaded ? 1 : 0);
   run.step_seconds.push_back(0.0);
@@ -538,12 +546,10 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
     const double cut = d - spec.cutting_distance;
     for (std::size_t j = 0; j < np && shaft[j].s < cut - 1e-9 * spec.depth; ++j) {
       if (picked[j]) continue;
-      Vec u = Vec::Zero();
-      if (have_solution) u = model->sample({shaft[j].position})[0];
-      const double ua = u.dot(a);
+      double ua = 0.0;
+      if (have_solution) ua = model->sample({shaft[j].position})[0].dot(a);
       if (shaft[j].s + ua >= cut - 1e-9 * spec.depth) break;
       picking[j] = true;
-      lateral[j] = u - ua * a;
     }
     for (std::size_t j = 0; j < np; ++j) {
       if (picked[j] || picking[j]) {

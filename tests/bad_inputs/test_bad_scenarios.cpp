@@ -180,3 +180,23 @@ TEST_F(BadScenario, ConditionsThatLeaveARigidMotionFree) {
                     "  - {type: fixed, region: {box_face: x_max}, components: [x]}\n"),
                {"s.yaml:3:", "boundary_conditions:", "rigid-body motion free"});
 }
+// The voxel reference model is trilinear (Q1) whatever --degree says: a degree-2 request is warned about
+// (stderr and report.json), and the model's degree in the report is 1.
+TEST_F(BadScenario, VoxelModelWarnsThatDegreeTwoDoesNotApply) {
+  const fs::path scen = dir_ / "s.yaml", out = dir_ / "out", err = dir_ / "err.txt";
+  std::ofstream(scen) << kBase;
+  const std::string cmd = std::string(VIM_PIPELINE_EXE) + " " + image_ + " --simulate " + scen.string() +
+                          " --mesher voxel --degree 2 --export none --out " + out.string() + " 2> " + err.string() +
+                          " > /dev/null";
+  const int s = std::system(cmd.c_str());
+  ASSERT_EQ(WIFEXITED(s) ? WEXITSTATUS(s) : -1, 0);
+  std::ifstream in(out / "report.json");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string report = ss.str();
+  EXPECT_NE(report.find("trilinear hexahedra (Q1) whatever the degree"), std::string::npos);
+  std::ifstream e(err);
+  std::stringstream es;
+  es << e.rdbuf();
+  EXPECT_NE(es.str().find("--degree 2 applies to the simplex meshes"), std::string::npos) << es.str();
+}

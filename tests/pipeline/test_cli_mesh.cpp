@@ -459,3 +459,24 @@ TEST(CliMesh, ImageTermOffWarningNamesItsCause) {
   const std::string constant = warnings("flat.mha", "--nodes 27");
   EXPECT_NE(constant.find("the image is constant"), std::string::npos) << constant;
 }
+
+// --verbose adds the per-iteration search detail (nodes searched, candidates, phase times) that a
+// default run does not print; --quiet prints nothing at all.
+TEST(CliMesh, VerboseAddsDetailQuietPrintsNothing) {
+  vim::test::TempDir dir("cli_verbose");
+  write_image(phantoms::two_inclusions(40), dir / "in.mha");
+  const auto normal = run_pipeline(quote(dir / "in.mha") + " --nodes 60 --max-iterations 2 --export none --out " +
+                                   quote((dir.path / "n").string()));
+  ASSERT_EQ(normal.code, 0) << normal.err;
+  const auto verbose = run_pipeline(quote(dir / "in.mha") + " --nodes 60 --max-iterations 2 --export none -v --out " +
+                                    quote((dir.path / "v").string()));
+  ASSERT_EQ(verbose.code, 0) << verbose.err;
+  const auto quiet = run_pipeline(quote(dir / "in.mha") + " --nodes 60 --max-iterations 2 --export none -q --out " +
+                                  quote((dir.path / "q").string()));
+  ASSERT_EQ(quiet.code, 0) << quiet.err;
+  EXPECT_EQ(normal.err.find("candidate positions evaluated"), std::string::npos) << normal.err;
+  EXPECT_NE(verbose.err.find("iteration 1: "), std::string::npos) << verbose.err;
+  EXPECT_NE(verbose.err.find("candidate positions evaluated"), std::string::npos) << verbose.err;
+  EXPECT_TRUE(quiet.err.empty()) << quiet.err;
+  EXPECT_TRUE(quiet.out.empty()) << quiet.out;
+}

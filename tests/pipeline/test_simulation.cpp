@@ -528,7 +528,8 @@ TEST(Simulation, NeedlePathThroughHeldTissueIsWarnedAbout) {
 // A load that moves the body rigidly (x_max displaced by (0, -2), nothing else held) changes nothing
 // in linear elasticity but where the tissue is: the needle must then give exactly the forces of the
 // unloaded run, and displacements differing by (0, -2) everywhere. Points picked up keep the lateral
-// displacement they had (here -2); pulling them back to their rest line would load the needle sideways.
+// displacement the loads gave them (here -2); pulling them back to their rest line would load the needle
+// sideways.
 TEST(Simulation, NeedleInRigidlyPreloadedTissueMatchesTheUnloadedRun) {
   MeshModel<2> m;
   m.mesh = regular_grid_mesh<2>(Eigen::Vector2d(0, 0), Eigen::Vector2d(20, 10), {{21, 11}});
