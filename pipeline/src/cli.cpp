@@ -561,6 +561,27 @@ int run_dim(const RunOptions& given) {
   t_read.stop();
   report["input"] = image_json(img, o.image);
   check_meshable(img, o.image);
+  {
+    // The voxel sums behind every element mean (prefix sums in double precision, shifted by the image
+    // mean) are accurate to about N·ε·max|value − mean| for N voxels. With a few huge values among
+    // ordinary ones (1e20 next to 15) that is larger than the ordinary values themselves: say so.
+    std::vector<float> v(img.image.data.begin(), img.image.data.end());
+    double mean = 0.0;
+    for (float x : v) mean += x;
+    mean /= static_cast<double>(v.size());
+    double spread = 0.0;
+    for (float x : v) spread = std::max(spread, std::abs(static_cast<double>(x) - mean));
+    for (float& x : v) x = std::abs(x);
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+    const double typical = v[v.size() / 2];
+    const double accuracy = static_cast<double>(v.size()) * 2.2e-16 * spread;
+    if (typical > 0.0 && accuracy > 1e-3 * typical)
+      warn(report, "input",
+           fmt("%s: the values span up to %.3g from their mean while half of them are below %.3g in magnitude: "
+               "element means are accurate only to about %.2g, %.2g%% of a typical value (check the image's "
+               "units or clamp outliers)",
+               o.image.c_str(), spread, typical, accuracy, 100.0 * accuracy / typical));
+  }
   if (o.mesher != MesherKind::voxel && o.spacing <= 0.0 && o.nodes < (1L << dim))
     throw InputError("--nodes " + std::to_string(o.nodes) + ": a " + std::to_string(dim) + "D mesh needs at least " +
                      std::to_string(1 << dim) + " nodes (2 per axis)");

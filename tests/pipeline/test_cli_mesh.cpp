@@ -480,3 +480,26 @@ TEST(CliMesh, VerboseAddsDetailQuietPrintsNothing) {
   EXPECT_TRUE(quiet.err.empty()) << quiet.err;
   EXPECT_TRUE(quiet.out.empty()) << quiet.out;
 }
+
+// A few huge values among ordinary ones exceed what the double-precision voxel sums can resolve for the
+// ordinary ones (1e20 next to 15: element means off by far more than 15): warned about, with the
+// accuracy; an ordinary image is not.
+TEST(CliMesh, HugeValueRangeIsWarnedAbout) {
+  vim::test::TempDir dir("cli_range");
+  OrientedImage<3> im;
+  im.image = Image<3>({{10, 10, 10}}, {{1, 1, 1}}, {{0, 0, 0}}, 15.0f);
+  im.image.data[555] = 1e20f;
+  write_image(im, dir / "huge.mha");
+  im.image.data[555] = 150.0f;
+  write_image(im, dir / "plain.mha");
+  auto warnings = [&](const char* name) {
+    const auto out = dir.path / (std::string("o_") + name);
+    const auto r = run_pipeline(quote(dir / name) + " --nodes 27 --max-iterations 1 -q --export none --out " + quote(out.string()));
+    EXPECT_EQ(r.code, 0) << r.err;
+    const auto report = nlohmann::json::parse(vim::test::slurp(out / "report.json"));
+    return report.contains("warnings") ? report["warnings"].dump() : std::string();
+  };
+  const std::string huge = warnings("huge.mha");
+  EXPECT_NE(huge.find("element means are accurate only to about"), std::string::npos) << huge;
+  EXPECT_EQ(warnings("plain.mha").find("accurate only"), std::string::npos);
+}
