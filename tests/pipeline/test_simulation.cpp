@@ -81,6 +81,18 @@ SimulationOptions quiet() {
   return o;
 }
 
+// quiet(), writing the output files below `dir` (emptied first).
+SimulationOptions writing_into(const fs::path& dir) {
+  fs::remove_all(dir);
+  SimulationOptions o = quiet();
+  o.output_file = [dir](const std::string& rel) {
+    const fs::path p = dir / rel;
+    fs::create_directories(p.parent_path());
+    return p;
+  };
+  return o;
+}
+
 std::map<std::tuple<long, long, long>, std::size_t> vertex_index(const std::vector<V3>& pts) {
   std::map<std::tuple<long, long, long>, std::size_t> m;
   for (std::size_t i = 0; i < pts.size(); ++i)
@@ -427,13 +439,7 @@ TEST(Simulation, TwoDimensionalNeedle) {
 
 TEST(Simulation, WritesStepsCsvAndSummary) {
   const fs::path dir = fs::temp_directory_path() / ("vim_sim_test_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  SimulationOptions o = quiet();
-  o.output_file = [&](const std::string& rel) {
-    const fs::path p = dir / rel;
-    fs::create_directories(p.parent_path());
-    return p;
-  };
+  const SimulationOptions o = writing_into(dir);
   const std::string y = R"(boundary_conditions: [{type: fixed, region: {box_face: z_max}}]
 needles:
   - {name: first, entry: [0, 0, 0], direction: [0, 0, 1], depth: 8, steps: 4, diameter: 1}
@@ -557,13 +563,7 @@ TEST(Simulation, NeedleInRigidlyPreloadedTissueMatchesTheUnloadedRun) {
 // consistent with the von_mises field of the same file (recomputed here from the 3 x 3 tensor).
 TEST(Simulation, TwoDimensionalStressHasThePlaneStrainZz) {
   const fs::path dir = fs::temp_directory_path() / ("vim_sim_pe_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  SimulationOptions o = quiet();
-  o.output_file = [&](const std::string& rel) {
-    const fs::path p = dir / rel;
-    fs::create_directories(p.parent_path());
-    return p;
-  };
+  const SimulationOptions o = writing_into(dir);
   MeshModel<2> m;
   m.mesh = regular_grid_mesh<2>(Eigen::Vector2d(-5, 0), Eigen::Vector2d(5, 20), {{11, 21}});
   m.values.assign(m.mesh.n_cells(), ElementValue{1, 10.0, 0.0});
