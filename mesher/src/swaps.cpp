@@ -25,12 +25,15 @@ bool VimOptimizer<dim>::try_replace(const int* old_cells, int n_old, const Cell*
   std::vector<Cell>& best_cells = swap_best_cells_;
   std::vector<CellCache>& caches = swap_caches_;
   std::vector<CellCache>& best_caches = swap_best_caches_;
+  std::vector<Simplex>& simplices = swap_simplices_;
   for (int a = 0; a < n_alt; ++a) {
     cells.assign(alternatives + static_cast<std::ptrdiff_t>(a) * n_new,
                  alternatives + static_cast<std::ptrdiff_t>(a + 1) * n_new);
     // The tests in order of cost (the outcome does not depend on it): the tiling, then the E_G
     // share alone as a lower bound (at or above the best: the voxel sums are not needed), then the
     // quality bound of each new cell, then the voxel sums.
+    // Each new cell's points, positively oriented, gathered once for all the tests.
+    simplices.clear();
     double volume = 0.0;
     for (Cell& v : cells) {
       Simplex x;
@@ -38,33 +41,21 @@ bool VimOptimizer<dim>::try_replace(const int* old_cells, int n_old, const Cell*
       double vol = signed_volume<dim>(x);
       if (vol < 0.0) {
         std::swap(v[0], v[1]);
+        std::swap(x[0], x[1]);
         vol = -vol;
       }
       volume += vol;
+      simplices.push_back(x);
     }
     if (std::abs(volume - old_volume) > 1e-9 * old_volume) continue;
     double geometric = 0.0;
-    for (const Cell& v : cells) {
-      Simplex x;
-      for (int j = 0; j <= dim; ++j) x[j] = mesh_.points[v[j]];
+    for (const Simplex& x : simplices)
       geometric += wg_ * geometric_energy<dim>(x) * (density_ ? density_->interpolate(centroid<dim>(x)) : 1.0);
-    }
     if (geometric >= best) continue;
-    bool ok = true;
-    for (const Cell& v : cells) {
-      Simplex x;
-      for (int j = 0; j <= dim; ++j) x[j] = mesh_.points[v[j]];
-      if (!acceptable(x)) {
-        ok = false;
-        break;
-      }
-    }
-    if (!ok) continue;
+    if (!std::all_of(simplices.begin(), simplices.end(), [&](const Simplex& x) { return acceptable(x); })) continue;
     caches.clear();
     double total = 0.0;
-    for (const Cell& v : cells) {
-      Simplex x;
-      for (int j = 0; j <= dim; ++j) x[j] = mesh_.points[v[j]];
+    for (const Simplex& x : simplices) {
       caches.push_back(evaluate(x));
       total += caches.back().cost;
     }

@@ -565,13 +565,10 @@ int run_dim(const RunOptions& given) {
     // The voxel sums behind every element mean (prefix sums in double precision, shifted by the image
     // mean) are accurate to about N·ε·max|value − mean| for N voxels. With a few huge values among
     // ordinary ones (1e20 next to 15) that is larger than the ordinary values themselves: say so.
-    std::vector<float> v(img.image.data.begin(), img.image.data.end());
-    double mean = 0.0;
-    for (float x : v) mean += x;
-    mean /= static_cast<double>(v.size());
-    double spread = 0.0;
-    for (float x : v) spread = std::max(spread, std::abs(static_cast<double>(x) - mean));
-    for (float& x : v) x = std::abs(x);
+    const ImageSummary values = summarize(img.image);
+    const double spread = std::max(values.max - values.mean, values.mean - values.min);
+    std::vector<float> v(img.image.data.size());
+    std::transform(img.image.data.begin(), img.image.data.end(), v.begin(), [](float x) { return std::abs(x); });
     std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
     const double typical = v[v.size() / 2];
     const double accuracy = static_cast<double>(v.size()) * 2.2e-16 * spread;

@@ -41,7 +41,6 @@ OrientedImage<dim> read_image(const std::string& path) {
     for (int b = 0; b < dim; ++b) out.direction(a, b) = raw.direction[a * dim + b];
   }
   out.image.data = std::move(raw.data);
-  const bool raw_double = raw.double_voxels;
 
   const std::size_t n = out.image.data.size();
   long bad = 0;
@@ -54,7 +53,7 @@ OrientedImage<dim> read_image(const std::string& path) {
     m << path << ": " << bad << " voxel" << (bad > 1 ? "s are" : " is") << " NaN or Inf (first at index (";
     for (int a = 0; a < dim; ++a) m << (a ? "," : "") << idx[a];
     m << ")); every voxel must be a finite number";
-    if (raw_double)
+    if (raw.double_voxels)
       m << " (the file stores doubles: a finite value beyond ±3.4e38, the largest a float voxel can hold, also reads"
            " as Inf; rescale the image)";
     throw InputError(m.str());

@@ -18,7 +18,6 @@
 #include <cctype>
 #include <cstdint>
 #include <cstring>
-#include <cerrno>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -82,13 +81,23 @@ void quiet_itk() {
 // escaping from ITK; a format-string hazard), and a missing external data file leaks its stream.
 // Checked after the header is parsed (MetaIO's own parse) and before any voxel is read: LOCAL, or
 // one existing, readable data file.
+// MetaIO's spellings of "the voxel data follow the header in this file".
+bool is_local_data(const std::string& value) { return value == "LOCAL" || value == "Local" || value == "local"; }
+
+// The file holding a MetaImage's voxel data: the header's own file, or ElementDataFile relative to the
+// header's folder.
+fs::path metaimage_data_path(const std::string& path, const std::string& value) {
+  if (is_local_data(value)) return fs::path(path);
+  const fs::path data(value);
+  return data.is_relative() ? fs::path(path).parent_path() / data : data;
+}
+
 void check_metaimage_data_file(const std::string& path, const std::string& value) {
-  if (value == "LOCAL" || value == "Local" || value == "local") return;  // MetaIO's spellings
+  if (is_local_data(value)) return;
   if (value.find('%') != std::string::npos || value.compare(0, 4, "LIST") == 0)
     throw InputError(path + ": ElementDataFile = '" + one_line(value) +
                      "' (a list or numbered pattern of slice files) is not supported; use LOCAL or one data file");
-  fs::path data(value);
-  if (data.is_relative()) data = fs::path(path).parent_path() / data;
+  const fs::path data = metaimage_data_path(path, value);
   std::error_code ec;
   if (value.empty() || !fs::is_regular_file(data, ec) || ::access(data.c_str(), R_OK) != 0)
     throw InputError(path + ": ElementDataFile = '" + one_line(value) + "': data file " + data.string() +
@@ -291,9 +300,7 @@ itk::ImageIOBase::Pointer open_header(const std::string& path) {
   };
   if (auto* meta = dynamic_cast<itk::MetaImageIO*>(io.GetPointer())) {
     const MetaImage* mi = meta->GetMetaImagePointer();
-    const std::string value = mi->ElementDataFileName();
-    fs::path data(value == "LOCAL" || value == "Local" || value == "local" ? path : value);
-    if (data.is_relative() && data != fs::path(path)) data = fs::path(path).parent_path() / data;
+    const fs::path data = metaimage_data_path(path, mi->ElementDataFileName());
     if (!mi->BinaryData())
       require(data, voxels, "ASCII");
     else if (mi->CompressedData())
@@ -335,8 +342,8 @@ itk::ImageIOBase::Pointer open_header(const std::string& path) {
 //   fills the rest. The data must hold the declared number of values, each a whole number token.
 // - NIfTI (.nii, .nii.gz): the reader zero-fills a short file. The (inflated) file must hold
 //   vox_offset + the declared bytes.
-// Data files given as a list or pattern, a non-zero MetaImage HeaderSize and NIfTI header/image
-// pairs are left to ITK.
+// Data files with a non-zero MetaImage HeaderSize and NIfTI header/image pairs are left to ITK (lists
+// and patterns of data files are refused by open_header).
 class DataCheck {
  public:
   DataCheck(std::string path, std::uintmax_t voxels, std::uintmax_t bytes)
@@ -344,16 +351,10 @@ class DataCheck {
 
   void metaimage(const MetaImage& mi) {
     const std::string value = mi.ElementDataFileName();
-    if (value.empty() || value.find('%') != std::string::npos || value.rfind("LIST", 0) == 0) return;
-    const bool local = value == "LOCAL" || value == "Local" || value == "local";
-    fs::path data = local ? fs::path(path_) : fs::path(value);
-    if (data.is_relative() && !local) data = fs::path(path_).parent_path() / data;
-    std::uintmax_t offset = 0;
-    if (local) {
-      offset = local_data_offset();
-    } else if (mi.HeaderSize() != 0) {
-      return;
-    }
+    const bool local = is_local_data(value);
+    if (!local && mi.HeaderSize() != 0) return;
+    const fs::path data = metaimage_data_path(path_, value);
+    const std::uintmax_t offset = local ? local_data_offset() : 0;
     if (!mi.BinaryData())
       ascii(data, offset);
     else if (mi.CompressedData())
@@ -392,15 +393,15 @@ class DataCheck {
       gzclose(f);
       return;  // not a header this check understands; ITK has read it already
     }
+    const bool compressed = ends(".gz");
     std::uintmax_t total = got > 0 ? static_cast<std::uintmax_t>(got) : 0;
-    std::vector<unsigned char> buf(1 << 16);
     int n = 0;
-    std::error_code ec;
-    if (!ends(".gz")) {
+    if (!compressed) {
+      std::error_code ec;
       total = fs::file_size(path_, ec);  // an uncompressed file: no need to read it
-    } else {
-      while (got == static_cast<int>(sizeof h) && (n = gzread(f, buf.data(), static_cast<unsigned>(buf.size()))) > 0)
-        total += static_cast<std::uintmax_t>(n);
+    } else if (got == static_cast<int>(sizeof h)) {
+      std::vector<unsigned char> buf(1 << 16);
+      while ((n = gzread(f, buf.data(), static_cast<unsigned>(buf.size()))) > 0) total += static_cast<std::uintmax_t>(n);
     }
     int err = Z_OK;
     const std::string zmsg = n < 0 ? gzerror(f, &err) : "";
@@ -412,7 +413,7 @@ class DataCheck {
       throw InputError(path_ + ": cannot read the voxel data: truncated (the header declares " + std::to_string(voxels_) +
                        " voxels, " + std::to_string(bytes_) + " bytes from byte " +
                        std::to_string(static_cast<std::uintmax_t>(vox_offset)) + ", but the " +
-                       (name.size() > 3 && ends(".gz") ? "inflated " : "") + "file holds only " + std::to_string(total) +
+                       (compressed ? "inflated " : "") + "file holds only " + std::to_string(total) +
                        " bytes)");
   }
 
@@ -481,7 +482,6 @@ class DataCheck {
         throw InputError(path_ + ": cannot read the voxel data: truncated (the header declares " + std::to_string(voxels_) +
                          " ASCII values; the file holds " + std::to_string(k) + ")");
       char* end = nullptr;
-      errno = 0;
       const double v = std::strtod(token.c_str(), &end);
       if (end != token.c_str() + token.size() || token.empty())
         throw InputError(path_ + ": ASCII voxel " + std::to_string(k) + " is '" + token.substr(0, 40) +

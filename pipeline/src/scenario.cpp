@@ -59,7 +59,7 @@ bool is_identifier(const std::string& t) {
 
 std::string scalar_text(const YAML::Node& n) {
   if (n.IsScalar()) return "'" + n.Scalar() + "'";
-  if (n.IsSequence()) return "a list";
+  if (n.IsSequence()) return "a list of " + std::to_string(n.size());
   if (n.IsMap()) return "a mapping";
   return "nothing";
 }
@@ -182,8 +182,7 @@ class Reader {
   std::vector<double> vector(const YAML::Node& n, const std::string& path, int dim) const {
     if (!n.IsSequence() || static_cast<int>(n.size()) != dim)
       fail(n, path + " must be a list of " + std::to_string(dim) + " numbers ([" + (dim == 3 ? "x, y, z" : "x, y") +
-                  "]) for a " + std::to_string(dim) + "D image, got " +
-                  (n.IsSequence() ? "a list of " + std::to_string(n.size()) : scalar_text(n)));
+                  "]) for a " + std::to_string(dim) + "D image, got " + scalar_text(n));
     std::vector<double> v;
     for (std::size_t i = 0; i < n.size(); ++i) v.push_back(number(n[i], path + "[" + std::to_string(i) + "]"));
     return v;
@@ -393,8 +392,7 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
     }
     if (const YAML::Node& c = f["clamp"]) {
       if (!c.IsSequence() || c.size() != 2)
-        r.fail(c, "material.clamp must be a list [min, max], got " +
-                      (c.IsSequence() ? "a list of " + std::to_string(c.size()) : scalar_text(c)));
+        r.fail(c, "material.clamp must be a list [min, max], got " + scalar_text(c));
       const double lo = r.number(c[0], "material.clamp[0]"), hi = r.number(c[1], "material.clamp[1]");
       if (!(lo > 0.0)) r.fail(c, "material.clamp min must be > 0 (a Young's modulus), got " + fmt(lo));
       if (!(hi >= lo)) r.fail(c, "material.clamp must have min <= max, got [" + fmt(lo) + ", " + fmt(hi) + "]");

@@ -159,6 +159,7 @@ class VimOptimizer {
   bool try_replace(const int* old_cells, int n_old, const Cell* alternatives, int n_alt, int n_new);
   std::vector<Cell> swap_cells_, swap_best_cells_;
   std::vector<CellCache> swap_caches_, swap_best_caches_;
+  std::vector<Simplex> swap_simplices_;
   std::vector<int> swap_slots_, swap_ring_, swap_cycle_;
   void set_cell(int c, const Cell& v, const CellCache& cache);
   int new_cell_slot();
