@@ -68,7 +68,8 @@ struct NeedleSimulation<dim>::Impl {
   void setup(const std::vector<Vec>& vertices);
   fem::Region<dim> region(const RegionSpec& r) const;
   fem::VolumeSupport<dim> volume_support(const BoundaryConditionSpec& bc, const std::string& where) const;
-  NeedleRun<dim> run_needle(const NeedleSpec& spec, const std::string& prefix, json& needle_report);
+  NeedleRun<dim> run_needle(const NeedleSpec& spec, const std::string& prefix, json& needle_report,
+                            bool snap_to_vertices = false);
   std::vector<std::string> held_path_warnings(const NeedleSpec& spec) const;
   void write_step(const std::string& path, const fem::Solution<dim>* s) const;
 };
@@ -379,7 +380,8 @@ std::vector<std::string> NeedleSimulation<dim>::Impl::held_path_warnings(const N
 }
 
 template <int dim>
-NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, const std::string& prefix, json& rep) {
+NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, const std::string& prefix, json& rep,
+                                                       bool snap_to_vertices) {
   NeedleRun<dim> run;
   run.name = spec.name;
   const Vec a_world = vec<dim>(spec.direction).normalized();
@@ -389,7 +391,7 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
   const Vec& entry = path.entry;
   const Vec& a = path.axis;
   const double pitch = spec.sample_spacing > 0.0 ? spec.sample_spacing : 0.5 * locator.mean_edge_length();
-  const std::vector<ShaftPoint<dim>> shaft = sample_shaft<dim>(locator, entry, a, spec.depth, pitch, blocked);
+  const std::vector<ShaftPoint<dim>> shaft = sample_shaft<dim>(locator, entry, a, spec.depth, pitch, blocked, snap_to_vertices);
   if (shaft.empty())
     throw ScenarioError(sc.where(spec.line) + "needle '" + spec.name +
                         "': no point of its path lies in the free part of the mesh (is it inside a fixed region?)");
@@ -760,14 +762,26 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
   for (const auto& spec : m.sc.needles) {
     json nr;
     const std::string prefix = m.sc.needle_list ? spec.name + "/" : "";
+    const std::string who = spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'";
     try {
-      res.needles.push_back(m.run_needle(spec, prefix, nr));
+      try {
+        res.needles.push_back(m.run_needle(spec, prefix, nr));
+      } catch (const fem::DependentPointConstraints& e) {
+        // Shaft points inside a chain of collinear mesh edges (a path along a box edge or a grid line):
+        // run again with the points on those edges moved to the edges' vertices (sample_shaft).
+        std::ostringstream w;
+        w << m.sc.where(spec.line) << who << ": its shaft points along mesh edges were nearly dependent (" << e.what()
+          << "); ran it again with the shaft sampled at the mesh vertices on its path";
+        res.warnings.push_back(w.str());
+        nr = json();
+        res.needles.push_back(m.run_needle(spec, prefix, nr, true));
+        nr["shaft_sampled_at_vertices"] = true;
+      }
     } catch (const fem::SingularConstraints& e) {  // the first solve: name the scenario's conditions
       const int line = m.sc.boundary_conditions.empty() ? 0 : m.sc.boundary_conditions.front().line;
       throw ScenarioError(m.sc.where(line) + "boundary_conditions: " + e.what());
     } catch (const fem::DependentPointConstraints& e) {
-      throw ScenarioError(m.sc.where(spec.line) + (spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'") +
-                          ": its embedded shaft points constrain nearly the same displacements (" + e.what() +
+      throw ScenarioError(m.sc.where(spec.line) + who + ": its embedded shaft points constrain nearly the same displacements (" + e.what() +
                           "); this happens where the path runs along an edge or face of the mesh's elements: set "
                           "needle.sample_spacing to about twice the element size, or move the path off the edge");
     }

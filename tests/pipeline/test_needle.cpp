@@ -185,3 +185,52 @@ TEST(NeedleDensity, ProfileAroundThePathsAndBadParameters) {
   EXPECT_THROW(needle_density<3>(like, {a}, ratio, 0.0), std::invalid_argument);
   EXPECT_THROW(needle_density<3>(like, {}, ratio, radius), std::invalid_argument);
 }
+
+// A path along mesh edges (an interior grid line and the box edge). By default the shaft points sit
+// every pitch inside the edges; with snap_to_vertices they are exactly the mesh vertices on the path
+// (each at its own arc length, none inside an edge, except past the last vertex before the depth),
+// with lengths that still add up to the depth.
+TEST(ShaftSampling, SnapToVerticesAlongMeshEdges) {
+  using V2 = Eigen::Vector2d;
+  const SimplexMesh<2> mesh = regular_grid_mesh<2>(V2(-30, -30), V2(30, 30), {{28, 28}});  // 27 cells per axis
+  const auto loc = CellLocator<2>::simplex(mesh);
+  const double h = 60.0 / 27.0, pitch = 0.546 * h, depth = 50.0;
+  for (double y : {-30.0 + 18 * h, 30.0}) {  // grid line 18, and the box edge
+    SCOPED_TRACE("path along y = " + std::to_string(y));
+    const V2 entry(-30, y), axis(1, 0);
+    std::vector<double> on_path;  // arc lengths of the mesh vertices on the path, independently
+    for (const auto& p : mesh.points)
+      if (std::abs(p[1] - y) < 1e-9 && p[0] - entry[0] < depth) on_path.push_back(p[0] - entry[0]);
+    std::sort(on_path.begin(), on_path.end());
+    ASSERT_EQ(on_path.size(), 23u);
+    auto is_vertex = [&](double s) {
+      return std::any_of(on_path.begin(), on_path.end(), [&](double v) { return std::abs(v - s) < 1e-9; });
+    };
+    const std::vector<bool> none(mesh.n_points(), false);
+    const auto plain = sample_shaft<2>(loc, entry, axis, depth, pitch, none);
+    EXPECT_TRUE(std::any_of(plain.begin(), plain.end(), [&](const auto& p) { return !is_vertex(p.s); }));
+    const auto snapped = sample_shaft<2>(loc, entry, axis, depth, pitch, none, true);
+    // The vertices on the path; past the last of them, the edge reaching beyond the depth keeps its
+    // plain point.
+    ASSERT_GE(snapped.size(), on_path.size());
+    ASSERT_LE(snapped.size(), on_path.size() + 1);
+    if (snapped.size() > on_path.size()) {
+      EXPECT_GT(snapped.back().s, on_path.back());
+    }
+    double total = 0.0;
+    for (std::size_t k = 0; k < snapped.size(); ++k) {
+      if (k < on_path.size()) {
+        EXPECT_NEAR(snapped[k].s, on_path[k], 1e-9);
+      }
+      EXPECT_NEAR((snapped[k].position - (entry + snapped[k].s * axis)).norm(), 0.0, 1e-9);
+      total += snapped[k].length;
+    }
+    EXPECT_NEAR(total, depth, 1e-9);
+  }
+  // A path that crosses the cells is not changed by it.
+  const V2 entry(-30, 0.37), axis = V2(1, 0.2).normalized();
+  const auto a = sample_shaft<2>(loc, entry, axis, depth, pitch, std::vector<bool>(mesh.n_points(), false));
+  const auto b = sample_shaft<2>(loc, entry, axis, depth, pitch, std::vector<bool>(mesh.n_points(), false), true);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) EXPECT_EQ(a[k].s, b[k].s);
+}

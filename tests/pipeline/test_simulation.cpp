@@ -599,3 +599,38 @@ TEST(Simulation, TwoDimensionalStressHasThePlaneStrainZz) {
   EXPECT_GT(largest, 0.0);
   fs::remove_all(dir);
 }
+
+// A needle along a grid line of a 2D mesh, sampled finer than the mesh: the shaft points inside the
+// collinear edges made nearly dependent constraints and the run stopped (CLI: `--mesher grid` on the
+// two-inclusions phantom, a path along y = 10). The simulation now runs the needle again with the shaft
+// at the mesh vertices on its path, says so, and those vertices move with the needle (stick model).
+TEST(Simulation, NeedleAlongAGridLineIsResampledAtTheVertices) {
+  MeshModel<2> m;
+  m.mesh = regular_grid_mesh<2>(Eigen::Vector2d(-30, -30), Eigen::Vector2d(30, 30), {{28, 28}});
+  m.values.resize(m.mesh.n_cells());
+  for (std::size_t c = 0; c < m.mesh.n_cells(); ++c) {  // a stiff inclusion above the path
+    const Eigen::Vector2d x = centroid<2>(cell_points(m.mesh, c));
+    m.values[c] = ElementValue{1, (x - Eigen::Vector2d(0, 17)).norm() < 6 ? 150.0 : 15.0, 0.0};
+  }
+  const double h = 60.0 / 27.0, y = -30.0 + 18 * h, depth = 50.0;
+  std::ostringstream sc;
+  sc << "material: {youngs_modulus: image, poisson_ratio: 0.3}\n"
+        "boundary_conditions: [{type: fixed, region: {box_face: x_max}}]\n"
+        "needle: {entry: [-30, " << y << "], direction: [1, 0], depth: " << depth << ", steps: 10, diameter: 1}\n";
+  const auto res = run_simulation<2>(m, parse_scenario_text(sc.str(), 2), quiet());
+  ASSERT_FALSE(res.warnings.empty());
+  EXPECT_NE(res.warnings.front().find("sampled at the mesh vertices"), std::string::npos) << res.warnings.front();
+  const auto& r = res.needles[0];
+  const auto& u = r.vertex_displacement.back();
+  int checked = 0;
+  for (std::size_t i = 0; i < m.mesh.n_points(); ++i) {
+    const Eigen::Vector2d& p = m.mesh.points[i];
+    const double s = p[0] + 30.0;
+    // Vertices within ~2 steps of the final tip were pushed ahead of it before they were picked up.
+    if (std::abs(p[1] - y) > 1e-9 || s > depth - 10.0) continue;
+    EXPECT_NEAR(u[i][0], depth - s, 1e-6 * depth) << "vertex at s = " << s;
+    ++checked;
+  }
+  EXPECT_GE(checked, 18);
+  for (std::size_t k = 1; k < r.axial_force.size(); ++k) EXPECT_GT(r.axial_force[k], r.axial_force[k - 1]) << "step " << k;
+}

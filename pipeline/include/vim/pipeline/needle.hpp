@@ -31,6 +31,11 @@ class CellLocator {
   long locate(const Vec& p, std::vector<int>* support = nullptr) const;
   // Mean edge length of the cells (a length scale for the shaft sampling).
   double mean_edge_length() const { return mean_edge_; }
+  // Position of vertex v (the numbering of the supports).
+  const Vec& vertex(int v) const { return vertices_[static_cast<std::size_t>(v)]; }
+  // Vertices of a cell (dim + 1 for simplices, 2^dim for the grid's cells): a point whose support
+  // has fewer lies on a face, edge or vertex of its cell.
+  int cell_vertex_count() const { return is_grid_ ? 1 << dim : dim + 1; }
 
  private:
   bool is_grid_ = false;
@@ -41,6 +46,7 @@ class CellLocator {
   std::vector<std::vector<int>> buckets_;
   std::array<long, dim> cells_{};
   std::vector<int> lattice_to_vertex_;
+  std::vector<Vec> vertices_;
   double mean_edge_ = 0.0;
 };
 
@@ -56,10 +62,14 @@ struct ShaftPoint {
 // support that are not `blocked` (fully fixed by a Dirichlet condition) are not empty and neither equal
 // nor a subset of the previous kept point's (at most one point per cell crossed, so the constraints stay
 // linearly independent, also where the path enters a held region).
+// snap_to_vertices: a candidate whose support lies on the path's line (the path runs along mesh edges)
+// is replaced by those vertices at their own arc lengths. Points inside a chain of collinear edges can
+// make nearly dependent constraints (condition number > 1e10 along a 2D box edge); the simulation
+// re-samples with it when the solve reports that (fem::DependentPointConstraints).
 template <int dim>
 std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator, const Eigen::Matrix<double, dim, 1>& entry,
                                           const Eigen::Matrix<double, dim, 1>& axis, double depth, double pitch,
-                                          const std::vector<bool>& blocked);
+                                          const std::vector<bool>& blocked, bool snap_to_vertices = false);
 
 // The affine map from the axial values w of a fixed set of m point constraints to their axial forces,
 // f = K w + c (the condensed stiffness of the embedded points along the needle; K is symmetric positive
