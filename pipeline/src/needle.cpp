@@ -165,18 +165,18 @@ std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator, const
                                           const Eigen::Matrix<double, dim, 1>& axis, double depth, double pitch,
                                           const std::vector<bool>& blocked, bool snap_to_vertices) {
   if (!(pitch > 0.0) || !(depth > 0.0)) throw std::invalid_argument("sample_shaft: depth and pitch must be > 0");
-  // Candidates every pitch. With snap_to_vertices, where the path runs along mesh edges (every
-  // vertex of a candidate's support lies on the path's line), the candidate is replaced by those
-  // vertices, each at its own arc length: a chain of points inside consecutive collinear edges makes nearly dependent rows (each
-  // interpolates between its edge's two vertices; condition number > 1e10 along a 2D box edge), while
-  // the vertices themselves are exactly the tissue on the path.
+  // Candidates every pitch. With snap_to_vertices, where the path runs along mesh edges (every vertex
+  // of a candidate's support lies on the path's line), the candidate is replaced by those vertices,
+  // each at its own arc length: a chain of points inside consecutive collinear edges makes nearly
+  // dependent rows (each interpolates between its edge's two vertices; condition number > 1e10 along
+  // a 2D box edge), while the vertices themselves are exactly the tissue on the path.
   struct Candidate {
     double s;
     Eigen::Matrix<double, dim, 1> x;
     std::vector<int> sup;
   };
   std::vector<Candidate> cand;
-  std::vector<int> sup, on_line;
+  std::vector<int> sup;
   const double line_tol = 1e-9 * std::max(locator.mean_edge_length(), depth);
   const long n = static_cast<long>(std::ceil(depth / pitch - 1e-9));
   for (long i = 0; i < n; ++i) {
