@@ -620,7 +620,8 @@ int run_dim(const RunOptions& given) {
       // on the coarse meshes VIM is for (docs/validation.md, "Why VIM lost at 80 nodes").
       std::ostringstream m;
       m << scenario->source << ": material.poisson_ratio = " << std::setprecision(12) << scenario->poisson_ratio
-        << " with linear (degree 1) elements: P1 tetrahedra lock for poisson_ratio >= " << kLockingPoisson
+        << " with linear (degree 1) elements: " << (dim == 3 ? "P1 tetrahedra" : "P1 triangles (plane strain)")
+        << " lock for poisson_ratio >= " << kLockingPoisson
         << ", so the displacements come out too small on coarse meshes (and towards 0.5 the needle forces can be "
            "wildly wrong, even of the wrong sign); set mesh.degree: 2 in the scenario"
         << " (or --degree 2) for quadratic elements (about 5x the solve time)";

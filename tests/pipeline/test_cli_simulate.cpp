@@ -416,6 +416,17 @@ TEST(CliSimulate, LinearElementsWarnAboutLockingForNearlyIncompressibleTissue) {
   ASSERT_EQ(q.code, 0) << q.err;
   EXPECT_EQ(q.err.find("lock"), std::string::npos) << q.err;
   EXPECT_TRUE(nlohmann::json::parse(vim::test::slurp(dir.path / "quiet" / "report.json")).contains("warnings"));
+  // A 2D run names the element it means: plane-strain P1 triangles.
+  write_image(phantoms::two_inclusions(30), dir / "in2.mha");
+  std::ofstream(dir / "nu045_2d.yaml") << "material: {youngs_modulus: image, poisson_ratio: 0.45}\n"
+                                          "boundary_conditions:\n  - {type: fixed, region: {box_face: x_max}}\n"
+                                          "needle: {entry: [-30, 3], direction: [1, 0], depth: 10, steps: 1, diameter: 1}\n"
+                                          "output: {every: 0}\n";
+  const auto two = run_pipeline(quote(dir / "in2.mha") + " --nodes 64 --max-iterations 2 --export none --simulate " +
+                                quote(dir / "nu045_2d.yaml") + " --out " + quote(dir / "p1_2d"));
+  ASSERT_EQ(two.code, 0) << two.err;
+  EXPECT_NE(two.err.find("P1 triangles (plane strain) lock for poisson_ratio >= 0.4"), std::string::npos) << two.err;
+  EXPECT_EQ(two.err.find("tetrahedra"), std::string::npos) << two.err;
 }
 
 // The scenario's mesh keys apply unless the same option is on the command line: mesh.min_dihedral
