@@ -21,7 +21,7 @@
 
 namespace vim {
 
-// Per-element cache: voxel sums (n, S, Q shifted by the image mean; a one-voxel stand-in for a
+// Per-element cache: voxel sums (n, S, Q shifted by VoxelStatistics::shift(); a one-voxel stand-in for a
 // uniform element, see VoxelStatistics::varied_sums), volume, E_G (density weighted), E_D and the
 // element's share of the normalised objective.
 struct CellCache {

@@ -28,7 +28,8 @@ class VoxelStatistics {
   using Point = Eigen::Matrix<double, dim, 1>;
   using Simplex = std::array<Point, dim + 1>;
 
-  // Builds per-row prefix sums of (h − shift) and (h − shift)², shift = image mean.
+  // Builds per-row prefix sums of (h − shift) and (h − shift)², shift = the image mean (or its median
+  // when a few extreme values pulled the mean far from the common values; see the .cpp).
   explicit VoxelStatistics(const Image<dim>& image);
 
   struct Sums {
