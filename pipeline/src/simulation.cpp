@@ -781,9 +781,18 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
       const int line = m.sc.boundary_conditions.empty() ? 0 : m.sc.boundary_conditions.front().line;
       throw ScenarioError(m.sc.where(line) + "boundary_conditions: " + e.what());
     } catch (const fem::DependentPointConstraints& e) {
-      throw ScenarioError(m.sc.where(spec.line) + who + ": its embedded shaft points constrain nearly the same displacements (" + e.what() +
-                          "); this happens where the path runs along an edge or face of the mesh's elements: set "
-                          "needle.sample_spacing to about twice the element size, or move the path off the edge");
+      // Shaft points closer together than the elements resolve: a path along element edges or through a
+      // row of vertices, or a sample_spacing below the element size.
+      const double edge = m.locator.mean_edge_length();
+      std::ostringstream s;
+      s << m.sc.where(spec.line) << who << ": its embedded shaft points constrain nearly the same displacements ("
+        << e.what() << "); this happens where shaft points are closer together than the elements can resolve: a path "
+        << "along element edges or through a row of mesh vertices";
+      if (spec.sample_spacing > 0.0 && spec.sample_spacing < edge)
+        s << ", or needle.sample_spacing = " << spec.sample_spacing << " below the mean element edge (" << edge << ")";
+      s << "; set needle.sample_spacing to about the mean element edge (" << edge
+        << ") or more (the default is half of it), or move the path slightly";
+      throw ScenarioError(s.str());
     }
     needles.push_back(nr);
   }

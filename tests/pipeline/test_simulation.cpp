@@ -634,3 +634,24 @@ TEST(Simulation, NeedleAlongAGridLineIsResampledAtTheVertices) {
   EXPECT_GE(checked, 18);
   for (std::size_t k = 1; k < r.axial_force.size(); ++k) EXPECT_GT(r.axial_force[k], r.axial_force[k - 1]) << "step " << k;
 }
+
+// A sample_spacing far below the element size puts several P1 shaft points in a cell: the run stops
+// with one message that names the needle, the spacing and the mean element edge to use instead.
+TEST(Simulation, SampleSpacingBelowTheElementSizeIsNamedWhenItFails) {
+  MeshModel<2> m;
+  m.mesh = regular_grid_mesh<2>(Eigen::Vector2d(-30, -30), Eigen::Vector2d(30, 30), {{18, 18}});
+  m.values.assign(m.mesh.n_cells(), ElementValue{1, 15.0, 0.0});
+  const auto sc = parse_scenario_text("material: {poisson_ratio: 0.3}\n"
+                                      "boundary_conditions: [{type: fixed, region: {box_face: y_max}}]\n"
+                                      "needle: {entry: [0.37, -30], direction: [0, 1], depth: 20, steps: 5, diameter: 1,\n"
+                                      "         sample_spacing: 0.05}\n",
+                                      2);
+  try {
+    run_simulation<2>(m, sc, quiet());
+    FAIL() << "expected the dependent shaft points to stop the run";
+  } catch (const ScenarioError& e) {
+    const std::string w = e.what();
+    EXPECT_NE(w.find("needle.sample_spacing = 0.05 below the mean element edge"), std::string::npos) << w;
+    EXPECT_EQ(w.rfind("scenario:3: needle 'needle':", 0), 0u) << w;  // the needle's line
+  }
+}
