@@ -3,6 +3,7 @@
 #include <vim/segmentation.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -41,17 +42,20 @@ Segmentation segment(const SimplexMesh<dim>& mesh, const std::vector<ElementValu
     }
 
   std::vector<long> sizes;
+  std::vector<double> volumes;
   std::vector<int> stack;
   for (std::size_t c = 0; c < nc; ++c) {
     if (!(values[c].mean > threshold) || seg.component[c] >= 0) continue;
     const int id = seg.n_components++;
     long size = 0;
+    double volume = 0.0;
     seg.component[c] = id;
     stack.assign(1, static_cast<int>(c));
     while (!stack.empty()) {
       const int u = stack.back();
       stack.pop_back();
       ++size;
+      volume += std::abs(signed_volume<dim>(cell_points(mesh, static_cast<std::size_t>(u))));
       for (int w : adjacent[u])
         if (seg.component[w] < 0) {
           seg.component[w] = id;
@@ -59,11 +63,15 @@ Segmentation segment(const SimplexMesh<dim>& mesh, const std::vector<ElementValu
         }
     }
     sizes.push_back(size);
+    volumes.push_back(volume);
   }
+  // The largest by volume (an adaptive mesh's element count says little about size); a component
+  // within 1e-12 of the largest so far does not replace it, so ties go to the smallest id.
   for (int id = 0; id < seg.n_components; ++id)
-    if (sizes[id] > seg.largest_size) {
+    if (seg.largest < 0 || volumes[id] > seg.largest_volume * (1.0 + 1e-12)) {
       seg.largest = id;
       seg.largest_size = sizes[id];
+      seg.largest_volume = volumes[id];
     }
   for (std::size_t c = 0; c < nc; ++c) seg.object[c] = seg.largest >= 0 && seg.component[c] == seg.largest;
   return seg;

@@ -302,7 +302,7 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
       ->type_name("IMAGE");
   app.add_option("--threshold", o.threshold,
                  "Segment elements whose mean value is > T into face-connected components; the largest "
-                 "is the object (paper §VI-B) (default: off; unit of the image values)")
+                 "by volume is the object (paper §VI-B) (default: off; unit of the image values)")
       ->type_name("T")
       ->check(finite_number(false));
   std::string mesher = "vim";
@@ -364,7 +364,8 @@ namespace {
 
 json options_json(const RunOptions& o) {
   json j;
-  j["nodes"] = o.nodes;
+  // --spacing sets the initial grid instead of the node budget (the voxel reference uses neither).
+  j["nodes"] = o.spacing > 0.0 ? json(nullptr) : json(o.nodes);
   j["spacing"] = o.spacing;
   j["lambda"] = o.lambda;
   j["max_dihedral_deg"] = o.max_dihedral_deg;
@@ -847,6 +848,10 @@ int run_dim(const RunOptions& given) {
       if (history.size() >= 2)
         report["figures"]["energy"] = write_energy_plot(history, out.file("figures/energy.png"));
     }
+  } else if (!o.exports.empty()) {
+    // The exports and figures are for simplex meshes: say so instead of skipping them silently.
+    report["exports"]["skipped"] = "--mesher voxel writes its hexahedra to mesh.vtu only (no --export formats, no figures)";
+    Log::info("write", "--mesher voxel: mesh.vtu only (the --export formats and figures are for the simplex meshes)");
   }
   t_write.stop();
 

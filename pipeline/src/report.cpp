@@ -115,12 +115,20 @@ void print_image_info(std::ostream& out, const json& im) {
   out << "  origin:     " << vec(im["origin"]) << "  (centre of voxel 0)\n";
   out << "  world box:  [" << vec(im["world_bounds"]["min"]) << "] .. [" << vec(im["world_bounds"]["max"]) << "]\n";
   if (im.contains("world_centre")) out << "  centre:     " << vec(im["world_centre"]) << "  (world, centre of the voxel box)\n";
-  bool identity = true;
+  // identity, axis-aligned (a permutation with signs: flipped or swapped axes, e.g. a NIfTI's LPS
+  // flips) or oblique
+  bool identity = true, aligned = true;
   const int dim = im["dimension"].get<int>();
   for (int a = 0; a < dim; ++a)
-    for (int b = 0; b < dim; ++b)
-      identity = identity && std::abs(im["direction"][a * dim + b].get<double>() - (a == b ? 1.0 : 0.0)) < 1e-12;
-  out << "  direction:  " << (identity ? "identity" : "oblique (" + vec(im["direction"], "%.4f") + ")") << "\n";
+    for (int b = 0; b < dim; ++b) {
+      const double d = im["direction"][a * dim + b].get<double>();
+      identity = identity && std::abs(d - (a == b ? 1.0 : 0.0)) < 1e-12;
+      aligned = aligned && (std::abs(d) < 1e-12 || std::abs(std::abs(d) - 1.0) < 1e-12);
+    }
+  out << "  direction:  "
+      << (identity ? std::string("identity")
+                   : std::string(aligned ? "axis-aligned, flipped or permuted (" : "oblique (") + vec(im["direction"], "%.4f") + ")")
+      << "\n";
   const json& v = im["values"];
   std::snprintf(buf, sizeof buf, "  values:     min %.6g  max %.6g  mean %.6g  stddev %.6g\n", v["min"].get<double>(),
                 v["max"].get<double>(), v["mean"].get<double>(), v["stddev"].get<double>());

@@ -220,6 +220,14 @@ TEST(CliMesh, TwoDimensionalObliqueAnisotropic) {
   const auto b = nlohmann::json::parse(vim::test::slurp(grid_out / "report.json"));
   EXPECT_EQ(a["mesh"]["nodes"], b["mesh"]["nodes"]);
   EXPECT_EQ(b["mesh"]["mesher"], "grid");
+
+  // --spacing sets the grid instead of the node budget: the report does not claim the default budget.
+  const auto spaced_out = dir.path / "spaced";
+  const auto s = run_pipeline(quote(dir / "in.nrrd") + " --spacing 10 --mesher grid -q --out " + quote(spaced_out.string()));
+  ASSERT_EQ(s.code, 0) << s.err;
+  const auto c = nlohmann::json::parse(vim::test::slurp(spaced_out / "report.json"));
+  EXPECT_TRUE(c["options"]["nodes"].is_null()) << c["options"];
+  EXPECT_EQ(c["options"]["spacing"].get<double>(), 10.0);
 }
 
 // --check-invariants runs the mesher's invariant checks after every stage: the run succeeds, the
@@ -314,6 +322,14 @@ TEST(CliMesh, MirroredDirectionKeepsWorldCellsPositive) {
       check_mesh_output(im2, o2, false);
     }
   }
+  // The voxel reference writes mesh.vtu only, and the report says so instead of listing nothing.
+  const auto ov = dir.path / "o2_voxel_exports";
+  const auto rv = run_pipeline(quote(dir / "m2.mha") + " -q --mesher voxel --out " + quote(ov.string()));
+  ASSERT_EQ(rv.code, 0) << rv.err;
+  const auto rep = nlohmann::json::parse(vim::test::slurp(ov / "report.json"));
+  ASSERT_TRUE(rep["exports"].contains("skipped")) << rep.dump();
+  EXPECT_NE(rep["exports"]["skipped"].get<std::string>().find("mesh.vtu only"), std::string::npos);
+  EXPECT_FALSE(std::filesystem::exists(ov / "mesh.vtk"));
 }
 
 // --min-dihedral: without it these meshes have angles below the bound; with it none is below, the
@@ -419,6 +435,18 @@ TEST(CliMesh, HelpVersionInfo) {
   EXPECT_NE(i.out.find("extent:     3 x 3 x 3"), std::string::npos) << i.out;
   EXPECT_NE(i.out.find("min 1  max 2"), std::string::npos) << i.out;
   EXPECT_NE(i.out.find("centre:     1.5 x 1.5 x 1.5  (world, centre of the voxel box)"), std::string::npos) << i.out;
+  EXPECT_NE(i.out.find("direction:  identity"), std::string::npos) << i.out;
+  // Flipped axes (a NIfTI's usual LPS flips) are axis-aligned, a rotation is oblique.
+  auto flipped = phantoms::table1(10);
+  flipped.direction = Eigen::Vector3d(-1, -1, 1).asDiagonal();
+  write_image(flipped, dir / "f.mha");
+  const auto f = run_pipeline("--info " + quote(dir / "f.mha"));
+  EXPECT_NE(f.out.find("direction:  axis-aligned, flipped or permuted"), std::string::npos) << f.out;
+  auto rotated = phantoms::table1(10);
+  rotated.direction = rotation3();
+  write_image(rotated, dir / "r.mha");
+  const auto r = run_pipeline("--info " + quote(dir / "r.mha"));
+  EXPECT_NE(r.out.find("direction:  oblique"), std::string::npos) << r.out;
 }
 
 // E_D = 0 on the initial mesh has two kinds of cause, and the warning names the right one: a constant
