@@ -572,11 +572,12 @@ bool VoxelStatistics<dim>::contains(const Simplex& x, const typename Image<dim>:
   return true;
 }
 
+// Calls visit(index) for every voxel centre in x (the tie rule), in index order, until it returns false.
 template <int dim>
-typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::sums_per_voxel(const Simplex& x) const {
-  Sums out;
+template <class Visit>
+void VoxelStatistics<dim>::visit_voxels(const Simplex& x, Visit&& visit) const {
   Faces f;
-  if (!prepare(x, f)) return out;
+  if (!prepare(x, f)) return;
   std::array<long, dim> j = f.lo;
   while (true) {
     bool in = true;
@@ -585,12 +586,7 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::sums_per_voxel(const S
       const double v = n[0] * (static_cast<double>(j[0]) - f.base[i][0]) + row_rest<dim>(n, f.base[i], j);
       in = accepts(v, f.tol[i], f.tie_in[i]);
     }
-    if (in) {
-      const double h = static_cast<double>(image_->at(j)) - shift_;
-      ++out.n;
-      out.s += h;
-      out.q += h * h;
-    }
+    if (in && !visit(j)) return;
     int ax = 0;
     for (; ax < dim; ++ax) {
       if (j[ax] < f.hi[ax]) {
@@ -599,9 +595,54 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::sums_per_voxel(const S
       }
       j[ax] = f.lo[ax];
     }
-    if (ax == dim) break;
+    if (ax == dim) return;
   }
+}
+
+template <int dim>
+typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::sums_per_voxel(const Simplex& x) const {
+  Sums out;
+  visit_voxels(x, [&](const std::array<long, dim>& j) {
+    const double h = static_cast<double>(image_->at(j)) - shift_;
+    ++out.n;
+    out.s += h;
+    out.q += h * h;
+    return true;
+  });
   return out;
+}
+
+template <int dim>
+ElementValue VoxelStatistics<dim>::value(const Simplex& x) const {
+  const Sums s = sums(x);
+  ElementValue v = value_from(s, x);
+  if (v.voxels == 0) return v;
+  // A variance at the round-off of a constant set (the optimizer's snap, element_variance): check the
+  // voxels (the index box first, O(1)) and if they all hold one value, that value is the mean.
+  const double m2 = s.q / static_cast<double>(s.n), mean = s.s / static_cast<double>(s.n);
+  if (!(m2 - mean * mean <= 1e-10 * m2)) return v;
+  Faces f;
+  bool one_value = index_box(x, f.vertex, f.margin, f.lo, f.hi) && uniform_box(f.lo, f.hi);
+  float h = 0.0f;
+  bool first = true;
+  if (!one_value) {
+    one_value = true;
+    visit_voxels(x, [&](const std::array<long, dim>& j) {
+      const float value = image_->at(j);
+      if (first) h = value, first = false;
+      one_value = value == h;
+      return one_value;
+    });
+  } else {
+    std::array<long, dim> i;
+    for (int a = 0; a < dim; ++a) i[a] = f.lo[a];
+    h = image_->at(i);
+  }
+  if (one_value) {
+    v.mean = static_cast<double>(h);
+    v.variance = 0.0;
+  }
+  return v;
 }
 
 template <int dim>

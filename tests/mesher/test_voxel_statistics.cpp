@@ -335,5 +335,34 @@ TEST(VoxelStatistics, RejectsInconsistentImage) {
   EXPECT_THROW(VoxelStatistics<2> s(bad), std::invalid_argument);
 }
 
+// Elements whose voxels all hold one value get exactly that value as their mean (the exports bin
+// materials by it: 0.9999999999999999 and 1.0 were two materials), while the sums stay about the
+// image mean. Background 0.3 (not a binary fraction) with a brighter block; every element whose voxel
+// centres are all background, found by brute force, must have mean == 0.3f exactly and variance 0.
+TEST(VoxelStatistics, UniformElementsGetTheirValueExactly) {
+  Image<3> img({20, 20, 20}, {1, 1, 1}, {0, 0, 0}, 0.3f);
+  for (std::size_t k = 0; k < img.voxel_count(); ++k) {
+    const auto i = img.index_of(k);
+    if (i[0] >= 12 && i[1] >= 5 && i[2] < 9) img.data[k] = 7.77f;
+  }
+  VoxelStatistics<3> st(img);
+  const auto mesh = regular_grid_mesh<3>(Eigen::Vector3d::Constant(-0.5), Eigen::Vector3d::Constant(19.5), {{6, 6, 6}});
+  int uniform = 0;
+  for (std::size_t c = 0; c < mesh.n_cells(); ++c) {
+    const auto x = cell_points(mesh, c);
+    const auto v = st.value(x);
+    const auto s = st.sums_per_voxel(x);  // brute force: every voxel of the box with the same predicate
+    bool all_background = s.n > 0;
+    for (std::size_t k = 0; k < img.voxel_count() && all_background; ++k)
+      if (img.data[k] != 0.3f && st.contains(x, img.index_of(k))) all_background = false;
+    if (!all_background) continue;
+    ++uniform;
+    EXPECT_EQ(v.mean, static_cast<double>(0.3f)) << "cell " << c;
+    EXPECT_EQ(v.variance, 0.0) << "cell " << c;
+    EXPECT_EQ(v.voxels, s.n) << "cell " << c;
+  }
+  EXPECT_GT(uniform, 100);
+}
+
 }  // namespace
 }  // namespace vim

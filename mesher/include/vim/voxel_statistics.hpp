@@ -55,7 +55,9 @@ class VoxelStatistics {
   bool contains(const Simplex& x, const typename Image<dim>::Index& index) const;
 
   // mean = shift + s/n, population variance (clamped ≥ 0); n == 0 → image value at the centroid.
-  ElementValue value(const Simplex& x) const { return value_from(sums(x), x); }
+  // An element whose voxel centres all hold one value h gets exactly h as its mean (not shift + S/n
+  // with the round-off of the sums about the shift) and variance 0.
+  ElementValue value(const Simplex& x) const;
   ElementValue value_from(const Sums& s, const Simplex& x) const;
 
   double shift() const { return shift_; }
@@ -67,6 +69,8 @@ class VoxelStatistics {
   bool prepare_faces(Faces& f) const;               // face planes, with f's box already set
   bool uniform_box(const std::array<long, dim>& lo, const std::array<long, dim>& hi) const;
   Sums scan(const Faces& f) const;                  // the scanline sums over a prepared simplex
+  template <class Visit>
+  void visit_voxels(const Simplex& x, Visit&& visit) const;  // every voxel centre in x (tie rule)
   // x's vertices in continuous index space and the voxel index range of its bounding box (with the
   // tie tolerance's margin, clipped to the image); false if x is not finite or misses the image.
   bool index_box(const Simplex& x, std::array<Point, dim + 1>& c, double& margin, std::array<long, dim>& lo,
