@@ -183,14 +183,13 @@ std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator, const
     const double s = static_cast<double>(i) * pitch;
     const Eigen::Matrix<double, dim, 1> x = entry + s * axis;
     if (locator.locate(x, &sup) < 0 || sup.empty()) continue;
-    bool along = true, inside = true;
-    for (int v : sup) {
-      const Eigen::Matrix<double, dim, 1> r = locator.vertex(v) - entry;
+    bool along = snap_to_vertices && sup.size() > 1;  // every support vertex on the path, within its depth
+    for (std::size_t k = 0; k < sup.size() && along; ++k) {
+      const Eigen::Matrix<double, dim, 1> r = locator.vertex(sup[k]) - entry;
       const double sv = r.dot(axis);
-      along = along && (r - sv * axis).norm() <= line_tol;
-      inside = inside && sv >= -line_tol && sv < depth;
+      along = (r - sv * axis).norm() <= line_tol && sv >= -line_tol && sv < depth;
     }
-    if (snap_to_vertices && along && inside && sup.size() > 1) {
+    if (along) {
       for (int v : sup) cand.push_back({std::max(0.0, (locator.vertex(v) - entry).dot(axis)), locator.vertex(v), {v}});
     } else {
       cand.push_back({s, x, sup});

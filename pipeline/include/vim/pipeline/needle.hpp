@@ -33,9 +33,6 @@ class CellLocator {
   double mean_edge_length() const { return mean_edge_; }
   // Position of vertex v (the numbering of the supports).
   const Vec& vertex(int v) const { return vertices_[static_cast<std::size_t>(v)]; }
-  // Vertices of a cell (dim + 1 for simplices, 2^dim for the grid's cells): a point whose support
-  // has fewer lies on a face, edge or vertex of its cell.
-  int cell_vertex_count() const { return is_grid_ ? 1 << dim : dim + 1; }
 
  private:
   bool is_grid_ = false;
