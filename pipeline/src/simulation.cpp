@@ -772,10 +772,43 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
         std::ostringstream w;
         w << m.sc.where(spec.line) << who << ": its shaft points along mesh edges were nearly dependent (" << e.what()
           << "); ran it again with the shaft sampled at the mesh vertices on its path";
-        res.warnings.push_back(w.str());
         nr = json();
-        res.needles.push_back(m.run_needle(spec, prefix, nr, true));
-        nr["shaft_sampled_at_vertices"] = true;
+        try {
+          res.needles.push_back(m.run_needle(spec, prefix, nr, true));
+          res.warnings.push_back(w.str());
+          nr["shaft_sampled_at_vertices"] = true;
+        } catch (const fem::DependentPointConstraints&) {
+          // Still dependent: e.g. a path through cells that meet at single vertices (parallel to the
+          // diagonals of a grid, about halfway between them), where one point per cell at the default
+          // spacing (half the mean edge) made the constraints conflict. With the default spacing, try
+          // one and two mean element edges; an explicit sample_spacing is the user's choice (the
+          // error below suggests a value).
+          if (spec.sample_spacing > 0.0) throw;
+          const double edge = m.locator.mean_edge_length();
+          NeedleSpec coarser = spec;
+          bool done = false;
+          for (const double factor : {1.0, 2.0}) {
+            coarser.sample_spacing = factor * edge;
+            nr = json();
+            try {
+              res.needles.push_back(m.run_needle(coarser, prefix, nr, true));
+            } catch (const fem::DependentPointConstraints&) {
+              if (factor == 2.0) throw;
+              continue;
+            }
+            done = true;
+            break;
+          }
+          if (!done) throw;
+          std::ostringstream c;
+          c << m.sc.where(spec.line) << who << ": its shaft points at the default spacing (" << 0.5 * edge
+            << ", half the mean element edge) were nearly dependent (" << e.what() << "); ran it again with "
+            << "sample_spacing = " << coarser.sample_spacing << " and the shaft at the mesh vertices where it "
+            << "runs along edges";
+          res.warnings.push_back(c.str());
+          nr["shaft_sampled_at_vertices"] = true;
+          nr["shaft_pitch_increased_from"] = 0.5 * edge;
+        }
       }
     } catch (const fem::SingularConstraints& e) {  // the first solve: name the scenario's conditions
       const int line = m.sc.boundary_conditions.empty() ? 0 : m.sc.boundary_conditions.front().line;

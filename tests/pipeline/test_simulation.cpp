@@ -635,6 +635,52 @@ TEST(Simulation, NeedleAlongAGridLineIsResampledAtTheVertices) {
   for (std::size_t k = 1; k < r.axial_force.size(); ++k) EXPECT_GT(r.axial_force[k], r.axial_force[k - 1]) << "step " << k;
 }
 
+// A needle parallel to the diagonals of a 2D grid, about halfway between two of them, crosses cells
+// that meet at single vertices: at the default spacing (half the mean edge) its P1 shaft points made
+// conflicting constraints, also when sampled at vertices, and the run stopped (CLI: `--mesher grid`,
+// 1600 nodes, 6 of 31 offsets). With the default spacing the simulation now retries at one mean
+// element edge, says so, and the forces are those of that spacing given explicitly; an explicit
+// spacing that fails still stops the run.
+TEST(Simulation, DiagonalNeedleBetweenGridDiagonalsIsResampledAtTheElementSize) {
+  MeshModel<2> m;
+  m.mesh = regular_grid_mesh<2>(Eigen::Vector2d(-30, -30), Eigen::Vector2d(30, 30), {{40, 40}});
+  m.values.assign(m.mesh.n_cells(), ElementValue{1, 15.0, 0.0});
+  const double h = 60.0 / 39.0;
+  auto scenario = [&](const std::string& spacing) {
+    std::ostringstream sc;
+    sc.precision(17);
+    sc << "material: {youngs_modulus: image, poisson_ratio: 0.3}\n"
+          "boundary_conditions: [{type: fixed, region: {box_face: y_max}}, {type: fixed, region: {box_face: x_max}}]\n"
+          "needle: {entry: [" << -30 + 3 * h + 0.7 << ", " << -30 + 3 * h << "], direction: [1, 1], depth: 30, steps: 6, "
+          "diameter: 1.27" << spacing << "}\n";
+    return parse_scenario_text(sc.str(), 2);
+  };
+  const auto res = run_simulation<2>(m, scenario(""), quiet());
+  ASSERT_EQ(res.warnings.size(), 1u);
+  EXPECT_NE(res.warnings.front().find("ran it again with sample_spacing = "), std::string::npos) << res.warnings.front();
+  const auto& needle = res.report["needles"][0];
+  const double edge = needle["shaft_pitch"].get<double>();
+  EXPECT_NEAR(needle["shaft_pitch_increased_from"].get<double>(), 0.5 * edge, 1e-12 * edge);
+  EXPECT_GT(edge, h);  // the mean edge of the grid's triangles: (2 + √2)/3 · h
+  EXPECT_LT(edge, 1.2 * h);
+  std::ostringstream explicit_spacing;
+  explicit_spacing.precision(17);
+  explicit_spacing << ", sample_spacing: " << edge;
+  const auto same = run_simulation<2>(m, scenario(explicit_spacing.str()), quiet());
+  const auto& a = res.needles[0].axial_force;
+  const auto& b = same.needles[0].axial_force;
+  ASSERT_EQ(a.size(), 7u);
+  ASSERT_EQ(b.size(), a.size());
+  for (std::size_t k = 1; k < a.size(); ++k) {
+    EXPECT_NEAR(a[k], b[k], 1e-9 * std::abs(b[k])) << "step " << k;
+    EXPECT_GT(a[k], a[k - 1]) << "step " << k;
+  }
+  std::ostringstream half;
+  half.precision(17);
+  half << ", sample_spacing: " << 0.5 * edge;
+  EXPECT_THROW(run_simulation<2>(m, scenario(half.str()), quiet()), ScenarioError);
+}
+
 // A sample_spacing far below the element size puts several P1 shaft points in a cell: the run stops
 // with one message that names the needle, the spacing and the mean element edge to use instead.
 TEST(Simulation, SampleSpacingBelowTheElementSizeIsNamedWhenItFails) {
