@@ -321,10 +321,11 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
       ->type_name("SCENARIO.yaml");
   app.add_option("--export", o.exports,
                  "Extra mesh formats, comma-separated: vtk (legacy, deal.II GridIn), feb (FEBio), msh "
-                 "(Gmsh 4.1), inp (Abaqus), none (default: vtk,feb,msh,inp; mesh.vtu is always written)")
+                 "(Gmsh 4.1), inp (Abaqus), all, or none alone (default: all = vtk,feb,msh,inp; mesh.vtu is "
+                 "always written)")
       ->type_name("LIST")
       ->delimiter(',')
-      ->check(CLI::IsMember({"vtk", "feb", "msh", "inp", "none"}));
+      ->check(CLI::IsMember({"vtk", "feb", "msh", "inp", "all", "none"}));
   app.add_flag("--overwrite", o.overwrite, "Write into a non-empty DIR, replacing files of the same name");
   bool quiet = false, verbose = false;
   auto* q = app.add_flag("-q,--quiet", quiet, "Only errors on stderr, no summary on stdout");
@@ -333,6 +334,9 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
   try {
     app.parse(argc, argv);
     if (!o.info && o.out.empty()) throw CLI::RequiredError("--out");
+    if (std::find(o.exports.begin(), o.exports.end(), "none") != o.exports.end() && o.exports.size() > 1)
+      throw CLI::ValidationError("--export", "none cannot be combined with other formats (got " +
+                                                 CLI::detail::join(o.exports, ",") + ")");
   } catch (const CLI::CallForHelp& e) {
     exit_code = app.exit(e);
     return std::nullopt;
@@ -352,6 +356,7 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
   }
   o.mesher = mesher == "grid" ? MesherKind::grid : mesher == "voxel" ? MesherKind::voxel : MesherKind::vim;
   if (std::find(o.exports.begin(), o.exports.end(), "none") != o.exports.end()) o.exports.clear();
+  if (std::find(o.exports.begin(), o.exports.end(), "all") != o.exports.end()) o.exports = export_formats();
   o.verbosity = quiet ? Verbosity::quiet : verbose ? Verbosity::verbose : Verbosity::normal;
   exit_code = 0;
   return o;
@@ -835,7 +840,10 @@ int run_dim(const RunOptions& given) {
     if (!o.exports.empty()) {
       for (const auto& f : o.exports)
         if (!(dim == 2 && f == "feb")) out.file("mesh." + f);
-      write_exports<dim>(model, out.path(), o.exports, report);
+      // .feb and .inp carry ν: the scenario's when there is one, else ExportOptions' default (0.49).
+      ExportOptions export_options;
+      if (scenario) export_options.poisson_ratio = scenario->poisson_ratio;
+      write_exports<dim>(model, out.path(), o.exports, report, export_options);
       for (auto& [fmt_name, path] : report["exports"]["files"].items()) path = "mesh." + fmt_name;
     }
     if (dim == 3)

@@ -1,5 +1,5 @@
 // Abaqus input export (mesh.inp): *Node, one *Element block per material bin (ELSET MAT_<id>,
-// C3D4 linear tetrahedra, CPS3 plane-stress triangles in 2D), and per bin a *Material with *Elastic
+// C3D4 linear tetrahedra, CPE3 plane-strain triangles in 2D, as the simulation), and per bin a *Material with *Elastic
 // (E = the bin's mean modulus, ν) and a *Solid Section tying the set to it. Node and element
 // numbers are the 0-based mesh indices + 1.
 #include <vim/pipeline/atomic_file.hpp>
@@ -14,7 +14,7 @@ void write_inp(const std::filesystem::path& path, const SimplexMesh<dim>& world,
   if (bins.element_material.size() != m) throw std::invalid_argument("material bins do not match the mesh");
   std::vector<std::vector<std::size_t>> members(nb);
   for (std::size_t c = 0; c < m; ++c) members[bins.element_material[c] - 1].push_back(c);
-  const char* type = dim == 3 ? "C3D4" : "CPS3";
+  const char* type = dim == 3 ? "C3D4" : "CPE3";  // plane strain, as fem/
   write_text_atomically(path, [&](std::ostream& out) {
     out << "*Heading\nvim-pipeline VIM mesh, world coordinates; " << nb << " material bins\n";
     out << "*Node\n";

@@ -4,7 +4,11 @@
 #include <vim/pipeline/atomic_file.hpp>
 #include <vim/pipeline/vtk_output.hpp>
 
+#include <vtkCallbackCommand.h>
 #include <vtkCellArray.h>
+#include <vtkCommand.h>
+#include <vtkErrorCode.h>
+#include <vtkExecutive.h>
 #include <vtkCellData.h>
 #include <vtkDoubleArray.h>
 #include <vtkIdTypeArray.h>
@@ -14,7 +18,10 @@
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLUnstructuredGridWriter.h>
 
+#include <algorithm>
+#include <fstream>
 #include <stdexcept>
+#include <string>
 
 namespace vim::pipeline {
 
@@ -51,6 +58,21 @@ template UnstructuredGrid simplex_grid<2>(const SimplexMesh<2>&, const WorldTran
 template UnstructuredGrid simplex_grid<3>(const SimplexMesh<3>&, const WorldTransform<3>&);
 
 namespace {
+
+// A complete VTK XML file ends with its closing tag (and a newline).
+bool ends_with_closing_tag(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return false;
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  const std::string tag = "</VTKFile>";
+  const std::streamoff n = std::min<std::streamoff>(size, 64);
+  if (n < static_cast<std::streamoff>(tag.size())) return false;
+  std::string tail(static_cast<std::size_t>(n), '\0');
+  in.seekg(size - n);
+  in.read(tail.data(), n);
+  return in && tail.find(tag) != std::string::npos;
+}
 
 void add_arrays(vtkDataSetAttributes* attributes, const FieldMap& fields, std::size_t n, const char* where,
                 const fs::path& path) {
@@ -112,7 +134,26 @@ void write_vtu(const fs::path& path, const UnstructuredGrid& grid) {
     w->SetDataModeToAppended();
     w->SetCompressorTypeToZLib();
     w->SetHeaderTypeToUInt64();
-    if (w->Write() != 1) throw std::runtime_error("cannot write " + path.string());
+    // VTK reports a failed write (a full disk, a file-size limit) through its error code and an error
+    // event, while Write() still returns 1: catch the event (so that it is not printed as a VTK log)
+    // and check the code and the file's closing tag.
+    std::string vtk_error;
+    vtkNew<vtkCallbackCommand> on_error;
+    on_error->SetClientData(&vtk_error);
+    on_error->SetCallback([](vtkObject*, unsigned long, void* client, void* call) {
+      if (call) *static_cast<std::string*>(client) = static_cast<const char*>(call);
+    });
+    w->AddObserver(vtkCommand::ErrorEvent, on_error);
+    vtkNew<vtkCallbackCommand> ignore;  // the pipeline's own "returned failure" report of the same error
+    w->GetExecutive()->AddObserver(vtkCommand::ErrorEvent, ignore);
+    const int ok = w->Write();
+    if (ok != 1 || w->GetErrorCode() != vtkErrorCode::NoError || !vtk_error.empty() || !ends_with_closing_tag(tmp)) {
+      std::string why = vtk_error.empty() ? vtkErrorCode::GetStringFromErrorCode(w->GetErrorCode()) : vtk_error;
+      const auto nl = why.find_last_not_of(" \n");
+      why.erase(nl == std::string::npos ? 0 : nl + 1);
+      throw std::runtime_error("cannot write " + path.string() + (why.empty() ? "" : ": " + why) +
+                               " (is the disk full?)");
+    }
   });
 }
 

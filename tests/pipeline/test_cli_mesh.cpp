@@ -212,8 +212,11 @@ TEST(CliMesh, TwoDimensionalObliqueAnisotropic) {
 
   // The unoptimised grid has the same node count and the same conservation properties.
   const auto grid_out = dir.path / "grid";
-  const auto g = run_pipeline(quote(dir / "in.nrrd") + " --nodes 60 --mesher grid -q --out " + quote(grid_out.string()));
+  const auto g = run_pipeline(quote(dir / "in.nrrd") + " --nodes 60 --mesher grid -q --export all --out " +
+                              quote(grid_out.string()));
   ASSERT_EQ(g.code, 0) << g.err;
+  for (const char* f : {"mesh.vtk", "mesh.msh", "mesh.inp"}) EXPECT_TRUE(std::filesystem::exists(grid_out / f)) << f;  // feb: 3D only
+  EXPECT_NE(vim::test::slurp(grid_out / "mesh.inp").find("CPE3"), std::string::npos);  // plane strain, as the FEM
   EXPECT_TRUE(g.err.empty()) << "--quiet printed: " << g.err;
   check_mesh_output(im, grid_out, false);
   const auto a = nlohmann::json::parse(vim::test::slurp(out / "report.json"));
@@ -397,6 +400,7 @@ TEST(CliMesh, UsageErrorsExitWithTwo) {
                         Case{img + out + " --energy-convergence 1", "--energy-convergence"},
                         Case{img + out + " --nodes 2", "--nodes"}, Case{img + out + " --mesher tetgen", "--mesher"},
                         Case{img + out + " --degree 3", "--degree"}, Case{img + out + " --export stl", "--export"},
+                        Case{img + out + " --export vtk,none", "--export"},
                         Case{img, "--out"}, Case{out, "image"}, Case{img + out + " --bogus", "--bogus"},
                         Case{img + out + " --nodes 10 --spacing 2", "--spacing"},
                         Case{img + out + " --spacing nan", "--spacing"}, Case{img + out + " --spacing inf", "--spacing"},

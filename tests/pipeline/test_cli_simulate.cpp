@@ -221,6 +221,21 @@ TEST(CliSimulate, ObliqueAnisotropicNeedleRunWritesWorldResultsAndFigures) {
   EXPECT_TRUE(rep.contains("simulation"));
   EXPECT_TRUE(rep["timing"].contains("simulate"));
   for (const char* f : {"vtk", "msh", "inp", "feb"}) EXPECT_EQ(rep["exports"]["files"][f], std::string("mesh.") + f);
+  // The exports carry the scenario's Poisson ratio (they wrote 0.49 whatever the scenario said).
+  EXPECT_EQ(rep["exports"]["poisson_ratio"].get<double>(), 0.45);
+  const std::string inp = vim::test::slurp(out / "mesh.inp");
+  EXPECT_NE(inp.find("*Elastic\n"), std::string::npos);
+  std::size_t elastic = 0;
+  for (std::size_t at = inp.find("*Elastic\n"); at != std::string::npos; at = inp.find("*Elastic\n", at + 1)) {
+    const std::size_t line = at + 9, comma = inp.find(", ", line);
+    EXPECT_EQ(std::stod(inp.substr(comma + 2)), 0.45) << inp.substr(line, 60);  // "E, nu"
+    ++elastic;
+  }
+  EXPECT_GE(elastic, 1u);
+  const std::string feb = vim::test::slurp(out / "mesh.feb");
+  const std::size_t v = feb.find("<v>");
+  ASSERT_NE(v, std::string::npos);
+  EXPECT_EQ(std::stod(feb.substr(v + 3)), 0.45) << feb.substr(v, 40);
   EXPECT_TRUE(rep["figures"].contains("energy"));
   EXPECT_TRUE(rep["figures"]["simulation"].contains("needle"));
   std::set<std::string> listed(rep["outputs"].begin(), rep["outputs"].end());

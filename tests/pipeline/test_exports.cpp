@@ -406,7 +406,7 @@ TEST(Exports, RoundTrip2DAndFebSkipped) {
   }
   const InpModel inp = read_inp(dir / "mesh.inp");
   ASSERT_EQ(inp.elements.size(), world.n_cells());
-  EXPECT_EQ(inp.element_type.at(1), "CPS3");
+  EXPECT_EQ(inp.element_type.at(1), "CPE3");
   EXPECT_EQ(inp.nodes.at(1).size(), 2u);
 }
 

@@ -1,6 +1,7 @@
 // VTK output (pipeline/include/vim/pipeline/vtk_output.hpp): a mesh written in world coordinates
 // is read back with VTK's own reader — points, connectivity, cell types, point/cell fields — and
 // the .pvd collection is well-formed XML listing the given steps.
+#include <vim/pipeline/png.hpp>
 #include <vim/pipeline/vtk_output.hpp>
 
 #include "run_cli.hpp"
@@ -16,6 +17,9 @@
 #include <vtkXMLUnstructuredGridReader.h>
 
 #include <cmath>
+#include <csignal>
+#include <random>
+#include <sys/resource.h>
 
 using namespace vim;
 using namespace vim::pipeline;
@@ -98,4 +102,65 @@ TEST(VtkOutput, PvdListsSteps) {
   EXPECT_NE(s.find("<VTKFile type=\"Collection\""), std::string::npos);
   EXPECT_NE(s.find("timestep=\"0.5\" group=\"\" part=\"0\" file=\"steps/step_0001.vtu\""), std::string::npos);
   EXPECT_NE(s.find("</VTKFile>"), std::string::npos);
+}
+
+// A write that fails half-way (here a file-size limit of 4 KiB, as on a full disk) is an error
+// naming the file, and leaves no file behind: VTK's XML writer still returned 1 then, so a truncated
+// mesh.vtu was renamed into place and the run exited 0; ITK's PNG writer aborted the process.
+TEST(VtkOutput, FailedWritesAreErrorsAndLeaveNoFile) {
+  vim::test::TempDir dir("full");
+  SimplexMesh<3> m;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int i = 0; i < 4000; ++i) m.points.push_back(Eigen::Vector3d(u(rng), u(rng), u(rng)));
+  for (int c = 0; c + 3 < 4000; c += 4) m.cells.push_back({{c, c + 1, c + 2, c + 3}});
+  UnstructuredGrid g = simplex_grid(m, WorldTransform<3>{});
+  std::vector<double> noise(m.cells.size());
+  for (double& v : noise) v = u(rng);
+  g.cell_data["mean"] = Field{1, noise};
+  Canvas canvas(300, 200);
+  for (int y = 0; y < 200; ++y)
+    for (int x = 0; x < 300; ++x)
+      canvas.fill_polygon({{double(x), double(y)}, {x + 1.0, double(y)}, {x + 1.0, y + 1.0}, {double(x), y + 1.0}},
+                          {static_cast<std::uint8_t>(rng()), static_cast<std::uint8_t>(rng()), static_cast<std::uint8_t>(rng())});
+
+  struct Limit {  // RLIMIT_FSIZE for this scope; SIGXFSZ ignored so that write() fails with EFBIG
+    rlimit old{};
+    void (*old_handler)(int) = nullptr;
+    explicit Limit(rlim_t bytes) {
+      getrlimit(RLIMIT_FSIZE, &old);
+      old_handler = std::signal(SIGXFSZ, SIG_IGN);
+      rlimit r = old;
+      r.rlim_cur = bytes;
+      setrlimit(RLIMIT_FSIZE, &r);
+    }
+    ~Limit() {
+      setrlimit(RLIMIT_FSIZE, &old);
+      std::signal(SIGXFSZ, old_handler);
+    }
+  };
+  {
+    Limit limit(4096);
+    for (const char* name : {"mesh.vtu", "slice.png"}) {
+      try {
+        if (std::string(name) == "mesh.vtu") write_vtu(dir.path / name, g);
+        else canvas.write_png(dir.path / name);
+        ADD_FAILURE() << name << ": the write past the limit did not throw";
+      } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+      }
+      EXPECT_EQ(vim::test::count_files(dir.path), 0) << name;
+    }
+  }
+  // Without the limit both are written and read back.
+  write_vtu(dir.path / "mesh.vtu", g);
+  canvas.write_png(dir.path / "slice.png");
+  vtkNew<vtkXMLUnstructuredGridReader> r;
+  r->SetFileName((dir.path / "mesh.vtu").c_str());
+  r->Update();
+  EXPECT_EQ(r->GetOutput()->GetNumberOfCells(), static_cast<vtkIdType>(m.cells.size()));
+  const Canvas back = Canvas::read_png(dir.path / "slice.png");
+  ASSERT_EQ(back.width(), 300);
+  for (int y = 0; y < 200; y += 7)
+    for (int x = 0; x < 300; x += 5) ASSERT_EQ(back.at(x, y), canvas.at(x, y)) << x << "," << y;
 }
