@@ -64,8 +64,8 @@ OrientedImage<dim> read_image(const std::string& path) {
       (out.direction.transpose() * out.direction - Eigen::Matrix<double, dim, dim>::Identity()).cwiseAbs().maxCoeff();
   if (!std::isfinite(det) || std::abs(std::abs(det) - 1.0) > 1e-3 || orth > 1e-3) {
     std::ostringstream m;
-    m << path << ": direction matrix is not orthonormal (|det| = " << std::abs(det)
-      << "); expected a rotation or reflection";
+    m << path << ": direction matrix is not orthonormal (|det| = " << std::abs(det) << ", largest |DᵀD − I| entry "
+      << orth << "); expected a rotation or reflection (unit, mutually perpendicular axes)";
     throw InputError(m.str());
   }
   return out;

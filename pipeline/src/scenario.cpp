@@ -298,6 +298,11 @@ NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string&
                                   "on the depth of " + fmt(s.depth) + "; use at least " + fmt(s.depth / 100000.0));
   }
   if (const YAML::Node& c = f["cutting_distance"]) {
+    // The force model loads the newest shaft point with the tip force: with a cutting distance there
+    // would be no point, hence no tip force at all, until the tip had travelled that far.
+    if (s.model == NeedleSpec::Model::force)
+      r.fail(c, path + ".cutting_distance applies only to needle model 'kinematic'; the force model applies tip_force "
+                       "at the tissue the tip has reached");
     s.cutting_distance = r.number(c, path + ".cutting_distance");
     if (s.cutting_distance < 0.0) r.fail(c, path + ".cutting_distance must be >= 0, got " + fmt(s.cutting_distance));
     if (s.cutting_distance >= s.depth) r.fail(c, path + ".cutting_distance must be less than the depth (" + fmt(s.depth) + ")");

@@ -390,6 +390,11 @@ needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 
             std::string::npos);
   EXPECT_NE(error_of(replace(plain, "cutting_distance: 0.5", "cutting_distance: 10")).find("less than the depth"),
             std::string::npos);
+  // The force model loads the newest point with the tip force: a cutting distance would leave the first
+  // millimetres without any force (a probe saw 0 N up to the first point, then 150), so it is refused.
+  EXPECT_NE(error_of(replace(plain, "diameter: 1,", "diameter: 1, model: force, tip_force: 1,"))
+                .find("needle.cutting_distance applies only to needle model 'kinematic'"),
+            std::string::npos);
 }
 
 // mesh.needle_refinement: parsed, validated with messages naming the key; needle_paths gives each
