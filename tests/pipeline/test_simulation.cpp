@@ -635,6 +635,48 @@ TEST(Simulation, NeedleAlongAGridLineIsResampledAtTheVertices) {
   for (std::size_t k = 1; k < r.axial_force.size(); ++k) EXPECT_GT(r.axial_force[k], r.axial_force[k - 1]) << "step " << k;
 }
 
+// A sample_spacing below half the element size puts several joined P1 points in one element, whose
+// linear field then reaches ahead of the tip: the run warns, naming the spacing and the mean edge.
+// Here the tissue just ahead of the tip is indeed pulled back (u·a < 0) at the first step with that
+// spacing, and pushed forward with the default one; P2 and the default spacing do not warn.
+TEST(Simulation, SampleSpacingBelowHalfTheElementSizeIsWarnedAbout) {
+  MeshModel<2> m;
+  m.mesh = regular_grid_mesh<2>(Eigen::Vector2d(-30, -30), Eigen::Vector2d(30, 30), {{11, 11}});
+  m.values.assign(m.mesh.n_cells(), ElementValue{1, 15.0, 0.0});
+  auto scenario = [](const std::string& spacing) {
+    return parse_scenario_text("material: {youngs_modulus: image, poisson_ratio: 0.3}\n"
+                               "boundary_conditions: [{type: fixed, region: {box_face: x_max}}]\n"
+                               "needle: {entry: [-30, 1.3], direction: [1, 0], depth: 3, steps: 1, diameter: 1" +
+                                   spacing + "}\n",
+                               2);
+  };
+  // The tissue on the path 2 mm ahead of the tip (at x = -27).
+  auto ahead = [&](const SimulationResult<2>& r) {
+    const auto& u = r.needles[0].vertex_displacement.back();
+    CellLocator<2> loc = CellLocator<2>::simplex(m.mesh);
+    const Eigen::Vector2d p(-25.0, 1.3);
+    const long c = loc.locate(p);
+    EXPECT_GE(c, 0);
+    const auto x = cell_points(m.mesh, static_cast<std::size_t>(c));
+    Eigen::Matrix2d J;
+    J << x[1] - x[0], x[2] - x[0];
+    const Eigen::Vector2d l = J.inverse() * (p - x[0]);
+    const auto& cell = m.mesh.cells[static_cast<std::size_t>(c)];
+    return ((1 - l.sum()) * u[cell[0]] + l[0] * u[cell[1]] + l[1] * u[cell[2]])[0];
+  };
+  const auto fine = run_simulation<2>(m, scenario(", sample_spacing: 0.5"), quiet());
+  ASSERT_EQ(fine.warnings.size(), 1u);
+  EXPECT_NE(fine.warnings[0].find("needle.sample_spacing = 0.5 is below half the mean element edge"), std::string::npos)
+      << fine.warnings[0];
+  const auto plain = run_simulation<2>(m, scenario(""), quiet());
+  EXPECT_TRUE(plain.warnings.empty());
+  EXPECT_LT(ahead(fine), 0.0) << ahead(fine) << " " << ahead(plain);
+  EXPECT_GT(ahead(plain), 0.0);
+  SimulationOptions p2 = quiet();
+  p2.degree = 2;
+  EXPECT_TRUE(run_simulation<2>(m, scenario(", sample_spacing: 0.5"), p2).warnings.empty());
+}
+
 // A needle parallel to the diagonals of a 2D grid, about halfway between two of them, crosses cells
 // that meet at single vertices: at the default spacing (half the mean edge) its P1 shaft points made
 // conflicting constraints, also when sampled at vertices, and the run stopped (CLI: `--mesher grid`,
