@@ -66,14 +66,19 @@ MaterialBins material_bins(const MeshModel<dim>& model, int max_bins) {
 
   std::vector<double> distinct = bins.element_modulus;
   std::sort(distinct.begin(), distinct.end());
-  distinct.erase(std::unique(distinct.begin(), distinct.end()), distinct.end());
+  // Values that differ by round-off only (1.1999999999999997 and 1.2: element means of the same
+  // material summed in another order) are one material: a group runs while each value is within
+  // 1e-12 (relative) of the group's smallest, which represents it.
+  distinct.erase(std::unique(distinct.begin(), distinct.end(),
+                             [](double a, double b) { return b - a <= 1e-12 * std::max(std::abs(a), std::abs(b)); }),
+                 distinct.end());
   std::vector<int> raw(m);  // 0-based bin before dropping empty ones
   int n_raw = 0;
   if (distinct.size() <= static_cast<std::size_t>(max_bins)) {
     n_raw = static_cast<int>(distinct.size());
-    for (std::size_t c = 0; c < m; ++c)
-      raw[c] = static_cast<int>(std::lower_bound(distinct.begin(), distinct.end(), bins.element_modulus[c]) -
-                                distinct.begin());
+    for (std::size_t c = 0; c < m; ++c)  // the group whose smallest value is the largest <= e
+      raw[c] = static_cast<int>(std::upper_bound(distinct.begin(), distinct.end(), bins.element_modulus[c]) -
+                                distinct.begin()) - 1;
   } else {
     n_raw = max_bins;
     const double lo = distinct.front(), hi = distinct.back();

@@ -261,6 +261,24 @@ TEST(MaterialBins, DistinctValuesAreExactBins) {
   }
 }
 
+// Moduli that differ by round-off only are one material (a probe saw 1.1999999999999997 and 1.2 in
+// separate bins); values 1e-9 apart stay apart.
+TEST(MaterialBins, RoundOffDifferencesShareABin) {
+  auto m = grid_model<3>({{3, 3, 3}}, false, false);
+  const std::vector<double> values = {1.2, 1.1999999999999997, 1.2000000000000002, 1.2 + 1e-9, 3.0, 3.0 * (1 + 4e-16)};
+  for (std::size_t c = 0; c < m.mesh.n_cells(); ++c) m.youngs_modulus[c] = values[c % values.size()];
+  const auto bins = material_bins(m, 255);
+  ASSERT_EQ(bins.n_bins(), 3u);
+  for (std::size_t c = 0; c < m.mesh.n_cells(); ++c) {
+    const std::size_t k = c % values.size();
+    const int expected = k < 3 ? 1 : k == 3 ? 2 : 3;
+    EXPECT_EQ(bins.element_material[c], expected) << values[k];
+  }
+  EXPECT_NEAR(bins.modulus[0], 1.2, 1e-15);
+  EXPECT_EQ(bins.modulus[1], 1.2 + 1e-9);
+  EXPECT_NEAR(bins.modulus[2], 3.0, 1e-15);
+}
+
 TEST(MaterialBins, ManyValuesUseAtMost255NonEmptyOrderedBins) {
   const auto m = grid_model<3>({{5, 5, 5}}, true, false);  // 384 distinct values in two clusters
   const auto bins = material_bins(m, 255);
