@@ -393,6 +393,42 @@ TEST(PointConstraints, RedundantCollinearPointsInOneElement) {
   EXPECT_THROW(model.solve(pts), std::runtime_error);
 }
 
+// A needle path along a line of element edges, sampled every 0.57 edge lengths: each point
+// interpolates between the two vertices of its edge, so the rows of a chain are dependent up to the
+// round-off of the barycentric weights. The ordered pivots then need not vanish (cancellation, depending
+// on the processor's rounding), while the reciprocal condition of the rows' Schur complement falls
+// geometrically with the chain's length (~1e-4 at 4 points, ~1e-18 at 30). A short chain solves exactly;
+// a long one is reported as dependent on any processor: its forces and the displacements between the
+// points would be round-off noise (a 2D pipeline run moved the vertices on the path by up to 0.1 mm
+// against 1e-9 for the points themselves).
+TEST(PointConstraints, LongChainAlongElementEdgesIsReportedAsDependent) {
+  const int n = 40;
+  const auto mesh = test::kuhn_box<2>({{n, n}}, {{0.0, 0.0}}, {{1.0, 1.0}});
+  ElasticModel<2> model(mesh, std::vector<double>(mesh.n_cells(), 1.0), 0.3, 1);
+  DirichletBC<2> fixed;
+  fixed.region = box_face_region<2>(Vec<2>(0, 0), Vec<2>(1, 1), 0, true, 1e-9);
+  model.add_dirichlet(fixed);
+  auto chain = [&](int points) {  // along the grid line y = 0.5 from x = 0, pulled along x
+    std::vector<PointConstraint<2>> pts;
+    for (int i = 0; i < points; ++i) pts.push_back({Vec<2>(0.57 * i / n, 0.5), Vec<2>(-0.01, 0.0)});
+    return pts;
+  };
+  const auto shortc = chain(4);
+  const auto s = model.solve(shortc);
+  EXPECT_EQ(s.stats.constraint_rows + s.stats.dependent_rows_dropped, 8u);
+  std::vector<Vec<2>> pos;
+  for (const auto& p : shortc) pos.push_back(p.position);
+  const auto at = model.sample(pos);
+  for (std::size_t k = 0; k < shortc.size(); ++k) EXPECT_LT((at[k] - shortc[k].displacement).norm(), 1e-10);
+  try {
+    model.solve(chain(30));
+    ADD_FAILURE() << "a chain of 30 points along element edges was solved";
+  } catch (const DependentPointConstraints& e) {
+    EXPECT_THAT(e.what(), HasSubstr("nearly dependent"));
+    EXPECT_THAT(e.what(), HasSubstr("reciprocal condition"));
+  }
+}
+
 TEST(Sample, CountsPointsOutside) {
   auto model = needle_block<3>(1);
   model.solve();
