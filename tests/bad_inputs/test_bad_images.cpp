@@ -24,6 +24,9 @@ struct BadImage {
   std::function<void(const std::string& path)> make;
   std::string extra_args = "";
 };
+// Printed by GoogleTest (and so by CTest's test list) for the parameter: the file and the problem,
+// instead of the struct's bytes.
+void PrintTo(const BadImage& c, std::ostream* os) { *os << c.file << ": " << c.problem; }
 
 // A MetaImage with the given header lines and `bytes` bytes of data.
 std::function<void(const std::string&)> mha(const std::string& header, std::size_t bytes) {
