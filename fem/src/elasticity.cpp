@@ -1102,6 +1102,22 @@ void add_constraint_reactions(const Impl& m, const ConstraintRow& row, unsigned 
   }
 }
 
+// After a constrained solve of m.u (free DoFs): checks the dropped rows, distributes the Dirichlet
+// values and post-processes; the point forces are left zero for the caller to fill in.
+template <int dim, class Impl>
+Solution<dim> finish_constrained_solve(Impl& m, const std::vector<const ConstraintRow*>& rows,
+                                       const std::vector<double>& g, const std::vector<bool>& keep,
+                                       const std::vector<std::pair<std::size_t, unsigned>>& which,
+                                       std::size_t n_points, const Timer& timer, double* solve_seconds) {
+  check_dropped_rows(rows, g, keep, which, m.u);
+  m.constraints.distribute(m.u);
+  m.have_solution = true;
+  *solve_seconds = timer.wall_time();
+  Solution<dim> s = postprocess<dim>(m);
+  s.point_force.assign(n_points, Vec<dim>::Zero());
+  return s;
+}
+
 }  // namespace
 
 template <int dim>
@@ -1274,12 +1290,9 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
       m.u.add(-x[a], *rows[a].col);
     }
   }
-  check_dropped_rows(all_rows, all_g, keep, all_which, m.u);
-  m.constraints.distribute(m.u);
-  m.have_solution = true;
-  const double solve_seconds = timer.wall_time();
-  Solution<dim> s = postprocess<dim>(m);
-  s.point_force.assign(points.size(), Vec<dim>::Zero());
+  double solve_seconds = 0.0;
+  Solution<dim> s =
+      finish_constrained_solve<dim>(m, all_rows, all_g, keep, all_which, points.size(), timer, &solve_seconds);
   for (std::size_t a = 0; a < nr; ++a) {
     s.point_force[rows[a].point][rows[a].comp] = -mu[a];
     add_constraint_reactions<dim>(m, *rows[a].row, rows[a].comp, mu[a], s);
@@ -1350,12 +1363,9 @@ Solution<dim> ElasticModel<dim>::solve_monolithic(const std::vector<PointConstra
   direct.solve(x);
   m.u.reinit(n);
   for (unsigned i = 0; i < n; ++i) m.u[i] = x[i];
-  check_dropped_rows(all_rows, all_g, keep, all_which, m.u);
-  m.constraints.distribute(m.u);
-  m.have_solution = true;
-  const double solve_seconds = timer.wall_time();
-  Solution<dim> s = postprocess<dim>(m);
-  s.point_force.assign(points.size(), Vec<dim>::Zero());
+  double solve_seconds = 0.0;
+  Solution<dim> s =
+      finish_constrained_solve<dim>(m, all_rows, all_g, keep, all_which, points.size(), timer, &solve_seconds);
   for (unsigned a = 0; a < nr; ++a) {
     s.point_force[used[a].point][used[a].comp] = -x[n + a];
     add_constraint_reactions<dim>(m, used[a].row, used[a].comp, x[n + a], s);
