@@ -16,6 +16,9 @@
 // (--search-width 0, row "VIM-full"); the ratio column is against the first. --threads 1 runs VIM
 // sequential, as CGAL is here.
 //
+// Row "VIM-early": VIM stopped after the fewest iterations whose mesh already has the paper's Table I
+// TF% at the budget (125 / 343 / 4096 nodes), not converged; printed for information next to CGAL-pe.
+//
 // --match-tf adds an equal-accuracy row "CGAL-pe@TF": s is bisected on refinement-only runs until
 // CGAL's TF% (same metric) is at most VIM's, then that s is timed with perturb + exude; its node
 // count is whatever that takes.
@@ -200,6 +203,33 @@ int main(int argc, char** argv) try {
               full.mesh.n_points(), full.mesh.n_cells(), full_seconds, full.history.size() - 1);
   std::fflush(stdout);
 
+  // VIM stopped early: the fewest iterations whose mesh already has the paper's Table I TF% at this
+  // budget (125 / 343 / 4096 nodes: 5.52 / 2.64 / 0.78%), timed as the fastest of `repeat`. It is not
+  // converged (Eq. 9), so it does not count for the target; it shows the time VIM needs for the paper's
+  // accuracy at equal nodes.
+  const std::map<long, double> paper_tf = {{125, 5.52}, {343, 2.64}, {4096, 0.78}};
+  vim::VimResult<3> early;
+  double early_seconds = 0.0;
+  int early_iterations = 0;
+  if (const auto p = paper_tf.find(budget); p != paper_tf.end()) {
+    for (int k = 1; k < static_cast<int>(r.history.size()) && early_iterations == 0; ++k) {
+      vim::VimOptions early_options = options;
+      early_options.max_iterations = k;
+      early_seconds = std::numeric_limits<double>::infinity();
+      for (int rep = 0; rep < repeat; ++rep) {
+        t0 = std::chrono::steady_clock::now();
+        early = vim::optimize<3>(image, grid, early_options);
+        early_seconds = std::min(early_seconds, seconds_since(t0));
+        if (vim::metrics::table1_metrics<3>(image, early.mesh, centre, 1.0).tf_percent > p->second) break;
+        if (rep + 1 == repeat) early_iterations = k;
+      }
+    }
+    if (early_iterations > 0)
+      std::printf("VIM-early done: %d iterations reach the paper's TF %.2f%% in %.2f s (fastest of %d; not converged)\n",
+                  early_iterations, p->second, early_seconds, repeat);
+    std::fflush(stdout);
+  }
+
   // CGAL: labeled image domain, tune s on refinement-only runs (node count ~ s^-3).
   const CGAL::Image_3 cimage = labeled_image(image);
   // A fresh domain per make_mesh_3 call: the domain owns the random generator (seeded 0) used for
@@ -299,10 +329,16 @@ int main(int argc, char** argv) try {
   print_row("VIM", r.mesh, vm, vim_seconds, vim_seconds);
   print_row("VIM-full", full.mesh, vim::metrics::table1_metrics<3>(image, full.mesh, centre, 1.0), full_seconds,
             vim_seconds);
+  if (early_iterations > 0)
+    print_row("VIM-early", early.mesh, vim::metrics::table1_metrics<3>(image, early.mesh, centre, 1.0), early_seconds,
+              vim_seconds);
   for (const Row& row : rows) {
     const auto m = vim::metrics::table1_metrics<3>(image, row.mesh.mesh, centre, 1.0);
     print_row(row.name, row.mesh.mesh, m, row.seconds, vim_seconds);
   }
+  if (early_iterations > 0)
+    std::printf("VIM-early (%d iterations, stopped before Eq. 9 convergence, TF at most the paper's): %.2f x CGAL-pe\n",
+                early_iterations, early_seconds / pe_seconds);
   std::printf("VIM's set-up + swap passes alone: %.3f s = %.2f x CGAL-pe (the node updates are the other %.3f s)\n",
               setup_seconds + swap_seconds, (setup_seconds + swap_seconds) / pe_seconds, node_seconds);
   std::printf("\nCGAL with the subdomain rule (object = tets CGAL labelled 2):\n");
