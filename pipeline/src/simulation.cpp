@@ -837,6 +837,32 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
         << ") or more (the default is half of it), or move the path slightly";
       throw ScenarioError(s.str());
     }
+    if (spec.model == NeedleSpec::Model::kinematic && spec.friction == NeedleSpec::Friction::stick) {
+      // A stuck shaft advancing into linear elastic tissue pushes it: the axial force should not be
+      // negative nor fall. Where it does, the discretisation holds the tissue at the tip back (a shaft
+      // point joins at rest, and P1 spreads that over its whole element): say so, with the remedies.
+      const std::vector<double>& f = res.needles.back().axial_force;
+      double largest = 0.0;
+      std::vector<int> dips;
+      for (std::size_t k = 1; k < f.size(); ++k) {
+        largest = std::max(largest, std::abs(f[k]));
+        if (f[k] < 0.0 || f[k] < f[k - 1] - 0.05 * largest) dips.push_back(static_cast<int>(k));
+      }
+      if (!dips.empty()) {
+        const std::size_t k = static_cast<std::size_t>(dips.front());
+        std::ostringstream w;
+        w << m.sc.where(spec.line) << who << ": the axial force " << (f[k] < 0.0 ? "is negative" : "falls") << " at "
+          << dips.size() << " of " << f.size() - 1 << " steps (first: step " << k << ", " << f[k - 1] << " -> " << f[k]
+          << "), which a stuck needle pushing into elastic tissue does not do: the shaft points that join at the tip "
+          << "hold the tissue there at rest, and " << (m.voxel || m.degree == 1 ? "linear elements spread that over"
+                                                                                 : "the elements spread that over")
+          << " their whole size; " << (m.voxel || m.degree == 1 ? "use mesh.degree: 2, " : "")
+          << "refine along the path (mesh.needle_refinement, more nodes) or set needle.sample_spacing to about the "
+          << "mean element edge (" << edge << ")";
+        res.warnings.push_back(w.str());
+        nr["axial_force_dips"] = dips;
+      }
+    }
     needles.push_back(nr);
   }
   rep["needles"] = needles;

@@ -665,9 +665,12 @@ TEST(Simulation, SampleSpacingBelowHalfTheElementSizeIsWarnedAbout) {
     return ((1 - l.sum()) * u[cell[0]] + l[0] * u[cell[1]] + l[1] * u[cell[2]])[0];
   };
   const auto fine = run_simulation<2>(m, scenario(", sample_spacing: 0.5"), quiet());
-  ASSERT_EQ(fine.warnings.size(), 1u);
+  // ... and, since the tissue is pulled back, the force at the one step is negative (the second warning).
+  ASSERT_EQ(fine.warnings.size(), 2u);
   EXPECT_NE(fine.warnings[0].find("needle.sample_spacing = 0.5 is below half the mean element edge"), std::string::npos)
       << fine.warnings[0];
+  EXPECT_LT(fine.needles[0].axial_force[1], 0.0);
+  EXPECT_NE(fine.warnings[1].find("the axial force is negative at 1 of 1 steps"), std::string::npos) << fine.warnings[1];
   const auto plain = run_simulation<2>(m, scenario(""), quiet());
   EXPECT_TRUE(plain.warnings.empty());
   EXPECT_LT(ahead(fine), 0.0) << ahead(fine) << " " << ahead(plain);
@@ -675,6 +678,47 @@ TEST(Simulation, SampleSpacingBelowHalfTheElementSizeIsWarnedAbout) {
   SimulationOptions p2 = quiet();
   p2.degree = 2;
   EXPECT_TRUE(run_simulation<2>(m, scenario(", sample_spacing: 0.5"), p2).warnings.empty());
+}
+
+// A stuck needle advancing into linear elastic tissue pushes it, so its axial force should neither be
+// negative nor fall. With P1 and a shaft point joining at rest just behind the tip, the discretisation
+// holds the tissue there back: here (a coarse 2D grid, a path 0.05 mm off one of its lines) the first
+// step's force is negative. The run says so, naming the step and the remedies, and report.json lists
+// the steps; P2 on the same mesh pushes (positive, rising forces) and does not warn.
+TEST(Simulation, NegativeOrFallingStickForceIsWarnedAbout) {
+  MeshModel<2> m;
+  m.mesh = regular_grid_mesh<2>(Eigen::Vector2d(-30, -30), Eigen::Vector2d(30, 30), {{12, 12}});
+  m.values.assign(m.mesh.n_cells(), ElementValue{1, 15.0, 0.0});
+  const double h = 60.0 / 11.0;
+  std::ostringstream sc;
+  sc.precision(17);
+  sc << "material: {youngs_modulus: image, poisson_ratio: 0.3}\n"
+        "boundary_conditions: [{type: fixed, region: {box_face: x_max}}, {type: fixed, region: {box_face: y_max}}]\n"
+        "needle: {entry: [" << -30 + 2 * h << ", " << -30 + 2 * h + 0.05 << "], direction: [1, 0], depth: 40, "
+        "steps: 6, diameter: 1}\n";
+  const Scenario scenario = parse_scenario_text(sc.str(), 2);
+  const auto p1 = run_simulation<2>(m, scenario, quiet());
+  const auto& f = p1.needles[0].axial_force;
+  std::vector<int> expected;  // the steps the warning must name, found here from the forces themselves
+  double largest = 0.0;
+  for (std::size_t k = 1; k < f.size(); ++k) {
+    largest = std::max(largest, std::abs(f[k]));
+    if (f[k] < 0.0 || f[k] < f[k - 1] - 0.05 * largest) expected.push_back(static_cast<int>(k));
+  }
+  ASSERT_FALSE(expected.empty()) << "P1 forces rose monotonically here; the test no longer exercises the warning";
+  EXPECT_LT(f[1], 0.0);
+  ASSERT_EQ(p1.warnings.size(), 1u);
+  EXPECT_NE(p1.warnings[0].find("the axial force is negative at " + std::to_string(expected.size()) + " of 6 steps (first: step 1"),
+            std::string::npos)
+      << p1.warnings[0];
+  EXPECT_NE(p1.warnings[0].find("mesh.degree: 2"), std::string::npos) << p1.warnings[0];
+  EXPECT_EQ(p1.report["needles"][0]["axial_force_dips"].get<std::vector<int>>(), expected);
+  SimulationOptions o2 = quiet();
+  o2.degree = 2;
+  const auto p2 = run_simulation<2>(m, scenario, o2);
+  for (std::size_t k = 1; k < p2.needles[0].axial_force.size(); ++k)
+    EXPECT_GT(p2.needles[0].axial_force[k], p2.needles[0].axial_force[k - 1]) << "step " << k;
+  EXPECT_TRUE(p2.warnings.empty()) << p2.warnings.front();
 }
 
 // A needle parallel to the diagonals of a 2D grid, about halfway between two of them, crosses cells
