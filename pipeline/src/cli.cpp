@@ -539,8 +539,10 @@ void write_simulation_figures(const SimulationResult<dim>& result, const MeshMod
       u.reserve(model->mesh.n_points());
       for (const auto& w : run.vertex_displacement.back()) u.push_back(model->transform.vector_to_frame(w));
       const Eigen::Matrix<double, dim, 1> tip = model->transform.to_frame(run.tip.back());
+      int normal = dim - 1;  // 3D: the slice through the tip that holds the most of the needle
+      if constexpr (dim == 3) normal = slice_normal_along(model->transform.vector_to_frame(run.axis));
       fig["deformed"] = write_deformed_slice<dim>(*model, u, out.file("figures/" + prefix + "deformed.png"), tip,
-                                                  dim - 1, "|u| [" + length + "]");
+                                                  normal, "|u| [" + length + "]");
       fig["deformed"]["file"] = "figures/" + prefix + "deformed.png";
     }
   }

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <random>
 #include <unistd.h>
 
 #include "scratch_dir.hpp"
@@ -407,4 +408,23 @@ TEST(Figures, DeformedSliceFollowsTheDisplacement) {
     }
   }
   EXPECT_GT(checked, 10);
+}
+
+// The deformed-mesh figure of a simulation cuts through the tip along the plane that holds the most of
+// the needle: normal to the axis of the direction's smallest component (a needle along z was cut
+// across, at its tip only, by the fixed z slice).
+TEST(Figures, DeformedSliceNormalHoldsTheNeedle) {
+  EXPECT_EQ(slice_normal_along(Eigen::Vector3d(1, 0, 0)), 2);
+  EXPECT_EQ(slice_normal_along(Eigen::Vector3d(0, 1, 0)), 2);
+  EXPECT_EQ(slice_normal_along(Eigen::Vector3d(0, 0, -1)), 1);
+  EXPECT_EQ(slice_normal_along(Eigen::Vector3d(0.1, 0.9, 0.42)), 0);
+  EXPECT_EQ(slice_normal_along(Eigen::Vector3d(0.6, 0.05, 0.8)), 1);
+  // Brute force over random directions: the chosen normal is a smallest component.
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n;
+  for (int k = 0; k < 1000; ++k) {
+    const Eigen::Vector3d d(n(rng), n(rng), n(rng));
+    const int a = slice_normal_along(d);
+    EXPECT_EQ(std::abs(d[a]), d.cwiseAbs().minCoeff()) << d.transpose();
+  }
 }

@@ -14,6 +14,7 @@
 #include <Eigen/Core>
 
 #include <array>
+#include <cmath>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -74,6 +75,16 @@ nlohmann::json write_line_plot(const std::filesystem::path& path, const std::vec
 // Fig. 9: E, E_G/E_G0 and E_D/E_D0 against the iteration, each normalised to history[0].
 nlohmann::json write_energy_plot(const std::vector<vim::IterationRecord>& history,
                                  const std::filesystem::path& path);
+
+// The frame axis to which a slice through a needle's tip should be normal so that it holds as much of
+// the needle as possible: the axis along which `direction` (frame) has its smallest component; ties go
+// to the later axis (a needle along x or y is cut by the z slice, one along z by the y slice).
+inline int slice_normal_along(const Eigen::Vector3d& direction) {
+  int best = 2;
+  for (int a = 1; a >= 0; --a)
+    if (std::abs(direction[a]) < std::abs(direction[best])) best = a;
+  return best;
+}
 
 // The mesh after displacement (per node, frame axes) cut by the plane x[normal_axis] =
 // slice_point[normal_axis] in 3D (2D: the whole deformed mesh): undeformed outline in light grey,
