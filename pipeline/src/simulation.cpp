@@ -851,8 +851,7 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
       if (!dips.empty()) {
         const std::size_t k = static_cast<std::size_t>(dips.front());
         std::ostringstream w;
-        w << m.sc.where(spec.line) << who << ": the axial force " << (f[k] < 0.0 ? "is negative" : "falls") << " at "
-          << dips.size() << " of " << f.size() - 1 << " steps (first: step " << k << ", " << f[k - 1] << " -> " << f[k]
+        w << m.sc.where(spec.line) << who << ": the axial force is negative or falls at " << dips.size() << " of " << f.size() - 1 << " steps (first: step " << k << ", " << f[k - 1] << " -> " << f[k]
           << "), which a stuck needle pushing into elastic tissue does not do: the shaft points that join at the tip "
           << "hold the tissue there at rest, and " << (m.voxel || m.degree == 1 ? "linear elements spread that over"
                                                                                  : "the elements spread that over")
