@@ -166,7 +166,6 @@ void NeedleSimulation<dim>::Impl::setup(const std::vector<Vec>& vertices) {
                                            : fem::SolverOptions::Type::automatic;
   solver.tolerance = sc.solver_tolerance;
   blocked.assign(vertices.size(), false);
-  const Mat D = tf.direction;
   for (std::size_t i = 0; i < sc.boundary_conditions.size(); ++i) {
     const auto& bc = sc.boundary_conditions[i];
     const std::string where = sc.where(bc.line) + "boundary_conditions[" + std::to_string(i) + "]";
@@ -185,16 +184,9 @@ void NeedleSimulation<dim>::Impl::setup(const std::vector<Vec>& vertices) {
       d.region = reg;
       const bool all = std::all_of(bc.components.begin(), bc.components.end(), [](bool b) { return b; });
       if (!all) {
-        // World components map to frame components only for a (signed) permutation direction matrix.
-        for (int c = 0; c < dim; ++c) {
-          int w = -1;
-          for (int a = 0; a < dim; ++a)
-            if (std::abs(std::abs(D(a, c)) - 1.0) < 1e-9) w = a;
-          if (w < 0)
-            throw ScenarioError(where + ".components: selecting components needs an image direction matrix that is a "
-                                        "permutation of the axes (this image is rotated); remove 'components'");
-          d.components[c] = bc.components[w];
-        }
+        // World components map to frame components only for a (signed) permutation direction matrix;
+        // check_scenario_geometry (above) refuses components on any other image.
+        for (int c = 0; c < dim; ++c) d.components[c] = bc.components[tf.world_axis_of(c)];
       }
       if (bc.type == BoundaryConditionSpec::Type::displacement) d.value = tf.vector_to_frame(vec<dim>(bc.value));
       model->add_dirichlet(d);

@@ -338,6 +338,44 @@ TEST(Scenario, GeometryAgainstTheImageBox) {
   EXPECT_EQ(msg(ok, "[9, 3, 5]", obl), "no error");  // D^T (9, 3, 5) = (8.49, -4.24, 5): inside
 }
 
+// Components are world axes: on an oblique image they have no image axis to act on. The check is
+// part of check_scenario_geometry, which the CLI runs before meshing.
+TEST(Scenario, ComponentsOnAnObliqueImageAreRefusedBeforeMeshing) {
+  using V = Eigen::Vector3d;
+  const V lo(-10, -10, 0), hi(10, 10, 40);
+  auto scen = [](const std::string& components) {
+    return parse_scenario_text("boundary_conditions:\n  - {type: fixed, region: {box_face: z_max}}\n"
+                               "  - {type: fixed, region: {box_face: z_min}" + components + "}\n"
+                               "needle: {entry: [0, 0, 1], direction: [0, 0, 1], depth: 5, steps: 2, diameter: 1}\n",
+                               3, "c.yaml");
+  };
+  auto msg = [&](const Scenario& s, const WorldTransform<3>& t) {
+    try {
+      check_scenario_geometry<3>(s, lo, hi, t);
+    } catch (const ScenarioError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  WorldTransform<3> id, perm, obl;
+  perm.direction << 0, -1, 0, 1, 0, 0, 0, 0, 1;  // Rz(90°): image axes are world axes
+  const double c = std::sqrt(0.5);
+  obl.direction << c, -c, 0, c, c, 0, 0, 0, 1;   // Rz(45°)
+  const Scenario with = scen(", components: [z]"), without = scen("");
+  EXPECT_EQ(msg(with, id), "no error");
+  EXPECT_EQ(msg(with, perm), "no error");
+  EXPECT_EQ(msg(without, obl), "no error");
+  const std::string m = msg(with, obl);
+  EXPECT_NE(m.find("c.yaml:3: boundary_conditions[1].components: selecting components needs an image direction matrix"), std::string::npos) << m;
+  EXPECT_NE(m.find("this image is oblique"), std::string::npos) << m;
+  // All components selected is no selection: allowed on any image.
+  EXPECT_EQ(msg(scen(", components: [x, y, z]"), obl), "no error");
+  EXPECT_EQ(perm.world_axis_of(0), 1);
+  EXPECT_EQ(perm.world_axis_of(1), 0);
+  EXPECT_EQ(obl.world_axis_of(0), -1);
+  EXPECT_EQ(obl.world_axis_of(2), 2);
+}
+
 TEST(Scenario, ModulusImageNeedsClampForNegativeOrNaN) {
   Image<3> img({{4, 4, 4}}, {{1, 1, 1}}, {{0, 0, 0}}, 10.0f);
   const Scenario plain = parse_scenario_text(kMinimal, 3);

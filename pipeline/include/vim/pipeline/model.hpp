@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 
+#include <cmath>
 #include <map>
 #include <string>
 #include <vector>
@@ -28,6 +29,18 @@ struct WorldTransform {
   // A vector (displacement, force) from frame to world axes.
   Eigen::Matrix<double, dim, 1> vector_to_world(const Eigen::Matrix<double, dim, 1>& v) const { return direction * v; }
   Eigen::Matrix<double, dim, 1> vector_to_frame(const Eigen::Matrix<double, dim, 1>& v) const { return direction.transpose() * v; }
+  // The world axis that image axis c lies along (±), or -1 if it lies along none (an oblique image).
+  int world_axis_of(int c) const {
+    for (int a = 0; a < dim; ++a)
+      if (std::abs(std::abs(direction(a, c)) - 1.0) < 1e-9) return a;
+    return -1;
+  }
+  // Every image axis lies along a world axis: the direction matrix is a signed permutation.
+  bool axis_aligned() const {
+    for (int c = 0; c < dim; ++c)
+      if (world_axis_of(c) < 0) return false;
+    return true;
+  }
 };
 
 template <int dim>
