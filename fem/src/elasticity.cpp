@@ -57,6 +57,13 @@ Vec<dim> to_vec(const Point<dim>& p) {
   return v;
 }
 
+template <int dim>
+Tensor<1, dim> to_tensor(const Vec<dim>& v) {
+  Tensor<1, dim> t;
+  for (int d = 0; d < dim; ++d) t[d] = v[d];
+  return t;
+}
+
 std::string fmt_point(const double* x, int dim) {
   std::ostringstream s;
   s << "(";
@@ -359,6 +366,10 @@ void ElasticModel<dim>::add_dirichlet(const DirichletBC<dim>& bc) {
   if (!bc.region.contains) throw std::invalid_argument("add_dirichlet: region '" + bc.region.name + "' has no contains() function");
   if (!bc.function && !bc.value.allFinite())
     throw std::invalid_argument("add_dirichlet: value of condition on region '" + bc.region.name + "' is not finite");
+  if (!bc.axes.allFinite() ||
+      !(bc.axes.transpose() * bc.axes).isApprox(Eigen::Matrix<double, dim, dim>::Identity(), 1e-9))
+    throw std::invalid_argument("add_dirichlet: axes of condition on region '" + bc.region.name +
+                                "' are not orthonormal (its columns must be unit, mutually orthogonal directions)");
   impl_->bcs.push_back(bc);
   invalidate(*impl_);
 }
@@ -421,25 +432,92 @@ unsigned ElasticModel<dim>::degree() const { return impl_->degree; }
 // ================================================================================================
 // assembly
 
+namespace {
+
+// Unit vector along model axis c.
 template <int dim>
-int ElasticModel<dim>::Impl::dirichlet_owner(const Point<dim>& x, unsigned c, double* value) const {
+Tensor<1, dim> unit_axis(unsigned c) {
+  Tensor<1, dim> e;
+  e[c] = 1.0;
+  return e;
+}
+
+}  // namespace
+
+template <int dim>
+void ElasticModel<dim>::Impl::constrain_point(const Point<dim>& x, const std::array<types::global_dof_index, dim>& dofs,
+                                              AffineConstraints<double>& constraints,
+                                              const std::function<void(types::global_dof_index, int)>& hold,
+                                              std::vector<std::pair<Point<dim>, Tensor<1, dim>>>* constrained) const {
   const Vec<dim> xv = to_vec<dim>(x);
-  for (std::size_t b = 0; b < bcs.size(); ++b) {
+  std::array<bool, dim> held;
+  held.fill(false);
+  int n_held = 0;
+  for (std::size_t b = 0; b < bcs.size() && n_held < dim; ++b) {
     const auto& bc = bcs[b];
-    if (!bc.components[c] || !bc.region.contains(xv)) continue;
-    *value = bc.function ? bc.function(xv)[c] : bc.value[c];
-    if (!std::isfinite(*value))
-      throw std::invalid_argument("Dirichlet condition on region '" + bc.region.name + "' gives a non-finite value at " +
-                                  fmt_point(xv.data(), dim));
-    return static_cast<int>(b);
+    const bool model_axes = bc.axes == Eigen::Matrix<double, dim, dim>::Identity();
+    if (!model_axes && n_held > 0) continue;  // along other axes: the whole point or nothing
+    bool any = false;
+    for (int c = 0; c < dim; ++c) any = any || (bc.components[c] && !held[c]);
+    if (!any || !bc.region.contains(xv)) continue;
+    const Vec<dim> value = bc.function ? bc.function(xv) : bc.value;
+    for (int c = 0; c < dim; ++c)
+      if (bc.components[c] && !std::isfinite(value[c]))
+        throw std::invalid_argument("Dirichlet condition on region '" + bc.region.name + "' gives a non-finite value at " +
+                                    fmt_point(xv.data(), dim));
+    if (model_axes) {
+      for (int c = 0; c < dim; ++c) {
+        if (!bc.components[c] || held[c]) continue;
+        held[c] = true;
+        ++n_held;
+        constraints.add_line(dofs[c]);
+        constraints.set_inhomogeneity(dofs[c], value[c]);
+        hold(dofs[c], static_cast<int>(b));
+        if (constrained) constrained->emplace_back(x, unit_axis<dim>(c));
+      }
+      continue;
+    }
+    // Rows n_w·u = value_w (n_w = axes.col(w), w selected), reduced by Gauss-Jordan elimination with
+    // the largest pivot in each row: u_p + Σ_f M(r, f) u_f = h_r on the pivot components p, the other
+    // (free) components f of the point stay unknowns.
+    Eigen::Matrix<double, dim, dim + 1> M;
+    int k = 0;
+    for (int w = 0; w < dim; ++w)
+      if (bc.components[w]) {
+        M.row(k).template head<dim>() = bc.axes.col(w).transpose();
+        M(k, dim) = value[w];
+        if (constrained) constrained->emplace_back(x, to_tensor<dim>(bc.axes.col(w)));
+        ++k;
+      }
+    std::array<int, dim> pivot;
+    std::array<bool, dim> is_pivot;
+    is_pivot.fill(false);
+    for (int r = 0; r < k; ++r) {
+      int p = -1;
+      for (int c = 0; c < dim; ++c)
+        if (!is_pivot[c] && (p < 0 || std::abs(M(r, c)) > std::abs(M(r, p)))) p = c;
+      pivot[r] = p;
+      is_pivot[p] = true;
+      M.row(r) /= M(r, p);
+      for (int q = 0; q < k; ++q)
+        if (q != r) M.row(q) -= M(q, p) * M.row(r);
+    }
+    for (int r = 0; r < k; ++r) {
+      const types::global_dof_index i = dofs[pivot[r]];
+      constraints.add_line(i);
+      for (int f = 0; f < dim; ++f)
+        if (!is_pivot[f] && M(r, f) != 0.0) constraints.add_entry(i, dofs[f], -M(r, f));
+      constraints.set_inhomogeneity(i, M(r, dim));
+    }
+    for (int c = 0; c < dim; ++c) hold(dofs[c], static_cast<int>(b));
+    return;
   }
-  return -1;
 }
 
 // The conditions remove every rigid motion iff no rigid mode r ≠ 0 vanishes on all constrained
 // DoFs, i.e. the Gram matrix Σ_i r_k(i) r_l(i) over constrained DoFs is non-singular.
 template <int dim>
-void ElasticModel<dim>::Impl::check_rigid_modes_removed(const std::vector<std::pair<Point<dim>, unsigned>>& constrained,
+void ElasticModel<dim>::Impl::check_rigid_modes_removed(const std::vector<std::pair<Point<dim>, Tensor<1, dim>>>& constrained,
                                                         MPI_Comm comm) const {
   const auto n_constrained = Utilities::MPI::sum(static_cast<unsigned long long>(constrained.size()), comm);
   if (n_constrained == 0) {
@@ -461,17 +539,16 @@ void ElasticModel<dim>::Impl::check_rigid_modes_removed(const std::vector<std::p
   const Point<dim> c0 = to_point<dim>(0.5 * (lo + hi));
   const double scale = std::max(0.5 * (hi - lo).norm(), std::numeric_limits<double>::min());
   Eigen::Matrix<double, nm, nm> G = Eigen::Matrix<double, nm, nm>::Zero();
-  for (const auto& [x, comp] : constrained) {
+  for (const auto& [x, n] : constrained) {
+    // The constrained direction n seen by each rigid mode: translations n, rotations ω·(r × n).
     const Tensor<1, dim> r = (x - c0) / scale;
     Eigen::Matrix<double, nm, 1> row = Eigen::Matrix<double, nm, 1>::Zero();
-    row[comp] = 1.0;
+    for (int d = 0; d < dim; ++d) row[d] = n[d];
     if constexpr (dim == 2) {
-      row[2] = comp == 0 ? -r[1] : r[0];
+      row[2] = -r[1] * n[0] + r[0] * n[1];
     } else {
-      // rotations about x, y, z: ω × r
-      const double rx = r[0], ry = r[1], rz = r[2];
-      const double rot[3][3] = {{0.0, rz, -ry}, {-rz, 0.0, rx}, {ry, -rx, 0.0}};  // rot[axis][comp]
-      for (int a = 0; a < 3; ++a) row[3 + a] = rot[a][comp];
+      const Tensor<1, 3> rn = cross_product_3d(r, n);
+      for (int a = 0; a < 3; ++a) row[3 + a] = rn[a];
     }
     G += row * row.transpose();
   }
@@ -681,21 +758,27 @@ void assemble(Impl& m) {
   }
   m.constraints.clear();
   m.dof_bc.assign(n, -1);
-  std::vector<std::pair<Point<dim>, unsigned>> constrained;
-  for (unsigned i = 0; i < n; ++i) {
-    double value = 0.0;
-    const int b = m.dirichlet_owner(m.support_points[i], component[i], &value);
-    if (b < 0) continue;
-    m.dof_bc[i] = b;
-    m.constraints.add_line(i);
-    m.constraints.set_inhomogeneity(i, value);
-    constrained.emplace_back(m.support_points[i], component[i]);
+  std::vector<std::pair<Point<dim>, Tensor<1, dim>>> constrained;
+  {
+    std::vector<char> seen(n, 0);
+    std::vector<types::global_dof_index> idx(fe.n_dofs_per_cell());
+    std::vector<std::array<types::global_dof_index, dim>> groups;
+    const auto hold = [&m](types::global_dof_index i, int b) { m.dof_bc[i] = b; };
+    for (const auto& cell : m.dof.active_cell_iterators()) {
+      cell->get_dof_indices(idx);
+      dof_groups<dim>(fe, idx, groups);
+      for (const auto& g : groups) {
+        if (seen[g[0]]) continue;
+        seen[g[0]] = 1;
+        m.constrain_point(m.support_points[g[0]], g, m.constraints, hold, &constrained);
+      }
+    }
   }
   m.constraints.close();
   // A volume support holds every component at its sample points: it removes rigid motions too.
   for (const auto& sup : m.supports)
     for (const auto& x : sup.points)
-      for (unsigned c = 0; c < unsigned(dim); ++c) constrained.emplace_back(to_point<dim>(x), c);
+      for (unsigned c = 0; c < unsigned(dim); ++c) constrained.emplace_back(to_point<dim>(x), unit_axis<dim>(c));
   m.check_rigid_modes_removed(constrained);
 
   DynamicSparsityPattern dsp(n, n);
@@ -923,13 +1006,30 @@ ConstraintRow constraint_row(const Impl& m, const Vec<dim>& x, unsigned c, doubl
     const double v = fv.shape_value(i, 0);
     scale = std::max(scale, std::abs(v));
     if (v == 0.0) continue;
-    if (m.constraints.is_constrained(idx[i])) {
-      row.g -= v * m.constraints.get_inhomogeneity(idx[i]);
+    if (m.dof_bc[idx[i]] >= 0) {  // for the reactions: the row's own coefficients on held DoFs
       row.dirichlet_dofs.push_back(idx[i]);
       row.dirichlet_values.push_back(v);
+    }
+    if (const auto* entries = m.constraints.get_constraint_entries(idx[i])) {
+      // u_i = h + Σ a_f u_f (a support along other axes): h moves to g, v·a_f onto the free DoFs f.
+      row.g -= v * m.constraints.get_inhomogeneity(idx[i]);
+      for (const auto& [f, a] : *entries) {
+        auto at = std::find(row.dofs.begin(), row.dofs.end(), f);
+        if (at == row.dofs.end()) {
+          row.dofs.push_back(f);
+          row.values.push_back(v * a);
+        } else {
+          row.values[static_cast<std::size_t>(at - row.dofs.begin())] += v * a;
+        }
+      }
     } else {
-      row.dofs.push_back(idx[i]);
-      row.values.push_back(v);
+      auto at = std::find(row.dofs.begin(), row.dofs.end(), idx[i]);
+      if (at == row.dofs.end()) {
+        row.dofs.push_back(idx[i]);
+        row.values.push_back(v);
+      } else {
+        row.values[static_cast<std::size_t>(at - row.dofs.begin())] += v;
+      }
     }
   }
   double free_scale = 0.0;

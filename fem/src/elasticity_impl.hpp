@@ -46,6 +46,18 @@ struct ConstraintRow {
   bool active = true;  // false: the point sits on Dirichlet DoFs only (the row is void)
 };
 
+// The DoFs of a cell grouped by support point: groups[k][c] is the DoF of component c at the k-th
+// support point of the base element (FESystem of dim copies of one scalar element).
+template <int dim>
+void dof_groups(const dealii::FiniteElement<dim>& fe, const std::vector<dealii::types::global_dof_index>& idx,
+                std::vector<std::array<dealii::types::global_dof_index, dim>>& groups) {
+  groups.resize(fe.n_dofs_per_cell() / dim);
+  for (unsigned i = 0; i < idx.size(); ++i) {
+    const auto ci = fe.system_to_component_index(i);
+    groups[ci.second][ci.first] = idx[i];
+  }
+}
+
 // UMFPACK LU of the symmetric K, factorised once; solves without iterative refinement and with
 // preallocated workspace (deal.II's SparseDirectUMFPACK refines twice per solve and solves the
 // transposed system, about 3× the work per back-substitution the needle fast path needs).
@@ -146,9 +158,17 @@ struct ElasticModel<dim>::Impl {
   // Index of the voxel containing x (clamped to the grid), axis 0 fastest.
   std::size_t voxel_index(const dealii::Point<dim>& x) const;
   // Per-DoF support points over the cells given by `cells` (all active cells in serial).
-  int dirichlet_owner(const dealii::Point<dim>& x, unsigned component, double* value) const;
-  // Throws unless the constrained DoFs (this rank's share; summed over `comm`) remove every rigid motion.
-  void check_rigid_modes_removed(const std::vector<std::pair<dealii::Point<dim>, unsigned>>& constrained,
+  // The Dirichlet conditions at one support point x whose DoFs, by component, are `dofs` (first
+  // condition wins per DoF; see DirichletBC::axes): adds their lines to `constraints`, calls
+  // hold(dof, b) for every DoF condition b holds, and appends the constrained directions at x to
+  // `constrained` if it is given.
+  void constrain_point(const dealii::Point<dim>& x, const std::array<dealii::types::global_dof_index, dim>& dofs,
+                       dealii::AffineConstraints<double>& constraints,
+                       const std::function<void(dealii::types::global_dof_index, int)>& hold,
+                       std::vector<std::pair<dealii::Point<dim>, dealii::Tensor<1, dim>>>* constrained) const;
+  // Throws unless the constrained directions (point, unit direction; this rank's share, summed over
+  // `comm`) remove every rigid motion.
+  void check_rigid_modes_removed(const std::vector<std::pair<dealii::Point<dim>, dealii::Tensor<1, dim>>>& constrained,
                                  MPI_Comm comm = MPI_COMM_SELF) const;
   // Local stiffness and load of one cell (fe_values/fe_face_values reinit'ed inside).
   void local_system(const typename dealii::DoFHandler<dim>::active_cell_iterator& cell,

@@ -160,16 +160,24 @@ Solution<dim> ElasticModel<dim>::solve_distributed(MPI_Comm comm, const SolverOp
   }
   AffineConstraints<double> constraints(relevant);
   std::unordered_map<types::global_dof_index, int> dof_bc;
-  std::vector<std::pair<Point<dim>, unsigned>> constrained_owned;
-  for (std::size_t k = 0; k < rel_point.size(); ++k) {
-    double value = 0.0;
-    const int b = m.dirichlet_owner(rel_point[k], rel_comp[k], &value);
-    if (b < 0) continue;
-    const types::global_dof_index i = relevant.nth_index_in_set(k);
-    dof_bc[i] = b;
-    constraints.add_line(i);
-    constraints.set_inhomogeneity(i, value);
-    if (owned.is_element(i)) constrained_owned.emplace_back(rel_point[k], rel_comp[k]);
+  std::vector<std::pair<Point<dim>, Tensor<1, dim>>> constrained_owned;
+  {
+    // The DoFs at one support point share their owner, so a point counts on one rank.
+    std::vector<char> seen(relevant.n_elements(), 0);
+    std::vector<types::global_dof_index> idx(dpc);
+    std::vector<std::array<types::global_dof_index, dim>> groups;
+    const auto hold = [&dof_bc](types::global_dof_index i, int b) { dof_bc[i] = b; };
+    for (const auto& cell : dof.active_cell_iterators()) {
+      if (cell->is_artificial()) continue;
+      cell->get_dof_indices(idx);
+      dof_groups<dim>(fe, idx, groups);
+      for (const auto& g : groups) {
+        const auto k = relevant.index_within_set(g[0]);
+        if (seen[k]) continue;
+        seen[k] = 1;
+        m.constrain_point(rel_point[k], g, constraints, hold, owned.is_element(g[0]) ? &constrained_owned : nullptr);
+      }
+    }
   }
   constraints.close();
   m.check_rigid_modes_removed(constrained_owned, comm);

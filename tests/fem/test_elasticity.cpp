@@ -5,6 +5,8 @@
 
 #include <vim/fem/elasticity.hpp>
 
+#include <Eigen/Geometry>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -652,4 +654,139 @@ TEST(VolumeSupport, HoldsTheBodyWhereNoNodeIsAndRejectsBadInput) {
   bad.weights.pop_back();
   EXPECT_THAT(message_of([&] { model.add_volume_support(bad); }), HasSubstr("weights"));
   EXPECT_THROW(model.solve_distributed(MPI_COMM_SELF), std::invalid_argument);
+}
+
+// DirichletBC::axes. Independent truth: the same body rotated by R, with its supports along the
+// rotated model's own axes (the plain per-DoF path). Body A lives in the unit box; body B = R·A. On A,
+// the supports act along B's axes seen from A (axes = Rᵀ): a sliding support on A's face x = 0 that
+// holds B's x component only, and on A's face x = 1 B's y (and z) components displaced. A traction on
+// A's face y = 1, a body force and embedded points near the sliding face (their rows reach the
+// sliding DoFs). Then u_A = Rᵀ u_B at every vertex, the reactions and point forces rotate alike, and
+// the strain energies agree, for the fast path and the monolithic solve.
+namespace {
+
+template <int dim>
+Eigen::Matrix<double, dim, dim> test_rotation() {
+  if constexpr (dim == 2) {
+    return Eigen::Rotation2Dd(0.6).toRotationMatrix();
+  } else {
+    return Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  }
+}
+
+template <int dim>
+void rotated_axes_match_the_rotated_body(unsigned degree) {
+  using M = Eigen::Matrix<double, dim, dim>;
+  const M R = test_rotation<dim>();
+  const SimplexMesh<dim> a_mesh = perturbed_unit_box<dim>(dim == 2 ? 5 : 3, 11);
+  SimplexMesh<dim> b_mesh = a_mesh;
+  for (auto& p : b_mesh.points) p = R * p;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> P(1.0, 4.0);
+  std::vector<double> E(a_mesh.n_cells());
+  for (auto& e : E) e = P(rng);
+  ElasticModel<dim> a(a_mesh, E, 0.3, degree), b(b_mesh, E, 0.3, degree);
+  // Regions by A's coordinates; B sees them through Rᵀ.
+  auto face = [](int axis, double at) {
+    return [axis, at](const Vec<dim>& x) { return std::abs(x[axis] - at) < 1e-9; };
+  };
+  auto on_a = [](const std::function<bool(const Vec<dim>&)>& f, const char* name) { return Region<dim>{name, f}; };
+  auto on_b = [R](const std::function<bool(const Vec<dim>&)>& f, const char* name) {
+    return Region<dim>{name, [R, f](const Vec<dim>& x) { return f(R.transpose() * x); }};
+  };
+  Vec<dim> pushed = Vec<dim>::Zero();
+  pushed[1] = 0.05;
+  if (dim == 3) pushed[dim - 1] = -0.02;
+  for (int body = 0; body < 2; ++body) {
+    ElasticModel<dim>& m = body == 0 ? a : b;
+    auto region = [&](const std::function<bool(const Vec<dim>&)>& f, const char* name) { return body == 0 ? on_a(f, name) : on_b(f, name); };
+    DirichletBC<dim> slide;
+    slide.region = region(face(0, 0.0), "x0");
+    slide.components = DirichletBC<dim>::filled(false);
+    slide.components[0] = true;
+    DirichletBC<dim> push;
+    push.region = region(face(0, 1.0), "x1");
+    push.components = DirichletBC<dim>::filled(true);
+    push.components[0] = false;
+    push.value = pushed;
+    if (body == 0) slide.axes = push.axes = R.transpose();
+    m.add_dirichlet(slide);
+    m.add_dirichlet(push);
+    SurfaceLoad<dim> load;
+    load.region = region(face(1, 1.0), "y1");
+    const Vec<dim> t = Vec<dim>::Constant(0.3);
+    load.traction = body == 0 ? Vec<dim>(R.transpose() * t) : t;
+    m.add_surface_load(load);
+    const Vec<dim> f = Vec<dim>::Constant(-0.2);
+    m.set_body_force(body == 0 ? Vec<dim>(R.transpose() * f) : f);
+  }
+  std::vector<PointConstraint<dim>> pa, pb;
+  for (int k = 0; k < 3; ++k) {
+    PointConstraint<dim> p;
+    const double spread[3][3] = {{0.08, 0.3, 0.6}, {0.12, 0.7, 0.4}, {0.1, 0.5, 0.15}};  // in cells on the sliding face
+    for (int d = 0; d < dim; ++d) p.position[d] = spread[k][d];
+    p.displacement = Vec<dim>::Constant(0.01 * (k + 1));
+    pa.push_back(p);
+    p.position = R * p.position;
+    p.displacement = R * p.displacement;
+    pb.push_back(p);
+  }
+  for (int monolithic = 0; monolithic < 2; ++monolithic) {
+    const auto sa = monolithic ? a.solve_monolithic(pa) : a.solve(pa);
+    const auto sb = monolithic ? b.solve_monolithic(pb) : b.solve(pb);
+    double umax = 0.0, rmax = 0.0;
+    for (const auto& u : sb.vertex_displacement) umax = std::max(umax, u.norm());
+    for (const auto& r : sb.dirichlet_reaction) rmax = std::max(rmax, r.norm());
+    ASSERT_GT(umax, 0.01);
+    ASSERT_GT(rmax, 0.01);
+    for (std::size_t i = 0; i < a_mesh.n_points(); ++i)
+      ASSERT_LT((sa.vertex_displacement[i] - R.transpose() * sb.vertex_displacement[i]).norm(), 1e-9 * umax) << "vertex " << i;
+    // The sliding face moves along it only: B's x component is 0 there (A's x = 0 face).
+    for (std::size_t i = 0; i < a_mesh.n_points(); ++i)
+      if (std::abs(a_mesh.points[i][0]) < 1e-9) {
+        ASSERT_NEAR((R * sa.vertex_displacement[i])[0], 0.0, 1e-12 * umax);
+      }
+    EXPECT_NEAR(sa.strain_energy, sb.strain_energy, 1e-9 * sb.strain_energy);
+    for (std::size_t k = 0; k < 2; ++k)
+      EXPECT_LT((sa.dirichlet_reaction[k] - R.transpose() * sb.dirichlet_reaction[k]).norm(), 1e-8 * rmax) << "condition " << k;
+    for (std::size_t k = 0; k < pa.size(); ++k)
+      EXPECT_LT((sa.point_force[k] - R.transpose() * sb.point_force[k]).norm(), 1e-8 * rmax) << "point " << k;
+    // A sliding support's reaction is normal to its plane: along B's x only.
+    const Vec<dim> r0 = R * sa.dirichlet_reaction[0];
+    EXPECT_LT(r0.template tail<dim - 1>().norm(), 1e-8 * r0.norm());
+  }
+}
+
+}  // namespace
+
+TEST(RotatedAxes, SlidingSupportMatchesTheRotatedBodyP1_3D) { rotated_axes_match_the_rotated_body<3>(1); }
+TEST(RotatedAxes, SlidingSupportMatchesTheRotatedBodyP2_3D) { rotated_axes_match_the_rotated_body<3>(2); }
+TEST(RotatedAxes, SlidingSupportMatchesTheRotatedBodyP1_2D) { rotated_axes_match_the_rotated_body<2>(1); }
+
+TEST(RotatedAxes, RigidModesAndBadAxesAreReported) {
+  const auto mesh = perturbed_unit_box<3>(2, 3);
+  const Eigen::Matrix3d R = test_rotation<3>();
+  // A sliding support alone (one plane, one direction) leaves in-plane motions free: singular.
+  ElasticModel<3> m(mesh, std::vector<double>(mesh.n_cells(), 1.0), 0.3, 1);
+  DirichletBC<3> slide;
+  slide.region = {"x0", [](const Vec<3>& x) { return std::abs(x[0]) < 1e-9; }};
+  slide.components = {{true, false, false}};
+  slide.axes = R.transpose();
+  m.add_dirichlet(slide);
+  EXPECT_THROW(m.solve(), SingularConstraints);
+  // All three directions on that face hold it like a clamp: solvable, and the face does not move.
+  ElasticModel<3> c(mesh, std::vector<double>(mesh.n_cells(), 1.0), 0.3, 1);
+  DirichletBC<3> clamp = slide;
+  clamp.components = {{true, true, true}};
+  c.add_dirichlet(clamp);
+  c.set_body_force(Vec<3>(0, 0, -1));
+  const auto s = c.solve();
+  for (std::size_t i = 0; i < mesh.n_points(); ++i)
+    if (std::abs(mesh.points[i][0]) < 1e-9) {
+      EXPECT_LT(s.vertex_displacement[i].norm(), 1e-12);
+    }
+  EXPECT_NEAR(s.dirichlet_reaction[0][2], 1.0, 1e-9);  // it carries the body force
+  DirichletBC<3> skew = slide;
+  skew.axes(0, 0) = 2.0;
+  EXPECT_THAT([&] { m.add_dirichlet(skew); }, ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("not orthonormal")));
 }

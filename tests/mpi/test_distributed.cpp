@@ -90,6 +90,32 @@ TEST(Distributed, SimplexP1_2D) {
   compare(model);
 }
 
+// A support along rotated axes (DirichletBC::axes; constraint lines with entries, the serial path is
+// checked against the rotated body in tests/fem): the face x = 0 slides in the plane normal to a
+// tilted direction, the face x = 1 is pushed along it; the bottom is fixed.
+TEST(Distributed, SlidingSupportAlongRotatedAxesP1_3D) {
+  const auto mesh = test::kuhn_box<3>({{8, 8, 8}}, {{0, 0, 0}}, {{1, 1, 1}});
+  ElasticModel<3> model(mesh, random_moduli<3>(mesh.n_cells()), 0.3, 1);
+  const Vec<3> lo = Vec<3>::Zero(), hi = Vec<3>::Ones();
+  const double c = std::cos(0.5), s = std::sin(0.5);
+  Eigen::Matrix3d axes;
+  axes << c, -s, 0, s, c, 0, 0, 0, 1;
+  DirichletBC<3> slide;
+  slide.region = box_face_region<3>(lo, hi, 0, false, 1e-9);
+  slide.components = {{true, false, false}};
+  slide.axes = axes;
+  model.add_dirichlet(slide);
+  DirichletBC<3> push = slide;
+  push.region = box_face_region<3>(lo, hi, 0, true, 1e-9);
+  push.value[0] = -0.02;
+  model.add_dirichlet(push);
+  DirichletBC<3> fixed;
+  fixed.region = box_face_region<3>(lo, hi, 2, false, 1e-9);
+  model.add_dirichlet(fixed);
+  model.set_body_force(Vec<3>(0.1, 0.0, -0.1));
+  compare(model);
+}
+
 TEST(Distributed, VoxelModel3D) {
   auto model = ElasticModel<3>::voxel_grid({{12, 10, 8}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1),
                                            random_moduli<3>(12 * 10 * 8), 0.4);

@@ -39,12 +39,17 @@ template <int dim> Region<dim> cylinder_region(const Vec<dim>& center, const Vec
 // u_c = value_c on every support point in region, for each component c with components[c] true.
 // If `function` is set it replaces `value`: u_c = function(x)_c (e.g. a linear field for patch tests).
 // A DoF selected by several conditions takes the FIRST condition added (and counts for its reaction).
+// `axes` (orthonormal columns; identity = the model's axes) turns the components into directions:
+// axes.col(c)·u = value_c for each selected c, e.g. a support that slides along a face that is not
+// normal to a model axis. A condition with other axes holds a support point only if no earlier
+// condition holds any of its DoFs, and then holds all of them (its reaction sums all of them).
 template <int dim>
 struct DirichletBC {
   Region<dim> region;
   std::array<bool, dim> components = filled(true);
   Vec<dim> value = Vec<dim>::Zero();
   std::function<Vec<dim>(const Vec<dim>&)> function = {};
+  Eigen::Matrix<double, dim, dim> axes = Eigen::Matrix<double, dim, dim>::Identity();
   static std::array<bool, dim> filled(bool b) { std::array<bool, dim> a; a.fill(b); return a; }
 };
 
