@@ -982,10 +982,11 @@ std::pair<typename Triangulation<dim>::active_cell_iterator, Point<dim>> locate(
   return {m.tria.end(), Point<dim>()};
 }
 
-// Row of C for component c of the point x: shape-function values of the containing cell,
-// Dirichlet DoFs moved to the right-hand side.
+// Row of C for direction a (a unit vector; e_c for component c) at the point x: a[k] times the
+// shape-function values of component k in the containing cell, Dirichlet DoFs moved to the
+// right-hand side. `c` only names the component in messages.
 template <int dim, class Impl>
-ConstraintRow constraint_row(const Impl& m, const Vec<dim>& x, unsigned c, double g, std::size_t which) {
+ConstraintRow constraint_row(const Impl& m, const Vec<dim>& x, const Vec<dim>& a, unsigned c, double g, std::size_t which) {
   const auto found = locate<dim>(m, to_point<dim>(x), nullptr);
   if (found.first == m.tria.end()) {
     std::ostringstream s;
@@ -1002,8 +1003,7 @@ ConstraintRow constraint_row(const Impl& m, const Vec<dim>& x, unsigned c, doubl
   row.g = g;
   double scale = 0.0;
   for (unsigned i = 0; i < idx.size(); ++i) {
-    if (m.fe->system_to_component_index(i).first != c) continue;
-    const double v = fv.shape_value(i, 0);
+    const double v = a[m.fe->system_to_component_index(i).first] * fv.shape_value(i, 0);
     scale = std::max(scale, std::abs(v));
     if (v == 0.0) continue;
     if (m.dof_bc[idx[i]] >= 0) {  // for the reactions: the row's own coefficients on held DoFs
@@ -1090,9 +1090,14 @@ void check_dropped_rows(const std::vector<const ConstraintRow*>& rows, const std
 
 template <int dim>
 void check_points(const std::vector<PointConstraint<dim>>& points) {
-  for (std::size_t k = 0; k < points.size(); ++k)
+  for (std::size_t k = 0; k < points.size(); ++k) {
     if (!points[k].position.allFinite() || !points[k].displacement.allFinite())
       throw std::invalid_argument("point constraint " + std::to_string(k) + " has a non-finite position or displacement");
+    if (!points[k].axes.allFinite() ||
+        !(points[k].axes.transpose() * points[k].axes).isApprox(Eigen::Matrix<double, dim, dim>::Identity(), 1e-9))
+      throw std::invalid_argument("point constraint " + std::to_string(k) +
+                                  " has axes that are not orthonormal (its columns must be unit, mutually orthogonal directions)");
+  }
 }
 
 }  // namespace
@@ -1195,10 +1200,11 @@ Solution<dim> postprocess(Impl& m) {
 // The full system reads K u = f + r − Cᵀμ on every DoF (r: support reactions), so on Dirichlet
 // DoFs r = K u − f + C_Dᵀ μ: add the constraint rows' Dirichlet parts to the reactions.
 template <int dim, class Impl>
-void add_constraint_reactions(const Impl& m, const ConstraintRow& row, unsigned comp, double mu, Solution<dim>& s) {
+void add_constraint_reactions(const Impl& m, const ConstraintRow& row, double mu, Solution<dim>& s) {
   for (std::size_t i = 0; i < row.dirichlet_dofs.size(); ++i) {
-    const int b = m.dof_bc[row.dirichlet_dofs[i]];
-    if (b >= 0) s.dirichlet_reaction[b][comp] += mu * row.dirichlet_values[i];
+    const auto d = row.dirichlet_dofs[i];
+    const int b = m.dof_bc[d];
+    if (b >= 0) s.dirichlet_reaction[b][m.dof_component[d]] += mu * row.dirichlet_values[i];
   }
 }
 
@@ -1283,10 +1289,11 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
   for (std::size_t k = 0; k < points.size(); ++k)
     for (unsigned c = 0; c < unsigned(dim); ++c) {
       if (!points[k].components[c]) continue;
-      const typename Impl::Key key{key_of<dim>(points[k].position), static_cast<int>(c)};
+      const Vec<dim> dir = points[k].axes.col(c);
+      const typename Impl::Key key{key_of<dim>(points[k].position), key_of<dim>(dir)};
       auto it = m.columns.find(key);
       if (it == m.columns.end()) {
-        ConstraintRow row = constraint_row<dim>(m, points[k].position, c, 0.0, k);
+        ConstraintRow row = constraint_row<dim>(m, points[k].position, dir, c, 0.0, k);
         Vector<double> col;
         if (row.active) {
           Vector<double> e(m.dof.n_dofs());
@@ -1397,8 +1404,8 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
   Solution<dim> s =
       finish_constrained_solve<dim>(m, all_rows, all_g, keep, all_which, points.size(), timer, &solve_seconds);
   for (std::size_t a = 0; a < nr; ++a) {
-    s.point_force[rows[a].point][rows[a].comp] = -mu[a];
-    add_constraint_reactions<dim>(m, *rows[a].row, rows[a].comp, mu[a], s);
+    s.point_force[rows[a].point] -= mu[a] * points[rows[a].point].axes.col(rows[a].comp);
+    add_constraint_reactions<dim>(m, *rows[a].row, mu[a], s);
   }
   s.stats.method = m.method;
   s.stats.constraint_rows = static_cast<unsigned>(nr);
@@ -1429,7 +1436,8 @@ Solution<dim> ElasticModel<dim>::solve_monolithic(const std::vector<PointConstra
   for (std::size_t k = 0; k < points.size(); ++k)
     for (unsigned c = 0; c < unsigned(dim); ++c)
       if (points[k].components[c]) {
-        ConstraintRow row = constraint_row<dim>(m, points[k].position, c, points[k].displacement[c], k);
+        ConstraintRow row = constraint_row<dim>(m, points[k].position, Vec<dim>(points[k].axes.col(c)), c,
+                                                points[k].displacement[c], k);
         if (row.active) rows.push_back({std::move(row), k, c});
       }
   std::vector<const ConstraintRow*> all_rows;
@@ -1470,8 +1478,8 @@ Solution<dim> ElasticModel<dim>::solve_monolithic(const std::vector<PointConstra
   Solution<dim> s =
       finish_constrained_solve<dim>(m, all_rows, all_g, keep, all_which, points.size(), timer, &solve_seconds);
   for (unsigned a = 0; a < nr; ++a) {
-    s.point_force[used[a].point][used[a].comp] = -x[n + a];
-    add_constraint_reactions<dim>(m, used[a].row, used[a].comp, x[n + a], s);
+    s.point_force[used[a].point] -= x[n + a] * points[used[a].point].axes.col(used[a].comp);
+    add_constraint_reactions<dim>(m, used[a].row, x[n + a], s);
   }
   s.stats.method = "umfpack-monolithic";
   s.stats.constraint_rows = nr;

@@ -81,7 +81,7 @@ class UmfpackLU {
 
 template <int dim>
 struct ElasticModel<dim>::Impl {
-  using Key = std::pair<std::array<double, dim>, int>;  // (position, component) of a constraint row
+  using Key = std::pair<std::array<double, dim>, std::array<double, dim>>;  // (position, direction) of a constraint row
 
   // ---- input -------------------------------------------------------------------------------
   bool voxel = false;

@@ -652,18 +652,6 @@ void check_scenario_geometry(const Scenario& s, const Eigen::Matrix<double, dim,
       throw ScenarioError(s.where(t.line) + "target '" + t.name + "' position " + str(vec(t.position)) + " is outside " + box +
                           along_axes(position));
   }
-  // Components of a Dirichlet condition are world axes; the model is solved along the image axes, so a
-  // selection needs every image axis to be a world axis (a signed permutation matrix). Checked here,
-  // before meshing, so that a long VIM run does not end in this error.
-  if (!tf.axis_aligned())
-    for (std::size_t i = 0; i < s.boundary_conditions.size(); ++i) {
-      const auto& bc = s.boundary_conditions[i];
-      if (!bc.is_dirichlet() || std::all_of(bc.components.begin(), bc.components.end(), [](bool b) { return b; })) continue;
-      throw ScenarioError(s.where(bc.line) + "boundary_conditions[" + std::to_string(i) +
-                          "].components: selecting components needs an image direction matrix that is a permutation of "
-                          "the axes (this image is oblique: its axes are not world axes); remove 'components', or "
-                          "resample the image to axis-aligned directions");
-    }
   // Geometric regions that cannot touch the box are caught later (selects no node), with the BC index.
 }
 

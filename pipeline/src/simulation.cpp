@@ -60,6 +60,10 @@ struct NeedleSimulation<dim>::Impl {
   Vec box_min, box_max;  // frame
   UnstructuredGrid grid;  // world, no fields
   std::vector<bool> blocked;
+  // Axes of the needle's point constraints: the world axes seen from the frame when a support holds
+  // world components of an oblique image, so that a shaft point on such a node leaves the held
+  // directions to the support (as on an axis-aligned image); else the frame axes.
+  Mat point_axes = Mat::Identity();
   bool voxel = false;
   unsigned degree = 1;
   double build_seconds = 0.0;
@@ -183,12 +187,17 @@ void NeedleSimulation<dim>::Impl::setup(const std::vector<Vec>& vertices) {
       fem::DirichletBC<dim> d;
       d.region = reg;
       const bool all = std::all_of(bc.components.begin(), bc.components.end(), [](bool b) { return b; });
-      if (!all) {
-        // World components map to frame components only for a (signed) permutation direction matrix;
-        // check_scenario_geometry (above) refuses components on any other image.
-        for (int c = 0; c < dim; ++c) d.components[c] = bc.components[tf.world_axis_of(c)];
-      }
       if (bc.type == BoundaryConditionSpec::Type::displacement) d.value = tf.vector_to_frame(vec<dim>(bc.value));
+      if (!all && tf.axis_aligned()) {
+        // Every image axis is a world axis: the world components are frame components.
+        for (int c = 0; c < dim; ++c) d.components[c] = bc.components[tf.world_axis_of(c)];
+      } else if (!all) {
+        // An oblique image: the world axes seen from the frame (columns of Dᵀ), values in world components.
+        d.axes = tf.direction.transpose();
+        point_axes = d.axes;
+        for (int c = 0; c < dim; ++c) d.components[c] = bc.components[c];
+        if (bc.type == BoundaryConditionSpec::Type::displacement) d.value = vec<dim>(bc.value);
+      }
       model->add_dirichlet(d);
       if (all)
         for (std::size_t v = 0; v < vertices.size(); ++v) blocked[v] = blocked[v] || reg.contains(vertices[v]);
@@ -471,7 +480,8 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::run_needle(const NeedleSpec& spec, c
     for (std::size_t j : active) {
       fem::PointConstraint<dim> p;
       p.position = shaft[j].position;
-      p.displacement = vals[j] * a + lateral[j];
+      p.axes = point_axes;
+      p.displacement = point_axes.transpose() * (vals[j] * a + lateral[j]);
       pts.push_back(p);
     }
     const auto t = Clock::now();

@@ -731,6 +731,19 @@ void rotated_axes_match_the_rotated_body(unsigned degree) {
     p.displacement = R * p.displacement;
     pb.push_back(p);
   }
+  {
+    // PointConstraint::axes: a point held in B's x only (and y in 3D), stated on A along B's axes.
+    PointConstraint<dim> p;
+    p.position = Vec<dim>::Constant(0.7);
+    p.displacement = Vec<dim>::Constant(-0.01);
+    p.components = DirichletBC<dim>::filled(false);
+    for (int c = 0; c < std::min(dim - 1, 2); ++c) p.components[c] = true;
+    PointConstraint<dim> q = p;
+    q.position = R * p.position;
+    p.axes = R.transpose();
+    pa.push_back(p);
+    pb.push_back(q);
+  }
   for (int monolithic = 0; monolithic < 2; ++monolithic) {
     const auto sa = monolithic ? a.solve_monolithic(pa) : a.solve(pa);
     const auto sb = monolithic ? b.solve_monolithic(pb) : b.solve(pb);
@@ -789,4 +802,8 @@ TEST(RotatedAxes, RigidModesAndBadAxesAreReported) {
   DirichletBC<3> skew = slide;
   skew.axes(0, 0) = 2.0;
   EXPECT_THAT([&] { m.add_dirichlet(skew); }, ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("not orthonormal")));
+  PointConstraint<3> p;
+  p.position = Vec<3>::Constant(0.5);
+  p.axes = skew.axes;
+  EXPECT_THAT([&] { c.solve({p}); }, ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("point constraint 0 has axes that are not orthonormal")));
 }

@@ -337,6 +337,46 @@ TEST(Simulation, WorldResultsDoNotDependOnTheImageDirection) {
     EXPECT_NEAR((rb.vertex_displacement.back()[v] - D * ra.vertex_displacement.back()[v]).norm(), 0.0, 1e-9);
 }
 
+// Components on an oblique image act along the world axes. Truth: the same body meshed in world
+// coordinates (the vertices rotated by D, identity direction), where world components are frame
+// components. Image rotated by 30° about z: a support on the bottom plane that holds world x only (the
+// needle enters through it), a world-y displacement of the nodes in a sphere, the top plane fixed.
+TEST(Simulation, ComponentsOnAnObliqueImageActAlongWorldAxes) {
+  MeshModel<3> a = axis_block();
+  const double c = std::cos(M_PI / 6), s = std::sin(M_PI / 6);
+  a.transform.direction << c, -s, 0, s, c, 0, 0, 0, 1;
+  MeshModel<3> b = axis_block();
+  for (auto& p : b.mesh.points) p = a.transform.to_world(p);
+  const std::string bcs =
+      "[{type: fixed, region: {box: {min: [-50, -50, 23.9], max: [50, 50, 24.1]}}},"
+      " {type: fixed, region: {box: {min: [-50, -50, -0.1], max: [50, 50, 0.1]}}, components: [x]},"
+      " {type: displacement, region: {sphere: {center: [4, 0, 12], radius: 2.5}}, value: [0, 0.3, 0], components: [y]}]";
+  for (const char* degree : {"1", "2"}) {
+    const Scenario sc = parse_scenario_text("mesh: {degree: " + std::string(degree) + "}\n" +
+                                                yaml(kStick, "[{name: t, position: [1, 1, 15]}]", "{poisson_ratio: 0.3}", bcs),
+                                            3, "o.yaml");
+    const auto ra = run_simulation<3>(a, sc, quiet()).needles[0];
+    const auto rb = run_simulation<3>(b, sc, quiet()).needles[0];
+    const V3 ta = ra.target_displacement.back()[0], tb = rb.target_displacement.back()[0];
+    ASSERT_GT(tb.norm(), 0.1);
+    EXPECT_LT((ta - tb).norm(), 1e-8 * tb.norm()) << "degree " << degree;
+    EXPECT_LT((ra.force.back() - rb.force.back()).norm(), 1e-8 * rb.force.back().norm()) << "degree " << degree;
+    double umax = 0.0;
+    for (const auto& u : rb.vertex_displacement.back()) umax = std::max(umax, u.norm());
+    for (std::size_t v = 0; v < a.mesh.n_points(); ++v) {
+      const V3 ua = ra.vertex_displacement.back()[v];
+      ASSERT_LT((ua - rb.vertex_displacement.back()[v]).norm(), 1e-8 * umax) << "vertex " << v << " degree " << degree;
+      const V3 w = a.transform.to_world(a.mesh.points[v]);
+      if (std::abs(w[2]) < 1e-9) {
+        ASSERT_NEAR(ua[0], 0.0, 1e-10 * umax) << "bottom vertex " << v;  // world x held
+      }
+      if ((w - V3(4, 0, 12)).norm() <= 2.5) {
+        ASSERT_NEAR(ua[1], 0.3, 1e-10) << "sphere vertex " << v;  // world y prescribed
+      }
+    }
+  }
+}
+
 TEST(Simulation, RegionThatSelectsNoNodeIsAnError) {
   const Scenario sc = parse_scenario_text(
       yaml(kStick, "[]", "{}", "[{type: fixed, region: {box_face: z_max}}, {type: fixed, region: {sphere: {center: [50, 0, 0], radius: 2}}}]"), 3,

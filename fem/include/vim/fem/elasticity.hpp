@@ -79,11 +79,16 @@ struct VolumeSupport {
 
 // u(position) = displacement (selected components), for a point anywhere inside the mesh:
 // a linear constraint on the DoFs of the cell containing it, through its shape functions.
+// `axes` (orthonormal columns; identity = the model's axes) makes component c the direction
+// axes.col(c): axes.col(c)·u(position) = displacement_c. With every component selected the axes
+// change nothing but which rows a degenerate set drops: a point on nodes that a DirichletBC holds
+// along its own axes leaves those directions to the condition when it uses the same axes.
 template <int dim>
 struct PointConstraint {
   Vec<dim> position;
   Vec<dim> displacement = Vec<dim>::Zero();
   std::array<bool, dim> components = DirichletBC<dim>::filled(true);
+  Eigen::Matrix<double, dim, dim> axes = Eigen::Matrix<double, dim, dim>::Identity();
 };
 
 // Eq. 15: E_j = clamp(scale · mean_j, min, max) per element, from the per-element voxel means
@@ -150,8 +155,9 @@ struct Solution {
   std::vector<double> von_mises;               // per cell
   double strain_energy = 0.0;                  // ½ uᵀ K u
   std::vector<Vec<dim>> dirichlet_reaction;    // per DirichletBC: Σ (K u − f) over its constrained DoFs
-  // Per PointConstraint: the force the constraint applies ON THE BODY at that point (components not
-  // selected are 0). With K u = f − Cᵀμ this is −μ: a point pulled in +x gets a force with +x sign.
+  // Per PointConstraint: the force the constraint applies ON THE BODY at that point, in the model's
+  // axes (Σ_c −μ_c axes.col(c) over the selected components; with K u = f − Cᵀμ a point pulled in +x
+  // gets a force with +x sign).
   std::vector<Vec<dim>> point_force;
   SolverStats stats;
 };
