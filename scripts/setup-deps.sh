@@ -19,6 +19,10 @@ PACKAGES=(
   libbenchmark-dev
   openmpi-bin libopenmpi-dev
   libopenblas0
+  calculix-ccx gmsh
+  pybind11-dev python3-dev python3-numpy python3-pytest python3-meshio
+  libcairo2-dev fonts-dejavu-core
+  clang-format
 )
 
 missing=()
