@@ -43,17 +43,6 @@ struct EnergyTotals {
   double geometric = 0.0, discretization = 0.0, energy = 0.0;
 };
 
-// What the quality test of a 1-ring element can reuse while one of its vertices moves: the face
-// opposite that vertex (3D: its unoriented normal and length) and the longest of its edges.
-template <int dim>
-struct FixedFace {
-  int vertex = -1;  // local index of the moving vertex
-  Eigen::Matrix<double, dim, 1> normal = Eigen::Matrix<double, dim, 1>::Zero();
-  double length = 0.0, longest2 = 0.0;
-};
-template <int dim>
-FixedFace<dim> fixed_face(const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>& x, int vertex);
-
 template <int dim>
 class VimOptimizer {
  public:
@@ -127,10 +116,13 @@ class VimOptimizer {
 
   // Evaluates one simplex (all cache fields; cost uses the current normalisation).
   CellCache evaluate(const Simplex& x) const;
-  bool acceptable(const Simplex& x) const { return acceptable(x, signed_volume<dim>(x)); }
+  // The quality bound (vim::acceptable with the options' bounds, decided by QualityCheck).
+  bool acceptable(const Simplex& x) const { return quality_(x, signed_volume<dim>(x)); }
   // Same, with x's signed volume already computed by the caller and optionally the precomputed face
   // opposite a moving vertex (bit-identical result).
-  bool acceptable(const Simplex& x, double volume, const FixedFace<dim>* fixed = nullptr) const;
+  bool acceptable(const Simplex& x, double volume, const FixedFace<dim>* fixed = nullptr) const {
+    return quality_(x, volume, fixed);
+  }
   Simplex simplex(int cell) const { return cell_points(mesh_, static_cast<std::size_t>(cell)); }
 
  private:
@@ -182,10 +174,7 @@ class VimOptimizer {
   const VoxelStatistics<dim>* stats_;
   const Image<dim>* density_;
   VimOptions options_;
-  QualityBound bound_;
-  double cos_max_ = -1.0, cos_min_ = 1.0;  // cosines of the dihedral bounds
-  bool sqrt_free_ = false;                   // acceptable() may use the squared-cosine test
-  double reject2_ = 1.0, defer2_ = 1.0;      // (cos_max_ ∓ 1e-9)²
+  QualityCheck<dim> quality_;
   Point box_min_, box_max_;
   double boundary_tol_ = 0.0;
   double min_step_ = 0.0;        // line-search stopping step (physical)

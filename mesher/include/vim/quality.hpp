@@ -39,6 +39,47 @@ struct QualityBound {
 template <int dim>
 bool acceptable(const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>& x, const QualityBound& b);
 
+// What the quality test of a 1-ring element can reuse while one of its vertices moves: the face
+// opposite that vertex (3D: its unoriented normal and length) and the longest of its edges.
+template <int dim>
+struct FixedFace {
+  int vertex = -1;  // local index of the moving vertex
+  Eigen::Matrix<double, dim, 1> normal = Eigen::Matrix<double, dim, 1>::Zero();
+  double length = 0.0, longest2 = 0.0;
+};
+template <int dim>
+FixedFace<dim> fixed_face(const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>& x, int vertex);
+
+// acceptable() as the optimiser evaluates it for every candidate: decides from the angles' cosines
+// (no acos; in 3D with only the max bound on, without square roots) when every angle is clearly
+// (1e-9 in cosine) within the bound or one is clearly outside it, and from closed forms of the
+// radius ratio likewise; otherwise it defers to acceptable(x, bound()). Its decision is always
+// acceptable()'s: the margins are far above the round-off of either evaluation.
+template <int dim>
+class QualityCheck {
+ public:
+  using Simplex = std::array<Eigen::Matrix<double, dim, 1>, dim + 1>;
+
+  QualityCheck() : QualityCheck(QualityBound{}) {}
+  explicit QualityCheck(const QualityBound& bound);
+  const QualityBound& bound() const { return bound_; }
+
+  // acceptable(x, bound()) for x of signed volume `volume`; `fixed` (optional): fixed_face(x, i) of
+  // the vertex i that moves (bit-identical result, less work).
+  bool operator()(const Simplex& x, double volume, const FixedFace<dim>* fixed = nullptr) const;
+
+ private:
+  bool sqrt_free_test(const Simplex& x, const FixedFace<dim>* fixed) const;
+
+  QualityBound bound_;
+  double cos_max_ = -1.0, cos_min_ = 1.0;  // cosines of the dihedral bounds
+  bool sqrt_free_ = false;                 // the squared-cosine test applies (3D only)
+  double reject2_ = 1.0, defer2_ = 1.0;    // (cos_max_ ∓ 1e-9)²
+};
+
+extern template class QualityCheck<2>;
+extern template class QualityCheck<3>;
+
 struct MeshQuality {
   double min_dihedral_deg = 0.0, max_dihedral_deg = 0.0, min_nrr = 0.0;
   long inverted = 0;  // cells with signed volume <= 0

@@ -3,6 +3,7 @@
 // This header is the mesher's public entry point used by the pipeline.
 #pragma once
 
+#include <vim/element_value.hpp>
 #include <vim/image.hpp>
 #include <vim/simplex_mesh.hpp>
 
@@ -59,13 +60,6 @@ struct VimOptions {
   // The convergence rule: v (Eq. 9) below `convergence` and E, which went from e_before to e_after
   // in the iteration, no longer falling by `energy_convergence` (0: Eq. 9 alone).
   bool converged(double v, double e_before, double e_after) const;
-};
-
-// Per-element voxel statistics: n voxel centres inside, their mean and variance (paper Eq. 4–6).
-struct ElementValue {
-  long voxels = 0;
-  double mean = 0.0;      // element value h̃_j (centroid sample when voxels == 0)
-  double variance = 0.0;  // population variance of the enclosed voxel values
 };
 
 struct IterationRecord {
