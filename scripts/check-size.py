@@ -187,7 +187,7 @@ def main():
     long_functions = []
     for f in files:
         n_lines, funcs = scan(f)
-        name = f.relative_to(root) if f.resolve().is_relative_to(root) else f
+        name = f.resolve().relative_to(root) if f.resolve().is_relative_to(root) else f
         if n_lines > MAX_FILE_LINES:
             problems.append(f"{name}: {n_lines} lines (limit {MAX_FILE_LINES})")
         for length, line, fname, exempt in funcs:

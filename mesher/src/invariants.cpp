@@ -1,12 +1,11 @@
 // Mesh invariants (invariants.hpp): a from-scratch check of node placement, cell validity and
 // quality, and conformity (facets matched by vim::match_facets) of the live cells of a VIM mesh of
 // the image box.
-#include <vim/facets.hpp>
-#include <vim/invariants.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <vim/facets.hpp>
+#include <vim/invariants.hpp>
 
 namespace vim {
 namespace {
@@ -23,8 +22,8 @@ std::string point_text(const Eigen::Matrix<double, dim, 1>& p) {
 // The first violated node invariant: in the box, on its box faces (fixed_axes). "" if none.
 template <int dim>
 std::string node_violation(const SimplexMesh<dim>& mesh, const std::vector<std::uint8_t>& fixed_axes,
-                           const Eigen::Matrix<double, dim, 1>& box_min, const Eigen::Matrix<double, dim, 1>& box_max,
-                           double tol) {
+                           const Eigen::Matrix<double, dim, 1>& box_min,
+                           const Eigen::Matrix<double, dim, 1>& box_max, double tol) {
   std::ostringstream m;
   const long n_points = static_cast<long>(mesh.points.size());
   for (long i = 0; i < n_points; ++i) {
@@ -48,8 +47,8 @@ std::string node_violation(const SimplexMesh<dim>& mesh, const std::vector<std::
 // The first violated invariant of cell c alone: valid distinct vertices, positive volume (added to
 // *volume), quality bound. "" if none.
 template <int dim>
-std::string cell_violation(const SimplexMesh<dim>& mesh, std::size_t c, const QualityBound& bound, double slack_deg,
-                           long double* volume) {
+std::string cell_violation(const SimplexMesh<dim>& mesh, std::size_t c, const QualityBound& bound,
+                           double slack_deg, long double* volume) {
   std::ostringstream m;
   const long n_points = static_cast<long>(mesh.points.size());
   auto v = mesh.cells[c];
@@ -72,12 +71,13 @@ std::string cell_violation(const SimplexMesh<dim>& mesh, std::size_t c, const Qu
   *volume += vol;
   const double amax = max_dihedral_deg<dim>(x), amin = min_dihedral_deg<dim>(x);
   if (!(amax <= bound.max_dihedral_deg + slack_deg)) {
-    m << "cell " << c << " breaks the quality bound: max " << (dim == 3 ? "dihedral" : "interior") << " angle "
-      << amax << "° > " << bound.max_dihedral_deg << "°";
+    m << "cell " << c << " breaks the quality bound: max " << (dim == 3 ? "dihedral" : "interior")
+      << " angle " << amax << "° > " << bound.max_dihedral_deg << "°";
     return m.str();
   }
   if (bound.min_dihedral_deg > 0.0 && !(amin >= bound.min_dihedral_deg - slack_deg)) {
-    m << "cell " << c << " breaks the quality bound: min angle " << amin << "° < " << bound.min_dihedral_deg << "°";
+    m << "cell " << c << " breaks the quality bound: min angle " << amin << "° < " << bound.min_dihedral_deg
+      << "°";
     return m.str();
   }
   if (bound.min_radius_ratio > 0.0) {

@@ -1,9 +1,8 @@
 // Node colouring for the parallel node updates of paper §IV-B: nodes of one colour share no
 // element, so their 1-ring updates commute and run in parallel with results independent of the
 // thread count (docs/architecture.md, "Determinism").
-#include <vim/optimizer.hpp>
-
 #include <vector>
+#include <vim/optimizer.hpp>
 
 namespace vim {
 

@@ -1,10 +1,9 @@
 // Normalisation of paper §IV-C: E_G0 and E_D0 from the initial mesh, fixed for the whole run, so
 // that E = (1−λ)·E_G/E_G0 + λ·E_D/E_D0 (Eq. 7) weighs relative gains; E_D0 is estimated when the
 // initial mesh fits a varying image exactly (E_D = 0 would switch the image term off).
+#include <cmath>
 #include <vim/energy.hpp>
 #include <vim/optimizer.hpp>
-
-#include <cmath>
 
 namespace vim {
 

@@ -1,14 +1,13 @@
 // State of the VIM optimisation (paper §IV): the mesh with its box constraints, the per-element
 // caches of E_G (Eq. 3) and E_D (Eq. 6) and their weighted sum E (Eq. 7), the cell slots the swaps
 // and insertions reuse, and the from-scratch invariant check. See optimizer.hpp.
-#include <vim/energy.hpp>
-#include <vim/optimizer.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vim/energy.hpp>
+#include <vim/optimizer.hpp>
 
 namespace vim {
 
@@ -128,9 +127,10 @@ void VimOptimizer<dim>::check_invariants(const char* stage, int iteration, doubl
     throw InvariantViolation(m.str());
   };
   std::string v = mesh_invariant_violation<dim>(mesh_, alive_, fixed_, box_min_, box_max_, boundary_tol_,
-                                                   quality_.bound());
+                                                quality_.bound());
   if (!v.empty()) fail(v);
-  if (!adj_.consistent(mesh_.n_points(), mesh_.cells, alive_)) fail("the node-to-cell adjacency differs from a rebuild");
+  if (!adj_.consistent(mesh_.n_points(), mesh_.cells, alive_))
+    fail("the node-to-cell adjacency differs from a rebuild");
   const EnergyTotals cached = totals(), fresh = recompute_totals();
   const double scale = std::max(std::abs(fresh.energy), 1e-300);
   if (!(std::abs(cached.energy - fresh.energy) <= 1e-9 * scale)) {

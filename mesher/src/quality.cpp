@@ -1,13 +1,11 @@
 // Element quality (paper §IV quality bound, §VI statistics): dihedral / interior angles,
 // normalised radius ratio dim·r_in/R_circ, acceptability under a QualityBound, mesh summary.
-#include <vim/quality.hpp>
-
 #include <Eigen/Geometry>
 #include <Eigen/LU>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vim/quality.hpp>
 
 namespace vim {
 
@@ -146,7 +144,8 @@ inline int angle_cosines(const std::array<Eigen::Vector2d, 3>& x, std::array<dou
 }
 // Unoriented normal (x_k − x_j)×(x_l − x_j), (j, k, l) = (i+1, i+2, i+3) mod 4, of the face opposite
 // vertex i; the precomputed one if i is the fixed face's vertex (the same expression).
-inline Eigen::Vector3d raw_face_normal(const std::array<Eigen::Vector3d, 4>& x, int i, const FixedFace<3>* fixed) {
+inline Eigen::Vector3d raw_face_normal(const std::array<Eigen::Vector3d, 4>& x, int i,
+                                       const FixedFace<3>* fixed) {
   if (fixed && fixed->vertex == i) return fixed->normal;
   const int j = (i + 1) % 4, k = (i + 2) % 4, l = (i + 3) % 4;
   return (x[k] - x[j]).cross(x[l] - x[j]);
@@ -210,7 +209,8 @@ int ratio_side(const std::array<Eigen::Vector3d, 4>& x, double bound) {
   double longest2 = std::max({a.squaredNorm(), b.squaredNorm(), c.squaredNorm(), (b - a).squaredNorm(),
                               (c - a).squaredNorm(), (c - b).squaredNorm()});
   if (!(det > 6e-4 * longest2 * std::sqrt(longest2))) return 0;
-  const Eigen::Vector3d centre = (a.squaredNorm() * bc + b.squaredNorm() * ca + c.squaredNorm() * ab) / (2.0 * det);
+  const Eigen::Vector3d centre =
+      (a.squaredNorm() * bc + b.squaredNorm() * ca + c.squaredNorm() * ab) / (2.0 * det);
   // Facet areas ×2: the faces opposite x_1, x_2, x_3 are spanned by (b, c), (c, a), (a, b).
   const double facets2 = bc.norm() + ca.norm() + ab.norm() + (c - a).cross(b - a).norm();
   const double nrr = 3.0 * (det / facets2) / centre.norm();  // r_in = 3V / Σ areas = det / Σ (2·areas)
@@ -225,7 +225,8 @@ QualityCheck<dim>::QualityCheck(const QualityBound& bound) : bound_(bound) {
   cos_min_ = std::cos(bound_.min_dihedral_deg * kPi / 180.0);
   // The square-root-free test (3D) needs both thresholds of the max bound negative (bound well
   // above 90°) and no other bound.
-  sqrt_free_ = dim == 3 && bound_.min_dihedral_deg <= 0.0 && bound_.min_radius_ratio <= 0.0 && cos_max_ + 1e-9 < 0.0;
+  sqrt_free_ =
+      dim == 3 && bound_.min_dihedral_deg <= 0.0 && bound_.min_radius_ratio <= 0.0 && cos_max_ + 1e-9 < 0.0;
   reject2_ = (cos_max_ - 1e-9) * (cos_max_ - 1e-9);
   defer2_ = (cos_max_ + 1e-9) * (cos_max_ + 1e-9);
 }
@@ -296,10 +297,10 @@ bool QualityCheck<dim>::sqrt_free_test(const Simplex& x, const FixedFace<dim>* f
 
 template class QualityCheck<2>;
 template class QualityCheck<3>;
-#define VIM_QUALITY_INSTANTIATE(D)                                                                   \
-  template double max_dihedral_deg<D>(const std::array<Eigen::Matrix<double, D, 1>, D + 1>&);       \
-  template double min_dihedral_deg<D>(const std::array<Eigen::Matrix<double, D, 1>, D + 1>&);       \
-  template double normalized_radius_ratio<D>(const std::array<Eigen::Matrix<double, D, 1>, D + 1>&); \
+#define VIM_QUALITY_INSTANTIATE(D)                                                                         \
+  template double max_dihedral_deg<D>(const std::array<Eigen::Matrix<double, D, 1>, D + 1>&);              \
+  template double min_dihedral_deg<D>(const std::array<Eigen::Matrix<double, D, 1>, D + 1>&);              \
+  template double normalized_radius_ratio<D>(const std::array<Eigen::Matrix<double, D, 1>, D + 1>&);       \
   template bool acceptable<D>(const std::array<Eigen::Matrix<double, D, 1>, D + 1>&, const QualityBound&); \
   template MeshQuality mesh_quality<D>(const SimplexMesh<D>&);
 VIM_QUALITY_INSTANTIATE(2)

@@ -1,22 +1,22 @@
 // Segmentation of paper §VI-B: elements with mean > threshold, face-connected components (facets
 // matched by vim::match_facets), the largest component flagged as the object.
-#include <vim/facets.hpp>
-#include <vim/segmentation.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vim/facets.hpp>
+#include <vim/segmentation.hpp>
 
 namespace vim {
 
 template <int dim>
-Segmentation segment(const SimplexMesh<dim>& mesh, const std::vector<ElementValue>& values, double threshold) {
+Segmentation segment(const SimplexMesh<dim>& mesh, const std::vector<ElementValue>& values,
+                     double threshold) {
   const std::size_t nc = mesh.n_cells();
   if (values.size() != nc)
-    throw std::invalid_argument("values: expected one ElementValue per cell (" + std::to_string(nc) + "), got " +
-                                std::to_string(values.size()));
+    throw std::invalid_argument("values: expected one ElementValue per cell (" + std::to_string(nc) +
+                                "), got " + std::to_string(values.size()));
   Segmentation seg;
   seg.component.assign(nc, -1);
   seg.object.assign(nc, false);
@@ -28,7 +28,8 @@ Segmentation segment(const SimplexMesh<dim>& mesh, const std::vector<ElementValu
   std::vector<std::vector<int>> adjacent(nc);
   for (std::size_t k = 0; k + 1 < facets.uses.size(); ++k)
     if (facets.uses[k].vertices == facets.uses[k + 1].vertices) {
-      const int c0 = static_cast<int>(facets.uses[k].cell()), c1 = static_cast<int>(facets.uses[k + 1].cell());
+      const int c0 = static_cast<int>(facets.uses[k].cell()),
+                c1 = static_cast<int>(facets.uses[k + 1].cell());
       adjacent[c0].push_back(c1);
       adjacent[c1].push_back(c0);
     }

@@ -1,17 +1,16 @@
 // The VIM driver (paper §IV): per iteration a node-update sweep (§IV-B), a connectivity swap pass
 // (§IV-B) and optional node insertion, until Eq. 9's v and the energy change fall below their
 // thresholds; then the element values of Eq. 4–6 on the final mesh.
-#include <vim/initial_mesh.hpp>
-#include <vim/optimizer.hpp>
-#include <vim/sizing.hpp>
-#include <vim/vim.hpp>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <vim/initial_mesh.hpp>
+#include <vim/optimizer.hpp>
+#include <vim/sizing.hpp>
+#include <vim/vim.hpp>
 
 namespace vim {
 
@@ -29,7 +28,8 @@ void check_image(const Image<dim>& image) {
       m << "image has " << image.size[a] << " voxel(s) along axis " << a << ": VIM needs at least 2 per axis";
       throw std::invalid_argument(m.str());
     }
-  if (image.data.size() != image.voxel_count()) throw std::invalid_argument("image data size does not match its size");
+  if (image.data.size() != image.voxel_count())
+    throw std::invalid_argument("image data size does not match its size");
 }
 
 void set_energies(IterationRecord& r, const EnergyTotals& t) {
@@ -124,8 +124,10 @@ VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const
 
   result.mesh = opt.compact_mesh();
   result.values.resize(result.mesh.n_cells());
-  for (std::size_t c = 0; c < result.mesh.n_cells(); ++c) result.values[c] = stats.value(cell_points(result.mesh, c));
-  result.boundary_kind = boundary_kind<dim>(result.mesh, opt.box_min(), opt.box_max(), 1e-9 * opt.bbox_diagonal());
+  for (std::size_t c = 0; c < result.mesh.n_cells(); ++c)
+    result.values[c] = stats.value(cell_points(result.mesh, c));
+  result.boundary_kind =
+      boundary_kind<dim>(result.mesh, opt.box_min(), opt.box_max(), 1e-9 * opt.bbox_diagonal());
   return result;
 }
 

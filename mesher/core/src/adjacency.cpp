@@ -1,12 +1,11 @@
 // Incremental vertex→cells and facet→cells adjacency used by the swaps of paper §IV-B.
 // Built from vim::match_facets; facet keys pack the sorted vertex ids (2D: 2×32 bits, 3D: 3×21 bits).
-#include <vim/adjacency.hpp>
-#include <vim/facets.hpp>
-
 #include <algorithm>
 #include <iterator>
 #include <stdexcept>
 #include <string>
+#include <vim/adjacency.hpp>
+#include <vim/facets.hpp>
 
 namespace vim {
 
@@ -15,7 +14,8 @@ typename Adjacency<dim>::FaceKey Adjacency<dim>::key_of(const std::array<int, di
   if constexpr (dim == 2) {
     return (static_cast<FaceKey>(f[0]) << 32) | static_cast<FaceKey>(f[1]);
   } else {
-    return (static_cast<FaceKey>(f[0]) << 42) | (static_cast<FaceKey>(f[1]) << 21) | static_cast<FaceKey>(f[2]);
+    return (static_cast<FaceKey>(f[0]) << 42) | (static_cast<FaceKey>(f[1]) << 21) |
+           static_cast<FaceKey>(f[2]);
   }
 }
 
@@ -25,7 +25,8 @@ typename Adjacency<dim>::FaceKey Adjacency<dim>::face_key(const Cell& v, int k) 
 }
 
 template <int dim>
-void Adjacency<dim>::build(std::size_t n_points, const std::vector<Cell>& cells, const std::vector<char>& alive) {
+void Adjacency<dim>::build(std::size_t n_points, const std::vector<Cell>& cells,
+                           const std::vector<char>& alive) {
   if (dim == 3 && n_points > (std::size_t(1) << 21))
     throw std::invalid_argument("mesh has " + std::to_string(n_points) +
                                 " nodes: the swap adjacency supports at most 2097152");
@@ -37,7 +38,8 @@ void Adjacency<dim>::build(std::size_t n_points, const std::vector<Cell>& cells,
   faces_.clear();
   faces_.reserve(cells.size() * (dim + 1) / 2 + 16);
   for (std::size_t g = 0; g < facets.n_facets(); ++g) {
-    if (facets.count(g) > 2) throw std::invalid_argument("non-manifold mesh: a facet is shared by more than two cells");
+    if (facets.count(g) > 2)
+      throw std::invalid_argument("non-manifold mesh: a facet is shared by more than two cells");
     const int first = static_cast<int>(facets.use(g, 0).cell());
     const int second = facets.count(g) == 2 ? static_cast<int>(facets.use(g, 1).cell()) : -1;
     faces_.emplace(key_of(facets.use(g, 0).vertices), std::array<int, 2>{first, second});

@@ -1,10 +1,9 @@
 // Facet matching (facets.hpp): facets bucketed by their smallest vertex (counting sort), each bucket
 // sorted by (vertices, position), so equal facets are adjacent in cell order.
-#include <vim/facets.hpp>
-
 #include <algorithm>
 #include <stdexcept>
 #include <string>
+#include <vim/facets.hpp>
 
 namespace vim {
 

@@ -3,6 +3,12 @@
 // §IV-B that lower E = (1−λ)·E_G/E_G0 + λ·E_D/E_D0 (Eq. 7) under the quality bound.
 #pragma once
 
+#include <tbb/enumerable_thread_specific.h>
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <vector>
 #include <vim/adjacency.hpp>
 #include <vim/image.hpp>
 #include <vim/invariants.hpp>
@@ -10,14 +16,6 @@
 #include <vim/simplex_mesh.hpp>
 #include <vim/vim.hpp>
 #include <vim/voxel_statistics.hpp>
-
-#include <Eigen/Core>
-
-#include <tbb/enumerable_thread_specific.h>
-
-#include <array>
-#include <cstdint>
-#include <vector>
 
 namespace vim {
 
@@ -77,10 +75,10 @@ class VimOptimizer {
   long swap_pass();
   // Individual swaps (tests and swap_pass). Each is taken iff every new element is acceptable, the
   // new elements tile the same region, and E drops. Return true if taken.
-  bool try_flip(int cell, int local_vertex);        // 2D: flip the edge opposite local_vertex
-  bool try_swap_23(int cell, int local_vertex);     // 3D: the facet opposite local_vertex
-  bool try_swap_32(int a, int b);                   // 3D: interior edge with 3 cells
-  bool try_swap_44(int a, int b);                   // 3D: interior edge with 4 cells
+  bool try_flip(int cell, int local_vertex);     // 2D: flip the edge opposite local_vertex
+  bool try_swap_23(int cell, int local_vertex);  // 3D: the facet opposite local_vertex
+  bool try_swap_32(int a, int b);                // 3D: interior edge with 3 cells
+  bool try_swap_44(int a, int b);                // 3D: interior edge with 4 cells
 
   // Splits the longest edge of up to k highest-cost elements (all cells sharing the edge are
   // split). Only splits that keep every new element acceptable and do not raise E are taken.
@@ -132,16 +130,18 @@ class VimOptimizer {
     std::vector<CellCache> trial, best;
     std::vector<Point> dirs, kept;
     struct Probe {
-      double value, f1;       // lower probe value; exact value at the first probe point (or NaN)
+      double value, f1;  // lower probe value; exact value at the first probe point (or NaN)
       std::size_t direction;
     };
-    std::vector<Probe> top;       // screening: the best directions so far
-    std::vector<double> known_f1; // per kept direction: Probe::f1
+    std::vector<Probe> top;             // screening: the best directions so far
+    std::vector<double> known_f1;       // per kept direction: Probe::f1
     std::vector<FixedFace<dim>> faces;  // per 1-ring element: the face opposite the node
     std::vector<int> order;             // 1-ring positions by decreasing current E_D (voxel sums first)
     std::vector<double> ed_cost;        // per 1-ring element: the candidate's weighted E_D term
     long evaluations = 0;               // candidates evaluated by the current node update
   };
+  struct NodeSearch;  // one node's candidate search (node_update.cpp)
+  double load_ring(int node, Scratch& s, bool* image) const;
   bool update_node_impl(int node, int iteration, Scratch& s, double* moved_sq);
   double evaluate_candidate(const Point& p, Scratch& s, double bound, bool image) const;
   double cost_of(const CellCache& c) const;
@@ -177,9 +177,9 @@ class VimOptimizer {
   QualityCheck<dim> quality_;
   Point box_min_, box_max_;
   double boundary_tol_ = 0.0;
-  double min_step_ = 0.0;        // line-search stopping step (physical)
+  double min_step_ = 0.0;  // line-search stopping step (physical)
   double eg0_ = 1.0, ed0_ = 0.0;
-  double wg_ = 1.0, wd_ = 0.0;   // cost = wg·E_G + wd·E_D
+  double wg_ = 1.0, wd_ = 0.0;  // cost = wg·E_G + wd·E_D
   mutable tbb::enumerable_thread_specific<Scratch> scratch_;
 };
 

@@ -3,18 +3,17 @@
 // 2D interior angles, dim·r_in/R_circ, and a whole-mesh summary.
 #pragma once
 
-#include <vim/simplex_mesh.hpp>
-
 #include <Eigen/Core>
-
 #include <array>
+#include <vim/simplex_mesh.hpp>
 
 namespace vim {
 
 // 3D: the 6 dihedral angles at edges (0,1),(0,2),(0,3),(1,2),(1,3),(2,3); 2D: the interior angles at
 // vertices 0,1,2. Degrees; independent of orientation.
 template <int dim>
-std::array<double, dim == 3 ? 6 : 3> dihedral_angles_deg(const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>& x);
+std::array<double, dim == 3 ? 6 : 3> dihedral_angles_deg(
+    const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>& x);
 template <>
 std::array<double, 3> dihedral_angles_deg<2>(const std::array<Eigen::Vector2d, 3>& x);
 template <>

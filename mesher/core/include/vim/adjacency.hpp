@@ -37,7 +37,8 @@ class Adjacency {
   void cells_with_edge(int a, int b, std::vector<int>& out) const;
 
   // True iff this structure equals the one built from scratch from (cells, alive).
-  bool consistent(std::size_t n_points, const std::vector<Cell>& cells, const std::vector<char>& alive = {}) const;
+  bool consistent(std::size_t n_points, const std::vector<Cell>& cells,
+                  const std::vector<char>& alive = {}) const;
 
  private:
   using FaceKey = std::uint64_t;
