@@ -376,16 +376,6 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
 }
 
 template <int dim>
-bool VimOptimizer<dim>::update_node(int node, int iteration) {
-  dirty_[node] = 0;
-  const bool moved = update_node_impl(node, iteration, scratch_.local(), nullptr);
-  if (moved) mark_ring_dirty(node);
-  return moved;
-}
-
-// One sweep: colour classes in order; nodes of a class in parallel (their 1-rings are disjoint, so
-// the result does not depend on the thread count or scheduling).
-template <int dim>
 long VimOptimizer<dim>::update_nodes(int iteration, double* sum_sq, long* searched, long* evaluations) {
   const std::size_t n = mesh_.points.size();
   std::vector<double> moved(n, 0.0);
@@ -437,8 +427,6 @@ template double VimOptimizer<2>::load_ring(int, Scratch&, bool*) const;
 template double VimOptimizer<3>::load_ring(int, Scratch&, bool*) const;
 template bool VimOptimizer<2>::update_node_impl(int, int, Scratch&, double*);
 template bool VimOptimizer<3>::update_node_impl(int, int, Scratch&, double*);
-template bool VimOptimizer<2>::update_node(int, int);
-template bool VimOptimizer<3>::update_node(int, int);
 template long VimOptimizer<2>::update_nodes(int, double*, long*, long*);
 template long VimOptimizer<3>::update_nodes(int, double*, long*, long*);
 

@@ -68,8 +68,6 @@ class VimOptimizer {
   // writes Σ_i |Δx_i|² to *sum_sq, the number of nodes whose update ran to *searched and the number
   // of candidate positions evaluated to *evaluations.
   long update_nodes(int iteration, double* sum_sq, long* searched = nullptr, long* evaluations = nullptr);
-  // Updates one node (sequential use; tests). Returns true if it moved.
-  bool update_node(int node, int iteration);
 
   // One sequential pass of connectivity swaps (2D flips; 3D 2-3, 3-2, 4-4). Returns accepted swaps.
   long swap_pass();
@@ -102,14 +100,10 @@ class VimOptimizer {
   const SimplexMesh<dim>& mesh() const { return mesh_; }
   const std::vector<char>& alive() const { return alive_; }
   const Adjacency<dim>& adjacency() const { return adj_; }
-  const std::vector<CellCache>& caches() const { return cache_; }
-  std::uint8_t fixed_axes(int node) const { return fixed_[node]; }
-  std::size_t n_live_cells() const { return n_live_; }
   double bbox_diagonal() const { return (box_max_ - box_min_).norm(); }
   const Point& box_min() const { return box_min_; }
   const Point& box_max() const { return box_max_; }
-  // Colour classes of the node graph used by update_nodes (greedy, node order).
-  const std::vector<std::vector<int>>& colour_classes() const { return colours_; }
+  // Recomputes the colour classes of the node graph (greedy, node order) after swaps or insertion.
   void recolour();
 
   // Evaluates one simplex (all cache fields; cost uses the current normalisation).
@@ -124,6 +118,9 @@ class VimOptimizer {
   Simplex simplex(int cell) const { return cell_points(mesh_, static_cast<std::size_t>(cell)); }
 
  private:
+  template <int>
+  friend struct OptimizerTestAccess;  // tests/support/optimizer_access.hpp
+
   struct Scratch {
     std::vector<int> ring, local;
     std::vector<Simplex> base;
