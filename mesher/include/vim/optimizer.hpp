@@ -57,7 +57,7 @@ class VimOptimizer {
 
   // Fixes E_G0, E_D0 from the current mesh (§IV-C) and recomputes every element's cost.
   // E_D0 == 0 (constant image, or no image) switches the image term off. If the mesh's E_D is 0 but the
-  // image varies inside the box (the mesh fits it exactly), E_D0 is estimated instead (see vim.cpp).
+  // image varies inside the box (the mesh fits it exactly), E_D0 is estimated instead (normalization.cpp).
   void fix_normalization();
   double eg0() const { return eg0_; }
   double ed0() const { return ed0_; }
@@ -91,7 +91,7 @@ class VimOptimizer {
 
   // Sums over live cells (deterministic order, extended precision).
   EnergyTotals totals() const;
-  // Brute-force recomputation of the totals from the mesh (tests).
+  // Brute-force recomputation of the totals from the mesh (check_invariants, tests).
   EnergyTotals recompute_totals() const;
 
   // Live cells in index order, positively oriented.

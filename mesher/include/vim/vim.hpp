@@ -99,14 +99,14 @@ using ProgressCallback = std::function<void(const IterationRecord&)>;
 // initial mesh's bounding box: corners fixed, edge nodes slide along their edge, face nodes within
 // their face. E_G0, E_D0 are fixed from `initial`; if E_D0 == 0 (constant image) the image term is
 // off and VIM is pure (normalised) ODT smoothing. An initial mesh that fits a varying image exactly
-// (E_D = 0) gets an estimated E_D0 instead (VimResult::ed0_estimated). Implementation: optimizer.hpp and
-// src/vim.cpp. Throws std::invalid_argument for invalid options, an image with < 2 voxels along an axis (the
-// message names the axis), or an initial mesh with an inverted or degenerate element.
-// `density` (optional, paper §VI-E "E_G can be modified using a sizing field"): each element's E_G is
-// weighted by the density sampled at its centroid during the whole run, so the optimum keeps the
-// density's sizing (element size ∝ density^(−1/(dim+2)) where the image is uniform); it is in the
-// mesh's frame like `image` (any grid) and must be finite and > 0 (throws otherwise). Without it
-// the geometric term drives toward uniform sizes (a sized initial mesh drifts back).
+// (E_D = 0) gets an estimated E_D0 instead (VimResult::ed0_estimated). Implementation: optimizer.hpp (state,
+// node updates, swaps) and src/vim.cpp (this loop). Throws std::invalid_argument for invalid options, an
+// image with < 2 voxels along an axis (the message names the axis), or an initial mesh with an inverted or
+// degenerate element. `density` (optional, paper §VI-E "E_G can be modified using a sizing field"): each
+// element's E_G is weighted by the density sampled at its centroid during the whole run, so the optimum keeps
+// the density's sizing (element size ∝ density^(−1/(dim+2)) where the image is uniform); it is in the mesh's
+// frame like `image` (any grid) and must be finite and > 0 (throws otherwise). Without it the geometric term
+// drives toward uniform sizes (a sized initial mesh drifts back).
 template <int dim>
 VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const VimOptions& options,
                         const ProgressCallback& progress = {}, const Image<dim>* density = nullptr);
