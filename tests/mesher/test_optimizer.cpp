@@ -1,4 +1,4 @@
-// Tests of the VIM optimiser (paper §IV, DESIGN.md §3): E (Eq. 7) never increases, the quality
+// Tests of the VIM optimiser (paper §IV): E (Eq. 7) never increases, the quality
 // bound holds and no element inverts after every iteration, corners stay fixed and boundary nodes
 // on their face/edge, the caches equal a fresh evaluation, the final E equals a brute-force
 // per-voxel recomputation, E_D drops on the two-circle phantom, random walk, insertion, sizing
