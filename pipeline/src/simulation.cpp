@@ -58,7 +58,7 @@ struct NeedleSimulation<dim>::Impl {
   CellLocator<dim> locator;
   std::vector<double> E;
   Vec box_min, box_max;  // frame
-  UnstructuredGrid grid;  // world, no fields
+  std::shared_ptr<const UnstructuredGrid> grid;  // world, no fields; its points are the model's vertices
   std::vector<bool> blocked;
   // Axes of the needle's point constraints: the world axes seen from the frame when a support holds
   // world components of an oblique image, so that a shaft point on such a node leaves the held
@@ -164,7 +164,7 @@ fem::VolumeSupport<dim> NeedleSimulation<dim>::Impl::volume_support(const Bounda
 template <int dim>
 void NeedleSimulation<dim>::Impl::setup(const std::vector<Vec>& vertices) {
   // Geometry checks against the model's box (the image box), then the boundary conditions.
-  check_scenario_geometry<dim>(sc, box_min, box_max, tf);
+  if (!opt.scenario_checked) check_scenario_geometry<dim>(sc, box_min, box_max, tf);
   solver.type = sc.solver_type == "direct" ? fem::SolverOptions::Type::direct
                 : sc.solver_type == "amg"  ? fem::SolverOptions::Type::amg
                                            : fem::SolverOptions::Type::automatic;
@@ -248,7 +248,8 @@ NeedleSimulation<dim>::NeedleSimulation(const MeshModel<dim>& mm, const Scenario
   }
   m.locator = CellLocator<dim>::simplex(mm.mesh);
   m.model.emplace(mm.mesh, m.E, scenario.poisson_ratio, m.degree);
-  m.grid = simplex_grid(mm.mesh, mm.transform);
+  m.grid = m.opt.world_grid ? m.opt.world_grid
+                            : std::make_shared<const UnstructuredGrid>(simplex_grid(mm.mesh, mm.transform));
   m.setup(m.model->vertices());
   m.build_seconds = seconds_since(t0);
 }
@@ -264,7 +265,7 @@ NeedleSimulation<dim> NeedleSimulation<dim>::voxel(const Image<dim>& image, cons
   m.tf = transform;
   m.voxel = true;
   if (scenario.dim != dim) throw ScenarioError(scenario.where(0) + "scenario was parsed for a " + std::to_string(scenario.dim) + "D image");
-  check_modulus_image(scenario, image);
+  if (!m.opt.scenario_checked) check_modulus_image(scenario, image);
   std::vector<double> values(image.data.begin(), image.data.end());
   m.E = scenario_modulus(scenario, values);
   m.box_min = image.box_min();
@@ -272,34 +273,11 @@ NeedleSimulation<dim> NeedleSimulation<dim>::voxel(const Image<dim>& image, cons
   m.model.emplace(fem::ElasticModel<dim>::voxel_grid(image.size, m.box_min, m.box_max, m.E, scenario.poisson_ratio));
   const auto& verts = m.model->vertices();
   m.locator = CellLocator<dim>::grid(image.size, m.box_min, m.box_max, verts);
-  // Hexahedra (quads) in VTK corner order, vertices in the model's numbering.
-  UnstructuredGrid& g = m.grid;
-  g.vtk_cell_type = dim == 3 ? 12 : 9;
-  g.nodes_per_cell = 1 << dim;
-  for (const auto& v : verts) {
-    const Vec w = transform.to_world(v);
-    std::array<double, 3> q{{0, 0, 0}};
-    for (int d = 0; d < dim; ++d) q[d] = w[d];
-    g.points.push_back(q);
-  }
-  Vec h;
-  for (int d = 0; d < dim; ++d) h[d] = image.spacing[d];
-  const auto order2 = voxel_corner_order(transform.direction.determinant() < 0.0);
-  std::vector<int> sup;
-  for (std::size_t k = 0; k < image.voxel_count(); ++k) {
-    const auto idx = image.index_of(k);
-    for (int z = 0; z < (dim == 3 ? 2 : 1); ++z)
-      for (const auto& c : order2) {
-        Vec corner;
-        for (int a = 0; a < dim; ++a) {
-          const long off = a == 0 ? c[0] : a == 1 ? c[1] : z;
-          corner[a] = m.box_min[a] + static_cast<double>(idx[a] + off) * h[a];
-        }
-        m.locator.locate(corner, &sup);  // a lattice point: its support is the vertex itself
-        if (sup.size() != 1) throw std::logic_error("voxel grid: lattice point without a unique vertex");
-        g.connectivity.push_back(sup[0]);
-      }
-  }
+  // One hexahedron (quad) per voxel on the lattice of corners, which is the model's vertex numbering.
+  m.grid = m.opt.world_grid ? m.opt.world_grid
+                            : std::make_shared<const UnstructuredGrid>(voxel_grid(image, transform));
+  if (m.grid->points.size() != verts.size())
+    throw std::logic_error("voxel model: the world grid does not have the model's vertices");
   m.setup(verts);
   m.build_seconds = seconds_since(t0);
   return sim;
@@ -316,7 +294,7 @@ fem::ElasticModel<dim>& NeedleSimulation<dim>::model() {
 
 template <int dim>
 void NeedleSimulation<dim>::Impl::write_step(const std::string& rel, const fem::Solution<dim>* s) const {
-  UnstructuredGrid g = grid;
+  UnstructuredGrid g = *grid;
   const Mat D = tf.direction;
   const std::size_t nc = E.size();
   if (sc.wants("displacement")) {

@@ -28,6 +28,7 @@
 #include <vim/fem/elasticity.hpp>
 #include <vim/pipeline/model.hpp>
 #include <vim/pipeline/scenario.hpp>
+#include <vim/pipeline/vtk_output.hpp>
 
 #include <nlohmann/json.hpp>
 
@@ -51,6 +52,13 @@ struct SimulationOptions {
   // Stick-slip: active-set sweeps per step (each one condensed solve). A step whose set still changes
   // after this many keeps the last iterate and is listed in NeedleRun::unsettled_steps and the warnings.
   int max_active_set_iterations = 100;
+  // The model's grid in world coordinates when the caller has built it (MeshingRun's world grid, the
+  // geometry of mesh.vtu): simplex_grid of the mesh, or voxel_grid of the image. Null: the simulation
+  // builds the same grid itself.
+  std::shared_ptr<const UnstructuredGrid> world_grid;
+  // The caller has checked the scenario against this image's box (check_scenario_geometry, and for
+  // the voxel model check_modulus_image): the simulation does not check it again.
+  bool scenario_checked = false;
 };
 
 template <int dim>
