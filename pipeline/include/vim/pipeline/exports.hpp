@@ -1,4 +1,4 @@
-// Mesh exports for other tools (DESIGN.md §6, issue 7): legacy VTK for deal.II's GridIn::read_vtk,
+// Mesh exports for other tools (docs/architecture.md): legacy VTK for deal.II's GridIn::read_vtk,
 // FEBio (.feb, per-element E map), Gmsh 4.1 (.msh, physical group per material bin) and Abaqus (.inp,
 // element set + material per bin). All in WORLD coordinates (direction matrix applied), every cell
 // positively oriented in world space, each file written under a temporary name and renamed.
