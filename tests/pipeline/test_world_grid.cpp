@@ -1,7 +1,9 @@
 // The world-coordinate grids that mesh.vtu, the exports and the simulation steps share
 // (vtk_output.hpp): the voxel grid against the FEM voxel model's own vertices (deal.II's numbering, which
 // fem checks against subdivided_hyper_rectangle) and against the voxel box computed by hand; the grid of
-// a world mesh against the grid of the frame mesh with the transform applied, on a mirroring image.
+// a world mesh against the grid of the frame mesh with the transform applied, on a mirroring image;
+// MeshingRun called stage by stage: the world grid is the mesh transformed, and the files appear only
+// at the writing stages.
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -9,7 +11,11 @@
 #include <vim/fem/elasticity.hpp>
 #include <vim/initial_mesh.hpp>
 #include <vim/pipeline/exports.hpp>
+#include <vim/pipeline/meshing_run.hpp>
+#include <vim/pipeline/phantoms.hpp>
 #include <vim/pipeline/vtk_output.hpp>
+
+#include "run_cli.hpp"
 
 using namespace vim;
 using namespace vim::pipeline;
@@ -81,4 +87,43 @@ TEST(WorldGrid, GridOfTheWorldMeshIsTheFrameMeshTransformed) {
     const Eigen::Vector3d p0 = point(a, t[0]);
     EXPECT_GT((point(a, t[1]) - p0).cross(point(a, t[2]) - p0).dot(point(a, t[3]) - p0), 0.0);
   }
+}
+
+TEST(MeshingRun, StagesOneByOne) {
+  vim::test::TempDir dir("meshing_run");
+  Log::set_verbosity(Verbosity::quiet);
+  OrientedImage<2> image = phantoms::two_circles(40);
+  const double c = std::cos(0.3), s = std::sin(0.3);
+  image.direction << c, -s, s, c;  // an oblique image: the world grid is rotated
+  const std::string file = (dir.path / "circles.mha").string();
+  write_image(image, file);
+  RunOptions o;
+  o.image = file;
+  o.out = dir.path / "out";
+  o.nodes = 60;
+  o.max_iterations = 3;
+  o.exports = {"msh"};
+  o.verbosity = Verbosity::quiet;
+  MeshingRun<2> run(o, ImageFile(file));
+  run.read_inputs();
+  run.make_mesh();
+  const auto& mesh = run.model().mesh;
+  const UnstructuredGrid& grid = run.world_grid();
+  ASSERT_EQ(grid.points.size(), mesh.n_points());
+  ASSERT_EQ(grid.n_cells(), mesh.n_cells());
+  for (std::size_t v = 0; v < mesh.n_points(); ++v) {
+    const Eigen::Vector2d w = image.to_world(mesh.points[v]);
+    EXPECT_NEAR(grid.points[v][0], w[0], 1e-12);
+    EXPECT_NEAR(grid.points[v][1], w[1], 1e-12);
+  }
+  EXPECT_EQ(run.report()["mesh"]["nodes"].get<std::size_t>(), mesh.n_points());
+  EXPECT_FALSE(std::filesystem::exists(o.out / "mesh.vtu"));
+  run.build_model();
+  run.simulate();
+  run.write_outputs();
+  EXPECT_TRUE(std::filesystem::exists(o.out / "mesh.vtu"));
+  EXPECT_TRUE(std::filesystem::exists(o.out / "mesh.msh"));
+  EXPECT_FALSE(std::filesystem::exists(o.out / "report.json"));
+  run.write_report();
+  EXPECT_TRUE(std::filesystem::exists(o.out / "report.json"));
 }
