@@ -91,6 +91,7 @@ TEST(WorldGrid, GridOfTheWorldMeshIsTheFrameMeshTransformed) {
 
 TEST(MeshingRun, StagesOneByOne) {
   vim::test::TempDir dir("meshing_run");
+  const Verbosity verbosity = Log::verbosity();
   Log::set_verbosity(Verbosity::quiet);
   OrientedImage<2> image = phantoms::two_circles(40);
   const double c = std::cos(0.3), s = std::sin(0.3);
@@ -126,4 +127,5 @@ TEST(MeshingRun, StagesOneByOne) {
   EXPECT_FALSE(std::filesystem::exists(o.out / "report.json"));
   run.write_report();
   EXPECT_TRUE(std::filesystem::exists(o.out / "report.json"));
+  Log::set_verbosity(verbosity);
 }
