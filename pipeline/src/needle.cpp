@@ -1,5 +1,5 @@
-// Needle geometry (DESIGN.md §5): point location, shaft sampling, and the conjugate-gradient force
-// control used by the stick-slip and force models (see needle.hpp).
+// Needle geometry (docs/architecture.md): point location, shaft sampling, and the axial map behind
+// the force control of the stick-slip and force models (see needle.hpp).
 #include <vim/pipeline/needle.hpp>
 
 #include <Eigen/LU>

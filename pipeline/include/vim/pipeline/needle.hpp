@@ -1,4 +1,4 @@
-// Needle geometry for the kinematic insertion model (DESIGN.md §5): locating points in the model's
+// Needle geometry for the kinematic insertion model (docs/architecture.md): locating points in the model's
 // cells, sampling the embedded shaft points along the straight path, and the axial stiffness map of
 // the embedded points, which the stick-slip and force models use for force control.
 #pragma once
