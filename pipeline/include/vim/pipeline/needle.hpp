@@ -1,8 +1,9 @@
-// Needle geometry for the kinematic insertion model (DESIGN.md §5): locating points in the model's
-// cells, sampling the embedded shaft points along the straight path, and the axial stiffness map of
-// the embedded points, which the stick-slip and force models use for force control.
+// Needle geometry for the kinematic insertion model: sampling the embedded shaft points along the
+// straight path (points located with fem::CellLocator), and the axial stiffness map of the embedded
+// points, which the stick-slip and force models use for force control.
 #pragma once
 
+#include <vim/fem/cell_locator.hpp>
 #include <vim/image.hpp>
 #include <vim/simplex_mesh.hpp>
 
@@ -16,36 +17,9 @@
 
 namespace vim::pipeline {
 
-// Point location in a simplex mesh or in a regular grid of cells (frame coordinates). locate()
-// returns the cell containing p (-1 outside) and, optionally, the model vertices whose P1/Q1 shape
-// functions are non-zero at p (the support of an embedded-point constraint there).
+// The project's point locator (simplex meshes and voxel grids), shared with the elastic model.
 template <int dim>
-class CellLocator {
- public:
-  using Vec = Eigen::Matrix<double, dim, 1>;
-  static CellLocator simplex(const SimplexMesh<dim>& mesh);
-  // Grid of cells[0]×…×cells[dim-1] cells on [lo, hi]; `vertices` are the model's vertices in its own
-  // numbering (every lattice point must be one of them).
-  static CellLocator grid(const std::array<long, dim>& cells, const Vec& lo, const Vec& hi, const std::vector<Vec>& vertices);
-
-  long locate(const Vec& p, std::vector<int>* support = nullptr) const;
-  // Mean edge length of the cells (a length scale for the shaft sampling).
-  double mean_edge_length() const { return mean_edge_; }
-  // Position of vertex v (the numbering of the supports).
-  const Vec& vertex(int v) const { return vertices_[static_cast<std::size_t>(v)]; }
-
- private:
-  bool is_grid_ = false;
-  SimplexMesh<dim> mesh_;  // own copy (cells and points)
-  std::vector<Eigen::Matrix<double, dim, dim>> inverse_;  // per simplex: maps x - x0 to barycentrics 1..dim
-  Vec lo_, hi_, bucket_size_;
-  std::array<long, dim> nb_{};
-  std::vector<std::vector<int>> buckets_;
-  std::array<long, dim> cells_{};
-  std::vector<int> lattice_to_vertex_;
-  std::vector<Vec> vertices_;
-  double mean_edge_ = 0.0;
-};
+using CellLocator = fem::CellLocator<dim>;
 
 // One embedded shaft point: reference (frame) position entry + s·axis and the length of shaft it stands for.
 template <int dim>
