@@ -1,22 +1,23 @@
 // Needle geometry: shaft sampling, the axial stiffness map used for force control by the stick-slip and
 // force models, and the needle-path mesh density (see needle.hpp).
-#include <vim/pipeline/needle.hpp>
-
 #include <Eigen/LU>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <string>
 #include <stdexcept>
+#include <string>
+#include <vim/pipeline/needle.hpp>
 
 namespace vim::pipeline {
 
 template <int dim>
-std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator, const Eigen::Matrix<double, dim, 1>& entry,
-                                          const Eigen::Matrix<double, dim, 1>& axis, double depth, double pitch,
-                                          const std::vector<bool>& blocked, bool snap_to_vertices) {
-  if (!(pitch > 0.0) || !(depth > 0.0)) throw std::invalid_argument("sample_shaft: depth and pitch must be > 0");
+std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator,
+                                          const Eigen::Matrix<double, dim, 1>& entry,
+                                          const Eigen::Matrix<double, dim, 1>& axis, double depth,
+                                          double pitch, const std::vector<bool>& blocked,
+                                          bool snap_to_vertices) {
+  if (!(pitch > 0.0) || !(depth > 0.0))
+    throw std::invalid_argument("sample_shaft: depth and pitch must be > 0");
   // Candidates every pitch. With snap_to_vertices, where the path runs along mesh edges (every vertex
   // of a candidate's support lies on the path's line), the candidate is replaced by those vertices,
   // each at its own arc length: a chain of points inside consecutive collinear edges makes nearly
@@ -42,12 +43,14 @@ std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator, const
       along = (r - sv * axis).norm() <= line_tol && sv >= -line_tol && sv < depth;
     }
     if (along) {
-      for (int v : sup) cand.push_back({std::max(0.0, (locator.vertex(v) - entry).dot(axis)), locator.vertex(v), {v}});
+      for (int v : sup)
+        cand.push_back({std::max(0.0, (locator.vertex(v) - entry).dot(axis)), locator.vertex(v), {v}});
     } else {
       cand.push_back({s, x, sup});
     }
   }
-  std::stable_sort(cand.begin(), cand.end(), [](const Candidate& a, const Candidate& b) { return a.s < b.s; });
+  std::stable_sort(cand.begin(), cand.end(),
+                   [](const Candidate& a, const Candidate& b) { return a.s < b.s; });
   std::vector<ShaftPoint<dim>> pts;
   std::vector<int> last;
   for (const auto& c : cand) {
@@ -86,7 +89,8 @@ AxialMap AxialMap::probe(Eigen::Index m, const std::function<Eigen::VectorXd(con
   return map;
 }
 
-void AxialMap::solve_free(Eigen::VectorXd& w, const std::vector<bool>& free, const Eigen::VectorXd& target) const {
+void AxialMap::solve_free(Eigen::VectorXd& w, const std::vector<bool>& free,
+                          const Eigen::VectorXd& target) const {
   std::vector<Eigen::Index> f, n;
   for (Eigen::Index j = 0; j < w.size(); ++j) (free[j] ? f : n).push_back(j);
   if (f.empty()) return;
@@ -102,10 +106,11 @@ void AxialMap::solve_free(Eigen::VectorXd& w, const std::vector<bool>& free, con
 }
 
 template <int dim>
-Image<dim> needle_density(const Image<dim>& like, const std::vector<NeedlePath<dim>>& paths, double size_ratio,
-                          double radius) {
+Image<dim> needle_density(const Image<dim>& like, const std::vector<NeedlePath<dim>>& paths,
+                          double size_ratio, double radius) {
   if (!(size_ratio > 0.0 && size_ratio <= 1.0))
-    throw std::invalid_argument("needle refinement size_ratio must be in (0, 1], got " + std::to_string(size_ratio));
+    throw std::invalid_argument("needle refinement size_ratio must be in (0, 1], got " +
+                                std::to_string(size_ratio));
   if (!(radius > 0.0 && std::isfinite(radius)))
     throw std::invalid_argument("needle refinement radius must be > 0, got " + std::to_string(radius));
   if (paths.empty()) throw std::invalid_argument("needle refinement needs at least one needle path");
@@ -124,8 +129,10 @@ Image<dim> needle_density(const Image<dim>& like, const std::vector<NeedlePath<d
 template Image<2> needle_density<2>(const Image<2>&, const std::vector<NeedlePath<2>>&, double, double);
 template Image<3> needle_density<3>(const Image<3>&, const std::vector<NeedlePath<3>>&, double, double);
 template std::vector<ShaftPoint<2>> sample_shaft<2>(const CellLocator<2>&, const Eigen::Matrix<double, 2, 1>&,
-                                                    const Eigen::Matrix<double, 2, 1>&, double, double, const std::vector<bool>&, bool);
+                                                    const Eigen::Matrix<double, 2, 1>&, double, double,
+                                                    const std::vector<bool>&, bool);
 template std::vector<ShaftPoint<3>> sample_shaft<3>(const CellLocator<3>&, const Eigen::Matrix<double, 3, 1>&,
-                                                    const Eigen::Matrix<double, 3, 1>&, double, double, const std::vector<bool>&, bool);
+                                                    const Eigen::Matrix<double, 3, 1>&, double, double,
+                                                    const std::vector<bool>&, bool);
 
 }  // namespace vim::pipeline

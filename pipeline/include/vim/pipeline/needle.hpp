@@ -3,17 +3,15 @@
 // points, which the stick-slip and force models use for force control.
 #pragma once
 
-#include <vim/fem/cell_locator.hpp>
-#include <vim/image.hpp>
-#include <vim/simplex_mesh.hpp>
-
 #include <Eigen/Core>
 #include <Eigen/Dense>
-
 #include <algorithm>
 #include <array>
 #include <functional>
 #include <vector>
+#include <vim/fem/cell_locator.hpp>
+#include <vim/image.hpp>
+#include <vim/simplex_mesh.hpp>
 
 namespace vim::pipeline {
 
@@ -38,9 +36,11 @@ struct ShaftPoint {
 // make nearly dependent constraints (condition number > 1e10 along a 2D box edge); the simulation
 // re-samples with it when the solve reports that (fem::DependentPointConstraints).
 template <int dim>
-std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator, const Eigen::Matrix<double, dim, 1>& entry,
-                                          const Eigen::Matrix<double, dim, 1>& axis, double depth, double pitch,
-                                          const std::vector<bool>& blocked, bool snap_to_vertices = false);
+std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator,
+                                          const Eigen::Matrix<double, dim, 1>& entry,
+                                          const Eigen::Matrix<double, dim, 1>& axis, double depth,
+                                          double pitch, const std::vector<bool>& blocked,
+                                          bool snap_to_vertices = false);
 
 // The affine map from the axial values w of a fixed set of m point constraints to their axial forces,
 // f = K w + c (the condensed stiffness of the embedded points along the needle; K is symmetric positive
@@ -49,7 +49,8 @@ std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator, const
 struct AxialMap {
   Eigen::MatrixXd K;
   Eigen::VectorXd c;
-  static AxialMap probe(Eigen::Index m, const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& forces, double sigma);
+  static AxialMap probe(Eigen::Index m, const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& forces,
+                        double sigma);
   Eigen::VectorXd operator()(const Eigen::VectorXd& w) const { return K * w + c; }
   // Sets the free entries of w so that the forces there equal target (the other entries are kept).
   void solve_free(Eigen::VectorXd& w, const std::vector<bool>& free, const Eigen::VectorXd& target) const;
@@ -73,7 +74,7 @@ struct NeedlePath {
 // far from every path. Throws std::invalid_argument unless 0 < size_ratio <= 1, radius > 0 and
 // there is at least one path.
 template <int dim>
-Image<dim> needle_density(const Image<dim>& like, const std::vector<NeedlePath<dim>>& paths, double size_ratio,
-                          double radius);
+Image<dim> needle_density(const Image<dim>& like, const std::vector<NeedlePath<dim>>& paths,
+                          double size_ratio, double radius);
 
 }  // namespace vim::pipeline
