@@ -1,7 +1,7 @@
 // Small-strain linear elasticity with deal.II (paper §VI-C; docs/architecture.md, fem module), set-up
 // and assembly: the triangulation from a SimplexMesh (P1/P2 simplices) or a voxel grid (Q1
 // hexahedra), the conditions (Dirichlet regions along any axes, surface loads, body force, volume
-// supports), point location, and the assembly of K and f with per-cell Lamé parameters.
+// supports), and the assembly of K and f with per-cell Lamé parameters.
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/base/timer.h>
 #include <deal.II/dofs/dof_tools.h>
