@@ -1,6 +1,10 @@
 // Scenario YAML parsing and validation (scenario.hpp). yaml-cpp gives no position for missing keys or
 // bad conversions, so every access goes through the small checkers below, which name the key path,
 // the YAML line and the valid values.
+#include <vim/pipeline/scenario.hpp>
+
+#include <vim/fem/material.hpp>
+
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -496,18 +500,18 @@ void check_modulus_image(const Scenario& s, const Image<dim>& image) {
                         "); add material.clamp: [min, max] with min > 0 to use it");
 }
 
+// Eq. 15 is fem::element_modulus (a constant modulus: the same value for every element, scale 1); its
+// message, without the function's name, follows the scenario's file and key.
 std::vector<double> scenario_modulus(const Scenario& s, const std::vector<double>& mean) {
-  std::vector<double> e(mean.size());
-  for (std::size_t j = 0; j < mean.size(); ++j) {
-    double v = s.modulus_from_image ? mean[j] * s.scale : s.youngs_modulus;
-    if (s.clamp && !std::isnan(v)) v = std::min(std::max(v, s.clamp->first), s.clamp->second);
-    if (!(v > 0.0) || !std::isfinite(v))
-      throw ScenarioError(s.where(0) + "material.youngs_modulus: element " + std::to_string(j) +
-                          " gets modulus " + fmt(v) + " (mean " + fmt(mean[j]) + " x scale " + fmt(s.scale) +
-                          "); add material.clamp: [min, max] with min > 0");
-    e[j] = v;
+  try {
+    if (s.modulus_from_image) return fem::element_modulus(mean, s.scale, s.clamp);
+    return fem::element_modulus(std::vector<double>(mean.size(), s.youngs_modulus), 1.0, s.clamp);
+  } catch (const std::invalid_argument& e) {
+    std::string what = e.what();
+    const std::string prefix = "element_modulus: ";
+    if (what.rfind(prefix, 0) == 0) what.erase(0, prefix.size());
+    throw ScenarioError(s.where(0) + "material.youngs_modulus: " + what + " (material.clamp)");
   }
-  return e;
 }
 
 template void check_modulus_image<2>(const Scenario&, const Image<2>&);
