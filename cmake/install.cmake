@@ -2,10 +2,11 @@
 # vim::mesher, vim::fem, vim::pipeline), plus a pkg-config file for the mesher (Eigen + TBB only).
 # Included by the top-level CMakeLists.txt after every target is defined.
 #
-# A library target joins the package with one line, in dependency order:
-#   vim_install_library(<target> <name in the package, vim::NAME>)
-# Its public headers are the .hpp/.h files under its build-tree include directories; they are
-# installed into include/ and the target's include directories point there from the install tree.
+# The package holds vim_pipeline and every library target of this project it links, directly or
+# not, each as vim::NAME for target vim_NAME (a new library target below the pipeline, e.g. a core
+# target under the mesher, joins without a change here). Their public headers are the .hpp/.h files
+# under their build-tree include directories; they are installed into include/, and the targets'
+# include directories point there from the install tree.
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
@@ -17,25 +18,62 @@ function(vim_install_library target export_name)
   get_target_property(dirs ${target} INTERFACE_INCLUDE_DIRECTORIES)
   set(mapped "")
   foreach(dir IN LISTS dirs)
-    string(FIND "${dir}" "${PROJECT_SOURCE_DIR}/" in_source)
-    string(FIND "${dir}" "${PROJECT_BINARY_DIR}/" in_binary)
-    if(in_source EQUAL 0 OR in_binary EQUAL 0)
+    set(build_dir "")
+    if(dir MATCHES "^\\$<BUILD_INTERFACE:(.*)>$")
+      set(build_dir "${CMAKE_MATCH_1}")
+    else()
+      string(FIND "${dir}" "${PROJECT_SOURCE_DIR}/" in_source)
+      string(FIND "${dir}" "${PROJECT_BINARY_DIR}/" in_binary)
+      if(in_source EQUAL 0 OR in_binary EQUAL 0)
+        set(build_dir "${dir}")
+      endif()
+    endif()
+    if(build_dir)
       # A build-tree header folder: its headers go to include/, consumers of the install look there.
-      install(DIRECTORY ${dir}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} FILES_MATCHING PATTERN "*.hpp" PATTERN "*.h")
-      list(APPEND mapped "$<BUILD_INTERFACE:${dir}>")
-    elseif(dir)
-      list(APPEND mapped "${dir}")  # system folders and generator expressions stay as they are
+      install(DIRECTORY ${build_dir}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} FILES_MATCHING PATTERN "*.hpp"
+              PATTERN "*.h")
+      list(APPEND mapped "$<BUILD_INTERFACE:${build_dir}>")
+    elseif(dir AND NOT dir MATCHES "^\\$<INSTALL_INTERFACE:")
+      list(APPEND mapped "${dir}")  # system folders stay as they are
     endif()
   endforeach()
   list(APPEND mapped "$<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>")
   set_target_properties(${target} PROPERTIES INTERFACE_INCLUDE_DIRECTORIES "${mapped}")
-  install(TARGETS ${target} EXPORT ${VIM_PACKAGE_NAME}Targets
-          ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
+  install(TARGETS ${target} EXPORT ${VIM_PACKAGE_NAME}Targets ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+          LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
 endfunction()
 
-vim_install_library(vim_mesher mesher)
-vim_install_library(vim_fem fem)
-vim_install_library(vim_pipeline pipeline)
+# The project's (not imported) library targets that `root` links, directly or not, and `root`.
+function(vim_project_libraries root out)
+  set(found "")
+  set(pending ${root})
+  while(pending)
+    list(POP_FRONT pending lib)
+    get_target_property(aliased ${lib} ALIASED_TARGET)
+    if(aliased)
+      set(lib ${aliased})
+    endif()
+    get_target_property(imported ${lib} IMPORTED)
+    get_target_property(type ${lib} TYPE)
+    if(imported OR NOT type MATCHES "^(STATIC|SHARED)_LIBRARY$" OR lib IN_LIST found)
+      continue()
+    endif()
+    list(APPEND found ${lib})
+    get_target_property(deps ${lib} LINK_LIBRARIES)
+    foreach(dep IN LISTS deps)
+      if(TARGET ${dep})
+        list(APPEND pending ${dep})
+      endif()
+    endforeach()
+  endwhile()
+  set(${out} ${found} PARENT_SCOPE)
+endfunction()
+
+vim_project_libraries(vim_pipeline VIM_PACKAGE_LIBRARIES)
+foreach(lib IN LISTS VIM_PACKAGE_LIBRARIES)
+  string(REGEX REPLACE "^vim_" "" export_name ${lib})
+  vim_install_library(${lib} ${export_name})
+endforeach()
 
 install(TARGETS vim-pipeline vim-make-phantom RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 install(FILES ${PROJECT_SOURCE_DIR}/LICENSE ${PROJECT_SOURCE_DIR}/CITATION.cff ${PROJECT_SOURCE_DIR}/CHANGELOG.md
@@ -54,28 +92,16 @@ install(FILES ${PROJECT_BINARY_DIR}/package/${VIM_PACKAGE_NAME}Config.cmake
         DESTINATION ${VIM_PACKAGE_DIR})
 
 # pkg-config for the mesher: -l for vim_mesher and every library target of this project it links
-# (so that a core target below it is listed too), Eigen and TBB through Requires.
+# (a core target below it is listed too), Eigen and TBB through Requires.
+vim_project_libraries(vim_mesher mesher_libraries)
 set(VIM_MESHER_PC_LIBS "")
-set(pending vim_mesher)
-while(pending)
-  list(POP_FRONT pending lib)
-  get_target_property(imported ${lib} IMPORTED)
-  get_target_property(type ${lib} TYPE)
-  if(imported OR NOT type MATCHES "LIBRARY$" OR type STREQUAL "INTERFACE_LIBRARY")
-    continue()
-  endif()
+foreach(lib IN LISTS mesher_libraries)
   get_target_property(name ${lib} OUTPUT_NAME)
   if(NOT name)
     set(name ${lib})
   endif()
   string(APPEND VIM_MESHER_PC_LIBS " -l${name}")
-  get_target_property(deps ${lib} LINK_LIBRARIES)
-  foreach(dep IN LISTS deps)
-    if(TARGET ${dep})
-      list(APPEND pending ${dep})
-    endif()
-  endforeach()
-endwhile()
+endforeach()
 set(VIM_MESHER_PC_CFLAGS "")
 if(VIM_CHECKED)
   set(VIM_MESHER_PC_CFLAGS " -DVIM_CHECKED=1")
