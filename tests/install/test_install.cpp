@@ -98,6 +98,8 @@ TEST(Install, DownstreamProjectBuildsAndRunsAgainstTheInstalledTree) {
   std::string configure = "-S " + quote(std::string(VIM_SOURCE_DIR) + "/examples/downstream") + " -B " +
                           quote(build.string()) + " -DCMAKE_PREFIX_PATH=" + quote(prefix.string()) +
                           " -DCMAKE_CXX_COMPILER=" + quote(VIM_CXX_COMPILER);
+  if (!std::string(VIM_DOWNSTREAM_LINKER_FLAGS).empty())
+    configure += " -DCMAKE_EXE_LINKER_FLAGS=" + quote(VIM_DOWNSTREAM_LINKER_FLAGS);
   if (!std::string(VIM_CXX_COMPILER_LAUNCHER).empty())
     configure += " -DCMAKE_CXX_COMPILER_LAUNCHER=" + quote(VIM_CXX_COMPILER_LAUNCHER);
   const auto configured = run_command(cmake, configure);
