@@ -306,7 +306,12 @@ void write_mesh_figures(const OrientedImage<dim>& oriented, const MeshModel<dim>
     overlay.write_png(f1);
 
     Canvas discretized(view.width + 2 * kMargin, view.height + 3 * kMargin + kBar + kLabel);
-    for (const auto& [c, poly] : cut) discretized.fill_polygon(to_pixels(view, poly), grey(range.t(model.values[c].mean)));
+    for (const auto& [c, poly] : cut) {
+      // Each element also stroked in its own colour: no background seams between anti-aliased fills.
+      const Rgb g = grey(range.t(model.values[c].mean));
+      discretized.fill_polygon(to_pixels(view, poly), g);
+      discretized.polyline_closed(to_pixels(view, poly), g);
+    }
     draw_colorbar(discretized, view, bar_y, range.lo, range.hi, "element mean", grey);
     const fs::path f2 = fig_dir / "discretized.png";
     discretized.write_png(f2);
@@ -338,18 +343,20 @@ nlohmann::json write_line_plot(const fs::path& path, const std::vector<double>& 
   auto py = [&](double v) { return (H - B) - (v - ay.lo) / (ay.hi - ay.lo) * (H - T - B); };
 
   Canvas canvas(W, H);
+  // Grid, ticks and frame: 1-pixel lines through the centres of the pixels they fall in (sharp).
+  auto crisp = [](double v) { return std::floor(v) + 0.5; };
   for (double t : ax.ticks) {
-    canvas.line(px(t), T, px(t), H - B, colors::light_grey);
-    canvas.line(px(t), H - B, px(t), H - B + 5, colors::axis);
+    canvas.line(crisp(px(t)), crisp(T), crisp(px(t)), crisp(H - B), colors::light_grey);
+    canvas.line(crisp(px(t)), crisp(H - B), crisp(px(t)), crisp(H - B + 5), colors::axis);
   }
   for (double t : ay.ticks) {
-    canvas.line(L, py(t), W - R, py(t), colors::light_grey);
-    canvas.line(L - 5, py(t), L, py(t), colors::axis);
+    canvas.line(crisp(L), crisp(py(t)), crisp(W - R), crisp(py(t)), colors::light_grey);
+    canvas.line(crisp(L - 5), crisp(py(t)), crisp(L), crisp(py(t)), colors::axis);
   }
-  canvas.line(L, T, L, H - B, colors::axis);
-  canvas.line(L, H - B, W - R, H - B, colors::axis);
-  canvas.line(L, T, W - R, T, colors::axis);
-  canvas.line(W - R, T, W - R, H - B, colors::axis);
+  canvas.line(crisp(L), crisp(T), crisp(L), crisp(H - B), colors::axis);
+  canvas.line(crisp(L), crisp(H - B), crisp(W - R), crisp(H - B), colors::axis);
+  canvas.line(crisp(L), crisp(T), crisp(W - R), crisp(T), colors::axis);
+  canvas.line(crisp(W - R), crisp(T), crisp(W - R), crisp(H - B), colors::axis);
   // Tick values, axis titles.
   const double xs = std::max(std::abs(ax.lo), std::abs(ax.hi)), ys = std::max(std::abs(ay.lo), std::abs(ay.hi));
   for (double t : ax.ticks)
