@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Performance benchmarks of issue 9, all ratios measured in this one invocation (never asserted):
+# Performance benchmarks (docs/performance.md), all ratios measured in this one invocation (never asserted):
 #   - voxel enclosure: prefix sums vs brute-force per-voxel test, per element size;
 #   - one VIM iteration at 343 and 4096 nodes, 1 vs 2 threads;
 #   - a full converged VIM run at 4096 nodes (wall time, iterations, TF%) via table1, with the

@@ -1,4 +1,4 @@
-// Issue 9: VIM vs CGAL Mesh_3 on the same image at (about) the same node count, in one run.
+// VIM vs CGAL Mesh_3 on the same image at (about) the same node count, in one run.
 // The 100³ Table I phantom (cube [0,3]³, sphere r=1, 2 inside / 1 outside) is meshed by VIM at a
 // node budget (default 4096, default VimOptions as table1) and by CGAL Mesh_3 from a labeled
 // Image_3 built in memory from the same voxels (label 1 = background, 2 = sphere; CGAL meshes only
