@@ -12,8 +12,8 @@
 // rule), TF% against the analytic sphere; quality = min NRR, min/max dihedral. For CGAL the
 // subdomain-2 rule is printed as well (TF% of the tets CGAL labelled 2).
 //
-// VIM runs twice: with the default (screened) node update and with the paper's full search
-// (--search-width 0, row "VIM-full"); the ratio column is against the first. --threads 1 runs VIM
+// VIM runs twice: with the default (screened) node update and with every direction searched in
+// full (--search-width 0, row "VIM-full"); the ratio column is against the first. --threads 1 runs VIM
 // sequential, as CGAL is here.
 //
 // Row "VIM-early": VIM stopped after the fewest iterations whose mesh already has the paper's Table I
