@@ -152,7 +152,8 @@ void add_mesh_options(CLI::App& app, RunOptions& o) {
       ->check(half_open_unit());
   app.add_option("--search-width", o.search_width,
                  "Node update: probe every line-search direction at two points and search only the W best "
-                 "in full; 0 = search every direction, as in the paper (slower, about the same fit) "
+                 "in full; 0 = search every direction in full (about 2.4x slower, about the same fit; the "
+                 "directions are the project's, not the paper's) "
                  "(default " +
                      std::to_string(d.search_width) + "; range [0, 1000])")
       ->type_name("W")

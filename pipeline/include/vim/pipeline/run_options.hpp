@@ -33,7 +33,7 @@ struct RunOptions {
   double convergence = VimOptions{}.convergence;  // --convergence: Eq. 9 threshold on v
   double energy_convergence =
       VimOptions{}.energy_convergence;  // --energy-convergence: and E falling less than this per iteration
-  int search_width = VimOptions{}.search_width;  // --search-width: 0 = the paper's full search
+  int search_width = VimOptions{}.search_width;  // --search-width: 0 = every direction searched in full
   int threads = 0;                               // 0 = all cores (TBB default)
   std::uint64_t seed = 1;
   bool check_invariants = kCheckedBuild;  // --check-invariants (on by default in a VIM_CHECKED build)
