@@ -1,7 +1,7 @@
 // Abaqus input export (mesh.inp): *Node, one *Element block per material bin (ELSET MAT_<id>,
-// C3D4 linear tetrahedra, CPE3 plane-strain triangles in 2D, as the simulation), and per bin a *Material with *Elastic
-// (E = the bin's mean modulus, ν) and a *Solid Section tying the set to it. Node and element
-// numbers are the 0-based mesh indices + 1.
+// C3D4 linear tetrahedra, CPE3 plane-strain triangles in 2D, as the simulation), and per bin a *Material with
+// *Elastic (E = the bin's mean modulus, ν) and a *Solid Section tying the set to it. Node and element numbers
+// are the 0-based mesh indices + 1.
 #include <vim/pipeline/atomic_file.hpp>
 #include <vim/pipeline/exports.hpp>
 
@@ -37,7 +37,8 @@ void write_inp(const std::filesystem::path& path, const SimplexMesh<dim>& world,
           << (dim == 2 ? "1.0\n" : ",\n");  // 2D: unit thickness
     }
     for (std::size_t k = 0; k < nb; ++k)
-      out << "*Material, NAME=MATERIAL_" << k + 1 << "\n*Elastic\n" << bins.modulus[k] << ", " << poisson_ratio << '\n';
+      out << "*Material, NAME=MATERIAL_" << k + 1 << "\n*Elastic\n"
+          << bins.modulus[k] << ", " << poisson_ratio << '\n';
   });
 }
 

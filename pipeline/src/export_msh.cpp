@@ -2,11 +2,10 @@
 // volume (3D) / surface (2D) entity per material bin carrying one physical group with the same tag,
 // so deal.II's material_id equals the MaterialID of mesh.vtk. All nodes sit in the first entity
 // block (parametric 0); element tags are the cell indices + 1.
-#include <vim/pipeline/atomic_file.hpp>
-#include <vim/pipeline/exports.hpp>
-
 #include <algorithm>
 #include <cmath>
+#include <vim/pipeline/atomic_file.hpp>
+#include <vim/pipeline/exports.hpp>
 
 namespace vim::pipeline {
 
@@ -18,7 +17,8 @@ void write_msh(const std::filesystem::path& path, const SimplexMesh<dim>& world,
 
   // Cells and bounding boxes per bin (entity).
   std::vector<std::vector<std::size_t>> members(nb);
-  std::vector<Eigen::Vector3d> lo(nb, Eigen::Vector3d::Constant(INFINITY)), hi(nb, Eigen::Vector3d::Constant(-INFINITY));
+  std::vector<Eigen::Vector3d> lo(nb, Eigen::Vector3d::Constant(INFINITY)),
+      hi(nb, Eigen::Vector3d::Constant(-INFINITY));
   for (std::size_t c = 0; c < m; ++c) {
     const int k = bins.element_material[c] - 1;
     members[k].push_back(c);
@@ -38,17 +38,20 @@ void write_msh(const std::filesystem::path& path, const SimplexMesh<dim>& world,
     out << "$EndPhysicalNames\n";
     // numPoints numCurves numSurfaces numVolumes; then per entity:
     // tag minX minY minZ maxX maxY maxZ numPhysicalTags physicalTag numBoundingEntities
-    out << "$Entities\n" << "0 0 " << (dim == 2 ? nb : 0) << ' ' << (dim == 3 ? nb : 0) << '\n';
+    out << "$Entities\n"
+        << "0 0 " << (dim == 2 ? nb : 0) << ' ' << (dim == 3 ? nb : 0) << '\n';
     for (std::size_t k = 0; k < nb; ++k)
-      out << k + 1 << ' ' << lo[k][0] << ' ' << lo[k][1] << ' ' << lo[k][2] << ' ' << hi[k][0] << ' ' << hi[k][1]
-          << ' ' << hi[k][2] << " 1 " << k + 1 << " 0\n";
+      out << k + 1 << ' ' << lo[k][0] << ' ' << lo[k][1] << ' ' << lo[k][2] << ' ' << hi[k][0] << ' '
+          << hi[k][1] << ' ' << hi[k][2] << " 1 " << k + 1 << " 0\n";
     out << "$EndEntities\n";
     // numEntityBlocks numNodes minNodeTag maxNodeTag / entityDim entityTag parametric numNodesInBlock
     out << "$Nodes\n1 " << n << " 1 " << n << '\n' << dim << " 1 0 " << n << '\n';
     for (std::size_t i = 0; i < n; ++i) out << i + 1 << '\n';
-    for (const auto& p : world.points) out << p[0] << ' ' << p[1] << ' ' << (dim == 3 ? p[dim - 1] : 0.0) << '\n';
+    for (const auto& p : world.points)
+      out << p[0] << ' ' << p[1] << ' ' << (dim == 3 ? p[dim - 1] : 0.0) << '\n';
     out << "$EndNodes\n";
-    // numEntityBlocks numElements minElementTag maxElementTag / entityDim entityTag elementType numElementsInBlock
+    // numEntityBlocks numElements minElementTag maxElementTag / entityDim entityTag elementType
+    // numElementsInBlock
     const int gmsh_type = dim == 3 ? 4 : 2;  // 4-node tetrahedron, 3-node triangle
     out << "$Elements\n" << nb << ' ' << m << " 1 " << m << '\n';
     for (std::size_t k = 0; k < nb; ++k) {

@@ -1,5 +1,5 @@
-// Needle geometry (docs/architecture.md): shaft sampling, the axial stiffness map used for force control by the stick-slip and
-// force models, and the needle-path mesh density (see needle.hpp).
+// Needle geometry (docs/architecture.md): shaft sampling, the axial stiffness map used for force control by
+// the stick-slip and force models, and the needle-path mesh density (see needle.hpp).
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>

@@ -1,10 +1,6 @@
 // Scenario YAML parsing and validation (scenario.hpp). yaml-cpp gives no position for missing keys or
 // bad conversions, so every access goes through the small checkers below, which name the key path,
 // the YAML line and the valid values.
-#include <vim/pipeline/scenario.hpp>
-
-#include <vim/fem/material.hpp>
-
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -13,6 +9,7 @@
 #include <limits>
 #include <set>
 #include <sstream>
+#include <vim/fem/material.hpp>
 #include <vim/pipeline/scenario.hpp>
 
 #include "scenario_reader.hpp"

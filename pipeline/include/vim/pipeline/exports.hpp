@@ -4,16 +4,13 @@
 // positively oriented in world space, each file written under a temporary name and renamed.
 #pragma once
 
-#include <vim/pipeline/model.hpp>
-
-#include <nlohmann/json.hpp>
-
 #include <Eigen/Core>
-
 #include <array>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
+#include <vim/pipeline/model.hpp>
 
 namespace vim::pipeline {
 
@@ -52,7 +49,8 @@ SimplexMesh<dim> world_mesh(const MeshModel<dim>& model);
 
 // Single-format writers (world mesh + bins computed by the caller with the two functions above).
 template <int dim>
-void write_vtk_legacy(const std::filesystem::path& path, const SimplexMesh<dim>& world, const MaterialBins& bins);
+void write_vtk_legacy(const std::filesystem::path& path, const SimplexMesh<dim>& world,
+                      const MaterialBins& bins);
 void write_feb(const std::filesystem::path& path, const SimplexMesh<3>& world, const MaterialBins& bins,
                double poisson_ratio);
 template <int dim>

@@ -1,6 +1,6 @@
 // Needle geometry for the kinematic insertion model: sampling the embedded shaft points along the
-// straight path (docs/architecture.md; points located with fem::CellLocator), and the axial stiffness map of the embedded
-// points, which the stick-slip and force models use for force control.
+// straight path (docs/architecture.md; points located with fem::CellLocator), and the axial stiffness map of
+// the embedded points, which the stick-slip and force models use for force control.
 #pragma once
 
 #include <Eigen/Core>
