@@ -4,6 +4,7 @@
 // → [simulation] → the CLI's output files.
 #include "pipeline_adapter.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -139,6 +140,20 @@ void check_meshable(const vp::OrientedImage<dim>& img, const std::string& file) 
 }
 
 // --- meshing stages ---------------------------------------------------------------------------------
+
+// The ranges the CLI's option parser enforces, named by the Python keywords.
+void check_settings(const MeshSettings& s) {
+  auto range = [](const char* name, double v, double lo, double hi) {
+    if (!(v >= lo && v <= hi))
+      throw vp::InputError(std::string(name) + " = " + std::to_string(v) + ": must be in [" + std::to_string(lo) +
+                           ", " + std::to_string(hi) + "]");
+  };
+  if (s.nodes) range("nodes", static_cast<double>(*s.nodes), 4, 1e8);
+  range("max_iterations", s.max_iterations, 0, 100000);
+  range("threads", s.threads, 0, 1024);
+  if (s.degree) range("degree", *s.degree, 1, 2);
+  if (s.threshold && !std::isfinite(*s.threshold)) throw vp::InputError("threshold: must be a finite number");
+}
 
 VimOptions vim_options(const MeshSettings& s) {
   VimOptions v;
@@ -313,6 +328,7 @@ std::shared_ptr<Staged<dim>> mesh_dim(vp::OrientedImage<dim> img, const std::str
   check_meshable(st->image, source);
   if (s.mesher != "vim" && s.mesher != "grid")
     throw vp::InputError("mesher = " + s.mesher + ": must be vim or grid");
+  check_settings(s);
   const VimOptions vo = vim_options(s);
   vo.validate();
   st->report["tool"] = {{"name", "vimpipeline"}, {"version", VIM_VERSION_STRING}};
@@ -349,10 +365,10 @@ MeshData mesh_data(std::shared_ptr<const Staged<dim>> st) {
   d.cells = st->grid.connectivity;
   for (const auto& [name, field] : st->grid.cell_data) d.cell_data[name] = field.values;
   for (const auto& [name, field] : st->grid.point_data) d.point_data[name] = field.values;
-  const std::string stage = st->report["options"]["mesher"].get<std::string>();
+  const std::string stage = st->report["options"]["mesher"].template get<std::string>();
   for (const auto& r : st->history) d.history.push_back(iteration_data(stage, r));
   if (st->report.contains("warnings"))
-    for (const auto& w : st->report["warnings"]) d.warnings.push_back(w.get<std::string>());
+    for (const auto& w : st->report["warnings"]) d.warnings.push_back(w.template get<std::string>());
   auto state = std::make_shared<MeshState>();
   if constexpr (dim == 2)
     state->two = st;

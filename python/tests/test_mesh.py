@@ -99,7 +99,7 @@ def test_mesh_invariants_and_cell_means_by_brute_force():
 
     z, y, x = np.mgrid[: array.shape[0], : array.shape[1], : array.shape[2]]
     centres = np.stack([origin[0] + x * spacing[0], origin[1] + y * spacing[1], origin[2] + z * spacing[2]], -1)
-    centres, values = centres.reshape(-1, 3), array.reshape(-1)
+    centres, values = centres.reshape(-1, 3), array.astype(np.float32).reshape(-1).astype(float)  # voxels are float
     checked = 0
     for c in range(0, len(mesh.cells), 7):
         p = mesh.points[mesh.cells[c]]
