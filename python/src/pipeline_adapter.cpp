@@ -145,8 +145,8 @@ void check_meshable(const vp::OrientedImage<dim>& img, const std::string& file) 
 void check_settings(const MeshSettings& s) {
   auto range = [](const char* name, double v, double lo, double hi) {
     if (!(v >= lo && v <= hi))
-      throw vp::InputError(std::string(name) + " = " + std::to_string(v) + ": must be in [" + std::to_string(lo) +
-                           ", " + std::to_string(hi) + "]");
+      throw vp::InputError(std::string(name) + " = " + std::to_string(v) + ": must be in [" +
+                           std::to_string(lo) + ", " + std::to_string(hi) + "]");
   };
   if (s.nodes) range("nodes", static_cast<double>(*s.nodes), 4, 1e8);
   range("max_iterations", s.max_iterations, 0, 100000);

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import vimpipeline as vp
-from conftest import run_cli, sphere_image, write_mha_2d
+from conftest import run_cli, sphere_image, write_mha_2d, write_nrrd
 
 
 def test_read_image_returns_the_written_voxels_and_geometry(oblique_image):
@@ -36,21 +36,34 @@ def test_read_image_2d_axis_order(tmp_path):
     assert np.array_equal(img.direction, np.eye(2))
 
 
-@pytest.mark.parametrize("threshold", [None, 2.0])
-def test_mesh_equals_the_cli_bit_for_bit(cli, oblique_image, tmp_path, threshold):
+@pytest.fixture(scope="module")
+def density_file(oblique_image, tmp_path_factory):
+    """A sizing image on the oblique image's grid: denser towards x = 0."""
+    path = tmp_path_factory.mktemp("sizing") / "density.nrrd"
+    n = oblique_image["array"].shape[2]
+    density = np.broadcast_to(1.0 + 4.0 * (1.0 - np.arange(n) / n), oblique_image["array"].shape)
+    write_nrrd(path, density, oblique_image["spacing"], oblique_image["origin"], oblique_image["direction"])
+    return str(path)
+
+
+@pytest.mark.parametrize("variant", ["plain", "threshold", "grid", "sizing"])
+def test_mesh_equals_the_cli_bit_for_bit(cli, oblique_image, density_file, tmp_path, variant):
     # Truth: the CLI's mesh.vtu on the same file and options (points, cells and cell data exactly equal).
     args = ["--nodes", 300, "--lambda", 0.4, "--max-iterations", 8, "--export", "none", "-q"]
-    if threshold is not None:
-        args += ["--threshold", threshold]
-    run_cli(cli, oblique_image["path"], *args, "--out", tmp_path / "cli")
+    options = dict(nodes=300, lam=0.4, max_iterations=8)
+    extra = {"plain": ([], {}), "threshold": (["--threshold", 2.0], {"threshold": 2.0}),
+             "grid": (["--mesher", "grid"], {"mesher": "grid"}),
+             "sizing": (["--sizing", density_file], {"sizing": density_file})}[variant]
+    run_cli(cli, oblique_image["path"], *args, *extra[0], "--out", tmp_path / "cli")
     ref = meshio.read(tmp_path / "cli" / "mesh.vtu")
-    mesh = vp.mesh(oblique_image["path"], nodes=300, lam=0.4, max_iterations=8, threshold=threshold)
+    mesh = vp.mesh(oblique_image["path"], **options, **extra[1])
     assert np.array_equal(mesh.points, ref.points)
     assert np.array_equal(mesh.cells, ref.cells_dict["tetra"])
-    expected = {"mean", "variance", "voxels", "quality"} | ({"segment", "object"} if threshold else set())
+    expected = {"mean", "variance", "voxels", "quality"} | ({"segment", "object"} if variant == "threshold" else set())
     assert set(mesh.cell_data) == expected
     for name in expected:
         assert np.array_equal(mesh.cell_data[name], ref.cell_data[name][0]), name
+    assert np.array_equal(mesh.point_data["boundary"], ref.point_data["boundary"])
     # Mesh.write produces the CLI's file byte for byte.
     mesh.write(tmp_path / "py.vtu")
     assert (tmp_path / "py.vtu").read_bytes() == (tmp_path / "cli" / "mesh.vtu").read_bytes()
