@@ -67,7 +67,12 @@ MeshSettings settings_from(const py::dict& d) {
   if (has("lam")) s.lambda = py::cast<double>(d["lam"]);
   if (has("max_dihedral")) s.max_dihedral = py::cast<double>(d["max_dihedral"]);
   if (has("min_dihedral")) s.min_dihedral = py::cast<double>(d["min_dihedral"]);
+  if (has("min_radius_ratio")) s.min_radius_ratio = py::cast<double>(d["min_radius_ratio"]);
   if (has("max_iterations")) s.max_iterations = py::cast<int>(d["max_iterations"]);
+  if (has("convergence")) s.convergence = py::cast<double>(d["convergence"]);
+  if (has("energy_convergence")) s.energy_convergence = py::cast<double>(d["energy_convergence"]);
+  if (has("search_width")) s.search_width = py::cast<int>(d["search_width"]);
+  if (has("seed")) s.seed = py::cast<std::uint64_t>(d["seed"]);
   if (has("threads")) s.threads = py::cast<int>(d["threads"]);
   if (has("sizing")) s.sizing = image_from(d["sizing"]);
   if (has("threshold")) s.threshold = py::cast<double>(d["threshold"]);

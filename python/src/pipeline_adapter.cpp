@@ -151,6 +151,7 @@ void check_settings(const MeshSettings& s) {
   if (s.nodes) range("nodes", static_cast<double>(*s.nodes), 4, 1e8);
   range("max_iterations", s.max_iterations, 0, 100000);
   range("threads", s.threads, 0, 1024);
+  if (s.search_width) range("search_width", *s.search_width, 0, 1000);
   if (s.degree) range("degree", *s.degree, 1, 2);
   if (s.threshold && !std::isfinite(*s.threshold)) throw vp::InputError("threshold: must be a finite number");
 }
@@ -160,7 +161,12 @@ VimOptions vim_options(const MeshSettings& s) {
   v.lambda = s.lambda.value_or(v.lambda);
   v.max_dihedral_deg = s.max_dihedral;
   v.min_dihedral_deg = s.min_dihedral.value_or(0.0);
+  v.min_radius_ratio = s.min_radius_ratio;
   v.max_iterations = s.max_iterations;
+  v.convergence = s.convergence.value_or(v.convergence);
+  v.energy_convergence = s.energy_convergence.value_or(v.energy_convergence);
+  v.search_width = s.search_width.value_or(v.search_width);
+  v.seed = s.seed;
   v.threads = s.threads;
   return v;
 }
@@ -172,7 +178,12 @@ json options_json(const MeshSettings& s) {
           {"lambda", v.lambda},
           {"max_dihedral_deg", v.max_dihedral_deg},
           {"min_dihedral_deg", v.min_dihedral_deg},
+          {"min_radius_ratio", v.min_radius_ratio},
           {"max_iterations", v.max_iterations},
+          {"convergence", v.convergence},
+          {"energy_convergence", v.energy_convergence},
+          {"search_width", v.search_width},
+          {"seed", v.seed},
           {"threads", v.threads},
           {"threshold", s.threshold ? json(*s.threshold) : json(nullptr)},
           {"mesher", s.mesher},

@@ -3,6 +3,7 @@
 // module.cpp only converts these structs to and from NumPy.
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <memory>
@@ -30,7 +31,11 @@ struct MeshSettings {
   std::optional<double> lambda;
   double max_dihedral = 150.0;
   std::optional<double> min_dihedral;
+  double min_radius_ratio = 0.0;
   int max_iterations = 50;
+  std::optional<double> convergence, energy_convergence;  // VimOptions' defaults when unset
+  std::optional<int> search_width;
+  std::uint64_t seed = 1;
   int threads = 0;
   std::optional<ImageData> sizing;
   std::optional<double> threshold;

@@ -46,14 +46,17 @@ def density_file(oblique_image, tmp_path_factory):
     return str(path)
 
 
-@pytest.mark.parametrize("variant", ["plain", "threshold", "grid", "sizing"])
+@pytest.mark.parametrize("variant", ["plain", "threshold", "grid", "sizing", "search"])
 def test_mesh_equals_the_cli_bit_for_bit(cli, oblique_image, density_file, tmp_path, variant):
     # Truth: the CLI's mesh.vtu on the same file and options (points, cells and cell data exactly equal).
     args = ["--nodes", 300, "--lambda", 0.4, "--max-iterations", 8, "--export", "none", "-q"]
     options = dict(nodes=300, lam=0.4, max_iterations=8)
     extra = {"plain": ([], {}), "threshold": (["--threshold", 2.0], {"threshold": 2.0}),
              "grid": (["--mesher", "grid"], {"mesher": "grid"}),
-             "sizing": (["--sizing", density_file], {"sizing": density_file})}[variant]
+             "sizing": (["--sizing", density_file], {"sizing": density_file}),
+             "search": (["--min-dihedral", 8, "--min-radius-ratio", 0.1, "--search-width", 0, "--convergence", 0.01,
+                         "--energy-convergence", 0], dict(min_dihedral=8, min_radius_ratio=0.1, search_width=0,
+                                                          convergence=0.01, energy_convergence=0))}[variant]
     run_cli(cli, oblique_image["path"], *args, *extra[0], "--out", tmp_path / "cli")
     ref = meshio.read(tmp_path / "cli" / "mesh.vtu")
     mesh = vp.mesh(oblique_image["path"], **options, **extra[1])

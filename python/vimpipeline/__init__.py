@@ -140,10 +140,13 @@ def read_image(path):
 
 
 def _settings(nodes=None, spacing=None, lam=None, max_dihedral=None, min_dihedral=None, max_iterations=None,
-              threads=None, sizing=None, threshold=None, mesher=None, degree=None):
+              threads=None, sizing=None, threshold=None, mesher=None, degree=None, min_radius_ratio=None,
+              convergence=None, energy_convergence=None, search_width=None, seed=None):
     s = {"nodes": nodes, "spacing": spacing, "lam": lam, "max_dihedral": max_dihedral,
          "min_dihedral": min_dihedral, "max_iterations": max_iterations, "threads": threads,
-         "threshold": threshold, "mesher": mesher, "degree": degree}
+         "threshold": threshold, "mesher": mesher, "degree": degree, "min_radius_ratio": min_radius_ratio,
+         "convergence": convergence, "energy_convergence": energy_convergence, "search_width": search_width,
+         "seed": seed}
     if sizing is not None:
         s["sizing"] = _image(sizing)._as_dict()
     return {k: v for k, v in s.items() if v is not None}
@@ -151,15 +154,16 @@ def _settings(nodes=None, spacing=None, lam=None, max_dihedral=None, min_dihedra
 
 def mesh(image_or_array, spacing=None, origin=None, direction=None, nodes=1000, lam=0.5, max_dihedral=150,
          min_dihedral=0, max_iterations=50, threads=0, sizing=None, threshold=None, mesher="vim",
-         grid_spacing=None, progress=None):
+         grid_spacing=None, progress=None, **options):
     """Meshes an image (a path, an Image, or an array[z, y, x] with spacing/origin/direction) as
     ``vim-pipeline IMAGE --nodes ... --out DIR`` does; returns a Mesh. ``mesher``: "vim" or "grid";
-    ``grid_spacing``: initial grid edge length instead of ``nodes``; ``progress(stage, record)`` is
-    called after each iteration. Bad input raises ValueError with the CLI's message."""
+    ``grid_spacing``: initial grid edge length instead of ``nodes``; ``options``: the CLI's
+    min_radius_ratio, convergence, energy_convergence, search_width, seed; ``progress(stage, record)``
+    is called after each iteration. Bad input raises ValueError with the CLI's message."""
     img = _image(image_or_array, spacing, origin, direction)
     settings = _settings(nodes=None if grid_spacing else nodes, spacing=grid_spacing, lam=lam,
                          max_dihedral=max_dihedral, min_dihedral=min_dihedral, max_iterations=max_iterations,
-                         threads=threads, sizing=sizing, threshold=threshold, mesher=mesher)
+                         threads=threads, sizing=sizing, threshold=threshold, mesher=mesher, **options)
     return Mesh(_core.mesh(img._as_dict(), settings, progress))
 
 
