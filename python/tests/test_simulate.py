@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import vimpipeline as vp
-from conftest import run_cli, sphere_image, write_nrrd
+from conftest import run_cli, sphere_image, write_mha_2d, write_nrrd
 
 SCENARIO = {
     "units": {"length": "mm", "modulus": "kPa"},
@@ -124,3 +124,35 @@ def test_bad_scenario_raises_value_error_with_the_cli_message(cli, case):
     assert str(e.value) == message
     with pytest.raises(ValueError, match="depth"):
         vp.simulate(str(d / "ball.nrrd"), bad)
+
+
+SCENARIO_2D = {
+    "material": {"youngs_modulus": "image", "poisson_ratio": 0.3},
+    "mesh": {"nodes": 200},
+    "boundary_conditions": [{"type": "fixed", "region": {"box_face": "y_min"}}],
+    "needle": {"entry": [14.5, 23.0], "direction": [0, -1], "depth": 8.0, "steps": 4, "diameter": 1.0},
+    "targets": [{"name": "below", "position": [14.5, 10.0]}],
+}
+
+
+@pytest.mark.parametrize("dim, degree", [(3, 2), (2, 1), (2, 2)])
+def test_p2_and_2d_runs_equal_the_cli(cli, tmp_path, dim, degree):
+    # Truth: the CLI's needle.csv and last step file for the same image, scenario and --degree.
+    if dim == 3:
+        write_nrrd(tmp_path / "img.nrrd", sphere_image(n=20, radius=6.0), (1.0,) * 3, (0.0,) * 3, np.eye(3))
+        image, scenario = tmp_path / "img.nrrd", SCENARIO
+    else:
+        y, x = np.mgrid[:24, :30]
+        write_mha_2d(tmp_path / "img.mha", np.where((x - 14) ** 2 + (y - 8) ** 2 < 25, 4.0, 1.0), (1.0, 1.0), (0.0, 0.0))
+        image, scenario = tmp_path / "img.mha", SCENARIO_2D
+    (tmp_path / "s.yaml").write_text(json.dumps(scenario))
+    run_cli(cli, image, "--simulate", tmp_path / "s.yaml", "--degree", degree, "--max-iterations", 6, "-q",
+            "--out", tmp_path / "cli")
+    seen = []
+    result = vp.simulate(str(image), scenario, degree=degree, max_iterations=6, progress=lambda s, r: seen.append(s))
+    result.write(tmp_path / "py")
+    assert "simulate" in seen and "vim" in seen
+    for rel in ("needle.csv", "mesh.vtu", "steps/step_0004.vtu"):
+        assert (tmp_path / "py" / rel).read_bytes() == (tmp_path / "cli" / rel).read_bytes(), rel
+    assert result.displacements.shape == (5, len(result.mesh.points), dim)
+    assert result.report["simulation"]["model"]["degree"] == degree
