@@ -50,7 +50,7 @@ def sphere_image(n=24, radius=7.0, inside=3.0, outside=1.0):
     return np.where(ball, inside, outside) + 0.01 * x
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def cli():
     path = os.environ.get("VIM_PIPELINE_CLI")
     if not path or not os.path.exists(path):
@@ -65,7 +65,7 @@ def run_cli(cli, *args, check=True):
     return r
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def oblique_image(tmp_path_factory):
     """A 3D NRRD with anisotropic spacing, an offset origin and an oblique direction."""
     path = tmp_path_factory.mktemp("images") / "oblique.nrrd"
