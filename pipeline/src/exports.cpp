@@ -122,15 +122,17 @@ SimplexMesh<dim> world_mesh(const MeshModel<dim>& model) {
 }
 
 template <int dim>
-void write_exports(const MeshModel<dim>& model, const fs::path& dir, const std::vector<std::string>& formats,
-                   nlohmann::json& report, const ExportOptions& options) {
+void write_exports(const ExportInput<dim>& input, const fs::path& dir, const std::vector<std::string>& formats,
+                   nlohmann::json& report) {
+  const MeshModel<dim>& model = input.model;
+  const ExportOptions& options = input.options;
   for (const auto& f : formats) check_format(f);
   if (!(options.poisson_ratio > -1.0 && options.poisson_ratio < 0.5))
     throw std::invalid_argument("poisson_ratio must be in (-1, 0.5), got " + std::to_string(options.poisson_ratio));
   if (options.max_material_bins < 1 || options.max_material_bins > 255)
     throw std::invalid_argument("max_material_bins must be in [1, 255]");
   const MaterialBins bins = material_bins(model, options.max_material_bins);
-  const SimplexMesh<dim> world = world_mesh(model);
+  const SimplexMesh<dim>& world = input.world;
   fs::create_directories(dir);
 
   nlohmann::json& out = report["exports"];
@@ -174,6 +176,17 @@ void write_exports(const MeshModel<dim>& model, const fs::path& dir, const std::
   }
 }
 
+template <int dim>
+void write_exports(const MeshModel<dim>& model, const fs::path& dir, const std::vector<std::string>& formats,
+                   nlohmann::json& report, const ExportOptions& options) {
+  const SimplexMesh<dim> world = world_mesh(model);
+  write_exports<dim>(ExportInput<dim>{model, world, options}, dir, formats, report);
+}
+
+template void write_exports<2>(const ExportInput<2>&, const fs::path&, const std::vector<std::string>&,
+                               nlohmann::json&);
+template void write_exports<3>(const ExportInput<3>&, const fs::path&, const std::vector<std::string>&,
+                               nlohmann::json&);
 template MaterialBins material_bins<2>(const MeshModel<2>&, int);
 template MaterialBins material_bins<3>(const MeshModel<3>&, int);
 template SimplexMesh<2> world_mesh<2>(const MeshModel<2>&);

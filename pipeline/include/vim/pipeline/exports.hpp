@@ -1,4 +1,4 @@
-// Mesh exports for other tools (DESIGN.md §6, issue 7): legacy VTK for deal.II's GridIn::read_vtk,
+// Mesh exports for other tools (docs/architecture.md): legacy VTK for deal.II's GridIn::read_vtk,
 // FEBio (.feb, per-element E map), Gmsh 4.1 (.msh, physical group per material bin) and Abaqus (.inp,
 // element set + material per bin). All in WORLD coordinates (direction matrix applied), every cell
 // positively oriented in world space, each file written under a temporary name and renamed.
@@ -61,10 +61,23 @@ template <int dim>
 void write_inp(const std::filesystem::path& path, const SimplexMesh<dim>& world, const MaterialBins& bins,
                double poisson_ratio);
 
+// What the exports write, computed once by the caller: the model (element values and modulus) and the
+// same mesh in world coordinates (world_mesh(model), which the run also writes to mesh.vtu).
+template <int dim>
+struct ExportInput {
+  const MeshModel<dim>& model;
+  const SimplexMesh<dim>& world;
+  ExportOptions options = {};
+};
+
 // Writes dir/mesh.{vtk,feb,msh,inp} for the requested formats (subset of export_formats(); an
 // unknown name throws std::invalid_argument before anything is written) and fills
 // report["exports"]: files written, skipped formats with the reason (FEBio has no 2D solid
 // elements), material_table [{id, E, E_min, E_max, elements}], element_modulus, poisson_ratio.
+template <int dim>
+void write_exports(const ExportInput<dim>& input, const std::filesystem::path& dir,
+                   const std::vector<std::string>& formats, nlohmann::json& report);
+// The same, with the world mesh computed here.
 template <int dim>
 void write_exports(const MeshModel<dim>& model, const std::filesystem::path& dir,
                    const std::vector<std::string>& formats, nlohmann::json& report,

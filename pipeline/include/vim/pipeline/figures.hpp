@@ -1,4 +1,4 @@
-// Figures people look at (issue 7): image slices with the mesh cross-section (3D: three orthogonal
+// Figures people look at: image slices with the mesh cross-section (3D: three orthogonal
 // slices, image + outlines beside the element means; 2D: the image with the mesh overlaid and the
 // discretized image, like the paper's Figs. 4–6), the energy history (Fig. 9), simulation line plots
 // and a deformed-mesh slice. Drawn in the image's axis-aligned frame (the mesher's coordinates), PNG.

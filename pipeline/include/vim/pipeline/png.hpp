@@ -1,7 +1,7 @@
 // A tiny RGB raster canvas for the figures (no display): pixels, Bresenham lines, filled polygons
 // (scanline, pixel centres), rectangles, antialiased text (VTK's embedded Arial through FreeType), a
-// viridis-like colormap and grey ramp, and PNG output through ITK's PNGImageIO under a temporary
-// name (write_atomically).
+// viridis-like colormap and grey ramp, and 8-bit RGB PNG output written with zlib (png_io.cpp) under a
+// temporary name (write_atomically).
 #pragma once
 
 #include <Eigen/Core>
