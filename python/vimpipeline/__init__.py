@@ -107,22 +107,62 @@ class Result:
 
     def write(self, out_dir, overwrite=False):
         """Writes the CLI's output files (mesh.vtu, exports, simulation.pvd, steps/, needle.csv, figures/,
-        report.json) into out_dir, which must be new or empty unless overwrite; each file is written
-        under a temporary name and renamed."""
-        out_dir = os.fspath(out_dir)
+        report.json) into out_dir, which must be new or empty unless overwrite. The files are first
+        copied into a temporary folder next to out_dir and then renamed into place, so that a failure
+        leaves no file of this result under out_dir."""
+        given = os.fspath(out_dir)
+        out_dir = os.path.abspath(given)
         if os.path.exists(out_dir):
             if not os.path.isdir(out_dir):
                 raise ValueError("out_dir " + out_dir + ": exists and is not a directory")
             if os.listdir(out_dir) and not overwrite:
                 raise ValueError("out_dir " + out_dir + ": output directory is not empty; choose a new or empty "
                                  "directory, or pass overwrite=True")
-        for rel in self.files:
-            target = os.path.join(out_dir, rel)
-            os.makedirs(os.path.dirname(target), exist_ok=True)
-            temporary = target + ".tmp"
-            shutil.copyfile(os.path.join(self._staging.name, rel), temporary)
-            os.replace(temporary, target)
-        return out_dir
+        made = _missing_folders(os.path.dirname(out_dir))
+        os.makedirs(os.path.dirname(out_dir), exist_ok=True)
+        temporary = tempfile.mkdtemp(prefix=".vimpipeline-", dir=os.path.dirname(out_dir))
+        try:
+            for rel in self.files:
+                os.makedirs(os.path.dirname(os.path.join(temporary, rel)), exist_ok=True)
+                shutil.copyfile(os.path.join(self._staging.name, rel), os.path.join(temporary, rel))
+            if not os.path.exists(out_dir) or not os.listdir(out_dir):
+                if os.path.exists(out_dir):
+                    os.rmdir(out_dir)
+                os.rename(temporary, out_dir)
+            else:
+                _move_into(temporary, out_dir, self.files)
+        except BaseException:
+            if made:  # the folders this call created above out_dir
+                shutil.rmtree(made[0], ignore_errors=True)
+            raise
+        finally:
+            shutil.rmtree(temporary, ignore_errors=True)
+        return given
+
+
+def _missing_folders(path):
+    """The folders of path that do not exist yet, outermost first."""
+    missing = []
+    while path and not os.path.exists(path) and os.path.dirname(path) != path:
+        missing.insert(0, path)
+        path = os.path.dirname(path)
+    return missing
+
+
+def _move_into(source, target, files):
+    """Renames the files (relative paths) from source into the existing folder target; on a failure removes
+    what it moved and target's report.json (it would list files that are gone or not its own)."""
+    moved = []
+    try:
+        for rel in files:
+            os.makedirs(os.path.dirname(os.path.join(target, rel)), exist_ok=True)
+            os.replace(os.path.join(source, rel), os.path.join(target, rel))
+            moved.append(rel)
+    except BaseException:
+        for rel in moved + ["report.json"]:
+            if os.path.exists(os.path.join(target, rel)):
+                os.remove(os.path.join(target, rel))
+        raise
 
 
 def _image(image, spacing=None, origin=None, direction=None):
