@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <vim/invariants.hpp>
+#include <vim/pipeline/image_arrays.hpp>
 #include <vim/pipeline/image_io.hpp>
 #include <vim/pipeline/meshing_run.hpp>
 #include <vim/pipeline/progress.hpp>
@@ -46,7 +47,8 @@ auto guarded(F&& f) -> decltype(f()) {
 
 // --- images ---------------------------------------------------------------------------------------
 
-// An image given as an array: the checks read_image makes on a file's header and voxels.
+// An image given as an array: the checks read_image makes on a file's header (the voxel and direction
+// checks are oriented_image's; a NaN voxel is named here first, by its index in the flat array).
 void check_array_image(const ImageData& im) {
   const std::string& f = im.source;
   const auto d = static_cast<std::size_t>(im.dim);
@@ -63,32 +65,17 @@ void check_array_image(const ImageData& im) {
                            " must be a finite number > 0");
     if (!std::isfinite(im.origin[a])) throw vp::InputError(f + ": origin is not finite");
   }
-  for (std::size_t i = 0; i < d; ++i)
-    for (std::size_t j = 0; j < d; ++j) {
-      double dot = 0.0;
-      for (std::size_t k = 0; k < d; ++k) dot += im.direction[k * d + i] * im.direction[k * d + j];
-      if (!(std::abs(dot - (i == j ? 1.0 : 0.0)) < 1e-6))
-        throw vp::InputError(f +
-                             ": direction is not orthonormal (its columns must be unit, perpendicular axes)");
-    }
   for (std::size_t k = 0; k < n; ++k)
     if (!std::isfinite(im.values[k]))
       throw vp::InputError(f + ": voxel " + std::to_string(k) +
                            " is NaN or infinite; every voxel must be finite");
 }
 
+// The image of an ImageData; an array is checked first as read_image checks a file's header.
 template <int dim>
 vp::OrientedImage<dim> to_oriented(const ImageData& im) {
   if (im.source == "array") check_array_image(im);
-  vp::OrientedImage<dim> o;
-  for (int a = 0; a < dim; ++a) {
-    o.image.size[a] = im.size[a];
-    o.image.spacing[a] = im.spacing[a];
-    o.image.origin[a] = im.origin[a];
-    for (int b = 0; b < dim; ++b) o.direction(a, b) = im.direction[a * dim + b];
-  }
-  o.image.data = im.values;
-  return o;
+  return vp::oriented_image<dim>(im.size, im.spacing, im.origin, im.direction, im.values, im.source);
 }
 
 template <int dim>
