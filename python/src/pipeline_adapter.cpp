@@ -8,7 +8,9 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <iomanip>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <stdexcept>
 #include <vim/invariants.hpp>
 #include <vim/pipeline/image_arrays.hpp>
@@ -121,11 +123,12 @@ vp::RunOptions run_options(const MeshSettings& s, const std::string& image, cons
   o.image = image;
   o.out = out;
   o.command_line = {"vimpipeline", image};
-  auto given = [&](const char* flag, double value) {
-    o.command_line.push_back(flag);
-    o.command_line.push_back(std::to_string(value));
+  auto given = [&](const char* flag, auto value) {
+    std::ostringstream text;
+    text << std::setprecision(17) << value;
+    o.command_line.insert(o.command_line.end(), {flag, text.str()});
   };
-  if (s.nodes) given("--nodes", static_cast<double>(o.nodes = *s.nodes));
+  if (s.nodes) given("--nodes", o.nodes = *s.nodes);
   if (s.spacing) given("--spacing", o.spacing = *s.spacing);
   if (s.lambda) given("--lambda", o.lambda = *s.lambda);
   if (s.degree) given("--degree", o.degree = *s.degree);
