@@ -5,7 +5,7 @@
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
-#include <vim/pipeline/image_io.hpp>
+#include <vim/pipeline/image_arrays.hpp>
 
 #include "itk_image_io.hpp"
 
@@ -28,18 +28,18 @@ Image<dim> in_frame_of(const OrientedImage<dim>& reference, const OrientedImage<
 template Image<2> in_frame_of<2>(const OrientedImage<2>&, const OrientedImage<2>&);
 template Image<3> in_frame_of<3>(const OrientedImage<3>&, const OrientedImage<3>&);
 
-namespace {
-
 template <int dim>
-OrientedImage<dim> oriented_image(itk_io::RawImage&& raw, const std::string& path) {
+OrientedImage<dim> oriented_image(const std::vector<long>& size, const std::vector<double>& spacing,
+                                  const std::vector<double>& origin, const std::vector<double>& direction,
+                                  std::vector<float> data, const std::string& path, bool double_voxels) {
   OrientedImage<dim> out;
   for (int a = 0; a < dim; ++a) {
-    out.image.size[a] = raw.size[a];
-    out.image.spacing[a] = raw.spacing[a];
-    out.image.origin[a] = raw.origin[a];
-    for (int b = 0; b < dim; ++b) out.direction(a, b) = raw.direction[a * dim + b];
+    out.image.size[a] = size[a];
+    out.image.spacing[a] = spacing[a];
+    out.image.origin[a] = origin[a];
+    for (int b = 0; b < dim; ++b) out.direction(a, b) = direction[a * dim + b];
   }
-  out.image.data = std::move(raw.data);
+  out.image.data = std::move(data);
 
   const std::size_t n = out.image.data.size();
   long bad = 0;
@@ -52,7 +52,7 @@ OrientedImage<dim> oriented_image(itk_io::RawImage&& raw, const std::string& pat
     m << path << ": " << bad << " voxel" << (bad > 1 ? "s are" : " is") << " NaN or Inf (first at index (";
     for (int a = 0; a < dim; ++a) m << (a ? "," : "") << idx[a];
     m << ")); every voxel must be a finite number";
-    if (raw.double_voxels)
+    if (double_voxels)
       m << " (the file stores doubles: a finite value beyond ±3.4e38, the largest a float voxel can hold, "
            "also reads"
            " as Inf; rescale the image)";
@@ -73,8 +73,12 @@ OrientedImage<dim> oriented_image(itk_io::RawImage&& raw, const std::string& pat
   }
   return out;
 }
-
-}  // namespace
+template OrientedImage<2> oriented_image<2>(const std::vector<long>&, const std::vector<double>&,
+                                            const std::vector<double>&, const std::vector<double>&,
+                                            std::vector<float>, const std::string&, bool);
+template OrientedImage<3> oriented_image<3>(const std::vector<long>&, const std::vector<double>&,
+                                            const std::vector<double>&, const std::vector<double>&,
+                                            std::vector<float>, const std::string&, bool);
 
 ImageFile::ImageFile(std::string path) : path_(std::move(path)), header_(itk_io::read_header(path_)) {
   dimension_ = itk_io::dimension(*header_);
@@ -85,7 +89,9 @@ OrientedImage<dim> ImageFile::read() const {
   // ITK's reader keeps state in its ImageIO: a second read starts from a fresh header.
   if (used_) header_ = itk_io::read_header(path_);
   used_ = true;
-  return oriented_image<dim>(itk_io::read(*header_, dim), path_);
+  itk_io::RawImage raw = itk_io::read(*header_, dim);
+  return oriented_image<dim>(raw.size, raw.spacing, raw.origin, raw.direction, std::move(raw.data), path_,
+                             raw.double_voxels);
 }
 
 template <int dim>

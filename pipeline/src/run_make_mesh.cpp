@@ -3,6 +3,7 @@
 // with --sizing or mesh.needle_refinement) or the grid itself (--mesher grid), or one cell per voxel
 // (--mesher voxel); segmentation (§VI-B); the mesh in world coordinates, built once here for mesh.vtu
 // and every simulation step.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <vim/energy.hpp>
@@ -25,7 +26,8 @@ namespace {
 
 // Per-element values of a fixed mesh (the grid mesher) and its energies, as history[0].
 template <int dim>
-void evaluate_fixed_mesh(const Image<dim>& image, MeshModel<dim>& model, const VimOptions& vo, json& report) {
+IterationRecord evaluate_fixed_mesh(const Image<dim>& image, MeshModel<dim>& model, const VimOptions& vo,
+                                    json& report) {
   const VoxelStatistics<dim> stats(image);
   model.values.resize(model.mesh.n_cells());
   double eg = 0.0, ed = 0.0;
@@ -41,6 +43,7 @@ void evaluate_fixed_mesh(const Image<dim>& image, MeshModel<dim>& model, const V
   r.energy = EnergyNormalization{eg, ed, vo.lambda}.combined(eg, ed);
   report["optimization"] = {
       {"iterations", 0}, {"converged", false}, {"eg0", eg}, {"ed0", ed}, {"history", history_json({r})}};
+  return r;
 }
 
 // VIM never makes an element below a lower bound, but it keeps those of the initial mesh until a move
@@ -65,10 +68,12 @@ std::optional<std::string> lower_bound_warning(const SimplexMesh<dim>& mesh, con
       below, mesh.n_cells(), bound.c_str(), initial_quality.min_dihedral_deg, initial_quality.min_nrr);
 }
 
-// A progress callback that logs each iteration of the optimiser under `stage`.
-std::function<void(const IterationRecord&)> vim_progress(int max_iterations) {
+// A progress callback that logs each iteration of the optimiser and passes it on to `also`, if set.
+std::function<void(const IterationRecord&)> vim_progress(
+    int max_iterations, const std::function<void(const std::string&, const IterationRecord&)>& also) {
   const auto start = std::chrono::steady_clock::now();
-  return [start, max_iterations](const IterationRecord& r) {
+  return [start, max_iterations, also](const IterationRecord& r) {
+    if (also) also("vim", r);
     const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     std::string left;
     if (r.iteration > 0 && r.iteration < max_iterations)
@@ -113,7 +118,7 @@ void MeshingRun<dim>::make_mesh() {
   if (o.mesher == MesherKind::grid) {
     StageTimer t(report_, "voxel_statistics");
     model_.mesh = std::move(initial);
-    evaluate_fixed_mesh(image, model_, o.vim_options(), report_);
+    energy_history_ = {evaluate_fixed_mesh(image, model_, o.vim_options(), report_)};
     t.stop();
   } else {
     optimize_mesh(std::move(initial));
@@ -142,6 +147,7 @@ void MeshingRun<dim>::optimize_mesh(SimplexMesh<dim> initial) {
     StageTimer ts(report_, "sizing");
     const auto sizing_start = std::chrono::steady_clock::now();
     auto sizing_progress = [&](const IterationRecord& r) {
+      if (inputs_ && inputs_->on_iteration) inputs_->on_iteration("sizing", r);
       const double el =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - sizing_start).count();
       Log::info("sizing",
@@ -159,7 +165,8 @@ void MeshingRun<dim>::optimize_mesh(SimplexMesh<dim> initial) {
   const bool lower_bound = vo.min_dihedral_deg > 0.0 || vo.min_radius_ratio > 0.0;
   const MeshQuality initial_quality = lower_bound ? mesh_quality(initial) : MeshQuality{};
   VimResult<dim> result =
-      optimize<dim>(image, std::move(initial), vo, vim_progress(vo.max_iterations), density);
+      optimize<dim>(image, std::move(initial), vo,
+                    vim_progress(vo.max_iterations, inputs_ ? inputs_->on_iteration : nullptr), density);
   t.stop();
   if (result.ed0_estimated) {
     warn("vim",
@@ -208,7 +215,35 @@ void MeshingRun<dim>::segment_mesh() {
   t.stop();
 }
 
+template <int dim>
+void MeshingRun<dim>::reuse_mesh(const MeshingRun& meshed) {
+  if (options_.mesher == MesherKind::voxel || meshed.options_.mesher == MesherKind::voxel)
+    throw std::invalid_argument("MeshingRun::reuse_mesh: the voxel model has no simplex mesh to reuse");
+  model_ = meshed.model_;
+  nodes_per_axis_ = meshed.nodes_per_axis_;
+  energy_history_ = meshed.energy_history_;
+  world_mesh_ = meshed.world_mesh_;
+  world_grid_ = meshed.world_grid_;
+  needle_density_.reset();  // the mesh is made: mesh.needle_refinement no longer applies
+  report_.erase("needle_refinement");
+  for (const char* key : {"mesh", "optimization", "segmentation", "sizing"})
+    if (meshed.report_.contains(key)) report_[key] = meshed.report_[key];
+  for (const char* stage : {"initial_mesh", "voxel_statistics", "sizing", "optimize", "segment"})
+    if (meshed.report_.contains("timing") && meshed.report_["timing"].contains(stage))
+      report_["timing"][stage] = meshed.report_["timing"][stage];
+  // The meshing run's warnings that this run has not given again (read_inputs' repeat).
+  if (meshed.report_.contains("warnings"))
+    for (const auto& w : meshed.report_["warnings"]) {
+      const bool given =
+          report_.contains("warnings") &&
+          std::find(report_["warnings"].begin(), report_["warnings"].end(), w) != report_["warnings"].end();
+      if (!given) report_["warnings"].push_back(w);
+    }
+}
+
 template void MeshingRun<2>::make_mesh();
 template void MeshingRun<3>::make_mesh();
+template void MeshingRun<2>::reuse_mesh(const MeshingRun<2>&);
+template void MeshingRun<3>::reuse_mesh(const MeshingRun<3>&);
 
 }  // namespace vim::pipeline

@@ -115,14 +115,34 @@ MeshingRun<dim>::MeshingRun(const RunOptions& given, ImageFile image)
                {"options", options_json(options_)},
                {"out", options_.out.string()}}),
       start_(std::chrono::steady_clock::now()),
-      out_(options_.out, options_.overwrite) {  // refuses a non-empty DIR before any work
-  if (image_file_.dimension() != dim)
-    throw std::invalid_argument(image_file_.path() + ": a " + std::to_string(image_file_.dimension()) +
+      // refuses a non-empty DIR before any work
+      out_(std::make_unique<OutputDirectory>(options_.out, options_.overwrite)) {
+  if (image_file_->dimension() != dim)
+    throw std::invalid_argument(image_file_->path() + ": a " + std::to_string(image_file_->dimension()) +
                                 "D image given to a " + std::to_string(dim) + "D run");
 }
 
 template <int dim>
+MeshingRun<dim>::MeshingRun(const RunOptions& given, RunInputs<dim> inputs)
+    : scenario_(std::move(inputs.scenario)),
+      options_(with_scenario_mesh(given, scenario_)),
+      inputs_(std::move(inputs)),
+      report_({{"tool", {{"name", inputs_->tool}, {"version", VIM_VERSION_STRING}}},
+               {"command_line", options_.command_line},
+               {"options", options_json(options_)},
+               {"out", options_.out.string()}}),
+      start_(std::chrono::steady_clock::now()),
+      out_(options_.out.empty() ? nullptr
+                                : std::make_unique<OutputDirectory>(options_.out, options_.overwrite)) {}
+
+template <int dim>
 MeshingRun<dim>::~MeshingRun() = default;
+
+template <int dim>
+OutputDirectory& MeshingRun<dim>::out() {
+  if (!out_) throw std::logic_error("MeshingRun: this run has no output folder (RunOptions::out)");
+  return *out_;
+}
 
 // A warning of the run: on stderr (unless --quiet) and in report.json "warnings".
 template <int dim>
@@ -135,7 +155,7 @@ template <int dim>
 void MeshingRun<dim>::read_inputs() {
   const RunOptions& o = options_;
   StageTimer t_read(report_, "read_image");
-  image_ = image_file_.read<dim>();
+  image_ = image_file_ ? image_file_->read<dim>() : std::move(inputs_->image);
   t_read.stop();
   const OrientedImage<dim>& img = *image_;
   report_["input"] = image_json(img, o.image);
@@ -159,12 +179,17 @@ void MeshingRun<dim>::read_inputs() {
 template <int dim>
 void MeshingRun<dim>::read_sizing_image() {
   const RunOptions& o = options_;
-  if (o.sizing.empty()) return;
-  const ImageFile file(o.sizing);
-  if (file.dimension() != dim)
-    throw InputError(o.sizing + ": sizing image is " + std::to_string(file.dimension()) + "D but IMAGE is " +
-                     std::to_string(dim) + "D; they must match");
-  sizing_ = file.read<dim>();
+  if (inputs_) {
+    sizing_ = std::move(inputs_->sizing);
+    if (!sizing_) return;
+  } else {
+    if (o.sizing.empty()) return;
+    const ImageFile file(o.sizing);
+    if (file.dimension() != dim)
+      throw InputError(o.sizing + ": sizing image is " + std::to_string(file.dimension()) +
+                       "D but IMAGE is " + std::to_string(dim) + "D; they must match");
+    sizing_ = file.read<dim>();
+  }
   const ImageSummary s = summarize(sizing_->image);
   if (!(s.min > 0.0))
     throw InputError(o.sizing + ": sizing image has values <= 0 (min " + std::to_string(s.min) +

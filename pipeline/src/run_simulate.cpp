@@ -23,10 +23,11 @@ void MeshingRun<dim>::build_model() {
   if (!scenario_) return;
   const auto start = std::chrono::steady_clock::now();
   SimulationOptions so;
-  so.output_file = [this](const std::string& rel) { return out_.file(rel); };
+  so.output_file = [this](const std::string& rel) { return out().file(rel); };
   so.degree = static_cast<unsigned>(options_.degree);
   so.world_grid = world_grid_;  // the grid of mesh.vtu: the steps share its points and cells
   so.scenario_checked = true;   // read_inputs checked it against the image box
+  so.keep_step_fields = inputs_ && inputs_->keep_step_fields;
   if (options_.mesher == MesherKind::voxel) {
     simulation_ = std::make_unique<NeedleSimulation<dim>>(
         NeedleSimulation<dim>::voxel(image_->image, model_.transform, *scenario_, std::move(so)));
@@ -42,7 +43,8 @@ template <int dim>
 void MeshingRun<dim>::simulate() {
   if (!simulation_) return;
   const auto start = std::chrono::steady_clock::now();
-  const SimulationResult<dim> result = simulation_->run();
+  simulation_result_ = std::make_unique<const SimulationResult<dim>>(simulation_->run());
+  const SimulationResult<dim>& result = *simulation_result_;
   report_["simulation"] = result.report;
   for (const auto& w : result.warnings) warn("simulate", w);
   write_simulation_figures(result);
@@ -66,7 +68,7 @@ void MeshingRun<dim>::write_simulation_figures(const SimulationResult<dim>& resu
     if (run.depth.empty()) continue;
     const std::string prefix = result.needles.size() > 1 ? run.name + "_" : "";
     json& fig = report_["figures"]["simulation"][run.name.empty() ? std::string("needle") : run.name];
-    fig["force"] = write_line_plot(out_.file("figures/" + prefix + "needle_force.png"), run.depth,
+    fig["force"] = write_line_plot(out().file("figures/" + prefix + "needle_force.png"), run.depth,
                                    {run.axial_force, run.lateral_force}, {"axial force", "lateral force"},
                                    "needle depth [" + length + "]", "force on the needle [" + force + "]");
     fig["force"]["file"] = "figures/" + prefix + "needle_force.png";
@@ -80,7 +82,7 @@ void MeshingRun<dim>::write_simulation_figures(const SimulationResult<dim>& resu
         names.push_back(t < result.target_names.size() ? result.target_names[t]
                                                        : "target " + std::to_string(t + 1));
       fig["targets"] =
-          write_line_plot(out_.file("figures/" + prefix + "target_displacement.png"), run.depth, series,
+          write_line_plot(out().file("figures/" + prefix + "target_displacement.png"), run.depth, series,
                           names, "needle depth [" + length + "]", "target displacement |u| [" + length + "]");
       fig["targets"]["file"] = "figures/" + prefix + "target_displacement.png";
     }
@@ -92,7 +94,7 @@ void MeshingRun<dim>::write_simulation_figures(const SimulationResult<dim>& resu
       const Eigen::Matrix<double, dim, 1> tip = model->transform.to_frame(run.tip.back());
       int normal = dim - 1;  // 3D: the slice through the tip that holds the most of the needle
       if constexpr (dim == 3) normal = slice_normal_along(model->transform.vector_to_frame(run.axis));
-      fig["deformed"] = write_deformed_slice<dim>(*model, u, out_.file("figures/" + prefix + "deformed.png"),
+      fig["deformed"] = write_deformed_slice<dim>(*model, u, out().file("figures/" + prefix + "deformed.png"),
                                                   tip, normal, "|u| [" + length + "]");
       fig["deformed"]["file"] = "figures/" + prefix + "deformed.png";
     }

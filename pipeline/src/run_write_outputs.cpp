@@ -48,7 +48,7 @@ template <int dim>
 void MeshingRun<dim>::write_outputs() {
   const RunOptions& o = options_;
   StageTimer t_write(report_, "write");
-  write_vtu(out_.file("mesh.vtu"), mesh_vtu_grid());
+  write_vtu(out().file("mesh.vtu"), mesh_vtu_grid());
   if (o.mesher == MesherKind::voxel) {
     if (!o.exports.empty()) {
       // The exports and figures are for simplex meshes: say so instead of skipping them silently.
@@ -64,23 +64,23 @@ void MeshingRun<dim>::write_outputs() {
   // Exports for other tools (world coordinates, material bins).
   if (!o.exports.empty()) {
     for (const auto& f : o.exports)
-      if (!(dim == 2 && f == "feb")) out_.file("mesh." + f);
+      if (!(dim == 2 && f == "feb")) out().file("mesh." + f);
     // .feb and .inp carry ν: the scenario's when there is one, else ExportOptions' default (0.49).
     ExportOptions export_options;
     if (scenario_) export_options.poisson_ratio = scenario_->poisson_ratio;
-    write_exports<dim>(ExportInput<dim>{model_, world_mesh_, export_options}, out_.path(), o.exports,
+    write_exports<dim>(ExportInput<dim>{model_, world_mesh_, export_options}, out().path(), o.exports,
                        report_);
     for (auto& [format, path] : report_["exports"]["files"].items()) path = "mesh." + format;
   }
   if (dim == 3)
     for (const char* name : {"sagittal", "coronal", "axial"})
-      out_.file(std::string("figures/slice_") + name + ".png");
+      out().file(std::string("figures/slice_") + name + ".png");
   else
     for (const char* name : {"mesh_overlay", "discretized"})
-      out_.file(std::string("figures/") + name + ".png");
-  write_mesh_figures<dim>(*image_, model_, out_.path(), nullptr, report_);
+      out().file(std::string("figures/") + name + ".png");
+  write_mesh_figures<dim>(*image_, model_, out().path(), nullptr, report_);
   if (report_.contains("optimization") && energy_history_.size() >= 2)
-    report_["figures"]["energy"] = write_energy_plot(energy_history_, out_.file("figures/energy.png"));
+    report_["figures"]["energy"] = write_energy_plot(energy_history_, out().file("figures/energy.png"));
   t_write.stop();
 }
 

@@ -12,10 +12,10 @@ template <int dim>
 void MeshingRun<dim>::write_report() {
   report_["timing"]["total"] =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  out_.file("report.json");
-  report_["outputs"] = out_.files();
-  write_text_atomically(out_.path() / "report.json", [&](std::ostream& s) { s << report_.dump(2) << "\n"; });
-  out_.commit();
+  out().file("report.json");
+  report_["outputs"] = out().files();
+  write_text_atomically(out().path() / "report.json", [&](std::ostream& s) { s << report_.dump(2) << "\n"; });
+  out().commit();
   if (options_.verbosity != Verbosity::quiet) print_summary(std::cout, report_);
 }
 

@@ -11,11 +11,13 @@
 //
 // run() calls them in this order; a library user can call them one by one and read the state in
 // between (model(), world_grid(), report()). Each stage lives in its own source file
-// (pipeline/src/run_*.cpp).
+// (pipeline/src/run_*.cpp). A library user with the inputs in memory (the Python module) gives them
+// as RunInputs instead of files, and may reuse the mesh of another run (reuse_mesh).
 #pragma once
 
 #include <array>
 #include <chrono>
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -30,6 +32,19 @@
 
 namespace vim::pipeline {
 
+// The inputs of a run held in memory, instead of the files options.image, options.sizing and
+// options.simulate name (those strings then only name the inputs in messages and report.json).
+template <int dim>
+struct RunInputs {
+  OrientedImage<dim> image;                  // checked by the caller as read_image checks a file
+  std::optional<OrientedImage<dim>> sizing;  // a density image with the image's direction (§VI-E)
+  std::optional<Scenario> scenario;          // read for this dimension; its mesh keys apply as the CLI's
+  std::string tool = "vim-pipeline";         // report.json "tool" name
+  bool keep_step_fields = false;             // SimulationResult keeps every step's displacements
+  // Called after each iteration of the density-weighted initialisation ("sizing") and of VIM ("vim").
+  std::function<void(const std::string& stage, const IterationRecord&)> on_iteration;
+};
+
 template <int dim>
 class MeshingRun {
  public:
@@ -37,6 +52,9 @@ class MeshingRun {
   // line does not set, and refuses a non-empty output folder: all before any work. `image` is the
   // input file whose header has been read (its dimension must be dim).
   MeshingRun(const RunOptions& options, ImageFile image);
+  // The same from memory; without options.out the run only meshes (and simulates without files: no
+  // write stages).
+  MeshingRun(const RunOptions& options, RunInputs<dim> inputs);
   MeshingRun(const MeshingRun&) = delete;
   MeshingRun& operator=(const MeshingRun&) = delete;
   ~MeshingRun();
@@ -51,12 +69,15 @@ class MeshingRun {
     write_report();
   }
 
-  void read_inputs();    // run_read_inputs.cpp
-  void make_mesh();      // run_make_mesh.cpp
-  void build_model();    // run_simulate.cpp (nothing without a scenario)
-  void simulate();       // run_simulate.cpp (nothing without a scenario)
-  void write_outputs();  // run_write_outputs.cpp
-  void write_report();   // run_write_report.cpp; commits the output folder
+  void read_inputs();  // run_read_inputs.cpp
+  void make_mesh();    // run_make_mesh.cpp
+  // Instead of make_mesh: the mesh, energy history, report and warnings of `meshed`, a run on the same
+  // image that has made its mesh (a simplex mesher).
+  void reuse_mesh(const MeshingRun& meshed);  // run_make_mesh.cpp
+  void build_model();                         // run_simulate.cpp (nothing without a scenario)
+  void simulate();                            // run_simulate.cpp (nothing without a scenario)
+  void write_outputs();                       // run_write_outputs.cpp
+  void write_report();                        // run_write_report.cpp; commits the output folder
 
   const RunOptions& options() const { return options_; }
   const std::optional<Scenario>& scenario() const { return scenario_; }
@@ -66,6 +87,12 @@ class MeshingRun {
   // of mesh.vtu and of every simulation step.
   const UnstructuredGrid& world_grid() const { return *world_grid_; }
   const nlohmann::json& report() const { return report_; }
+  // The energy history of make_mesh (entry 0 the initial mesh; the grid mesher has only that one).
+  const std::vector<IterationRecord>& energy_history() const { return energy_history_; }
+  // mesh.vtu: world_grid() with the per-element and per-node fields (run_write_outputs.cpp).
+  UnstructuredGrid mesh_vtu_grid() const;
+  // The result of simulate(), if it ran.
+  const SimulationResult<dim>* simulation_result() const { return simulation_result_.get(); }
 
  private:
   void warn(const std::string& stage, const std::string& message);
@@ -73,15 +100,16 @@ class MeshingRun {
   void check_scenario();
   void optimize_mesh(SimplexMesh<dim> initial);
   void segment_mesh();
-  UnstructuredGrid mesh_vtu_grid() const;
   void write_simulation_figures(const SimulationResult<dim>& result);
+  OutputDirectory& out();
 
   std::optional<Scenario> scenario_;
   RunOptions options_;  // the command line's, with the scenario's mesh keys
-  ImageFile image_file_;
+  std::optional<ImageFile> image_file_;
+  std::optional<RunInputs<dim>> inputs_;  // instead of image_file_
   nlohmann::json report_;
   std::chrono::steady_clock::time_point start_;
-  OutputDirectory out_;
+  std::unique_ptr<OutputDirectory> out_;
 
   std::optional<OrientedImage<dim>> image_, sizing_;
   std::optional<Image<dim>> needle_density_;  // mesh.needle_refinement (§VI-E)
@@ -91,6 +119,7 @@ class MeshingRun {
   SimplexMesh<dim> world_mesh_;  // model_.mesh in world coordinates (simplex meshers)
   std::shared_ptr<const UnstructuredGrid> world_grid_;
   std::unique_ptr<NeedleSimulation<dim>> simulation_;
+  std::unique_ptr<const SimulationResult<dim>> simulation_result_;
   double simulate_seconds_ = 0.0;
 };
 

@@ -1,0 +1,107 @@
+// The Python module's view of the pipeline: plain data (row-major arrays in std::vector, no Eigen, no
+// pybind11) in and out. Every call into the pipeline and the mesher is made in pipeline_adapter.cpp;
+// module.cpp only converts these structs to and from NumPy.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace vim::python {
+
+// A scalar image as ITK holds it: axis 0 (x) varies fastest in `values`.
+struct ImageData {
+  int dim = 3;
+  std::vector<long> size;         // voxels per axis (x, y[, z])
+  std::vector<double> spacing;    // per axis (x, y[, z])
+  std::vector<double> origin;     // centre of voxel 0, world
+  std::vector<double> direction;  // dim × dim, row-major: column c is image axis c in world axes (ITK)
+  std::vector<float> values;
+  std::string source = "array";  // file name, or "array" (names the image in error messages)
+};
+
+// vimpipeline.mesh's options; unset ones take the CLI's defaults, or the scenario's mesh keys in simulate().
+struct MeshSettings {
+  std::optional<long> nodes;
+  std::optional<double> spacing;  // initial grid edge length instead of nodes
+  std::optional<double> lambda;
+  double max_dihedral = 150.0;
+  std::optional<double> min_dihedral;
+  double min_radius_ratio = 0.0;
+  int max_iterations = 50;
+  std::optional<double> convergence, energy_convergence;  // VimOptions' defaults when unset
+  std::optional<int> search_width;
+  std::uint64_t seed = 1;
+  int threads = 0;
+  std::optional<ImageData> sizing;
+  std::optional<double> threshold;
+  std::string mesher = "vim";  // vim | grid
+  std::optional<int> degree;   // simulate(): FEM degree (1 | 2)
+};
+
+// One line of the energy history (history[0] is the initial mesh), or one progress report.
+struct IterationData {
+  std::string stage;  // "sizing" or "vim"
+  int iteration = 0;
+  double energy = 0.0, geometric = 0.0, discretization = 0.0, v = 0.0, seconds = 0.0;
+  long moves = 0, swaps = 0;
+};
+
+// Called after each meshing iteration and at each pipeline stage (iteration 0), with the GIL released
+// by the caller; the callee acquires what it needs.
+using ProgressFunction = std::function<void(const IterationData&)>;
+
+// The meshed model (mesher and images kept for simulate() and write_vtu()).
+struct MeshState;
+
+struct MeshData {
+  int dim = 3;
+  std::vector<double> points;  // n × dim, world coordinates (as mesh.vtu)
+  std::vector<long> cells;     // m × (dim + 1), positively oriented in the world (as mesh.vtu)
+  std::map<std::string, std::vector<double>>
+      cell_data;  // mean, variance, voxels, quality[, segment, object, youngs_modulus]
+  std::map<std::string, std::vector<double>> point_data;  // boundary
+  std::vector<IterationData> history;
+  std::vector<std::string> warnings;
+  std::shared_ptr<const MeshState> state;
+};
+
+struct NeedleData {
+  std::string name;
+  std::vector<double> depth, axial_force, lateral_force;  // per step
+  std::vector<double> tip, force;                         // steps × dim, world
+  std::vector<double> target_displacement;                // steps × targets × dim, world axes
+  std::vector<double> displacement;                       // steps × nodes × dim, world axes
+};
+
+struct SimulationData {
+  MeshData mesh;  // with cell data youngs_modulus
+  std::vector<NeedleData> needles;
+  std::vector<std::string> target_names, warnings, files;  // files: written under the staging folder
+  std::string report_json;                                 // report.json as written
+};
+
+// The scenario: a YAML file, or YAML/JSON text with a name for messages.
+struct ScenarioSource {
+  std::string path;
+  std::string text;
+  std::string name;
+};
+
+ImageData read_image(const std::string& path);
+MeshData mesh(const ImageData& image, const MeshSettings& settings, const ProgressFunction& progress);
+// Writes the mesh as the CLI writes mesh.vtu.
+void write_vtu(const MeshData& mesh, const std::string& path);
+// Meshes `image` with `settings` (the scenario's mesh keys fill unset ones), or takes `premeshed`, then
+// runs the scenario; writes the CLI's files into `staging_dir` (an existing empty folder).
+SimulationData simulate(const ImageData* image, const MeshData* premeshed, const MeshSettings& settings,
+                        const ScenarioSource& scenario, const std::string& staging_dir,
+                        const ProgressFunction& progress);
+// The project version (CMake project version).
+std::string version();
+
+}  // namespace vim::python
