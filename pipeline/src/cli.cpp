@@ -185,7 +185,7 @@ const char* kFooter = R"(Outputs (in DIR; all in world coordinates, every file w
                dihedral angle, 2D: min angle, degrees), youngs_modulus with --simulate, with
                --threshold also segment and object; point data boundary (box faces a node lies on)
   mesh.vtk mesh.feb mesh.msh mesh.inp
-               exports (--export): deal.II GridIn (legacy 3.0, MaterialID), FEBio, Gmsh 4.1, Abaqus
+               exports (--export): deal.II GridIn (legacy 3.0, MaterialID), FEBio 4.0, Gmsh 4.1, CalculiX/Abaqus
   figures/     PNG: image slices beside the mesh cross-section, energy history; with --simulate
                force and target displacement vs depth and the deformed mesh at the last step
   simulation.pvd, steps/step_NNNN.vtu, needle.csv   with --simulate (open the .pvd in ParaView)
@@ -844,8 +844,13 @@ int run_dim(const RunOptions& given) {
         if (!(dim == 2 && f == "feb")) out.file("mesh." + f);
       // .feb and .inp carry ν: the scenario's when there is one, else ExportOptions' default (0.49).
       ExportOptions export_options;
-      if (scenario) export_options.poisson_ratio = scenario->poisson_ratio;
+      if (scenario) {  // complete solver jobs: the scenario's conditions, ν and element degree
+        export_options.poisson_ratio = scenario->poisson_ratio;
+        export_options.scenario = &*scenario;
+        export_options.degree = static_cast<unsigned>(o.degree);
+      }
       write_exports<dim>(model, out.path(), o.exports, report, export_options);
+      for (const auto& w : report["exports"].value("warnings", json::array())) warn(report, "export", w.get<std::string>());
       for (auto& [fmt_name, path] : report["exports"]["files"].items()) path = "mesh." + fmt_name;
     }
     if (dim == 3)

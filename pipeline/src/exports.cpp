@@ -129,8 +129,10 @@ void write_exports(const MeshModel<dim>& model, const fs::path& dir, const std::
     throw std::invalid_argument("poisson_ratio must be in (-1, 0.5), got " + std::to_string(options.poisson_ratio));
   if (options.max_material_bins < 1 || options.max_material_bins > 255)
     throw std::invalid_argument("max_material_bins must be in [1, 255]");
+  if (options.degree < 1 || options.degree > 2) throw std::invalid_argument("export degree must be 1 or 2");
   const MaterialBins bins = material_bins(model, options.max_material_bins);
-  const SimplexMesh<dim> world = world_mesh(model);
+  const SolverDeck<dim> deck =
+      solver_deck(model, bins.element_modulus, options.poisson_ratio, options.degree, options.scenario);
   fs::create_directories(dir);
 
   nlohmann::json& out = report["exports"];
@@ -139,6 +141,9 @@ void write_exports(const MeshModel<dim>& model, const fs::path& dir, const std::
                               ? "youngs_modulus"
                               : "element mean";
   out["poisson_ratio"] = options.poisson_ratio;
+  out["degree"] = options.degree;
+  out["conditions"] = options.scenario != nullptr;
+  out["not_expressed"] = deck.not_expressed;
   nlohmann::json table = nlohmann::json::array();
   for (std::size_t k = 0; k < bins.n_bins(); ++k)
     table.push_back({{"id", k + 1},
@@ -149,6 +154,13 @@ void write_exports(const MeshModel<dim>& model, const fs::path& dir, const std::
   out["material_table"] = table;
   out["element_modulus"] = bins.element_modulus;
   out["files"] = nlohmann::json::object();
+  const auto nonpositive = std::count_if(bins.element_modulus.begin(), bins.element_modulus.end(),
+                                         [](double e) { return !(e > 0.0); });
+  if (nonpositive > 0 && !options.scenario)
+    out["warnings"].push_back(std::to_string(nonpositive) + " of " + std::to_string(bins.element_modulus.size()) +
+                              " elements have a modulus <= 0 (their image mean): mesh.inp and mesh.feb cannot be "
+                              "solved as they are. Use --simulate with a scenario whose material.scale maps the image "
+                              "to a modulus and material.clamp: [min, max] lifts values <= 0");
 
   std::vector<std::string> done;
   for (const auto& f : export_formats()) {
@@ -157,18 +169,18 @@ void write_exports(const MeshModel<dim>& model, const fs::path& dir, const std::
     done.push_back(f);
     const fs::path path = dir / ("mesh." + f);
     if (f == "vtk") {
-      write_vtk_legacy<dim>(path, world, bins);
+      write_vtk_legacy<dim>(path, world_mesh(model), bins);
     } else if (f == "feb") {
       if constexpr (dim == 3) {
-        write_feb(path, world, bins, options.poisson_ratio);
+        write_feb(path, deck);
       } else {
         out["skipped"]["feb"] = "FEBio has no 2D solid elements; mesh.feb is written for 3D models only";
         continue;
       }
     } else if (f == "msh") {
-      write_msh<dim>(path, world, bins);
+      write_msh<dim>(path, deck, bins);
     } else if (f == "inp") {
-      write_inp<dim>(path, world, bins, options.poisson_ratio);
+      write_inp<dim>(path, deck);
     }
     out["files"][f] = path.string();
   }

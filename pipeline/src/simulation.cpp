@@ -6,6 +6,7 @@
 #include <vim/pipeline/atomic_file.hpp>
 #include <vim/pipeline/needle.hpp>
 #include <vim/pipeline/progress.hpp>
+#include <vim/pipeline/scenario_regions.hpp>
 #include <vim/pipeline/vtk_output.hpp>
 
 #include <algorithm>
@@ -59,6 +60,7 @@ struct NeedleSimulation<dim>::Impl {
   std::vector<double> E;
   Vec box_min, box_max;  // frame
   UnstructuredGrid grid;  // world, no fields
+  std::vector<std::array<int, 2>> edges;  // degree 2: vertex pairs of the grid's mid-edge points
   std::vector<bool> blocked;
   // Axes of the needle's point constraints: the world axes seen from the frame when a support holds
   // world components of an oblique image, so that a shaft point on such a node leaves the held
@@ -80,20 +82,7 @@ struct NeedleSimulation<dim>::Impl {
 
 template <int dim>
 fem::Region<dim> NeedleSimulation<dim>::Impl::region(const RegionSpec& r) const {
-  if (r.kind == RegionSpec::Kind::box_face) {
-    const double tol = 1e-6 * (box_max - box_min).norm();
-    return fem::box_face_region<dim>(box_min, box_max, r.axis, r.upper, tol);
-  }
-  std::function<bool(const Vec&)> world;
-  if (r.kind == RegionSpec::Kind::box) {
-    world = fem::box_region<dim>(vec<dim>(r.lo), vec<dim>(r.hi)).contains;
-  } else if (r.kind == RegionSpec::Kind::sphere) {
-    world = fem::sphere_region<dim>(vec<dim>(r.center), r.radius).contains;
-  } else {
-    world = fem::cylinder_region<dim>(vec<dim>(r.center), vec<dim>(r.axis_vector), r.radius).contains;
-  }
-  const WorldTransform<dim> t = tf;
-  return {r.describe(), [world, t](const Vec& x) { return world(t.to_world(x)); }};
+  return scenario_region<dim>(r, box_min, box_max, tf);
 }
 
 // Elastic support of a volume region: a lattice of pitch h anchored at the region (its centre; a box's
@@ -248,7 +237,8 @@ NeedleSimulation<dim>::NeedleSimulation(const MeshModel<dim>& mm, const Scenario
   }
   m.locator = CellLocator<dim>::simplex(mm.mesh);
   m.model.emplace(mm.mesh, m.E, scenario.poisson_ratio, m.degree);
-  m.grid = simplex_grid(mm.mesh, mm.transform);
+  // P2: quadratic cells carry the mid-edge values (Impl::edges), so ParaView interpolates quadratically.
+  m.grid = m.degree == 2 ? quadratic_simplex_grid(mm.mesh, mm.transform, &m.edges) : simplex_grid(mm.mesh, mm.transform);
   m.setup(m.model->vertices());
   m.build_seconds = seconds_since(t0);
 }
@@ -322,8 +312,10 @@ void NeedleSimulation<dim>::Impl::write_step(const std::string& rel, const fem::
   if (sc.wants("displacement")) {
     Field f{dim, {}};
     f.values.reserve(g.points.size() * dim);
+    const std::size_t nv = g.points.size() - edges.size();
+    const std::vector<Vec> mid = s && !edges.empty() ? model->edge_midpoint_displacement(edges) : std::vector<Vec>{};
     for (std::size_t v = 0; v < g.points.size(); ++v) {
-      const Vec u = s ? Vec(D * s->vertex_displacement[v]) : Vec::Zero();
+      const Vec u = !s ? Vec::Zero() : v < nv ? Vec(D * s->vertex_displacement[v]) : Vec(D * mid[v - nv]);
       for (int d = 0; d < dim; ++d) f.values.push_back(u[d]);
     }
     g.point_data["displacement"] = std::move(f);

@@ -2,6 +2,7 @@
 // data arrays, written by vtkXMLUnstructuredGridWriter (appended binary, zlib) under a temporary
 // name; the .pvd collection is a few lines of XML written by hand.
 #include <vim/pipeline/atomic_file.hpp>
+#include <vim/pipeline/quadratic_cells.hpp>
 #include <vim/pipeline/vtk_output.hpp>
 
 #include <vtkCallbackCommand.h>
@@ -49,6 +50,27 @@ UnstructuredGrid simplex_grid(const SimplexMesh<dim>& frame_mesh, const WorldTra
   return g;
 }
 
+template <int dim>
+UnstructuredGrid quadratic_simplex_grid(const SimplexMesh<dim>& frame_mesh, const WorldTransform<dim>& transform,
+                                        std::vector<std::array<int, 2>>* edges) {
+  UnstructuredGrid g = simplex_grid(frame_mesh, transform);
+  std::vector<std::array<int, dim + 1>> cells(frame_mesh.n_cells());
+  for (std::size_t c = 0; c < cells.size(); ++c)
+    for (int k = 0; k <= dim; ++k) cells[c][k] = static_cast<int>(g.connectivity[c * (dim + 1) + k]);
+  const QuadraticCells<dim> q = quadratic_cells<dim>(cells, g.points.size());
+  for (const auto& [a, b] : q.edges) {
+    std::array<double, 3> mid{};
+    for (int k = 0; k < 3; ++k) mid[k] = 0.5 * (g.points[a][k] + g.points[b][k]);
+    g.points.push_back(mid);
+  }
+  g.vtk_cell_type = dim == 3 ? 24 : 22;
+  g.nodes_per_cell = QuadraticCells<dim>::nodes_per_cell;
+  g.connectivity.clear();
+  for (const auto& c : q.cells) g.connectivity.insert(g.connectivity.end(), c.begin(), c.end());
+  if (edges) *edges = q.edges;
+  return g;
+}
+
 std::array<std::array<int, 2>, 4> voxel_corner_order(bool mirrored) {
   if (mirrored) return {{{{0, 0}}, {{0, 1}}, {{1, 1}}, {{1, 0}}}};
   return {{{{0, 0}}, {{1, 0}}, {{1, 1}}, {{0, 1}}}};
@@ -56,6 +78,10 @@ std::array<std::array<int, 2>, 4> voxel_corner_order(bool mirrored) {
 
 template UnstructuredGrid simplex_grid<2>(const SimplexMesh<2>&, const WorldTransform<2>&);
 template UnstructuredGrid simplex_grid<3>(const SimplexMesh<3>&, const WorldTransform<3>&);
+template UnstructuredGrid quadratic_simplex_grid<2>(const SimplexMesh<2>&, const WorldTransform<2>&,
+                                                    std::vector<std::array<int, 2>>*);
+template UnstructuredGrid quadratic_simplex_grid<3>(const SimplexMesh<3>&, const WorldTransform<3>&,
+                                                    std::vector<std::array<int, 2>>*);
 
 namespace {
 
