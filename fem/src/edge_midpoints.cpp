@@ -1,20 +1,22 @@
 // ElasticModel::edge_midpoint_displacement: the last solution evaluated at edge midpoints through the
 // cell's own shape functions on the reference simplex (no point location: an edge's midpoint is the
 // midpoint of two reference vertices of every cell that holds the edge).
-#include "elasticity_impl.hpp"
-
 #include <algorithm>
 #include <map>
 #include <stdexcept>
 #include <string>
 
+#include "elasticity_impl.hpp"
+
 namespace vim::fem {
 
 template <int dim>
-std::vector<Vec<dim>> ElasticModel<dim>::edge_midpoint_displacement(const std::vector<std::array<int, 2>>& edges) const {
+std::vector<Vec<dim>> ElasticModel<dim>::edge_midpoint_displacement(
+    const std::vector<std::array<int, 2>>& edges) const {
   const Impl& m = *impl_;
   if (m.voxel) throw std::invalid_argument("edge_midpoint_displacement: simplex models only");
-  if (!m.have_solution) throw std::runtime_error("edge_midpoint_displacement: no solution yet; call solve() first");
+  if (!m.have_solution)
+    throw std::runtime_error("edge_midpoint_displacement: no solution yet; call solve() first");
   std::map<std::pair<unsigned, unsigned>, std::size_t> wanted;
   for (std::size_t e = 0; e < edges.size(); ++e) {
     const auto [a, b] = edges[e];
@@ -42,12 +44,14 @@ std::vector<Vec<dim>> ElasticModel<dim>::edge_midpoint_displacement(const std::v
   }
   for (std::size_t e = 0; e < edges.size(); ++e)
     if (!found[e])
-      throw std::invalid_argument("edge_midpoint_displacement: vertices " + std::to_string(edges[e][0]) + " and " +
-                                  std::to_string(edges[e][1]) + " are not an edge of the mesh");
+      throw std::invalid_argument("edge_midpoint_displacement: vertices " + std::to_string(edges[e][0]) +
+                                  " and " + std::to_string(edges[e][1]) + " are not an edge of the mesh");
   return out;
 }
 
-template std::vector<Vec<2>> ElasticModel<2>::edge_midpoint_displacement(const std::vector<std::array<int, 2>>&) const;
-template std::vector<Vec<3>> ElasticModel<3>::edge_midpoint_displacement(const std::vector<std::array<int, 2>>&) const;
+template std::vector<Vec<2>> ElasticModel<2>::edge_midpoint_displacement(
+    const std::vector<std::array<int, 2>>&) const;
+template std::vector<Vec<3>> ElasticModel<3>::edge_midpoint_displacement(
+    const std::vector<std::array<int, 2>>&) const;
 
 }  // namespace vim::fem

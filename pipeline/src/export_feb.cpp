@@ -5,11 +5,11 @@
 // faces and of every scenario region), MeshDomains, MeshData, and with a scenario Boundary (zero and
 // prescribed displacement per world component), Loads (pressure and traction surface loads) and the
 // load controller they ramp with. `febio4 -i mesh.feb`.
-#include <vim/pipeline/atomic_file.hpp>
-#include <vim/pipeline/exports.hpp>
-
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <map>
+#include <vim/pipeline/atomic_file.hpp>
+#include <vim/pipeline/exports.hpp>
 
 namespace vim::pipeline {
 
@@ -39,7 +39,8 @@ void write_surface(std::ostream& out, const SolverDeck<3>& deck, const SolverDec
     long opposite = cell[0];
     for (int k = 0; k < 4; ++k)
       if (std::find(n.begin(), n.begin() + 3, cell[k]) == n.begin() + 3) opposite = cell[k];
-    const Eigen::Vector3d normal = (deck.nodes[n[1]] - deck.nodes[n[0]]).cross(deck.nodes[n[2]] - deck.nodes[n[0]]);
+    const Eigen::Vector3d normal =
+        (deck.nodes[n[1]] - deck.nodes[n[0]]).cross(deck.nodes[n[2]] - deck.nodes[n[0]]);
     if (normal.dot(deck.nodes[opposite] - deck.nodes[n[0]]) > 0.0) {  // inward: reverse the facet
       std::swap(n[1], n[2]);
       if (n.size() == 6) std::swap(n[3], n[5]);  // edges (0,2), (2,1), (1,0) after the swap
@@ -60,7 +61,8 @@ void write_boundary_and_loads(std::ostream& out, const SolverDeck<3>& deck) {
     const std::string set = "held_" + std::to_string(++k);
     if (value == 0.0) {
       out << "    <bc name=\"" << set << "\" node_set=\"" << set << "\" type=\"zero displacement\">\n";
-      for (int a = 0; a < 3; ++a) out << "      <" << dof_names[a] << "_dof>" << (a == c ? 1 : 0) << "</" << dof_names[a] << "_dof>\n";
+      for (int a = 0; a < 3; ++a)
+        out << "      <" << dof_names[a] << "_dof>" << (a == c ? 1 : 0) << "</" << dof_names[a] << "_dof>\n";
     } else {
       out << "    <bc name=\"" << set << "\" node_set=\"" << set << "\" type=\"prescribed displacement\">\n"
           << "      <dof>" << dof_names[c] << "</dof>\n"
@@ -81,7 +83,8 @@ void write_boundary_and_loads(std::ostream& out, const SolverDeck<3>& deck) {
     } else {
       out << "    <surface_load name=\"" << s.name << "\" surface=\"S_" << s.name << "\" type=\"traction\">\n"
           << "      <scale lc=\"1\">1</scale>\n"
-          << "      <traction>" << load.traction[0] << ',' << load.traction[1] << ',' << load.traction[2] << "</traction>\n";
+          << "      <traction>" << load.traction[0] << ',' << load.traction[1] << ',' << load.traction[2]
+          << "</traction>\n";
     }
     out << "    </surface_load>\n";
   }
@@ -136,7 +139,8 @@ void write_feb(const std::filesystem::path& path, const SolverDeck<3>& deck) {
         << "<!-- Material: FEBio's isotropic elastic is St Venant-Kirchhoff, which equals the simulation's\n"
         << "     small-strain linear elasticity at small strain (the first-order terms agree). -->\n";
     if (!deck.has_conditions)
-      out << "<!-- Mesh and materials only: no conditions (run vim-pipeline with --simulate for a complete model) -->\n";
+      out << "<!-- Mesh and materials only: no conditions (run vim-pipeline with --simulate for a complete "
+             "model) -->\n";
     for (const auto& what : deck.not_expressed) out << "<!-- Not in this model: " << what << " -->\n";
     out << "<febio_spec version=\"4.0\">\n"
         << "  <Module type=\"solid\"/>\n"
@@ -163,7 +167,8 @@ void write_feb(const std::filesystem::path& path, const SolverDeck<3>& deck) {
     out << "    </ElementData>\n"
         << "  </MeshData>\n";
     if (deck.has_conditions) write_boundary_and_loads(out, deck);
-    out << "  <Output>\n    <plotfile type=\"febio\">\n      <var type=\"displacement\"/>\n    </plotfile>\n  </Output>\n"
+    out << "  <Output>\n    <plotfile type=\"febio\">\n      <var type=\"displacement\"/>\n    </plotfile>\n "
+           " </Output>\n"
         << "</febio_spec>\n";
   });
 }

@@ -4,10 +4,9 @@
 // scenario region, one *MATERIAL per distinct modulus (exact, 17 significant digits), and with a
 // scenario one *STEP with *STATIC: *BOUNDARY per held node and world component, *DSLOAD pressures,
 // *CLOAD consistent nodal forces of the tractions, *NODE PRINT / *NODE FILE of U. `ccx -i mesh`.
+#include <map>
 #include <vim/pipeline/atomic_file.hpp>
 #include <vim/pipeline/exports.hpp>
-
-#include <map>
 
 namespace vim::pipeline {
 
@@ -15,7 +14,8 @@ namespace {
 
 // Abaqus data lines hold at most 16 entries.
 void write_id_list(std::ostream& out, const std::vector<long>& ids) {
-  for (std::size_t i = 0; i < ids.size(); ++i) out << ids[i] + 1 << ((i % 16 == 15 || i + 1 == ids.size()) ? "\n" : ", ");
+  for (std::size_t i = 0; i < ids.size(); ++i)
+    out << ids[i] + 1 << ((i % 16 == 15 || i + 1 == ids.size()) ? "\n" : ", ");
 }
 
 template <int dim>
@@ -60,12 +60,14 @@ void write_step(std::ostream& out, const SolverDeck<dim>& deck) {
 template <int dim>
 void write_inp(const std::filesystem::path& path, const SolverDeck<dim>& deck) {
   std::map<double, std::vector<long>> by_modulus;  // exact values: no binning
-  for (std::size_t c = 0; c < deck.cells.size(); ++c) by_modulus[deck.modulus[c]].push_back(static_cast<long>(c));
+  for (std::size_t c = 0; c < deck.cells.size(); ++c)
+    by_modulus[deck.modulus[c]].push_back(static_cast<long>(c));
   const char* type = dim == 3 ? (deck.degree == 2 ? "C3D10" : "C3D4") : (deck.degree == 2 ? "CPE6" : "CPE3");
   write_text_atomically(path, [&](std::ostream& out) {
     out << "*HEADING\nvim-pipeline model, world coordinates, " << type << ", " << by_modulus.size()
         << " distinct moduli (one material each)";
-    if (!deck.has_conditions) out << "; mesh and materials only (no conditions: run with --simulate for a complete job)";
+    if (!deck.has_conditions)
+      out << "; mesh and materials only (no conditions: run with --simulate for a complete job)";
     out << '\n';
     for (const auto& what : deck.not_expressed) out << "** Not in this deck: " << what << '\n';
     out << "*NODE, NSET=NALL\n";

@@ -4,11 +4,10 @@
 // and every scenario region's boundary faces (one surface entity each in 3D, curve in 2D), and for every
 // scenario region's nodes (one point entity each, holding point elements). Degree 2: 10-node
 // tetrahedra / 6-node triangles and quadratic faces. All nodes sit in the first entity block.
-#include <vim/pipeline/atomic_file.hpp>
-#include <vim/pipeline/exports.hpp>
-
 #include <algorithm>
 #include <cmath>
+#include <vim/pipeline/atomic_file.hpp>
+#include <vim/pipeline/exports.hpp>
 
 namespace vim::pipeline {
 
@@ -57,7 +56,8 @@ std::vector<Group> msh_groups(const SolverDeck<dim>& deck, const MaterialBins& b
 template <int dim>
 void write_msh(const std::filesystem::path& path, const SolverDeck<dim>& deck, const MaterialBins& bins) {
   const std::size_t n = deck.nodes.size();
-  if (bins.element_material.size() != deck.cells.size()) throw std::invalid_argument("material bins do not match the mesh");
+  if (bins.element_material.size() != deck.cells.size())
+    throw std::invalid_argument("material bins do not match the mesh");
   if (deck.cells.empty()) throw std::invalid_argument("cannot write an empty mesh to " + path.string());
   const std::vector<Group> groups = msh_groups(deck, bins);
   std::array<std::size_t, 4> per_dim{};
@@ -67,7 +67,8 @@ void write_msh(const std::filesystem::path& path, const SolverDeck<dim>& deck, c
   write_text_atomically(path, [&](std::ostream& out) {
     out << "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n";
     out << "$PhysicalNames\n" << groups.size() << '\n';
-    for (std::size_t k = 0; k < groups.size(); ++k) out << groups[k].dim << ' ' << k + 1 << " \"" << groups[k].name << "\"\n";
+    for (std::size_t k = 0; k < groups.size(); ++k)
+      out << groups[k].dim << ' ' << k + 1 << " \"" << groups[k].name << "\"\n";
     out << "$EndPhysicalNames\n";
     // Entity tag = physical tag = group index + 1 (unique within each dimension).
     // Points: tag X Y Z numPhysicalTags tag; others: tag box(6) numPhysicalTags tag numBounding 0.
@@ -78,7 +79,8 @@ void write_msh(const std::filesystem::path& path, const SolverDeck<dim>& deck, c
         Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = -lo;
         for (const auto& e : groups[k].elements)
           for (long v : e)
-            for (int a = 0; a < dim; ++a) lo[a] = std::min(lo[a], deck.nodes[v][a]), hi[a] = std::max(hi[a], deck.nodes[v][a]);
+            for (int a = 0; a < dim; ++a)
+              lo[a] = std::min(lo[a], deck.nodes[v][a]), hi[a] = std::max(hi[a], deck.nodes[v][a]);
         if (dim == 2) lo[2] = hi[2] = 0.0;
         out << k + 1 << ' ' << lo[0] << ' ' << lo[1] << ' ' << lo[2];
         if (d > 0) out << ' ' << hi[0] << ' ' << hi[1] << ' ' << hi[2];
@@ -88,9 +90,11 @@ void write_msh(const std::filesystem::path& path, const SolverDeck<dim>& deck, c
     // numEntityBlocks numNodes minNodeTag maxNodeTag / entityDim entityTag parametric numNodesInBlock
     out << "$Nodes\n1 " << n << " 1 " << n << '\n' << dim << " 1 0 " << n << '\n';
     for (std::size_t i = 0; i < n; ++i) out << i + 1 << '\n';
-    for (const auto& p : deck.nodes) out << p[0] << ' ' << p[1] << ' ' << (dim == 3 ? p[dim - 1] : 0.0) << '\n';
+    for (const auto& p : deck.nodes)
+      out << p[0] << ' ' << p[1] << ' ' << (dim == 3 ? p[dim - 1] : 0.0) << '\n';
     out << "$EndNodes\n";
-    // numEntityBlocks numElements minElementTag maxElementTag / entityDim entityTag elementType numElementsInBlock
+    // numEntityBlocks numElements minElementTag maxElementTag / entityDim entityTag elementType
+    // numElementsInBlock
     out << "$Elements\n" << groups.size() << ' ' << n_elements << " 1 " << n_elements << '\n';
     std::size_t tag = 0;
     for (std::size_t k = 0; k < groups.size(); ++k) {

@@ -1,11 +1,10 @@
 // Export dispatcher (exports.hpp): format list, material bins shared by every format, the world mesh,
 // and write_exports filling report["exports"].
-#include <vim/pipeline/exports.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+#include <vim/pipeline/exports.hpp>
 
 namespace vim::pipeline {
 
@@ -56,10 +55,12 @@ MaterialBins material_bins(const MeshModel<dim>& model, int max_bins) {
   bins.element_modulus.resize(m);
   const bool have_modulus = model.youngs_modulus.size() == m && m > 0;
   if (!have_modulus && model.values.size() != m)
-    throw std::invalid_argument("model has neither a per-element modulus nor per-element values for every cell");
+    throw std::invalid_argument(
+        "model has neither a per-element modulus nor per-element values for every cell");
   for (std::size_t c = 0; c < m; ++c) {
     const double e = have_modulus ? model.youngs_modulus[c] : model.values[c].mean;
-    if (!std::isfinite(e)) throw std::invalid_argument("element " + std::to_string(c) + " has a non-finite modulus");
+    if (!std::isfinite(e))
+      throw std::invalid_argument("element " + std::to_string(c) + " has a non-finite modulus");
     bins.element_modulus[c] = e;
   }
   if (m == 0) return bins;
@@ -69,16 +70,18 @@ MaterialBins material_bins(const MeshModel<dim>& model, int max_bins) {
   // Values that differ by round-off only (1.1999999999999997 and 1.2: element means of the same
   // material summed in another order) are one material: a group runs while each value is within
   // 1e-12 (relative) of the group's smallest, which represents it.
-  distinct.erase(std::unique(distinct.begin(), distinct.end(),
-                             [](double a, double b) { return b - a <= 1e-12 * std::max(std::abs(a), std::abs(b)); }),
-                 distinct.end());
+  distinct.erase(
+      std::unique(distinct.begin(), distinct.end(),
+                  [](double a, double b) { return b - a <= 1e-12 * std::max(std::abs(a), std::abs(b)); }),
+      distinct.end());
   std::vector<int> raw(m);  // 0-based bin before dropping empty ones
   int n_raw = 0;
   if (distinct.size() <= static_cast<std::size_t>(max_bins)) {
     n_raw = static_cast<int>(distinct.size());
     for (std::size_t c = 0; c < m; ++c)  // the group whose smallest value is the largest <= e
       raw[c] = static_cast<int>(std::upper_bound(distinct.begin(), distinct.end(), bins.element_modulus[c]) -
-                                distinct.begin()) - 1;
+                                distinct.begin()) -
+               1;
   } else {
     n_raw = max_bins;
     const double lo = distinct.front(), hi = distinct.back();
@@ -126,7 +129,8 @@ void write_exports(const MeshModel<dim>& model, const fs::path& dir, const std::
                    nlohmann::json& report, const ExportOptions& options) {
   for (const auto& f : formats) check_format(f);
   if (!(options.poisson_ratio > -1.0 && options.poisson_ratio < 0.5))
-    throw std::invalid_argument("poisson_ratio must be in (-1, 0.5), got " + std::to_string(options.poisson_ratio));
+    throw std::invalid_argument("poisson_ratio must be in (-1, 0.5), got " +
+                                std::to_string(options.poisson_ratio));
   if (options.max_material_bins < 1 || options.max_material_bins > 255)
     throw std::invalid_argument("max_material_bins must be in [1, 255]");
   if (options.degree < 1 || options.degree > 2) throw std::invalid_argument("export degree must be 1 or 2");
@@ -157,10 +161,11 @@ void write_exports(const MeshModel<dim>& model, const fs::path& dir, const std::
   const auto nonpositive = std::count_if(bins.element_modulus.begin(), bins.element_modulus.end(),
                                          [](double e) { return !(e > 0.0); });
   if (nonpositive > 0 && !options.scenario)
-    out["warnings"].push_back(std::to_string(nonpositive) + " of " + std::to_string(bins.element_modulus.size()) +
-                              " elements have a modulus <= 0 (their image mean): mesh.inp and mesh.feb cannot be "
-                              "solved as they are. Use --simulate with a scenario whose material.scale maps the image "
-                              "to a modulus and material.clamp: [min, max] lifts values <= 0");
+    out["warnings"].push_back(
+        std::to_string(nonpositive) + " of " + std::to_string(bins.element_modulus.size()) +
+        " elements have a modulus <= 0 (their image mean): mesh.inp and mesh.feb cannot be "
+        "solved as they are. Use --simulate with a scenario whose material.scale maps the image "
+        "to a modulus and material.clamp: [min, max] lifts values <= 0");
 
   std::vector<std::string> done;
   for (const auto& f : export_formats()) {

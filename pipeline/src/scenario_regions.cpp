@@ -14,7 +14,8 @@ Eigen::Matrix<double, dim, 1> vec(const std::vector<double>& x) {
 
 template <int dim>
 fem::Region<dim> scenario_region(const RegionSpec& r, const Eigen::Matrix<double, dim, 1>& box_min,
-                                 const Eigen::Matrix<double, dim, 1>& box_max, const WorldTransform<dim>& tf) {
+                                 const Eigen::Matrix<double, dim, 1>& box_max,
+                                 const WorldTransform<dim>& tf) {
   using Vec = Eigen::Matrix<double, dim, 1>;
   if (r.kind == RegionSpec::Kind::box_face) {
     const double tol = 1e-6 * (box_max - box_min).norm();

@@ -1,18 +1,18 @@
 // The solver-deck model shared by mesh.inp, mesh.feb and mesh.msh (solver_deck.hpp).
-#include <vim/pipeline/exports.hpp>
-#include <vim/pipeline/scenario_regions.hpp>
-#include <vim/pipeline/solver_deck.hpp>
-
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <map>
 #include <stdexcept>
+#include <vim/pipeline/exports.hpp>
+#include <vim/pipeline/scenario_regions.hpp>
+#include <vim/pipeline/solver_deck.hpp>
 
 namespace vim::pipeline {
 
 template <int dim>
 const std::array<int, dim>& deck_face_corners(int f) {
-  static const std::array<std::array<int, 3>, 4> tet = {{{0, 1, 2}, {0, 3, 1}, {1, 3, 2}, {2, 3, 0}}};
-  static const std::array<std::array<int, 2>, 3> tri = {{{0, 1}, {1, 2}, {2, 0}}};
+  static const std::array<std::array<int, 3>, 4> tet = {{{{0, 1, 2}}, {{0, 3, 1}}, {{1, 3, 2}}, {{2, 3, 0}}}};
+  static const std::array<std::array<int, 2>, 3> tri = {{{{0, 1}}, {{1, 2}}, {{2, 0}}}};
   if constexpr (dim == 3)
     return tet.at(f);
   else
@@ -62,7 +62,8 @@ std::vector<typename SolverDeck<dim>::Face> boundary_faces(const SimplexMesh<dim
 
 // Nodes and boundary faces of the deck inside `region` (frame predicate over frame node positions).
 template <int dim>
-typename SolverDeck<dim>::Set region_set(const SolverDeck<dim>& deck, const std::vector<Vec<dim>>& frame_nodes,
+typename SolverDeck<dim>::Set region_set(const SolverDeck<dim>& deck,
+                                         const std::vector<Vec<dim>>& frame_nodes,
                                          const std::vector<typename SolverDeck<dim>::Face>& boundary,
                                          const fem::Region<dim>& region, std::string name) {
   typename SolverDeck<dim>::Set s;
@@ -104,20 +105,22 @@ void add_conditions(SolverDeck<dim>& deck, const Scenario& sc, const std::vector
     const BoundaryConditionSpec& bc = sc.boundary_conditions[i];
     static const char* const type_names[] = {"fixed", "displacement", "pressure", "traction"};
     const std::string name = "BC" + std::to_string(i + 1) + "_" + type_names[static_cast<int>(bc.type)];
-    deck.regions.push_back(region_set(deck, frame_nodes, boundary,
-                                      scenario_region<dim>(bc.region, box_min, box_max, tf), name));
+    deck.regions.push_back(
+        region_set(deck, frame_nodes, boundary, scenario_region<dim>(bc.region, box_min, box_max, tf), name));
     const auto& set = deck.regions.back();
     if (bc.support == BoundaryConditionSpec::Support::elastic) {
       deck.not_expressed.push_back("boundary_conditions[" + std::to_string(i) + "]: the elastic support of " +
-                                   bc.region.describe() + " (stiffness " + std::to_string(bc.support_stiffness) +
-                                   "); node set " + name + " holds its region, unsupported here");
+                                   bc.region.describe() + " (stiffness " +
+                                   std::to_string(bc.support_stiffness) + "); node set " + name +
+                                   " holds its region, unsupported here");
       continue;
     }
     if (bc.is_dirichlet()) {
       for (long n : set.nodes)
         for (int c = 0; c < dim; ++c)
           if (bc.components.empty() || bc.components[c])
-            held.emplace(std::pair{n, c}, bc.type == BoundaryConditionSpec::Type::displacement ? bc.value[c] : 0.0);
+            held.emplace(std::pair{n, c},
+                         bc.type == BoundaryConditionSpec::Type::displacement ? bc.value[c] : 0.0);
       continue;
     }
     typename SolverDeck<dim>::SurfaceLoad load;
@@ -133,10 +136,11 @@ void add_conditions(SolverDeck<dim>& deck, const Scenario& sc, const std::vector
         const std::vector<long> fn = deck.face_nodes(f);
         for (std::size_t k = 0; k < fn.size(); ++k) {
           const bool corner = static_cast<int>(k) < dim;
-          const double w = deck.degree == 1 ? 1.0 / dim : dim == 3 ? (corner ? 0.0 : 1.0 / 3.0) : (corner ? 1.0 / 6.0 : 2.0 / 3.0);
+          const double w = deck.degree == 1 ? 1.0 / dim
+                           : dim == 3       ? (corner ? 0.0 : 1.0 / 3.0)
+                                            : (corner ? 1.0 / 6.0 : 2.0 / 3.0);
           if (w == 0.0) continue;
-          auto [it, added] = force.emplace(fn[k], Vec<dim>::Zero());
-          it->second += w * m * load.traction;
+          force.try_emplace(fn[k], Vec<dim>::Zero()).first->second += w * m * load.traction;
         }
       }
     }
@@ -152,10 +156,11 @@ void add_conditions(SolverDeck<dim>& deck, const Scenario& sc, const std::vector
 }  // namespace
 
 template <int dim>
-SolverDeck<dim> solver_deck(const MeshModel<dim>& model, const std::vector<double>& modulus, double poisson_ratio,
-                            unsigned degree, const Scenario* scenario) {
+SolverDeck<dim> solver_deck(const MeshModel<dim>& model, const std::vector<double>& modulus,
+                            double poisson_ratio, unsigned degree, const Scenario* scenario) {
   if (degree < 1 || degree > 2) throw std::invalid_argument("solver deck: degree must be 1 or 2");
-  if (modulus.size() != model.mesh.n_cells()) throw std::invalid_argument("solver deck: one modulus per cell needed");
+  if (modulus.size() != model.mesh.n_cells())
+    throw std::invalid_argument("solver deck: one modulus per cell needed");
   SolverDeck<dim> deck;
   deck.degree = degree;
   deck.modulus = modulus;
@@ -172,7 +177,8 @@ SolverDeck<dim> solver_deck(const MeshModel<dim>& model, const std::vector<doubl
       deck.nodes.push_back(0.5 * (world.points[a] + world.points[b]));
       frame_nodes.push_back(0.5 * (model.mesh.points[a] + model.mesh.points[b]));
     }
-    for (std::size_t c = 0; c < q.cells.size(); ++c) deck.cells[c].assign(q.cells[c].begin(), q.cells[c].end());
+    for (std::size_t c = 0; c < q.cells.size(); ++c)
+      deck.cells[c].assign(q.cells[c].begin(), q.cells[c].end());
   }
   Vec<dim> box_min = model.mesh.points.at(0), box_max = box_min;
   for (const auto& p : model.mesh.points) box_min = box_min.cwiseMin(p), box_max = box_max.cwiseMax(p);
@@ -183,8 +189,9 @@ SolverDeck<dim> solver_deck(const MeshModel<dim>& model, const std::vector<doubl
       face.axis = a;
       face.upper = upper;
       face.face = std::string(axis_names[a]) + (upper ? "_max" : "_min");
-      deck.box_faces.push_back(
-          region_set(deck, frame_nodes, boundary, scenario_region<dim>(face, box_min, box_max, model.transform), face.face));
+      deck.box_faces.push_back(region_set(deck, frame_nodes, boundary,
+                                          scenario_region<dim>(face, box_min, box_max, model.transform),
+                                          face.face));
       deck.box_faces.back().description = "image box face " + face.face;
     }
   if (scenario) add_conditions(deck, *scenario, frame_nodes, boundary, box_min, box_max, model.transform);
@@ -195,7 +202,9 @@ template const std::array<int, 2>& deck_face_corners<2>(int);
 template const std::array<int, 3>& deck_face_corners<3>(int);
 template struct SolverDeck<2>;
 template struct SolverDeck<3>;
-template SolverDeck<2> solver_deck<2>(const MeshModel<2>&, const std::vector<double>&, double, unsigned, const Scenario*);
-template SolverDeck<3> solver_deck<3>(const MeshModel<3>&, const std::vector<double>&, double, unsigned, const Scenario*);
+template SolverDeck<2> solver_deck<2>(const MeshModel<2>&, const std::vector<double>&, double, unsigned,
+                                      const Scenario*);
+template SolverDeck<3> solver_deck<3>(const MeshModel<3>&, const std::vector<double>&, double, unsigned,
+                                      const Scenario*);
 
 }  // namespace vim::pipeline

@@ -6,18 +6,15 @@
 // oriented in world space, each file written under a temporary name and renamed.
 #pragma once
 
+#include <Eigen/Core>
+#include <array>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
 #include <vim/pipeline/model.hpp>
 #include <vim/pipeline/scenario.hpp>
 #include <vim/pipeline/solver_deck.hpp>
-
-#include <nlohmann/json.hpp>
-
-#include <Eigen/Core>
-
-#include <array>
-#include <filesystem>
-#include <string>
-#include <vector>
 
 namespace vim::pipeline {
 
@@ -62,7 +59,8 @@ SimplexMesh<dim> world_mesh(const MeshModel<dim>& model);
 
 // Single-format writers (world mesh + bins computed by the caller with the two functions above).
 template <int dim>
-void write_vtk_legacy(const std::filesystem::path& path, const SimplexMesh<dim>& world, const MaterialBins& bins);
+void write_vtk_legacy(const std::filesystem::path& path, const SimplexMesh<dim>& world,
+                      const MaterialBins& bins);
 void write_feb(const std::filesystem::path& path, const SolverDeck<3>& deck);
 template <int dim>
 void write_msh(const std::filesystem::path& path, const SolverDeck<dim>& deck, const MaterialBins& bins);

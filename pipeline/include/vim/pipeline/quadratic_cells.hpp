@@ -3,10 +3,9 @@
 // P2 step VTUs and the solver decks, so that every file numbers the mid-edge nodes the same way.
 #pragma once
 
-#include <vim/simplex_mesh.hpp>
-
 #include <array>
 #include <vector>
+#include <vim/simplex_mesh.hpp>
 
 namespace vim::pipeline {
 
@@ -27,6 +26,7 @@ const std::vector<std::array<int, 2>>& quadratic_edge_order();
 
 // Edges numbered in order of first appearance over the cells (deterministic).
 template <int dim>
-QuadraticCells<dim> quadratic_cells(const std::vector<std::array<int, dim + 1>>& cells, std::size_t n_vertices);
+QuadraticCells<dim> quadratic_cells(const std::vector<std::array<int, dim + 1>>& cells,
+                                    std::size_t n_vertices);
 
 }  // namespace vim::pipeline

@@ -13,6 +13,7 @@ namespace vim::pipeline {
 // spheres and cylinders: their world shape tested at transform.to_world(x).
 template <int dim>
 fem::Region<dim> scenario_region(const RegionSpec& region, const Eigen::Matrix<double, dim, 1>& box_min,
-                                 const Eigen::Matrix<double, dim, 1>& box_max, const WorldTransform<dim>& transform);
+                                 const Eigen::Matrix<double, dim, 1>& box_max,
+                                 const WorldTransform<dim>& transform);
 
 }  // namespace vim::pipeline

@@ -7,14 +7,12 @@
 // simulation held.
 #pragma once
 
+#include <Eigen/Core>
+#include <string>
+#include <vector>
 #include <vim/pipeline/model.hpp>
 #include <vim/pipeline/quadratic_cells.hpp>
 #include <vim/pipeline/scenario.hpp>
-
-#include <Eigen/Core>
-
-#include <string>
-#include <vector>
 
 namespace vim::pipeline {
 
@@ -23,10 +21,10 @@ struct SolverDeck {
   using Vec = Eigen::Matrix<double, dim, 1>;
   unsigned degree = 1;
   std::size_t n_vertices = 0;
-  std::vector<Vec> nodes;                  // world; 0-based here, 1-based in the files
-  std::vector<std::vector<long>> cells;    // corners (positively oriented in the world), then mid-edge nodes
-  std::vector<std::array<int, 2>> edges;   // degree 2: the vertices of mid-edge node n_vertices + e
-  std::vector<double> modulus;             // per cell, exact
+  std::vector<Vec> nodes;                 // world; 0-based here, 1-based in the files
+  std::vector<std::vector<long>> cells;   // corners (positively oriented in the world), then mid-edge nodes
+  std::vector<std::array<int, 2>> edges;  // degree 2: the vertices of mid-edge node n_vertices + e
+  std::vector<double> modulus;            // per cell, exact
   double poisson_ratio = 0.49;
 
   // An element face: cell and face number 0..dim in the Abaqus/CalculiX numbering (S1..S4 of a
@@ -51,8 +49,8 @@ struct SolverDeck {
   };
   std::vector<Held> held;  // sorted by node, then component; one entry per held (node, component)
   struct SurfaceLoad {
-    int region = 0;         // index into regions
-    double pressure = 0.0;  // pressure conditions
+    int region = 0;              // index into regions
+    double pressure = 0.0;       // pressure conditions
     Vec traction = Vec::Zero();  // traction conditions (world)
     bool is_pressure = true;
   };
@@ -68,8 +66,8 @@ struct SolverDeck {
 
 // The deck of `model` with the per-cell `modulus`. Without a scenario: mesh, moduli and box faces only.
 template <int dim>
-SolverDeck<dim> solver_deck(const MeshModel<dim>& model, const std::vector<double>& modulus, double poisson_ratio,
-                            unsigned degree, const Scenario* scenario);
+SolverDeck<dim> solver_deck(const MeshModel<dim>& model, const std::vector<double>& modulus,
+                            double poisson_ratio, unsigned degree, const Scenario* scenario);
 
 // Abaqus/CalculiX corner numbers of face f (0-based local vertices).
 template <int dim>
