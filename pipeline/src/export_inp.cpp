@@ -23,11 +23,11 @@ void write_sets(std::ostream& out, const SolverDeck<dim>& deck) {
   auto write = [&](const typename SolverDeck<dim>::Set& s) {
     out << "** " << s.name << ": " << s.description << '\n';
     if (!s.nodes.empty()) {
-      out << "*NSET, NSET=N_" << s.name << '\n';
+      out << "*Nset, NSET=N_" << s.name << '\n';
       write_id_list(out, s.nodes);
     }
     if (!s.faces.empty()) {
-      out << "*SURFACE, NAME=S_" << s.name << ", TYPE=ELEMENT\n";
+      out << "*Surface, NAME=S_" << s.name << ", TYPE=ELEMENT\n";
       for (const auto& f : s.faces) out << f.cell + 1 << ", S" << f.face + 1 << '\n';
     }
   };
@@ -37,22 +37,22 @@ void write_sets(std::ostream& out, const SolverDeck<dim>& deck) {
 
 template <int dim>
 void write_step(std::ostream& out, const SolverDeck<dim>& deck) {
-  out << "*STEP\n*STATIC, SOLVER=SPOOLES\n";
+  out << "*Step\n*Static, SOLVER=SPOOLES\n";
   if (!deck.held.empty()) {
-    out << "*BOUNDARY\n";
+    out << "*Boundary\n";
     for (const auto& h : deck.held)
       out << h.node + 1 << ", " << h.component + 1 << ", " << h.component + 1 << ", " << h.value << '\n';
   }
   for (const auto& load : deck.surface_loads)
     if (load.is_pressure && !deck.regions[load.region].faces.empty())
-      out << "*DSLOAD\nS_" << deck.regions[load.region].name << ", P, " << load.pressure << '\n';
+      out << "*Dsload\nS_" << deck.regions[load.region].name << ", P, " << load.pressure << '\n';
   if (!deck.nodal_forces.empty()) {
-    out << "*CLOAD\n";
+    out << "*Cload\n";
     for (const auto& [node, f] : deck.nodal_forces)
       for (int c = 0; c < dim; ++c)
         if (f[c] != 0.0) out << node + 1 << ", " << c + 1 << ", " << f[c] << '\n';
   }
-  out << "*NODE PRINT, NSET=NALL\nU\n*NODE FILE\nU\n*END STEP\n";
+  out << "*Node Print, NSET=NALL\nU\n*Node File\nU\n*End Step\n";
 }
 
 }  // namespace
@@ -64,13 +64,13 @@ void write_inp(const std::filesystem::path& path, const SolverDeck<dim>& deck) {
     by_modulus[deck.modulus[c]].push_back(static_cast<long>(c));
   const char* type = dim == 3 ? (deck.degree == 2 ? "C3D10" : "C3D4") : (deck.degree == 2 ? "CPE6" : "CPE3");
   write_text_atomically(path, [&](std::ostream& out) {
-    out << "*HEADING\nvim-pipeline model, world coordinates, " << type << ", " << by_modulus.size()
+    out << "*Heading\nvim-pipeline model, world coordinates, " << type << ", " << by_modulus.size()
         << " distinct moduli (one material each)";
     if (!deck.has_conditions)
       out << "; mesh and materials only (no conditions: run with --simulate for a complete job)";
     out << '\n';
     for (const auto& what : deck.not_expressed) out << "** Not in this deck: " << what << '\n';
-    out << "*NODE, NSET=NALL\n";
+    out << "*Node, NSET=NALL\n";
     for (std::size_t i = 0; i < deck.nodes.size(); ++i) {
       out << i + 1;
       for (int a = 0; a < dim; ++a) out << ", " << deck.nodes[i][a];
@@ -78,7 +78,7 @@ void write_inp(const std::filesystem::path& path, const SolverDeck<dim>& deck) {
     }
     std::size_t k = 0;
     for (const auto& [E, members] : by_modulus) {
-      out << "*ELEMENT, TYPE=" << type << ", ELSET=MAT_" << ++k << '\n';
+      out << "*Element, TYPE=" << type << ", ELSET=MAT_" << ++k << '\n';
       for (long c : members) {
         out << c + 1;
         for (long v : deck.cells[c]) out << ", " << v + 1;
@@ -90,12 +90,12 @@ void write_inp(const std::filesystem::path& path, const SolverDeck<dim>& deck) {
     for (const auto& entry : by_modulus) {
       (void)entry;
       ++k;
-      out << "*SOLID SECTION, ELSET=MAT_" << k << ", MATERIAL=MATERIAL_" << k << '\n'
+      out << "*Solid Section, ELSET=MAT_" << k << ", MATERIAL=MATERIAL_" << k << '\n'
           << (dim == 2 ? "1.0\n" : "\n");  // 2D: unit thickness
     }
     k = 0;
     for (const auto& [E, members] : by_modulus)
-      out << "*MATERIAL, NAME=MATERIAL_" << ++k << "\n*ELASTIC\n" << E << ", " << deck.poisson_ratio << '\n';
+      out << "*Material, NAME=MATERIAL_" << ++k << "\n*Elastic\n" << E << ", " << deck.poisson_ratio << '\n';
     if (deck.has_conditions) write_step(out, deck);
   });
 }
