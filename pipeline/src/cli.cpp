@@ -185,7 +185,7 @@ const char* kFooter = R"(Outputs (in DIR; all in world coordinates, every file w
                dihedral angle, 2D: min angle, degrees), youngs_modulus with --simulate, with
                --threshold also segment and object; point data boundary (box faces a node lies on)
   mesh.vtk mesh.feb mesh.msh mesh.inp
-               exports (--export): deal.II GridIn (legacy 3.0, MaterialID), FEBio 4.0, Gmsh 4.1, CalculiX/Abaqus
+               exports (--export): deal.II GridIn (legacy 3.0, MaterialID), FEBio, Gmsh 4.1, Abaqus
   figures/     PNG: image slices beside the mesh cross-section, energy history; with --simulate
                force and target displacement vs depth and the deformed mesh at the last step
   simulation.pvd, steps/step_NNNN.vtu, needle.csv   with --simulate (open the .pvd in ParaView)
@@ -850,7 +850,8 @@ int run_dim(const RunOptions& given) {
         export_options.degree = static_cast<unsigned>(o.degree);
       }
       write_exports<dim>(model, out.path(), o.exports, report, export_options);
-      for (const auto& w : report["exports"].value("warnings", json::array())) warn(report, "export", w.get<std::string>());
+      for (const auto& w : report["exports"].value("warnings", json::array()))
+        warn(report, "export", w.get<std::string>());
       for (auto& [fmt_name, path] : report["exports"]["files"].items()) path = "mesh." + fmt_name;
     }
     if (dim == 3)

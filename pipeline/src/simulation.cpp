@@ -238,7 +238,8 @@ NeedleSimulation<dim>::NeedleSimulation(const MeshModel<dim>& mm, const Scenario
   m.locator = CellLocator<dim>::simplex(mm.mesh);
   m.model.emplace(mm.mesh, m.E, scenario.poisson_ratio, m.degree);
   // P2: quadratic cells carry the mid-edge values (Impl::edges), so ParaView interpolates quadratically.
-  m.grid = m.degree == 2 ? quadratic_simplex_grid(mm.mesh, mm.transform, &m.edges) : simplex_grid(mm.mesh, mm.transform);
+  m.grid = m.degree == 2 ? quadratic_simplex_grid(mm.mesh, mm.transform, &m.edges)
+                         : simplex_grid(mm.mesh, mm.transform);
   m.setup(m.model->vertices());
   m.build_seconds = seconds_since(t0);
 }
@@ -313,7 +314,8 @@ void NeedleSimulation<dim>::Impl::write_step(const std::string& rel, const fem::
     Field f{dim, {}};
     f.values.reserve(g.points.size() * dim);
     const std::size_t nv = g.points.size() - edges.size();
-    const std::vector<Vec> mid = s && !edges.empty() ? model->edge_midpoint_displacement(edges) : std::vector<Vec>{};
+    const std::vector<Vec> mid =
+        s && !edges.empty() ? model->edge_midpoint_displacement(edges) : std::vector<Vec>{};
     for (std::size_t v = 0; v < g.points.size(); ++v) {
       const Vec u = !s ? Vec::Zero() : v < nv ? Vec(D * s->vertex_displacement[v]) : Vec(D * mid[v - nv]);
       for (int d = 0; d < dim; ++d) f.values.push_back(u[d]);

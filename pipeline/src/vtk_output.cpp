@@ -51,7 +51,8 @@ UnstructuredGrid simplex_grid(const SimplexMesh<dim>& frame_mesh, const WorldTra
 }
 
 template <int dim>
-UnstructuredGrid quadratic_simplex_grid(const SimplexMesh<dim>& frame_mesh, const WorldTransform<dim>& transform,
+UnstructuredGrid quadratic_simplex_grid(const SimplexMesh<dim>& frame_mesh,
+                                        const WorldTransform<dim>& transform,
                                         std::vector<std::array<int, 2>>* edges) {
   UnstructuredGrid g = simplex_grid(frame_mesh, transform);
   std::vector<std::array<int, dim + 1>> cells(frame_mesh.n_cells());

@@ -15,8 +15,8 @@ namespace vim::pipeline {
 // A single-cell-type unstructured grid. Points are 3D (2D meshes get z = 0).
 struct UnstructuredGrid {
   std::vector<std::array<double, 3>> points;
-  int vtk_cell_type = 10;        // VTK_TRIANGLE = 5, VTK_TETRA = 10, VTK_QUAD = 9, VTK_HEXAHEDRON = 12, VTK_PIXEL = 8, VTK_VOXEL = 11,
-                                 // VTK_QUADRATIC_TRIANGLE = 22, VTK_QUADRATIC_TETRA = 24
+  int vtk_cell_type = 10;  // VTK_TRIANGLE = 5, VTK_TETRA = 10, VTK_QUAD = 9, VTK_HEXAHEDRON = 12, VTK_PIXEL =
+                           // 8, VTK_VOXEL = 11, VTK_QUADRATIC_TRIANGLE = 22, VTK_QUADRATIC_TETRA = 24
   int nodes_per_cell = 4;
   std::vector<long> connectivity;  // n_cells * nodes_per_cell
   FieldMap point_data;           // 2D vectors are padded to 3 components by the writer
@@ -34,7 +34,8 @@ UnstructuredGrid simplex_grid(const SimplexMesh<dim>& frame_mesh, const WorldTra
 // for P2 fields: its points, then one mid-edge point per edge in quadratic_cells' numbering; `edges`
 // (if given) gets each mid-edge point's vertex pair (ElasticModel::edge_midpoint_displacement's input).
 template <int dim>
-UnstructuredGrid quadratic_simplex_grid(const SimplexMesh<dim>& frame_mesh, const WorldTransform<dim>& transform,
+UnstructuredGrid quadratic_simplex_grid(const SimplexMesh<dim>& frame_mesh,
+                                        const WorldTransform<dim>& transform,
                                         std::vector<std::array<int, 2>>* edges = nullptr);
 
 // Corner order of a VTK quad / hexahedron over a voxel, as (x, y) index offsets of each z layer: (0,0),
