@@ -25,6 +25,7 @@
 #include <vim/pipeline/exports.hpp>
 #include <vim/pipeline/simulation.hpp>
 
+#include "run_cli.hpp"
 #include "scratch_dir.hpp"
 
 namespace fs = std::filesystem;
@@ -417,4 +418,42 @@ TEST(SolverDecks, MeshOnlyExportsWarnOnNonPositiveModulusNamingTheFix) {
   m.youngs_modulus.assign(m.mesh.n_cells(), 5.0);
   write_exports<3>(m, dir, {"inp"}, fine);
   EXPECT_FALSE(fine["exports"].contains("warnings"));
+}
+
+// Truth: CalculiX again, end to end through the CLI: examples/prostate_deck.yaml (degree 2) on a small
+// prostate phantom; CalculiX's solution of mesh.inp must be the displacement of steps/step_0000.vtu at
+// every point (vertices and edge midpoints, the same numbering).
+TEST(SolverDecks, CliDeckOfTheProstateExampleSolvesLikeStepZero) {
+  if (!have_program("ccx")) GTEST_SKIP() << "CalculiX (ccx, Debian package calculix-ccx) is not installed";
+  vim::test::TempDir dir("clideck");
+  const fs::path image = dir.path / "prostate.mha";
+  const auto made =
+      vim::test::run_command(VIM_PHANTOM_EXE, "prostate " + vim::test::quote(image.string()) + " --size 24");
+  ASSERT_EQ(made.code, 0) << made.err;
+  const fs::path out = dir.path / "out";
+  const auto run = vim::test::run_pipeline(
+      vim::test::quote(image.string()) + " --nodes 300 --max-iterations 4 -q --export inp --simulate " +
+      vim::test::quote(std::string(VIM_SOURCE_DIR) + "/examples/prostate_deck.yaml") + " --out " +
+      vim::test::quote(out.string()));
+  ASSERT_EQ(run.code, 0) << run.err;
+  EXPECT_NE(vim::test::slurp(out / "mesh.inp").find("TYPE=C3D10"), std::string::npos);
+  const auto theirs = run_calculix(out);
+  vtkNew<vtkXMLUnstructuredGridReader> reader;
+  reader->SetFileName((out / "steps" / "step_0000.vtu").string().c_str());
+  reader->Update();
+  vtkUnstructuredGrid* g = reader->GetOutput();
+  ASSERT_EQ(g->GetCellType(0), 24);  // VTK_QUADRATIC_TETRA
+  vtkDataArray* u = g->GetPointData()->GetArray("displacement");
+  ASSERT_NE(u, nullptr);
+  ASSERT_EQ(static_cast<vtkIdType>(theirs.size()), g->GetNumberOfPoints());
+  double largest = 0.0, worst = 0.0;
+  for (vtkIdType i = 0; i < g->GetNumberOfPoints(); ++i) {
+    const Eigen::Vector3d ours(u->GetComponent(i, 0), u->GetComponent(i, 1), u->GetComponent(i, 2));
+    largest = std::max(largest, ours.norm());
+    worst = std::max(worst, (theirs.at(i + 1) - ours).cwiseAbs().maxCoeff());
+  }
+  ASSERT_GT(largest, 0.1);
+  EXPECT_LE(worst, 1e-6 * largest);
+  std::cout << "CLI prostate deck, " << g->GetNumberOfPoints()
+            << " nodes: max |Δu| / max |u| = " << worst / largest << '\n';
 }
