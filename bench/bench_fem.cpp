@@ -6,6 +6,7 @@
 //   mpirun -np 2 bench_fem --mpi --p1 68 --voxel 100    the same on 2 ranks (solve_distributed)
 #include "../tests/fem/box_mesh.hpp"
 
+#include <vim/fem/distributed.hpp>
 #include <vim/fem/elasticity.hpp>
 
 #include <deal.II/base/mpi.h>
@@ -78,7 +79,7 @@ void p1_model(int n, SolverOptions::Type type, bool mpi, MPI_Comm comm) {
   SolverOptions opt;
   opt.type = type;
   opt.tolerance = 1e-8;
-  const Solution<3> s = mpi ? model.solve_distributed(comm, opt) : model.solve({}, opt);
+  const Solution<3> s = mpi ? solve_distributed(model, comm, opt) : model.solve({}, opt);
   const std::string name = "P1 Kuhn " + std::to_string(n) + "^3";
   row(name.c_str(), dealii::Utilities::MPI::n_mpi_processes(comm), s, build, now() - t0, comm);
 }
@@ -116,7 +117,7 @@ void voxel_model(int n, bool mpi, MPI_Comm comm) {
   SolverOptions opt;
   opt.type = SolverOptions::Type::amg;
   opt.tolerance = 1e-8;
-  const Solution<3> s = mpi ? model.solve_distributed(comm, opt) : model.solve({}, opt);
+  const Solution<3> s = mpi ? solve_distributed(model, comm, opt) : model.solve({}, opt);
   const std::string name = "Q1 voxel " + std::to_string(n) + "^3";
   row(name.c_str(), dealii::Utilities::MPI::n_mpi_processes(comm), s, build, now() - t0, comm);
 }

@@ -1,4 +1,4 @@
-// The full deformation-validation sweep of issue 8 (the CI runs a small subset in
+// The full deformation-validation sweep of docs/validation.md (the CI runs a small subset in
 // tests/validation): for each scenario and node budget, the VIM model and the regular-grid model
 // with the same node count are solved and compared with the fine voxel reference under identical
 // uniaxial compression. Prints relative L2 / max displacement error, strain-energy error and the

@@ -1,4 +1,4 @@
-// Voxel enclosure benchmark (issue 9, DESIGN.md §3 "the paper's bottleneck"): per-element voxel
+// Voxel enclosure benchmark (docs/performance.md; the paper's bottleneck): per-element voxel
 // sums from scanline prefix sums (VoxelStatistics::sums, O(rows)) vs the brute-force per-voxel
 // barycentric test over the element's bounding box (VoxelStatistics::sums_per_voxel, same tie rule,
 // and the independent test of bench/metrics.hpp), for elements 2..30 voxels across on the 100³

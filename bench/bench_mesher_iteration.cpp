@@ -1,4 +1,4 @@
-// One VIM iteration on the 100³ Table I phantom (issue 9): wall time of the first iteration at 343
+// One VIM iteration on the 100³ Table I phantom (docs/performance.md): wall time of the first iteration at 343
 // and 4096 nodes with 1 and 2 threads (parallel speed-up), split into node updates (swaps off),
 // swaps (difference), and one whole-mesh voxel-statistics pass. Ratios are measured in this run.
 //

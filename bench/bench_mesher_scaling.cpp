@@ -1,4 +1,4 @@
-// Scaling study (issue 9): the Table I sphere phantom (cube [0,3]³, sphere r = 1, 2.0 in / 1.0 out)
+// Scaling study (docs/performance.md): the Table I sphere phantom (cube [0,3]³, sphere r = 1, 2.0 in / 1.0 out)
 // sampled at n³ voxels, meshed by VIM from the regular Kuhn grid closest to a node budget (default
 // options: λ = 0.5, 150° bound, convergence 1e-3). Prints, per run, the set-up time (grid mesh +
 // optimize()'s own set-up: prefix sums, per-element caches, colouring = history[0].seconds), the

@@ -1,6 +1,6 @@
 // Needle steps per second: the condensed fast path (K factorised once, cached K⁻¹Cᵀ columns) vs a
 // monolithic saddle-point solve per step, on P1 Kuhn-grid blocks of ~1k and ~10k nodes
-// (DESIGN.md §7 target: >= 500 steps/s at ~1k nodes). Prints the ratio; asserts nothing.
+// (target: >= 500 steps/s at ~1k nodes). Prints the ratio; asserts nothing.
 //   bench_needle [steps] [cached]   ("cached": skip the monolithic baseline, e.g. for profiling)
 #include <vim/initial_mesh.hpp>
 #include <vim/pipeline/progress.hpp>

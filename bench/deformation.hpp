@@ -1,4 +1,4 @@
-// Deformation validation (issue 8, DESIGN.md §4 "Fine voxel reference"): uniaxial compression of an
+// Deformation validation (docs/architecture.md, "The voxel reference"): uniaxial compression of an
 // image phantom solved on a coarse simplex model (VIM or regular grid, element modulus = element
 // mean, Eq. 15) and on the fine voxel reference (one Q1 cell per voxel, E = voxel value), with
 // identical boundary conditions; relative L2 / max displacement error over sample points inside

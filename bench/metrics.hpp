@@ -1,4 +1,4 @@
-// Independent validation metrics for paper Table I and §VI-B (issue 8): element means by a
+// Independent validation metrics for paper Table I and §VI-B (docs/validation.md): element means by a
 // brute-force barycentric voxel test, the thresholded largest face-connected component, the
 // FN/FP/TF voxel counts against the analytic sphere, and element quality (min NRR, min/max
 // dihedral). Deliberately shares nothing with the mesher's VoxelStatistics/segment/mesh_quality:

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# Performance benchmarks of issue 9, all ratios measured in this one invocation (never asserted):
+# Performance benchmarks (docs/performance.md), all ratios measured in this one invocation (never asserted):
 #   - voxel enclosure: prefix sums vs brute-force per-voxel test, per element size;
 #   - one VIM iteration at 343 and 4096 nodes, 1 vs 2 threads;
 #   - a full converged VIM run at 4096 nodes (wall time, iterations, TF%) via table1, with the
-#     default screened node update and with the paper's full search (--search-width 0);
+#     default screened node update and with every direction searched in full (--search-width 0);
 #   - optionally VIM vs CGAL Mesh_3 at the same node count (bench_cgal_mesh3, -DVIM_WITH_CGAL=ON).
 # Usage: bench/run.sh [build-dir]   (default: ./build). Builds the targets it needs.
 set -euo pipefail
@@ -21,7 +21,7 @@ echo
 echo "Full converged run at 4096 nodes (grid row: the starting mesh):"
 /usr/bin/time -f "peak memory (VmHWM-equivalent max RSS): %M kB" "$BUILD/bench/table1" 4096
 echo
-echo "The same with the paper's full node-update search (--search-width 0):"
+echo "The same with every node-update direction searched in full (--search-width 0):"
 "$BUILD/bench/table1" --search-width 0 4096
 # Optional CGAL Mesh_3 side-by-side (same image, same node count): only when the build was configured
 # with -DVIM_WITH_CGAL=ON and CGAL was found, so the binary exists (the target is absent otherwise).

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Scaling study of issue 9: VIM on the Table I sphere phantom at n³ voxels (n = 64, 128, 256) from
+# Scaling study (docs/performance.md): VIM on the Table I sphere phantom at n³ voxels (n = 64, 128, 256) from
 # the regular grid nearest each node budget (~1k, ~10k, ~50k). One bench_mesher_scaling process per
 # pair, so VmHWM (/proc/self/status) is that pair's peak memory. Prints a markdown table, least-squares
 # growth exponents of s/iteration vs voxels (per budget) and vs elements (per image), and writes

@@ -1,4 +1,4 @@
-// Issue 9 scaling plots from the "ROW ..." lines of bench_mesher_scaling (collected by
+// Scaling plots from the "ROW ..." lines of bench_mesher_scaling (collected by
 // bench/scaling.sh). Both axes are log10, so a straight line of slope p means cost ∝ x^p.
 //
 //   scaling_plots OUTDIR ROWS-FILE

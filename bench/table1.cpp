@@ -1,4 +1,4 @@
-// Paper Table I reproduced (issue 8): the 100³ sphere phantom meshed by the regular Kuhn grid and
+// Paper Table I reproduced (docs/validation.md): the 100³ sphere phantom meshed by the regular Kuhn grid and
 // by VIM at 125, 343 and 4096 nodes; quality (min NRR, min/max dihedral) and the FN/FP/TF voxel
 // counts of the thresholded sphere (§VI-B), computed by the independent code in metrics.hpp,
 // printed beside the paper's VIM rows.

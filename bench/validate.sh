@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Full validation sweep of issue 8 (CI runs the small subset: ctest -L validation):
+# Full validation sweep of docs/validation.md (CI runs the small subset: ctest -L validation):
 #   1. paper Table I at 125, 343, 4096 nodes (bench/table1.cpp, independent TF% metric);
 #   2. deformation error vs the fine voxel reference, VIM vs grid at 125, 343, 1000, 4096 nodes,
 #      for the 3D sphere (10x stiffer) and the 2D two-inclusion phantom (bench/bench_fem_validate.cpp);

@@ -1,4 +1,4 @@
-// Issue 8, prostate scenario: VIM vs regular grid (same node count) against the fine voxel
+// Prostate scenario (docs/validation.md): VIM vs regular grid (same node count) against the fine voxel
 // reference (one Q1 cell per voxel, E = voxel value) on the prostate phantom, for
 //   (a) the needle insertion of examples/prostate_needle.yaml (NeedleSimulation, same scenario for
 //       all three models; the embedded shaft points are sampled per mesh, see the doc), and

@@ -1,4 +1,4 @@
-// Issue 8 plots (docs/figures/validation_*.png) from the tables the validation programs print:
+// Validation plots (docs/figures/validation_*.png) from the tables the validation programs print:
 // markdown tables of bench_fem_validate (headers with "relL2 grid" / "relL2 VIM", identified by the
 // last heading: "sphere compression", "two-inclusion") and the Table I rows, either the markdown
 // table of docs/validation.md ("| method | nodes | ... | TF% |") or bench/table1's text output

@@ -7,7 +7,11 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BUILD_DIR="${BUILD_DIR:-$ROOT/build}"
 start=$(date +%s)
 bash "$ROOT/scripts/setup-deps.sh"
-BUILD_DIR="$BUILD_DIR" bash "$ROOT/scripts/build.sh"
+# Source checks first: .clang-format and the size limits (files <= 700 lines, functions <= 150).
+bash "$ROOT/scripts/check-format.sh"
+/usr/bin/python3 "$ROOT/scripts/check-size.py"
+# Warnings are errors in CI (VIM_WERROR: -Werror on the project's own targets).
+BUILD_DIR="$BUILD_DIR" CMAKE_ARGS="-DVIM_WERROR=ON ${CMAKE_ARGS:-}" bash "$ROOT/scripts/build.sh"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 cd "$BUILD_DIR"
 ctest --output-on-failure --timeout 1800 "$@"

@@ -1,4 +1,4 @@
-// Issue 9: VIM vs CGAL Mesh_3 on the same image at (about) the same node count, in one run.
+// VIM vs CGAL Mesh_3 on the same image at (about) the same node count, in one run.
 // The 100³ Table I phantom (cube [0,3]³, sphere r=1, 2 inside / 1 outside) is meshed by VIM at a
 // node budget (default 4096, default VimOptions as table1) and by CGAL Mesh_3 from a labeled
 // Image_3 built in memory from the same voxels (label 1 = background, 2 = sphere; CGAL meshes only
@@ -12,8 +12,8 @@
 // rule), TF% against the analytic sphere; quality = min NRR, min/max dihedral. For CGAL the
 // subdomain-2 rule is printed as well (TF% of the tets CGAL labelled 2).
 //
-// VIM runs twice: with the default (screened) node update and with the paper's full search
-// (--search-width 0, row "VIM-full"); the ratio column is against the first. --threads 1 runs VIM
+// VIM runs twice: with the default (screened) node update and with every direction searched in
+// full (--search-width 0, row "VIM-full"); the ratio column is against the first. --threads 1 runs VIM
 // sequential, as CGAL is here.
 //
 // Row "VIM-early": VIM stopped after the fewest iterations whose mesh already has the paper's Table I

@@ -1,12 +1,11 @@
 // Initial mesh (paper §IV-C, §VI): node counts from a budget or spacing, the Kuhn/Freudenthal
 // subdivision of a regular grid over the box, and the boundary classification of its nodes.
-#include <vim/initial_mesh.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
 #include <string>
+#include <vim/initial_mesh.hpp>
 
 namespace vim {
 
@@ -16,8 +15,9 @@ template <int dim>
 void check_box(const Eigen::Matrix<double, dim, 1>& lo, const Eigen::Matrix<double, dim, 1>& hi) {
   for (int a = 0; a < dim; ++a)
     if (!(hi[a] > lo[a]) || !std::isfinite(hi[a] - lo[a]))
-      throw std::invalid_argument("box: box_max must exceed box_min on every axis (axis " + std::to_string(a) +
-                                  ": [" + std::to_string(lo[a]) + ", " + std::to_string(hi[a]) + "])");
+      throw std::invalid_argument("box: box_max must exceed box_min on every axis (axis " +
+                                  std::to_string(a) + ": [" + std::to_string(lo[a]) + ", " +
+                                  std::to_string(hi[a]) + "])");
 }
 
 template <int dim>
@@ -42,11 +42,13 @@ long product(const std::array<int, dim>& n) {
 
 template <int dim>
 std::array<int, dim> nodes_per_axis_for_budget(const Eigen::Matrix<double, dim, 1>& box_min,
-                                               const Eigen::Matrix<double, dim, 1>& box_max, long node_budget) {
+                                               const Eigen::Matrix<double, dim, 1>& box_max,
+                                               long node_budget) {
   const long minimum = 1L << dim;
   if (node_budget < minimum)
-    throw std::invalid_argument("nodes: node budget " + std::to_string(node_budget) + " is below the minimum " +
-                                std::to_string(minimum) + " (2 nodes per axis in " + std::to_string(dim) + "D)");
+    throw std::invalid_argument("nodes: node budget " + std::to_string(node_budget) +
+                                " is below the minimum " + std::to_string(minimum) +
+                                " (2 nodes per axis in " + std::to_string(dim) + "D)");
   check_box<dim>(box_min, box_max);
   const Eigen::Matrix<double, dim, 1> len = box_max - box_min;
   const double longest = len.maxCoeff();
@@ -65,10 +67,11 @@ std::array<int, dim> nodes_per_axis_for_budget(const Eigen::Matrix<double, dim, 
 
 template <int dim>
 std::array<int, dim> nodes_per_axis_for_spacing(const Eigen::Matrix<double, dim, 1>& box_min,
-                                                const Eigen::Matrix<double, dim, 1>& box_max, double spacing) {
+                                                const Eigen::Matrix<double, dim, 1>& box_max,
+                                                double spacing) {
   if (!(spacing > 0.0) || !std::isfinite(spacing))
-    throw std::invalid_argument("spacing: node spacing must be a finite value > 0 (got " + std::to_string(spacing) +
-                                ")");
+    throw std::invalid_argument("spacing: node spacing must be a finite value > 0 (got " +
+                                std::to_string(spacing) + ")");
   check_box<dim>(box_min, box_max);
   return counts_for_cell_size<dim>(box_min, box_max, spacing);
 }
@@ -131,26 +134,29 @@ SimplexMesh<dim> regular_grid_mesh(const Eigen::Matrix<double, dim, 1>& box_min,
 }
 
 template <int dim>
-std::vector<std::uint8_t> boundary_kind(const SimplexMesh<dim>& mesh, const Eigen::Matrix<double, dim, 1>& box_min,
+std::vector<std::uint8_t> boundary_kind(const SimplexMesh<dim>& mesh,
+                                        const Eigen::Matrix<double, dim, 1>& box_min,
                                         const Eigen::Matrix<double, dim, 1>& box_max, double tol) {
   std::vector<std::uint8_t> kind(mesh.n_points(), 0);
   for (std::size_t i = 0; i < mesh.n_points(); ++i) {
     int k = 0;
     for (int a = 0; a < dim; ++a)
-      if (std::abs(mesh.points[i][a] - box_min[a]) <= tol || std::abs(mesh.points[i][a] - box_max[a]) <= tol) ++k;
+      if (std::abs(mesh.points[i][a] - box_min[a]) <= tol || std::abs(mesh.points[i][a] - box_max[a]) <= tol)
+        ++k;
     kind[i] = static_cast<std::uint8_t>(k);
   }
   return kind;
 }
 
-#define VIM_INITIAL_MESH_INSTANTIATE(D)                                                                      \
-  template std::array<int, D> nodes_per_axis_for_budget<D>(const Eigen::Matrix<double, D, 1>&,               \
-                                                           const Eigen::Matrix<double, D, 1>&, long);        \
-  template std::array<int, D> nodes_per_axis_for_spacing<D>(const Eigen::Matrix<double, D, 1>&,              \
-                                                            const Eigen::Matrix<double, D, 1>&, double);     \
-  template SimplexMesh<D> regular_grid_mesh<D>(const Eigen::Matrix<double, D, 1>&,                           \
-                                               const Eigen::Matrix<double, D, 1>&, const std::array<int, D>&); \
-  template std::vector<std::uint8_t> boundary_kind<D>(const SimplexMesh<D>&, const Eigen::Matrix<double, D, 1>&, \
+#define VIM_INITIAL_MESH_INSTANTIATE(D)                                                                   \
+  template std::array<int, D> nodes_per_axis_for_budget<D>(const Eigen::Matrix<double, D, 1>&,            \
+                                                           const Eigen::Matrix<double, D, 1>&, long);     \
+  template std::array<int, D> nodes_per_axis_for_spacing<D>(const Eigen::Matrix<double, D, 1>&,           \
+                                                            const Eigen::Matrix<double, D, 1>&, double);  \
+  template SimplexMesh<D> regular_grid_mesh<D>(                                                           \
+      const Eigen::Matrix<double, D, 1>&, const Eigen::Matrix<double, D, 1>&, const std::array<int, D>&); \
+  template std::vector<std::uint8_t> boundary_kind<D>(const SimplexMesh<D>&,                              \
+                                                      const Eigen::Matrix<double, D, 1>&,                 \
                                                       const Eigen::Matrix<double, D, 1>&, double);
 VIM_INITIAL_MESH_INSTANTIATE(2)
 VIM_INITIAL_MESH_INSTANTIATE(3)

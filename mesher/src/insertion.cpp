@@ -1,10 +1,9 @@
 // Optional node insertion (paper §VI-D: "nodes can also be added ... near elements contributing a
 // higher cost E"): split the longest edge of the highest-cost elements at its midpoint, splitting
 // every cell that shares the edge so the mesh stays conforming. Never exceeds the caller's budget.
-#include <vim/optimizer.hpp>
-
 #include <algorithm>
 #include <numeric>
+#include <vim/optimizer.hpp>
 
 namespace vim {
 
@@ -54,7 +53,8 @@ long VimOptimizer<dim>::insert_nodes(long k) {
       split.push_back(w1);
       split.push_back(w2);
     }
-    if (try_replace(ring.data(), static_cast<int>(ring.size()), split.data(), 1, static_cast<int>(split.size()))) {
+    if (try_replace(ring.data(), static_cast<int>(ring.size()), split.data(), 1,
+                    static_cast<int>(split.size()))) {
       ++inserted;
     } else {
       mesh_.points.pop_back();

@@ -4,9 +4,6 @@
 // minimiser of the 1-ring's E_G (the ODT update), the centroid of each 1-ring element whose own
 // voxels vary (E_D > 0) and the midpoint of each edge at i; where it is constant (E_D ≡ 0), toward
 // the E_G minimiser only, and toward the centroids if that finds no decrease.
-#include <vim/energy.hpp>
-#include <vim/optimizer.hpp>
-
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -14,6 +11,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vim/energy.hpp>
+#include <vim/optimizer.hpp>
 
 namespace vim {
 
@@ -102,14 +101,209 @@ double VimOptimizer<dim>::evaluate_candidate(const Point& p, Scratch& s, double 
   return total;
 }
 
+// One node's search (§IV-B): candidate positions of the node, each evaluated on the 1-ring, and the
+// best so far. A candidate must beat the current 1-ring energy by a relative margin far above
+// round-off (`best` starts at that threshold), so accepted moves strictly lower E and the recorded
+// history never increases.
 template <int dim>
-bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, double* moved_sq) {
-  s.evaluations = 0;
-  const std::uint8_t mask = fixed_[node];
-  if (mask == (1u << dim) - 1) return false;  // corner
+struct VimOptimizer<dim>::NodeSearch {
+  const VimOptimizer& opt;
+  Scratch& s;
+  Point x0;            // the node's position
+  std::uint8_t mask;   // fixed axes (box constraints)
+  bool image;          // E_D varies in the 1-ring: take the voxel sums
+  double best;         // the best value so far (the threshold until a candidate beats it)
+  Point best_p = x0;   // its position
+  bool found = false;  // a candidate beat the threshold
+  double tiny = 1e-12 * opt.bbox_diagonal();
+
+  double consider(const Point& p, double bound) {
+    ++s.evaluations;
+    const double f = opt.evaluate_candidate(p, s, bound, image);
+    if (f < best) {
+      best = f;
+      best_p = p;
+      std::swap(s.trial, s.best);
+      found = true;
+    }
+    return f;
+  }
+  Point project(Point d) const {
+    for (int a = 0; a < dim; ++a)
+      if (mask & (1u << a)) d[a] = 0.0;
+    return d;
+  }
+
+  // Screening (search_width = w > 0, when there are more than w directions): each direction is
+  // probed at the first interior point of its golden-section search, t = 1 − φ⁻¹, and at
+  // (1 − φ⁻¹)², nearer the node; only the w directions with the lowest probe values are then
+  // searched in full. A probe already above the w-th lowest so far stops early (its value only
+  // decides that it is not kept). Every probe is a candidate like any other. The first probe is the
+  // golden-section search's first interior point, so its exact value (when it was not stopped
+  // early) is handed to the search of a kept direction (s.known_f1, NaN if none) instead of being
+  // evaluated again.
+  void screen() {
+    std::vector<Point>& dirs = s.dirs;
+    s.known_f1.clear();
+    const std::size_t w = static_cast<std::size_t>(opt.options_.search_width);
+    if (w == 0 || dirs.size() <= w) return;
+    auto& top = s.top;  // ascending by probe value, at most w
+    top.clear();
+    for (std::size_t k = 0; k < dirs.size(); ++k) {
+      const Point d = project(dirs[k] - x0);
+      if (d.norm() <= tiny) continue;
+      const double bound = top.size() < w ? kInf : top.back().value;
+      const double f1 = consider(x0 + (1.0 - kGolden) * d, bound);
+      const double f =
+          std::min(f1, consider(x0 + ((1.0 - kGolden) * (1.0 - kGolden)) * d, std::min(bound, f1)));
+      if (top.size() == w && !(f < top.back().value)) continue;
+      if (top.size() == w) top.pop_back();
+      top.push_back({f, f1 <= bound ? f1 : std::numeric_limits<double>::quiet_NaN(), k});
+      for (std::size_t r = top.size() - 1; r > 0 && top[r].value < top[r - 1].value; --r)
+        std::swap(top[r], top[r - 1]);
+    }
+    s.kept.clear();
+    for (const auto& t : top) {
+      s.kept.push_back(dirs[t.direction]);
+      s.known_f1.push_back(t.f1);
+    }
+    dirs.swap(s.kept);
+  }
+
+  // Golden-section search on t ∈ [0, 1] along x0 + t·d, d = target − x0, from the target (t = 1)
+  // down to a bracket shorter than the minimum step; infeasible points count as +inf (shrink toward
+  // x0). Each new point is evaluated with the retained point's value as bound: if it is worse, the
+  // (partial) value only decides the comparison and is discarded, so the search is exact.
+  void golden_section(const Point& d, double len, double known_f1) {
+    consider(x0 + d, best);
+    double a = 0.0, b = 1.0;
+    double t1 = b - kGolden * (b - a), t2 = a + kGolden * (b - a);
+    double f1 = !std::isnan(known_f1) ? known_f1 : consider(x0 + t1 * d, kInf);
+    double f2 = consider(x0 + t2 * d, f1);
+    while ((b - a) * len > opt.min_step_) {
+      if (f1 <= f2) {
+        b = t2;
+        t2 = t1;
+        f2 = f1;
+        t1 = b - kGolden * (b - a);
+        f1 = consider(x0 + t1 * d, f2);
+      } else {
+        a = t1;
+        t1 = t2;
+        f1 = f2;
+        t2 = a + kGolden * (b - a);
+        f2 = consider(x0 + t2 * d, f1);
+      }
+    }
+  }
+
+  // Screens s.dirs, then searches toward each kept target.
+  void search() {
+    screen();
+    const std::vector<Point>& dirs = s.dirs;
+    for (std::size_t k = 0; k < dirs.size(); ++k) {
+      const Point d = project(dirs[k] - x0);
+      const double len = d.norm();
+      if (len <= tiny) continue;
+      golden_section(d, len,
+                     k < s.known_f1.size() ? s.known_f1[k] : std::numeric_limits<double>::quiet_NaN());
+    }
+  }
+
+  // Without a density, E_G of the 1-ring is a quadratic in the node's position while no element
+  // inverts: each |τ| is affine in it and the 1-ring's union is fixed (along the node's face or edge
+  // on the boundary). Its minimiser is the ODT update (Chen & Xu) x* = x0 − G / (2|Ω|),
+  // G = Σ_τ ∇|τ|·Σ_{k∈τ, k≠i} |x_k − x0|². Returns false if the 1-ring has no volume.
+  bool odt_point(Point* odt) const {
+    Point g = Point::Zero();
+    double omega = 0.0;
+    for (std::size_t k = 0; k < s.ring.size(); ++k) {
+      const Simplex& x = s.base[k];
+      const int v = s.local[k];
+      double sq = 0.0;
+      for (int j = 0; j <= dim; ++j)
+        if (j != v) sq += (x[j] - x0).squaredNorm();
+      Point grad;  // ∂|τ|/∂x_v: the opposite face's normal scaled by its measure / dim, toward v
+      if constexpr (dim == 3) {
+        grad = s.faces[k].normal / 6.0;
+      } else {
+        const Point e = x[(v + 2) % 3] - x[(v + 1) % 3];
+        grad = Point(-e[1], e[0]) / 2.0;
+      }
+      if (grad.dot(x0 - x[(v + 1) % (dim + 1)]) < 0.0) grad = -grad;
+      g += sq * grad;
+      omega += std::abs(opt.cache_[s.ring[k]].volume);
+    }
+    if (!(omega > 0.0)) return false;
+    *odt = x0 - g / (2.0 * omega);
+    return true;
+  }
+
+  // The per-element targets: the ODT point (if not x0 and the image varies), the centroid of each
+  // 1-ring element whose own voxels vary (every element where the image is constant in the 1-ring)
+  // and, where the image varies, the midpoint of each edge at the node. A uniform element's centroid
+  // is not searched where the image varies: moving into it only shrinks it (E_G, which the ODT
+  // direction covers) and cannot lower its E_D = 0. On the Table I phantom this drops ~3/4 of the
+  // centroid directions of the image nodes (docs/performance.md).
+  void ring_targets(const Point& odt) {
+    std::vector<Point>& dirs = s.dirs;
+    const std::size_t m = s.ring.size();
+    dirs.clear();
+    if (image && odt != x0) dirs.push_back(odt);
+    for (std::size_t k = 0; k < m; ++k)
+      if (!(image && opt.cache_[s.ring[k]].ed == 0.0)) dirs.push_back(centroid<dim>(s.base[k]));
+    for (std::size_t k = 0; k < m && image; ++k)
+      for (int j = 0; j <= dim; ++j) {
+        if (j == s.local[k]) continue;
+        const Point mid = 0.5 * (s.base[k][j] + x0);
+        bool seen = false;
+        for (std::size_t q = 0; q < dirs.size() && !seen; ++q) seen = dirs[q] == mid;
+        if (!seen) dirs.push_back(mid);
+      }
+  }
+
+  // The line-search strategy (see the top of the file). Where E_D ≡ 0, one line search toward the
+  // ODT point (the quality bound may cut it short) replaces the per-element targets, which are
+  // still searched if it finds no decrease; elsewhere the ODT point is one more target.
+  void line_searches() {
+    bool searched_odt = false;
+    Point odt = x0;
+    if (opt.density_ == nullptr && odt_point(&odt) && !image) {
+      s.dirs.assign(1, odt);
+      search();
+      searched_odt = true;
+    }
+    if (!searched_odt || !found) {
+      ring_targets(odt);
+      search();
+    }
+  }
+
+  // Random walk: uniformly distributed points of uniformly chosen 1-ring elements (projected onto
+  // the node's face/edge on the boundary).
+  void random_walk(int iteration, int node) {
+    NodeRng rng(opt.options_.seed, iteration, node);
+    const std::size_t m = s.ring.size();
+    for (int sample = 0; sample < opt.options_.random_walk_samples; ++sample) {
+      const std::size_t k = static_cast<std::size_t>(rng.next() % m);
+      std::array<double, dim + 1> w;
+      double sum = 0.0;
+      for (int j = 0; j <= dim; ++j) sum += (w[j] = -std::log(rng.uniform()));
+      Point p = Point::Zero();
+      for (int j = 0; j <= dim; ++j) p += (w[j] / sum) * s.base[k][j];
+      consider(x0 + project(p - x0), best);
+    }
+  }
+};
+
+// Loads node's 1-ring into s (cells, local index of the node, vertices, fixed faces, the order by
+// decreasing current E_D) and returns its current energy (0 for an empty ring). *image: the voxels
+// in the 1-ring's union vary, so candidates need their voxel sums.
+template <int dim>
+double VimOptimizer<dim>::load_ring(int node, Scratch& s, bool* image) const {
   const auto& ring = adj_.cells_of(node);
   const std::size_t m = ring.size();
-  if (m == 0) return false;
+  if (m == 0) return 0.0;
   s.ring.assign(ring.begin(), ring.end());
   s.local.resize(m);
   s.base.resize(m);
@@ -130,218 +324,57 @@ bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, do
     ring_s += cache_[c].s;
     ring_q += cache_[c].q;
   }
-  if (!(c0 > 0.0)) return false;
-  const Point x0 = mesh_.points[node];
   s.ed_cost.resize(m);
   s.order.resize(m);
   for (std::size_t k = 0; k < m; ++k) {  // insertion sort by decreasing current E_D, then position
     std::size_t r = k;
     const double e = cache_[s.ring[k]].ed;
-    for (; r > 0 && cache_[s.ring[static_cast<std::size_t>(s.order[r - 1])]].ed < e; --r) s.order[r] = s.order[r - 1];
+    for (; r > 0 && cache_[s.ring[static_cast<std::size_t>(s.order[r - 1])]].ed < e; --r)
+      s.order[r] = s.order[r - 1];
     s.order[r] = static_cast<int>(k);
   }
-
   // Moving the node keeps the 1-ring's union fixed, so if the voxels in it are all equal (variance
   // zero up to round-off), E_D is zero for every candidate and the search skips the voxel sums.
   // (Uniform elements contribute a one-voxel stand-in of their value: the variance is still zero iff
   // every value is equal; an empty element whose box holds another value only makes this stricter.)
-  bool image = stats_ != nullptr && wd_ > 0.0;
-  if (image && element_variance(ring_n, ring_s, ring_q) == 0.0) image = false;
+  *image = stats_ != nullptr && wd_ > 0.0 && element_variance(ring_n, ring_s, ring_q) != 0.0;
+  return c0;
+}
+
+template <int dim>
+bool VimOptimizer<dim>::update_node_impl(int node, int iteration, Scratch& s, double* moved_sq) {
+  s.evaluations = 0;
+  const std::uint8_t mask = fixed_[node];
+  if (mask == (1u << dim) - 1) return false;  // corner
+  bool image = false;
+  const double c0 = load_ring(node, s, &image);
+  if (!(c0 > 0.0)) return false;
   const bool exact = image || stats_ == nullptr;  // otherwise the winner is re-evaluated exactly
-
-  // A candidate must beat the current 1-ring energy by a relative margin far above round-off, so
-  // accepted moves strictly lower E and the recorded history never increases.
   const double threshold = c0 * (1.0 - 1e-12);
-  double best = threshold;
-  Point best_p = x0;
-  bool found = false;
-  auto consider = [&](const Point& p, double bound) {
-    ++s.evaluations;
-    const double f = evaluate_candidate(p, s, bound, image);
-    if (f < best) {
-      best = f;
-      best_p = p;
-      std::swap(s.trial, s.best);
-      found = true;
-    }
-    return f;
-  };
-  auto project = [&](Point d) {
-    for (int a = 0; a < dim; ++a)
-      if (mask & (1u << a)) d[a] = 0.0;
-    return d;
-  };
-
-  if (options_.strategy == VimOptions::NodeStrategy::centroid_line_search) {
-    const double tiny = 1e-12 * bbox_diagonal();
-    // Directions (see the top of the file): the edge directions let a node slide along an edge onto
-    // an image edge, so they are searched only where the image varies in the 1-ring. Table I with
-    // these directions: docs/performance.md.
-    std::vector<Point>& dirs = s.dirs;
-    // Screening (options_.search_width = w > 0, when there are more than w directions): each
-    // direction is probed at the first interior point of its golden-section search, t = 1 − φ⁻¹,
-    // and at (1 − φ⁻¹)², nearer the node; only the w directions with the lowest probe values are then
-    // searched in full. A probe already above the w-th lowest so far stops early (its value only
-    // decides that it is not kept). Every probe is a candidate like any other. The first probe is
-    // the golden-section search's first interior point, so its exact value (when it was not stopped
-    // early) is handed to the search of a kept direction instead of being evaluated again.
-    std::vector<double>& known_f1 = s.known_f1;  // per direction: exact value at t = 1 − φ⁻¹, or NaN
-    auto screen = [&]() {
-      known_f1.clear();
-      const std::size_t w = static_cast<std::size_t>(options_.search_width);
-      if (w == 0 || dirs.size() <= w) return;
-      auto& top = s.top;  // ascending by probe value, at most w
-      top.clear();
-      for (std::size_t k = 0; k < dirs.size(); ++k) {
-        const Point d = project(dirs[k] - x0);
-        if (d.norm() <= tiny) continue;
-        const double bound = top.size() < w ? kInf : top.back().value;
-        const double f1 = consider(x0 + (1.0 - kGolden) * d, bound);
-        const double f = std::min(f1, consider(x0 + ((1.0 - kGolden) * (1.0 - kGolden)) * d, std::min(bound, f1)));
-        if (top.size() == w && !(f < top.back().value)) continue;
-        if (top.size() == w) top.pop_back();
-        top.push_back({f, f1 <= bound ? f1 : std::numeric_limits<double>::quiet_NaN(), k});
-        for (std::size_t r = top.size() - 1; r > 0 && top[r].value < top[r - 1].value; --r) std::swap(top[r], top[r - 1]);
-      }
-      s.kept.clear();
-      for (const auto& t : top) {
-        s.kept.push_back(dirs[t.direction]);
-        known_f1.push_back(t.f1);
-      }
-      dirs.swap(s.kept);
-    };
-    auto search = [&]() {
-      screen();
-      for (std::size_t k = 0; k < dirs.size(); ++k) {
-        const Point d = project(dirs[k] - x0);
-        const double len = d.norm();
-        if (len <= tiny) continue;
-        // Golden-section search on t ∈ [0, 1] along x0 + t·d, from the centroid (t = 1) down to a
-        // bracket shorter than the minimum step; infeasible points count as +inf (shrink toward x0).
-        // Each new point is evaluated with the retained point's value as bound: if it is worse, the
-        // (partial) value only decides the comparison and is discarded, so the search is exact.
-        consider(x0 + d, best);
-        double a = 0.0, b = 1.0;
-        double t1 = b - kGolden * (b - a), t2 = a + kGolden * (b - a);
-        double f1 = k < known_f1.size() && !std::isnan(known_f1[k]) ? known_f1[k] : consider(x0 + t1 * d, kInf);
-        double f2 = consider(x0 + t2 * d, f1);
-        while ((b - a) * len > min_step_) {
-          if (f1 <= f2) {
-            b = t2;
-            t2 = t1;
-            f2 = f1;
-            t1 = b - kGolden * (b - a);
-            f1 = consider(x0 + t1 * d, f2);
-          } else {
-            a = t1;
-            t1 = t2;
-            f1 = f2;
-            t2 = a + kGolden * (b - a);
-            f2 = consider(x0 + t2 * d, f1);
-          }
-        }
-      }
-    };
-    // Without a density, E_G of the 1-ring is a quadratic in the node's position while no element
-    // inverts: each |τ| is affine in it and the 1-ring's union is fixed (along the node's face or
-    // edge on the boundary). Its minimiser is the ODT update (Chen & Xu) x* = x0 − G / (2|Ω|),
-    // G = Σ_τ ∇|τ|·Σ_{k∈τ, k≠i} |x_k − x0|², projected onto the node's face or edge. Where E_D ≡ 0
-    // one line search toward x* (the quality bound may cut it short) replaces the per-element
-    // directions, which are still searched if it finds no decrease; elsewhere x* is one more
-    // direction.
-    bool searched_odt = false;
-    Point odt = x0;
-    if (density_ == nullptr) {
-      Point g = Point::Zero();
-      double omega = 0.0;
-      for (std::size_t k = 0; k < m; ++k) {
-        const Simplex& x = s.base[k];
-        const int v = s.local[k];
-        double sq = 0.0;
-        for (int j = 0; j <= dim; ++j)
-          if (j != v) sq += (x[j] - x0).squaredNorm();
-        Point grad;  // ∂|τ|/∂x_v: the opposite face's normal scaled by its measure / dim, toward v
-        if constexpr (dim == 3) {
-          grad = s.faces[k].normal / 6.0;
-        } else {
-          const Point e = x[(v + 2) % 3] - x[(v + 1) % 3];
-          grad = Point(-e[1], e[0]) / 2.0;
-        }
-        if (grad.dot(x0 - x[(v + 1) % (dim + 1)]) < 0.0) grad = -grad;
-        g += sq * grad;
-        omega += std::abs(cache_[s.ring[k]].volume);
-      }
-      if (omega > 0.0) {
-        odt = x0 - g / (2.0 * omega);
-        if (!image) {
-          dirs.assign(1, odt);
-          search();
-          searched_odt = true;
-        }
-      }
-    }
-    if (!searched_odt || !found) {
-      dirs.clear();
-      if (image && odt != x0) dirs.push_back(odt);
-      // Where the image varies in the 1-ring, a uniform element's centroid is not searched: moving
-      // into it only shrinks it (E_G, which the ODT direction covers) and cannot lower its E_D = 0.
-      // On the Table I phantom this drops ~3/4 of the centroid directions of the image nodes (Ir of
-      // two iterations at 4096 nodes −23%) with TF 5.40 / 2.29 / 0.40% (docs/performance.md).
-      for (std::size_t k = 0; k < m; ++k)
-        if (!(image && cache_[s.ring[k]].ed == 0.0)) dirs.push_back(centroid<dim>(s.base[k]));
-      for (std::size_t k = 0; k < m && image; ++k)
-        for (int j = 0; j <= dim; ++j) {
-          if (j == s.local[k]) continue;
-          const Point mid = 0.5 * (s.base[k][j] + x0);
-          bool seen = false;
-          for (std::size_t q = 0; q < dirs.size() && !seen; ++q) seen = dirs[q] == mid;
-          if (!seen) dirs.push_back(mid);
-        }
-      search();
-    }
-  } else {
-    // Random walk: uniformly distributed points of uniformly chosen 1-ring elements (projected onto
-    // the node's face/edge on the boundary).
-    NodeRng rng(options_.seed, iteration, node);
-    for (int sample = 0; sample < options_.random_walk_samples; ++sample) {
-      const std::size_t k = static_cast<std::size_t>(rng.next() % m);
-      std::array<double, dim + 1> w;
-      double sum = 0.0;
-      for (int j = 0; j <= dim; ++j) sum += (w[j] = -std::log(rng.uniform()));
-      Point p = Point::Zero();
-      for (int j = 0; j <= dim; ++j) p += (w[j] / sum) * s.base[k][j];
-      consider(x0 + project(p - x0), best);
-    }
-  }
-
-  if (!found) return false;
+  NodeSearch search{*this, s, mesh_.points[node], mask, image, threshold};
+  if (options_.strategy == VimOptions::NodeStrategy::centroid_line_search)
+    search.line_searches();
+  else
+    search.random_walk(iteration, node);
+  if (!search.found) return false;
+  const std::size_t m = s.ring.size();
   if (!exact) {
     // The search skipped the voxel sums: evaluate the winner exactly and re-check the decrease.
     double total = 0.0;
     for (std::size_t k = 0; k < m; ++k) {
       Simplex x = s.base[k];
-      x[s.local[k]] = best_p;
+      x[s.local[k]] = search.best_p;
       s.best[k] = evaluate(x);
       total += s.best[k].cost;
     }
     if (!(total < threshold)) return false;
   }
-  mesh_.points[node] = best_p;
+  mesh_.points[node] = search.best_p;
   for (std::size_t k = 0; k < m; ++k) cache_[s.ring[k]] = s.best[k];
-  if (moved_sq) *moved_sq = (best_p - x0).squaredNorm();
+  if (moved_sq) *moved_sq = (search.best_p - search.x0).squaredNorm();
   return true;
 }
 
-template <int dim>
-bool VimOptimizer<dim>::update_node(int node, int iteration) {
-  dirty_[node] = 0;
-  const bool moved = update_node_impl(node, iteration, scratch_.local(), nullptr);
-  if (moved) mark_ring_dirty(node);
-  return moved;
-}
-
-// One sweep: colour classes in order; nodes of a class in parallel (their 1-rings are disjoint, so
-// the result does not depend on the thread count or scheduling).
 template <int dim>
 long VimOptimizer<dim>::update_nodes(int iteration, double* sum_sq, long* searched, long* evaluations) {
   const std::size_t n = mesh_.points.size();
@@ -352,22 +385,24 @@ long VimOptimizer<dim>::update_nodes(int iteration, double* sum_sq, long* search
   tbb::task_arena arena(options_.threads > 0 ? options_.threads : tbb::task_arena::automatic);
   arena.execute([&] {
     for (const auto& cls : colours_) {
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cls.size()), [&](const tbb::blocked_range<std::size_t>& r) {
-        Scratch& s = scratch_.local();
-        for (std::size_t j = r.begin(); j != r.end(); ++j) {
-          const int node = cls[j];
-          if (line_search && !dirty_[node]) continue;  // would repeat its last, unsuccessful search
-          dirty_[node] = 0;  // only this task touches this node's flag during the class
-          ran[node] = 1;
-          double sq = 0.0;
-          const bool moved_node = update_node_impl(node, iteration, s, &sq);
-          evals[node] = s.evaluations;
-          if (moved_node) {
-            did[node] = 1;
-            moved[node] = sq;
-          }
-        }
-      });
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cls.size()),
+                        [&](const tbb::blocked_range<std::size_t>& r) {
+                          Scratch& s = scratch_.local();
+                          for (std::size_t j = r.begin(); j != r.end(); ++j) {
+                            const int node = cls[j];
+                            if (line_search && !dirty_[node])
+                              continue;        // would repeat its last, unsuccessful search
+                            dirty_[node] = 0;  // only this task touches this node's flag during the class
+                            ran[node] = 1;
+                            double sq = 0.0;
+                            const bool moved_node = update_node_impl(node, iteration, s, &sq);
+                            evals[node] = s.evaluations;
+                            if (moved_node) {
+                              did[node] = 1;
+                              moved[node] = sq;
+                            }
+                          }
+                        });
       for (int node : cls)  // sequential: neighbours of moved nodes must search again
         if (did[node]) mark_ring_dirty(node);
     }
@@ -388,10 +423,10 @@ long VimOptimizer<dim>::update_nodes(int iteration, double* sum_sq, long* search
 
 template double VimOptimizer<2>::evaluate_candidate(const Point&, Scratch&, double, bool) const;
 template double VimOptimizer<3>::evaluate_candidate(const Point&, Scratch&, double, bool) const;
+template double VimOptimizer<2>::load_ring(int, Scratch&, bool*) const;
+template double VimOptimizer<3>::load_ring(int, Scratch&, bool*) const;
 template bool VimOptimizer<2>::update_node_impl(int, int, Scratch&, double*);
 template bool VimOptimizer<3>::update_node_impl(int, int, Scratch&, double*);
-template bool VimOptimizer<2>::update_node(int, int);
-template bool VimOptimizer<3>::update_node(int, int);
 template long VimOptimizer<2>::update_nodes(int, double*, long*, long*);
 template long VimOptimizer<3>::update_nodes(int, double*, long*, long*);
 

@@ -1,13 +1,11 @@
 // Element quality (paper §IV quality bound, §VI statistics): dihedral / interior angles,
 // normalised radius ratio dim·r_in/R_circ, acceptability under a QualityBound, mesh summary.
-#include <vim/quality.hpp>
-
 #include <Eigen/Geometry>
 #include <Eigen/LU>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vim/quality.hpp>
 
 namespace vim {
 
@@ -128,10 +126,181 @@ MeshQuality mesh_quality(const SimplexMesh<dim>& mesh) {
   return q;
 }
 
-#define VIM_QUALITY_INSTANTIATE(D)                                                                   \
-  template double max_dihedral_deg<D>(const std::array<Eigen::Matrix<double, D, 1>, D + 1>&);       \
-  template double min_dihedral_deg<D>(const std::array<Eigen::Matrix<double, D, 1>, D + 1>&);       \
-  template double normalized_radius_ratio<D>(const std::array<Eigen::Matrix<double, D, 1>, D + 1>&); \
+// ---------------------------------------------------------------------------------------------
+// QualityCheck: the fast decision of acceptable().
+
+namespace {
+// Cosines of the dihedral angles (3D: between outward facet normals n_i, n_j the angle at their
+// shared edge has cos = −n_i·n_j / |n_i||n_j|) or interior angles (2D); no allocation, no acos.
+// `fixed` (if given) holds the unoriented normal and length of the face opposite fixed->vertex,
+// computed by the same expression, so the result is bit-identical.
+inline int angle_cosines(const std::array<Eigen::Vector2d, 3>& x, std::array<double, 6>& c,
+                         const FixedFace<2>* /*fixed*/) {
+  for (int i = 0; i < 3; ++i) {
+    const Eigen::Vector2d u = x[(i + 1) % 3] - x[i], v = x[(i + 2) % 3] - x[i];
+    c[i] = u.dot(v) / std::sqrt(u.squaredNorm() * v.squaredNorm());
+  }
+  return 3;
+}
+// Unoriented normal (x_k − x_j)×(x_l − x_j), (j, k, l) = (i+1, i+2, i+3) mod 4, of the face opposite
+// vertex i; the precomputed one if i is the fixed face's vertex (the same expression).
+inline Eigen::Vector3d raw_face_normal(const std::array<Eigen::Vector3d, 4>& x, int i,
+                                       const FixedFace<3>* fixed) {
+  if (fixed && fixed->vertex == i) return fixed->normal;
+  const int j = (i + 1) % 4, k = (i + 2) % 4, l = (i + 3) % 4;
+  return (x[k] - x[j]).cross(x[l] - x[j]);
+}
+inline int angle_cosines(const std::array<Eigen::Vector3d, 4>& x, std::array<double, 6>& c,
+                         const FixedFace<3>* fixed) {
+  std::array<Eigen::Vector3d, 4> n;
+  std::array<double, 4> len;
+  for (int i = 0; i < 4; ++i) {
+    const int j = (i + 1) % 4;
+    const bool known = fixed && fixed->vertex == i;
+    n[i] = raw_face_normal(x, i, fixed);
+    if (n[i].dot(x[i] - x[j]) > 0.0) n[i] = -n[i];
+    len[i] = known ? fixed->length : n[i].norm();
+  }
+  int m = 0;
+  for (int i = 0; i < 4; ++i)
+    for (int j = i + 1; j < 4; ++j) c[m++] = -n[i].dot(n[j]) / (len[i] * len[j]);
+  return 6;
+}
+}  // namespace
+
+template <int dim>
+FixedFace<dim> fixed_face(const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>& x, int vertex) {
+  FixedFace<dim> f;
+  f.vertex = vertex;
+  if constexpr (dim == 3) {
+    const int j = (vertex + 1) % 4, k = (vertex + 2) % 4, l = (vertex + 3) % 4;
+    f.normal = (x[k] - x[j]).cross(x[l] - x[j]);
+    f.length = f.normal.norm();
+  }
+  for (int i = 0; i <= dim; ++i)
+    for (int k = i + 1; k <= dim; ++k)
+      if (i != vertex && k != vertex) f.longest2 = std::max(f.longest2, (x[i] - x[k]).squaredNorm());
+  return f;
+}
+template FixedFace<2> fixed_face<2>(const std::array<Eigen::Vector2d, 3>&, int);
+template FixedFace<3> fixed_face<3>(const std::array<Eigen::Vector3d, 4>&, int);
+
+namespace {
+// The normalised radius ratio d·r_in/R_circ against `bound` from closed forms (circumcentre by
+// Cramer's rule, facets by cross products): +1 clearly above, −1 clearly below, 0 too close to
+// call or too flat for the closed form to be trusted (then vim::acceptable decides, with its own
+// evaluation). The margin 1e-9 is far above the round-off of either evaluation for simplices
+// with volume > 1e-4·longest^dim.
+int ratio_side(const std::array<Eigen::Vector2d, 3>& x, double bound) {
+  const Eigen::Vector2d a = x[1] - x[0], b = x[2] - x[0];
+  const double det = a.x() * b.y() - a.y() * b.x();  // 2 · area
+  const double la = a.norm(), lb = b.norm(), lc = (x[2] - x[1]).norm();
+  const double longest = std::max({la, lb, lc});
+  if (!(det > 1e-4 * longest * longest)) return 0;
+  const double a2 = a.squaredNorm(), b2 = b.squaredNorm();
+  const Eigen::Vector2d c((a2 * b.y() - b2 * a.y()) / (2.0 * det), (b2 * a.x() - a2 * b.x()) / (2.0 * det));
+  const double nrr = 2.0 * (det / (la + lb + lc)) / c.norm();  // r_in = 2·area / perimeter
+  return nrr > bound + 1e-9 ? 1 : nrr < bound - 1e-9 ? -1 : 0;
+}
+int ratio_side(const std::array<Eigen::Vector3d, 4>& x, double bound) {
+  const Eigen::Vector3d a = x[1] - x[0], b = x[2] - x[0], c = x[3] - x[0];
+  const Eigen::Vector3d bc = b.cross(c), ca = c.cross(a), ab = a.cross(b);
+  const double det = a.dot(bc);  // 6 · volume
+  double longest2 = std::max({a.squaredNorm(), b.squaredNorm(), c.squaredNorm(), (b - a).squaredNorm(),
+                              (c - a).squaredNorm(), (c - b).squaredNorm()});
+  if (!(det > 6e-4 * longest2 * std::sqrt(longest2))) return 0;
+  const Eigen::Vector3d centre =
+      (a.squaredNorm() * bc + b.squaredNorm() * ca + c.squaredNorm() * ab) / (2.0 * det);
+  // Facet areas ×2: the faces opposite x_1, x_2, x_3 are spanned by (b, c), (c, a), (a, b).
+  const double facets2 = bc.norm() + ca.norm() + ab.norm() + (c - a).cross(b - a).norm();
+  const double nrr = 3.0 * (det / facets2) / centre.norm();  // r_in = 3V / Σ areas = det / Σ (2·areas)
+  return nrr > bound + 1e-9 ? 1 : nrr < bound - 1e-9 ? -1 : 0;
+}
+}  // namespace
+
+template <int dim>
+QualityCheck<dim>::QualityCheck(const QualityBound& bound) : bound_(bound) {
+  constexpr double kPi = 3.14159265358979323846;
+  cos_max_ = std::cos(bound_.max_dihedral_deg * kPi / 180.0);
+  cos_min_ = std::cos(bound_.min_dihedral_deg * kPi / 180.0);
+  // The square-root-free test (3D) needs both thresholds of the max bound negative (bound well
+  // above 90°) and no other bound.
+  sqrt_free_ =
+      dim == 3 && bound_.min_dihedral_deg <= 0.0 && bound_.min_radius_ratio <= 0.0 && cos_max_ + 1e-9 < 0.0;
+  reject2_ = (cos_max_ - 1e-9) * (cos_max_ - 1e-9);
+  defer2_ = (cos_max_ + 1e-9) * (cos_max_ + 1e-9);
+}
+
+template <int dim>
+bool QualityCheck<dim>::operator()(const Simplex& x, double vol, const FixedFace<dim>* fixed) const {
+  if (bound_.min_radius_ratio > 0.0) {
+    // Clearly above the ratio bound: the angle bounds below decide (their deferral to
+    // vim::acceptable checks the ratio again, exactly).
+    const int side = vol > 0.0 ? ratio_side(x, bound_.min_radius_ratio) : -1;
+    if (side < 0) return false;
+    if (side == 0) return vim::acceptable<dim>(x, bound_);
+  }
+  // Longest edge (max is exact in any order, so the fixed face's edges may come precomputed).
+  double longest2 = fixed ? fixed->longest2 : 0.0;
+  for (int i = 0; i <= dim; ++i)
+    for (int k = i + 1; k <= dim; ++k)
+      if (!fixed || i == fixed->vertex || k == fixed->vertex)
+        longest2 = std::max(longest2, (x[i] - x[k]).squaredNorm());
+  if (!(vol > 0.0)) return false;
+  const double scale = dim == 3 ? longest2 * std::sqrt(longest2) : longest2;  // longest^dim
+  bool defer = !(vol > 2e-12 * scale);
+  if (!defer && sqrt_free_) return sqrt_free_test(x, fixed);
+  std::array<double, 6> c;
+  const int m = angle_cosines(x, c, fixed);
+  constexpr double eps = 1e-9;
+  for (int i = 0; i < m; ++i) {
+    if (!(c[i] >= cos_max_ - eps)) return false;  // angle clearly above the max bound (or NaN)
+    if (c[i] < cos_max_ + eps) defer = true;
+    if (bound_.min_dihedral_deg > 0.0) {
+      if (c[i] > cos_min_ + eps) return false;
+      if (c[i] > cos_min_ - eps) defer = true;
+    }
+  }
+  return defer ? vim::acceptable<dim>(x, bound_) : true;
+}
+
+// The max-angle bound without square roots or divisions (3D, positive volume): the outward normal
+// of the face opposite vertex i is (−1)^i (x_k − x_j)×(x_l − x_j); an angle's cosine
+// c = −n_i·n_j / |n_i||n_j| is only below the (negative) thresholds when t = −n_i·n_j < 0, and then
+// c < T ⇔ t² > T²·|n_i|²|n_j|². The thresholds keep the 1e-9 margin of the cosine path, far above
+// the round-off of either evaluation, so both reach the decision of vim::acceptable.
+template <int dim>
+bool QualityCheck<dim>::sqrt_free_test(const Simplex& x, const FixedFace<dim>* fixed) const {
+  if constexpr (dim == 3) {
+    std::array<Eigen::Vector3d, 4> n;
+    std::array<double, 4> len2;
+    for (int i = 0; i < 4; ++i) {
+      const bool known = fixed && fixed->vertex == i;
+      n[i] = raw_face_normal(x, i, fixed);
+      if (i & 1) n[i] = -n[i];
+      len2[i] = known ? fixed->length * fixed->length : n[i].squaredNorm();
+    }
+    bool defer = false;
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j) {
+        const double t = -n[i].dot(n[j]);
+        if (t >= 0.0) continue;
+        const double q = t * t, prod = len2[i] * len2[j];
+        if (!(q <= reject2_ * prod)) return false;
+        if (q > defer2_ * prod) defer = true;
+      }
+    return defer ? vim::acceptable<dim>(x, bound_) : true;
+  } else {
+    return vim::acceptable<dim>(x, bound_);  // not reached: sqrt_free_ is false in 2D
+  }
+}
+
+template class QualityCheck<2>;
+template class QualityCheck<3>;
+#define VIM_QUALITY_INSTANTIATE(D)                                                                         \
+  template double max_dihedral_deg<D>(const std::array<Eigen::Matrix<double, D, 1>, D + 1>&);              \
+  template double min_dihedral_deg<D>(const std::array<Eigen::Matrix<double, D, 1>, D + 1>&);              \
+  template double normalized_radius_ratio<D>(const std::array<Eigen::Matrix<double, D, 1>, D + 1>&);       \
   template bool acceptable<D>(const std::array<Eigen::Matrix<double, D, 1>, D + 1>&, const QualityBound&); \
   template MeshQuality mesh_quality<D>(const SimplexMesh<D>&);
 VIM_QUALITY_INSTANTIATE(2)

@@ -1,44 +1,37 @@
 // Segmentation of paper §VI-B: elements with mean > threshold, face-connected components (facets
-// matched by sorting vertex tuples), the largest component flagged as the object.
-#include <vim/segmentation.hpp>
-
+// matched by vim::match_facets), the largest component flagged as the object.
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vim/facets.hpp>
+#include <vim/segmentation.hpp>
 
 namespace vim {
 
 template <int dim>
-Segmentation segment(const SimplexMesh<dim>& mesh, const std::vector<ElementValue>& values, double threshold) {
+Segmentation segment(const SimplexMesh<dim>& mesh, const std::vector<ElementValue>& values,
+                     double threshold) {
   const std::size_t nc = mesh.n_cells();
   if (values.size() != nc)
-    throw std::invalid_argument("values: expected one ElementValue per cell (" + std::to_string(nc) + "), got " +
-                                std::to_string(values.size()));
+    throw std::invalid_argument("values: expected one ElementValue per cell (" + std::to_string(nc) +
+                                "), got " + std::to_string(values.size()));
   Segmentation seg;
   seg.component.assign(nc, -1);
   seg.object.assign(nc, false);
 
-  // Facets of the cells above the threshold, as sorted vertex tuples; equal tuples are neighbours.
-  using Facet = std::array<int, dim>;
-  std::vector<std::pair<Facet, int>> facets;
-  for (std::size_t c = 0; c < nc; ++c) {
-    if (!(values[c].mean > threshold)) continue;
-    for (int i = 0; i <= dim; ++i) {
-      Facet f;
-      for (int k = 0, m = 0; k <= dim; ++k)
-        if (k != i) f[m++] = mesh.cells[c][k];
-      std::sort(f.begin(), f.end());
-      facets.emplace_back(f, static_cast<int>(c));
-    }
-  }
-  std::sort(facets.begin(), facets.end());
+  // Cells above the threshold sharing a facet are neighbours (consecutive users of one facet).
+  std::vector<char> above(nc);
+  for (std::size_t c = 0; c < nc; ++c) above[c] = values[c].mean > threshold;
+  const FacetIncidence<dim> facets = match_facets<dim>(mesh.n_points(), mesh.cells, above);
   std::vector<std::vector<int>> adjacent(nc);
-  for (std::size_t k = 0; k + 1 < facets.size(); ++k)
-    if (facets[k].first == facets[k + 1].first) {
-      adjacent[facets[k].second].push_back(facets[k + 1].second);
-      adjacent[facets[k + 1].second].push_back(facets[k].second);
+  for (std::size_t k = 0; k + 1 < facets.uses.size(); ++k)
+    if (facets.uses[k].vertices == facets.uses[k + 1].vertices) {
+      const int c0 = static_cast<int>(facets.uses[k].cell()),
+                c1 = static_cast<int>(facets.uses[k + 1].cell());
+      adjacent[c0].push_back(c1);
+      adjacent[c1].push_back(c0);
     }
 
   std::vector<long> sizes;

@@ -1,12 +1,11 @@
 // Mesh sizing of paper §VI-E: density-weighted E_G-only optimisation (ρ at the element centroid)
 // used to initialise VIM with a non-uniform mesh.
-#include <vim/optimizer.hpp>
-#include <vim/sizing.hpp>
-
 #include <chrono>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+#include <vim/optimizer.hpp>
+#include <vim/sizing.hpp>
 
 namespace vim {
 
@@ -60,7 +59,8 @@ SimplexMesh<dim> size_initial_mesh(const Image<dim>& density, SimplexMesh<dim> m
 template <int dim>
 VimResult<dim> optimize_sized(const Image<dim>& image, const Image<dim>& density, SimplexMesh<dim> initial,
                               const VimOptions& options, const ProgressCallback& progress) {
-  SimplexMesh<dim> sized = size_initial_mesh<dim>(density, std::move(initial), options.max_iterations, options);
+  SimplexMesh<dim> sized =
+      size_initial_mesh<dim>(density, std::move(initial), options.max_iterations, options);
   return optimize<dim>(image, std::move(sized), options, progress, &density);
 }
 
@@ -71,8 +71,8 @@ template VimResult<3> optimize_sized<3>(const Image<3>&, const Image<3>&, Simple
 template void validate_density<2>(const Image<2>&);
 template void validate_density<3>(const Image<3>&);
 template SimplexMesh<2> size_initial_mesh<2>(const Image<2>&, SimplexMesh<2>, int, const VimOptions&,
-                                              const ProgressCallback&);
+                                             const ProgressCallback&);
 template SimplexMesh<3> size_initial_mesh<3>(const Image<3>&, SimplexMesh<3>, int, const VimOptions&,
-                                              const ProgressCallback&);
+                                             const ProgressCallback&);
 
 }  // namespace vim

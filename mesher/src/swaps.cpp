@@ -1,11 +1,10 @@
 // Connectivity updates of paper §IV-B (GRUMMP-style, ref. [37]): 2D edge flips; 3D 2-3, 3-2 and
 // 4-4 swaps. A swap is taken iff every new element passes the quality bound, the new elements tile
 // exactly the region of the old ones, and E (Eq. 7) drops. Boundary facets are never swapped.
-#include <vim/energy.hpp>
-#include <vim/optimizer.hpp>
-
 #include <algorithm>
 #include <cmath>
+#include <vim/energy.hpp>
+#include <vim/optimizer.hpp>
 
 namespace vim {
 
@@ -13,7 +12,8 @@ namespace vim {
 // one. Each new cell is oriented positively; an alternative whose |volumes| do not sum to the old
 // volume (the new cells overlap / leave the region) or with an unacceptable cell is skipped.
 template <int dim>
-bool VimOptimizer<dim>::try_replace(const int* old_cells, int n_old, const Cell* alternatives, int n_alt, int n_new) {
+bool VimOptimizer<dim>::try_replace(const int* old_cells, int n_old, const Cell* alternatives, int n_alt,
+                                    int n_new) {
   double old_cost = 0.0, old_volume = 0.0;
   for (int i = 0; i < n_old; ++i) {
     old_cost += cache_[old_cells[i]].cost;
@@ -50,9 +50,11 @@ bool VimOptimizer<dim>::try_replace(const int* old_cells, int n_old, const Cell*
     if (std::abs(volume - old_volume) > 1e-9 * old_volume) continue;
     double geometric = 0.0;
     for (const Simplex& x : simplices)
-      geometric += wg_ * geometric_energy<dim>(x) * (density_ ? density_->interpolate(centroid<dim>(x)) : 1.0);
+      geometric +=
+          wg_ * geometric_energy<dim>(x) * (density_ ? density_->interpolate(centroid<dim>(x)) : 1.0);
     if (geometric >= best) continue;
-    if (!std::all_of(simplices.begin(), simplices.end(), [&](const Simplex& x) { return acceptable(x); })) continue;
+    if (!std::all_of(simplices.begin(), simplices.end(), [&](const Simplex& x) { return acceptable(x); }))
+      continue;
     caches.clear();
     double total = 0.0;
     for (const Simplex& x : simplices) {
@@ -160,8 +162,8 @@ bool link_cycle(const std::array<std::array<int, 2>, 4>& link, std::size_t m, st
 // The ring of edge (a, b) and its link as a cycle; false unless it is an interior edge with m <= 4
 // cells.
 template <int dim>
-static bool edge_ring(const Adjacency<dim>& adj, const std::vector<std::array<int, dim + 1>>& cells, int a, int b,
-                      std::size_t m, std::vector<int>& ring, std::vector<int>& cycle) {
+static bool edge_ring(const Adjacency<dim>& adj, const std::vector<std::array<int, dim + 1>>& cells, int a,
+                      int b, std::size_t m, std::vector<int>& ring, std::vector<int>& cycle) {
   adj.cells_with_edge(a, b, ring);
   if (ring.size() != m || m > 4) return false;
   std::array<std::array<int, 2>, 4> link;
@@ -228,8 +230,10 @@ long VimOptimizer<dim>::swap_pass() {
       nbrs.erase(std::unique(nbrs.begin(), nbrs.end()), nbrs.end());
       for (int b : nbrs) {
         adj_.cells_with_edge(static_cast<int>(a), b, ring);
-        if (ring.size() == 3 && try_swap_32(static_cast<int>(a), b)) ++swaps;
-        else if (ring.size() == 4 && try_swap_44(static_cast<int>(a), b)) ++swaps;
+        if (ring.size() == 3 && try_swap_32(static_cast<int>(a), b))
+          ++swaps;
+        else if (ring.size() == 4 && try_swap_44(static_cast<int>(a), b))
+          ++swaps;
       }
     }
   }

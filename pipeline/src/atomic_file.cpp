@@ -1,9 +1,9 @@
 // Temporary-name-then-rename writes (see atomic_file.hpp).
-#include <vim/pipeline/atomic_file.hpp>
+#include <unistd.h>
 
 #include <atomic>
 #include <stdexcept>
-#include <unistd.h>
+#include <vim/pipeline/atomic_file.hpp>
 
 namespace vim::pipeline {
 

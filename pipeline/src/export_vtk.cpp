@@ -7,7 +7,8 @@
 namespace vim::pipeline {
 
 template <int dim>
-void write_vtk_legacy(const std::filesystem::path& path, const SimplexMesh<dim>& world, const MaterialBins& bins) {
+void write_vtk_legacy(const std::filesystem::path& path, const SimplexMesh<dim>& world,
+                      const MaterialBins& bins) {
   const std::size_t n = world.n_points(), m = world.n_cells();
   if (bins.element_material.size() != m) throw std::invalid_argument("material bins do not match the mesh");
   write_text_atomically(path, [&](std::ostream& out) {
@@ -16,7 +17,8 @@ void write_vtk_legacy(const std::filesystem::path& path, const SimplexMesh<dim>&
         << "ASCII\n"
         << "DATASET UNSTRUCTURED_GRID\n"
         << "POINTS " << n << " double\n";
-    for (const auto& p : world.points) out << p[0] << ' ' << p[1] << ' ' << (dim == 3 ? p[dim - 1] : 0.0) << '\n';
+    for (const auto& p : world.points)
+      out << p[0] << ' ' << p[1] << ' ' << (dim == 3 ? p[dim - 1] : 0.0) << '\n';
     out << "\nCELLS " << m << ' ' << m * (dim + 2) << '\n';
     for (const auto& c : world.cells) {
       out << dim + 1;

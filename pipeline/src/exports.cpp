@@ -125,8 +125,10 @@ SimplexMesh<dim> world_mesh(const MeshModel<dim>& model) {
 }
 
 template <int dim>
-void write_exports(const MeshModel<dim>& model, const fs::path& dir, const std::vector<std::string>& formats,
-                   nlohmann::json& report, const ExportOptions& options) {
+void write_exports(const ExportInput<dim>& input, const fs::path& dir,
+                   const std::vector<std::string>& formats, nlohmann::json& report) {
+  const MeshModel<dim>& model = input.model;
+  const ExportOptions& options = input.options;
   for (const auto& f : formats) check_format(f);
   if (!(options.poisson_ratio > -1.0 && options.poisson_ratio < 0.5))
     throw std::invalid_argument("poisson_ratio must be in (-1, 0.5), got " +
@@ -135,8 +137,9 @@ void write_exports(const MeshModel<dim>& model, const fs::path& dir, const std::
     throw std::invalid_argument("max_material_bins must be in [1, 255]");
   if (options.degree < 1 || options.degree > 2) throw std::invalid_argument("export degree must be 1 or 2");
   const MaterialBins bins = material_bins(model, options.max_material_bins);
-  const SolverDeck<dim> deck =
-      solver_deck(model, bins.element_modulus, options.poisson_ratio, options.degree, options.scenario);
+  const SimplexMesh<dim>& world = input.world;
+  const SolverDeck<dim> deck = solver_deck(model, world, bins.element_modulus, options.poisson_ratio,
+                                           options.degree, options.scenario);
   fs::create_directories(dir);
 
   nlohmann::json& out = report["exports"];
@@ -174,7 +177,7 @@ void write_exports(const MeshModel<dim>& model, const fs::path& dir, const std::
     done.push_back(f);
     const fs::path path = dir / ("mesh." + f);
     if (f == "vtk") {
-      write_vtk_legacy<dim>(path, world_mesh(model), bins);
+      write_vtk_legacy<dim>(path, world, bins);
     } else if (f == "feb") {
       if constexpr (dim == 3) {
         write_feb(path, deck);
@@ -191,6 +194,17 @@ void write_exports(const MeshModel<dim>& model, const fs::path& dir, const std::
   }
 }
 
+template <int dim>
+void write_exports(const MeshModel<dim>& model, const fs::path& dir, const std::vector<std::string>& formats,
+                   nlohmann::json& report, const ExportOptions& options) {
+  const SimplexMesh<dim> world = world_mesh(model);
+  write_exports<dim>(ExportInput<dim>{model, world, options}, dir, formats, report);
+}
+
+template void write_exports<2>(const ExportInput<2>&, const fs::path&, const std::vector<std::string>&,
+                               nlohmann::json&);
+template void write_exports<3>(const ExportInput<3>&, const fs::path&, const std::vector<std::string>&,
+                               nlohmann::json&);
 template MaterialBins material_bins<2>(const MeshModel<2>&, int);
 template MaterialBins material_bins<3>(const MeshModel<3>&, int);
 template SimplexMesh<2> world_mesh<2>(const MeshModel<2>&);

@@ -1,12 +1,11 @@
 // Figures (figures.hpp): slices of the image beside the mesh cross-section, the discretized image,
 // the Fig. 9 energy history, line plots and the deformed-mesh slice, drawn on png.hpp's canvas.
-#include <vim/pipeline/figures.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <stdexcept>
+#include <vim/pipeline/figures.hpp>
 
 namespace vim::pipeline {
 
@@ -40,8 +39,8 @@ std::string number_label(double t, double scale) {
 
 // The colour bar (viridis unless `map`) under a panel, from lo (left) to hi (right), with both values
 // and the caption on the text row below it (kLabel pixels).
-void draw_colorbar(Canvas& canvas, const SliceView& view, int y0, double lo, double hi, const std::string& caption,
-                   Rgb (*map)(double) = viridis) {
+void draw_colorbar(Canvas& canvas, const SliceView& view, int y0, double lo, double hi,
+                   const std::string& caption, Rgb (*map)(double) = viridis) {
   for (int x = 0; x < view.width; ++x) {
     const Rgb c = map(view.width > 1 ? static_cast<double>(x) / (view.width - 1) : 0.5);
     for (int y = y0; y < y0 + kBar; ++y) canvas.set(view.x_offset + x, y, c);
@@ -49,7 +48,8 @@ void draw_colorbar(Canvas& canvas, const SliceView& view, int y0, double lo, dou
   const double scale = std::max(std::abs(lo), std::abs(hi));
   const int ty = y0 + kBar + 2;
   canvas.text(view.x_offset, ty, number_label(lo, scale), colors::axis, kFont);
-  canvas.text(view.x_offset + view.width, ty, number_label(hi, scale), colors::axis, kFont, Canvas::Align::end);
+  canvas.text(view.x_offset + view.width, ty, number_label(hi, scale), colors::axis, kFont,
+              Canvas::Align::end);
   canvas.text(view.x_offset + view.width / 2, ty, caption, colors::axis, kFont, Canvas::Align::centre);
 }
 
@@ -61,8 +61,8 @@ std::pair<int, int> plane_axes(int axis) {
 }
 
 template <int dim>
-std::vector<Eigen::Vector2d> cell_section(const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>& x, int axis,
-                                          double s) {
+std::vector<Eigen::Vector2d> cell_section(const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>& x,
+                                          int axis, double s) {
   if constexpr (dim == 3) {
     return tet_slice_polygon(x, axis, s);
   } else {
@@ -80,8 +80,10 @@ std::vector<Eigen::Vector2d> to_pixels(const SliceView& view, const std::vector<
 }
 
 void draw_outline(Canvas& canvas, const std::vector<Eigen::Vector2d>& px, Rgb c) {
-  if (px.size() == 1) canvas.line(px[0].x(), px[0].y(), px[0].x(), px[0].y(), c);
-  else if (px.size() >= 2) canvas.polyline_closed(px, c);
+  if (px.size() == 1)
+    canvas.line(px[0].x(), px[0].y(), px[0].x(), px[0].y(), c);
+  else if (px.size() >= 2)
+    canvas.polyline_closed(px, c);
 }
 
 // 1-2-5 tick step giving about `target` intervals over `span`.
@@ -170,10 +172,14 @@ std::vector<Eigen::Vector2d> tet_slice_polygon(const std::array<Eigen::Vector3d,
 
 const char* slice_name(int axis) {
   switch (axis) {
-    case 0: return "sagittal";
-    case 1: return "coronal";
-    case 2: return "axial";
-    default: return "plane";
+    case 0:
+      return "sagittal";
+    case 1:
+      return "coronal";
+    case 2:
+      return "axial";
+    default:
+      return "plane";
   }
 }
 
@@ -181,8 +187,10 @@ template <int dim>
 std::array<SliceView, 2> mesh_figure_views(const Image<dim>& image, int axis) {
   const auto bmin = image.box_min(), bmax = image.box_max();
   int u = 0, v = 1;
-  if constexpr (dim == 3) std::tie(u, v) = plane_axes(axis);
-  else axis = -1;
+  if constexpr (dim == 3)
+    std::tie(u, v) = plane_axes(axis);
+  else
+    axis = -1;
   const int max_pixels = dim == 3 ? 360 : 512;
   SliceView left = make_slice_view(axis, u, v, {bmin[u], bmin[v]}, {bmax[u], bmax[v]}, max_pixels);
   left.x_offset = kMargin;
@@ -212,7 +220,8 @@ void write_mesh_figures(const OrientedImage<dim>& oriented, const MeshModel<dim>
   Point centre;
   typename Image<dim>::Index index{};
   for (int a = 0; a < dim; ++a) {
-    const double want = slice_point ? (*slice_point)[a] : image.origin[a] + 0.5 * (image.size[a] - 1) * image.spacing[a];
+    const double want =
+        slice_point ? (*slice_point)[a] : image.origin[a] + 0.5 * (image.size[a] - 1) * image.spacing[a];
     index[a] = std::clamp(std::lround((want - image.origin[a]) / image.spacing[a]), 0L, image.size[a] - 1);
   }
   centre = image.point_of(index);
@@ -264,7 +273,8 @@ void write_mesh_figures(const OrientedImage<dim>& oriented, const MeshModel<dim>
       render_image(canvas, left);
       const auto cut = sections(axis, centre[axis]);
       for (const auto& [c, poly] : cut)
-        if (poly.size() >= 3) canvas.fill_polygon(to_pixels(right, poly), viridis(range.t(model.values[c].mean)));
+        if (poly.size() >= 3)
+          canvas.fill_polygon(to_pixels(right, poly), viridis(range.t(model.values[c].mean)));
       for (const auto& [c, poly] : cut) {
         draw_outline(canvas, to_pixels(left, poly), colors::outline);
         draw_outline(canvas, to_pixels(right, poly), colors::black);
@@ -274,7 +284,8 @@ void write_mesh_figures(const OrientedImage<dim>& oriented, const MeshModel<dim>
       // longest form that fits the panel's width.
       const long k = static_cast<long>(index[axis]), n = static_cast<long>(image.size[axis]);
       for (const std::string& where :
-           {printf_string("%s slice: voxel %ld of %ld on image axis %d; image + mesh", slice_name(axis), k, n, axis),
+           {printf_string("%s slice: voxel %ld of %ld on image axis %d; image + mesh", slice_name(axis), k, n,
+                          axis),
             printf_string("%s: voxel %ld/%ld, axis %d", slice_name(axis), k, n, axis),
             printf_string("voxel %ld/%ld", k, n)})
         if (Canvas::text_size(where, kFont)[0] <= left.width) {
@@ -306,7 +317,12 @@ void write_mesh_figures(const OrientedImage<dim>& oriented, const MeshModel<dim>
     overlay.write_png(f1);
 
     Canvas discretized(view.width + 2 * kMargin, view.height + 3 * kMargin + kBar + kLabel);
-    for (const auto& [c, poly] : cut) discretized.fill_polygon(to_pixels(view, poly), grey(range.t(model.values[c].mean)));
+    for (const auto& [c, poly] : cut) {
+      // Each element also stroked in its own colour: no background seams between anti-aliased fills.
+      const Rgb g = grey(range.t(model.values[c].mean));
+      discretized.fill_polygon(to_pixels(view, poly), g);
+      discretized.polyline_closed(to_pixels(view, poly), g);
+    }
     draw_colorbar(discretized, view, bar_y, range.lo, range.hi, "element mean", grey);
     const fs::path f2 = fig_dir / "discretized.png";
     discretized.write_png(f2);
@@ -318,8 +334,9 @@ void write_mesh_figures(const OrientedImage<dim>& oriented, const MeshModel<dim>
 }
 
 nlohmann::json write_line_plot(const fs::path& path, const std::vector<double>& x,
-                               const std::vector<std::vector<double>>& series, const std::vector<std::string>& names,
-                               const std::string& x_label, const std::string& y_label) {
+                               const std::vector<std::vector<double>>& series,
+                               const std::vector<std::string>& names, const std::string& x_label,
+                               const std::string& y_label) {
   constexpr int W = 700, H = 470, L = 90, R = 20, T = 34, B = 58;
   double xlo = INFINITY, xhi = -INFINITY, ylo = INFINITY, yhi = -INFINITY;
   for (std::size_t k = 0; k < x.size(); ++k) {
@@ -338,29 +355,33 @@ nlohmann::json write_line_plot(const fs::path& path, const std::vector<double>& 
   auto py = [&](double v) { return (H - B) - (v - ay.lo) / (ay.hi - ay.lo) * (H - T - B); };
 
   Canvas canvas(W, H);
+  // Grid, ticks and frame: 1-pixel lines through the centres of the pixels they fall in (sharp).
+  auto crisp = [](double v) { return std::floor(v) + 0.5; };
   for (double t : ax.ticks) {
-    canvas.line(px(t), T, px(t), H - B, colors::light_grey);
-    canvas.line(px(t), H - B, px(t), H - B + 5, colors::axis);
+    canvas.line(crisp(px(t)), crisp(T), crisp(px(t)), crisp(H - B), colors::light_grey);
+    canvas.line(crisp(px(t)), crisp(H - B), crisp(px(t)), crisp(H - B + 5), colors::axis);
   }
   for (double t : ay.ticks) {
-    canvas.line(L, py(t), W - R, py(t), colors::light_grey);
-    canvas.line(L - 5, py(t), L, py(t), colors::axis);
+    canvas.line(crisp(L), crisp(py(t)), crisp(W - R), crisp(py(t)), colors::light_grey);
+    canvas.line(crisp(L - 5), crisp(py(t)), crisp(L), crisp(py(t)), colors::axis);
   }
-  canvas.line(L, T, L, H - B, colors::axis);
-  canvas.line(L, H - B, W - R, H - B, colors::axis);
-  canvas.line(L, T, W - R, T, colors::axis);
-  canvas.line(W - R, T, W - R, H - B, colors::axis);
+  canvas.line(crisp(L), crisp(T), crisp(L), crisp(H - B), colors::axis);
+  canvas.line(crisp(L), crisp(H - B), crisp(W - R), crisp(H - B), colors::axis);
+  canvas.line(crisp(L), crisp(T), crisp(W - R), crisp(T), colors::axis);
+  canvas.line(crisp(W - R), crisp(T), crisp(W - R), crisp(H - B), colors::axis);
   // Tick values, axis titles.
-  const double xs = std::max(std::abs(ax.lo), std::abs(ax.hi)), ys = std::max(std::abs(ay.lo), std::abs(ay.hi));
+  const double xs = std::max(std::abs(ax.lo), std::abs(ax.hi)),
+               ys = std::max(std::abs(ay.lo), std::abs(ay.hi));
   for (double t : ax.ticks)
     canvas.text(static_cast<int>(std::lround(px(t))), H - B + 8, number_label(t, xs), colors::axis, kFont,
                 Canvas::Align::centre);
   for (double t : ay.ticks)
-    canvas.text(L - 8, static_cast<int>(std::lround(py(t))), number_label(t, ys), colors::axis, kFont, Canvas::Align::end,
-                Canvas::Align::centre);
-  canvas.text(L + (W - L - R) / 2, H - 6, x_label, colors::black, kFont + 1, Canvas::Align::centre, Canvas::Align::end);
-  canvas.text(4, T + (H - T - B) / 2, y_label, colors::black, kFont + 1, Canvas::Align::start, Canvas::Align::centre,
-              true);
+    canvas.text(L - 8, static_cast<int>(std::lround(py(t))), number_label(t, ys), colors::axis, kFont,
+                Canvas::Align::end, Canvas::Align::centre);
+  canvas.text(L + (W - L - R) / 2, H - 6, x_label, colors::black, kFont + 1, Canvas::Align::centre,
+              Canvas::Align::end);
+  canvas.text(4, T + (H - T - B) / 2, y_label, colors::black, kFont + 1, Canvas::Align::start,
+              Canvas::Align::centre, true);
 
   nlohmann::json names_json = nlohmann::json::array();
   for (std::size_t s = 0; s < series.size(); ++s) {
@@ -373,8 +394,11 @@ nlohmann::json write_line_plot(const fs::path& path, const std::vector<double>& 
         continue;
       }
       const double x1 = px(x[k]), y1 = py(series[s][k]);
-      if (have_prev) canvas.line(x0, y0, x1, y1, c, 2);
-      else canvas.fill_rect(static_cast<int>(x1) - 1, static_cast<int>(y1) - 1, static_cast<int>(x1) + 1, static_cast<int>(y1) + 1, c);
+      if (have_prev)
+        canvas.line(x0, y0, x1, y1, c, 2);
+      else
+        canvas.fill_rect(static_cast<int>(x1) - 1, static_cast<int>(y1) - 1, static_cast<int>(x1) + 1,
+                         static_cast<int>(y1) + 1, c);
       x0 = x1, y0 = y1, have_prev = true;
     }
     const Rgb col = series_color(static_cast<int>(s));
@@ -407,8 +431,8 @@ nlohmann::json write_energy_plot(const std::vector<vim::IterationRecord>& histor
     eg.push_back(ratio(h.geometric, h0.geometric));
     ed.push_back(ratio(h.discretization, h0.discretization));
   }
-  nlohmann::json j = write_line_plot(path, it, {e, eg, ed}, {"E/E(0)", "E_G/E_G(0)", "E_D/E_D(0)"}, "iteration",
-                                     "energy relative to the initial mesh");
+  nlohmann::json j = write_line_plot(path, it, {e, eg, ed}, {"E/E(0)", "E_G/E_G(0)", "E_D/E_D(0)"},
+                                     "iteration", "energy relative to the initial mesh");
   j["normalisation"] = "each series divided by its value at history[0] (the initial mesh)";
   return j;
 }
@@ -425,7 +449,8 @@ nlohmann::json write_deformed_slice(const MeshModel<dim>& model,
   if (mesh.n_points() == 0) throw std::invalid_argument("write_deformed_slice: empty mesh");
   int axis = -1, u = 0, v = 1;
   if constexpr (dim == 3) {
-    if (normal_axis < 0 || normal_axis > 2) throw std::invalid_argument("write_deformed_slice: normal_axis must be 0, 1 or 2");
+    if (normal_axis < 0 || normal_axis > 2)
+      throw std::invalid_argument("write_deformed_slice: normal_axis must be 0, 1 or 2");
     axis = normal_axis;
     std::tie(u, v) = plane_axes(axis);
   }
@@ -486,10 +511,12 @@ template void write_mesh_figures<2>(const OrientedImage<2>&, const MeshModel<2>&
                                     const Eigen::Matrix<double, 2, 1>*, nlohmann::json&);
 template void write_mesh_figures<3>(const OrientedImage<3>&, const MeshModel<3>&, const fs::path&,
                                     const Eigen::Matrix<double, 3, 1>*, nlohmann::json&);
-template nlohmann::json write_deformed_slice<2>(const MeshModel<2>&, const std::vector<Eigen::Matrix<double, 2, 1>>&,
+template nlohmann::json write_deformed_slice<2>(const MeshModel<2>&,
+                                                const std::vector<Eigen::Matrix<double, 2, 1>>&,
                                                 const fs::path&, const Eigen::Matrix<double, 2, 1>&, int,
                                                 const std::string&);
-template nlohmann::json write_deformed_slice<3>(const MeshModel<3>&, const std::vector<Eigen::Matrix<double, 3, 1>>&,
+template nlohmann::json write_deformed_slice<3>(const MeshModel<3>&,
+                                                const std::vector<Eigen::Matrix<double, 3, 1>>&,
                                                 const fs::path&, const Eigen::Matrix<double, 3, 1>&, int,
                                                 const std::string&);
 

@@ -1,15 +1,13 @@
 // Image IO (see image_io.hpp): converts between the ITK side (itk_image_io.cpp, plain arrays, no
 // Eigen) and OrientedImage<dim>, and checks what needs the voxels (NaN/Inf) or the geometry
 // (an orthonormal direction matrix).
-#include <vim/pipeline/image_io.hpp>
-
-#include "itk_image_io.hpp"
-
 #include <Eigen/LU>
-
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+#include <vim/pipeline/image_io.hpp>
+
+#include "itk_image_io.hpp"
 
 namespace vim::pipeline {
 
@@ -30,9 +28,10 @@ Image<dim> in_frame_of(const OrientedImage<dim>& reference, const OrientedImage<
 template Image<2> in_frame_of<2>(const OrientedImage<2>&, const OrientedImage<2>&);
 template Image<3> in_frame_of<3>(const OrientedImage<3>&, const OrientedImage<3>&);
 
+namespace {
+
 template <int dim>
-OrientedImage<dim> read_image(const std::string& path) {
-  itk_io::RawImage raw = itk_io::read(path, dim);
+OrientedImage<dim> oriented_image(itk_io::RawImage&& raw, const std::string& path) {
   OrientedImage<dim> out;
   for (int a = 0; a < dim; ++a) {
     out.image.size[a] = raw.size[a];
@@ -54,21 +53,44 @@ OrientedImage<dim> read_image(const std::string& path) {
     for (int a = 0; a < dim; ++a) m << (a ? "," : "") << idx[a];
     m << ")); every voxel must be a finite number";
     if (raw.double_voxels)
-      m << " (the file stores doubles: a finite value beyond ±3.4e38, the largest a float voxel can hold, also reads"
+      m << " (the file stores doubles: a finite value beyond ±3.4e38, the largest a float voxel can hold, "
+           "also reads"
            " as Inf; rescale the image)";
     throw InputError(m.str());
   }
 
   const double det = out.direction.determinant();
   const double orth =
-      (out.direction.transpose() * out.direction - Eigen::Matrix<double, dim, dim>::Identity()).cwiseAbs().maxCoeff();
+      (out.direction.transpose() * out.direction - Eigen::Matrix<double, dim, dim>::Identity())
+          .cwiseAbs()
+          .maxCoeff();
   if (!std::isfinite(det) || std::abs(std::abs(det) - 1.0) > 1e-3 || orth > 1e-3) {
     std::ostringstream m;
-    m << path << ": direction matrix is not orthonormal (|det| = " << std::abs(det) << ", largest |DᵀD − I| entry "
-      << orth << "); expected a rotation or reflection (unit, mutually perpendicular axes)";
+    m << path << ": direction matrix is not orthonormal (|det| = " << std::abs(det)
+      << ", largest |DᵀD − I| entry " << orth
+      << "); expected a rotation or reflection (unit, mutually perpendicular axes)";
     throw InputError(m.str());
   }
   return out;
+}
+
+}  // namespace
+
+ImageFile::ImageFile(std::string path) : path_(std::move(path)), header_(itk_io::read_header(path_)) {
+  dimension_ = itk_io::dimension(*header_);
+}
+
+template <int dim>
+OrientedImage<dim> ImageFile::read() const {
+  // ITK's reader keeps state in its ImageIO: a second read starts from a fresh header.
+  if (used_) header_ = itk_io::read_header(path_);
+  used_ = true;
+  return oriented_image<dim>(itk_io::read(*header_, dim), path_);
+}
+
+template <int dim>
+OrientedImage<dim> read_image(const std::string& path) {
+  return ImageFile(path).read<dim>();
 }
 
 template <int dim>
@@ -84,6 +106,8 @@ void write_image(const OrientedImage<dim>& image, const std::string& path) {
   itk_io::write(raw, path);
 }
 
+template OrientedImage<2> ImageFile::read<2>() const;
+template OrientedImage<3> ImageFile::read<3>() const;
 template OrientedImage<2> read_image<2>(const std::string&);
 template OrientedImage<3> read_image<3>(const std::string&);
 template void write_image<2>(const OrientedImage<2>&, const std::string&);

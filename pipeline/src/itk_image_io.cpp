@@ -4,27 +4,26 @@
 // No Eigen header may be included here (ITK bundles its own, older Eigen).
 #include "itk_image_io.hpp"
 
-#include <vim/pipeline/input_error.hpp>
-
 #include <itkImage.h>
 #include <itkImageFileReader.h>
 #include <itkImageFileWriter.h>
 #include <itkImageIOBase.h>
 #include <itkImageIOFactory.h>
 #include <itkMetaImageIO.h>
+#include <unistd.h>
+#include <zlib.h>
 
 #include <algorithm>
-#include <cmath>
 #include <cctype>
+#include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <sstream>
-#include <unistd.h>
-#include <zlib.h>
+#include <vim/pipeline/input_error.hpp>
 
 namespace vim::pipeline::itk_io {
 
@@ -66,7 +65,9 @@ class StreamCapture {
   std::streambuf* old_out_;
 };
 
-const char* supported_formats() { return "MetaImage (.mha/.mhd), NRRD (.nrrd/.nhdr) or NIfTI (.nii/.nii.gz)"; }
+const char* supported_formats() {
+  return "MetaImage (.mha/.mhd), NRRD (.nrrd/.nhdr) or NIfTI (.nii/.nii.gz)";
+}
 
 void quiet_itk() {
   static const bool done = [] {
@@ -82,7 +83,9 @@ void quiet_itk() {
 // Checked after the header is parsed (MetaIO's own parse) and before any voxel is read: LOCAL, or
 // one existing, readable data file.
 // MetaIO's spellings of "the voxel data follow the header in this file".
-bool is_local_data(const std::string& value) { return value == "LOCAL" || value == "Local" || value == "local"; }
+bool is_local_data(const std::string& value) {
+  return value == "LOCAL" || value == "Local" || value == "local";
+}
 
 // The file holding a MetaImage's voxel data: the header's own file, or ElementDataFile relative to the
 // header's folder.
@@ -95,8 +98,9 @@ fs::path metaimage_data_path(const std::string& path, const std::string& value) 
 void check_metaimage_data_file(const std::string& path, const std::string& value) {
   if (is_local_data(value)) return;
   if (value.find('%') != std::string::npos || value.compare(0, 4, "LIST") == 0)
-    throw InputError(path + ": ElementDataFile = '" + one_line(value) +
-                     "' (a list or numbered pattern of slice files) is not supported; use LOCAL or one data file");
+    throw InputError(
+        path + ": ElementDataFile = '" + one_line(value) +
+        "' (a list or numbered pattern of slice files) is not supported; use LOCAL or one data file");
   const fs::path data = metaimage_data_path(path, value);
   std::error_code ec;
   if (value.empty() || !fs::is_regular_file(data, ec) || ::access(data.c_str(), R_OK) != 0)
@@ -108,8 +112,8 @@ void check_metaimage_data_file(const std::string& path, const std::string& value
 // ImageFileReader, again in Read): a header that repeats NDims/DimSize or gives fewer DimSize values
 // than NDims can yield a voxel count on the last read larger than the buffer ITK allocated
 // (fuzz_image_header: heap-buffer-overflow in MetaImage::M_ReadElementData). Such headers are
-// rejected before ITK parses them, as is an NDims outside 1..10. Lines are "Key = value" (or "Key: value") as MetaIO reads them,
-// up to ElementDataFile, after which the voxel data starts.
+// rejected before ITK parses them, as is an NDims outside 1..10. Lines are "Key = value" (or "Key: value") as
+// MetaIO reads them, up to ElementDataFile, after which the voxel data starts.
 void check_metaimage_header_text(const std::string& path) {
   std::string ext = fs::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -140,11 +144,13 @@ void check_metaimage_header_text(const std::string& path) {
     // voxels with can differ from the checked one (fuzz_image_header: heap-buffer-overflow in
     // MetaImage::M_ReadElementData, regress_mha_malformed_line_overflow). Keys are letters, digits
     // and '_'; values have no control characters (tabs are fine; bytes >= 0x80 are, for UTF-8 names).
-    const std::string where = path + ": not a readable image (corrupt MetaImage header): line " + std::to_string(line_no) + " ";
+    const std::string where =
+        path + ": not a readable image (corrupt MetaImage header): line " + std::to_string(line_no) + " ";
     if (sep == std::string::npos) throw InputError(where + "is not 'Key = value'");
     const std::string key = trim(line.substr(0, sep));
     if (key.empty() || line.substr(0, sep).find('\0') != std::string::npos ||
-        !std::all_of(key.begin(), key.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }))
+        !std::all_of(key.begin(), key.end(),
+                     [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }))
       throw InputError(where + "has a key that is not letters, digits and '_'");
     const std::string value = line.substr(sep + 1);
     if (std::any_of(value.begin(), value.end(), [](char c) {
@@ -154,7 +160,8 @@ void check_metaimage_header_text(const std::string& path) {
       throw InputError(where + "(" + key + ") has a control character in its value");
     // MetaIO strcpy's string values into fixed 255-byte fields too (fuzz_image_header: a long
     // ObjectType value, regress_mha_long_value_strcpy).
-    if (trim(value).size() > 250) throw InputError(where + "(" + key + ") has a value longer than 250 characters");
+    if (trim(value).size() > 250)
+      throw InputError(where + "(" + key + ") has a value longer than 250 characters");
     if (key == "NDims") {
       ++ndims_seen;
       ndims = std::strtol(value.c_str(), nullptr, 10);
@@ -171,9 +178,11 @@ void check_metaimage_header_text(const std::string& path) {
   // MetaIO loops forever reading the per-axis fields of a header with a negative NDims (fuzz_image_header
   // timeout); it supports at most 10 axes.
   if (ndims_seen == 1 && (ndims < 1 || ndims > 10))
-    throw InputError(path + ": corrupt MetaImage header: NDims = " + std::to_string(ndims) + "; expected 2 or 3");
+    throw InputError(path + ": corrupt MetaImage header: NDims = " + std::to_string(ndims) +
+                     "; expected 2 or 3");
   if (ndims_seen > 1 || dimsize_seen > 1)
-    throw InputError(path + ": corrupt MetaImage header: " + (ndims_seen > 1 ? "NDims" : "DimSize") + " is given more than once");
+    throw InputError(path + ": corrupt MetaImage header: " + (ndims_seen > 1 ? "NDims" : "DimSize") +
+                     " is given more than once");
   if (ndims_seen == 1 && dimsize_seen == 1 && dimsize_count != ndims)
     throw InputError(path + ": corrupt MetaImage header: DimSize has " + std::to_string(dimsize_count) +
                      " values but NDims = " + std::to_string(ndims));
@@ -197,7 +206,8 @@ void check_nrrd_header_text(const std::string& path) {
     ++line_no;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty()) break;  // end of the header; attached data follow
-    const std::string where = path + ": not a readable image (corrupt NRRD header): line " + std::to_string(line_no) + " ";
+    const std::string where =
+        path + ": not a readable image (corrupt NRRD header): line " + std::to_string(line_no) + " ";
     if (line_no == 1) {
       if (line.rfind("NRRD000", 0) != 0) throw InputError(where + "is not the NRRD000X magic");
       continue;
@@ -212,7 +222,8 @@ void check_nrrd_header_text(const std::string& path) {
     if (line.size() > 500) throw InputError(where + "is longer than 500 characters");
     if (line[0] == '#') continue;
     const auto colon = line.find(':');
-    if (colon == std::string::npos || colon == 0) throw InputError(where + "is not 'field: description' or 'key:=value'");
+    if (colon == std::string::npos || colon == 0)
+      throw InputError(where + "is not 'field: description' or 'key:=value'");
     if (colon > 250) throw InputError(where + "has a field name longer than 250 characters");
   }
 }
@@ -223,7 +234,8 @@ itk::ImageIOBase::Pointer open_header(const std::string& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw InputError(path + ": file does not exist");
   if (fs::is_directory(path, ec)) throw InputError(path + ": is a directory, not an image file");
-  if (::access(path.c_str(), R_OK) != 0) throw InputError(path + ": file is not readable (permission denied)");
+  if (::access(path.c_str(), R_OK) != 0)
+    throw InputError(path + ": file is not readable (permission denied)");
   if (fs::file_size(path, ec) == 0) throw InputError(path + ": file is empty (0 bytes)");
   check_metaimage_header_text(path);
   check_nrrd_header_text(path);
@@ -262,7 +274,8 @@ itk::ImageIOBase::Pointer open_header(const std::string& path) {
     throw InputError(path + ": pixels have " + std::to_string(io->GetNumberOfComponents()) +
                      " components (vector/RGB/complex image); expected a scalar image (1 component)");
   if (io->GetComponentType() == itk::IOComponentEnum::UNKNOWNCOMPONENTTYPE)
-    throw InputError(path + ": unknown voxel component type; expected an integer or floating-point scalar type");
+    throw InputError(path +
+                     ": unknown voxel component type; expected an integer or floating-point scalar type");
   double n = 1.0;
   for (unsigned a = 0; a < d; ++a) {
     if (io->GetDimensions(a) == 0)
@@ -294,9 +307,10 @@ itk::ImageIOBase::Pointer open_header(const std::string& path) {
     std::error_code size_ec;
     const auto have = fs::file_size(data, size_ec);
     if (!size_ec && have < least)
-      throw InputError(path + ": cannot read the voxel data: truncated (the header declares " + std::to_string(voxels) +
-                       " voxels, " + std::to_string(declared()) + " bytes, of " + what + " voxel data, which needs at least " +
-                       std::to_string(least) + " bytes; " + data.string() + " holds only " + std::to_string(have) + " bytes)");
+      throw InputError(path + ": cannot read the voxel data: truncated (the header declares " +
+                       std::to_string(voxels) + " voxels, " + std::to_string(declared()) + " bytes, of " +
+                       what + " voxel data, which needs at least " + std::to_string(least) + " bytes; " +
+                       data.string() + " holds only " + std::to_string(have) + " bytes)");
   };
   if (auto* meta = dynamic_cast<itk::MetaImageIO*>(io.GetPointer())) {
     const MetaImage* mi = meta->GetMetaImagePointer();
@@ -314,9 +328,11 @@ itk::ImageIOBase::Pointer open_header(const std::string& path) {
     fs::path data = path;
     while (std::getline(in, line) && !line.empty() && line != "\r") {
       std::string lower = line;
-      for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));  // teem: any case
+      for (char& c : lower)
+        c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));  // teem: any case
       if (lower.rfind("encoding:", 0) == 0) encoding = lower.substr(9);
-      if (lower.rfind("data file:", 0) == 0 || lower.rfind("datafile:", 0) == 0) data.clear();  // detached: not checked
+      if (lower.rfind("data file:", 0) == 0 || lower.rfind("datafile:", 0) == 0)
+        data.clear();  // detached: not checked
     }
     const auto has = [&](const char* e) { return encoding.find(e) != std::string::npos; };
     if (!data.empty()) {
@@ -375,7 +391,8 @@ class DataCheck {
     std::int32_t sizeof_hdr = 0;
     std::memcpy(&sizeof_hdr, h, 4);
     const bool swapped = sizeof_hdr != 348 && sizeof_hdr != 540;
-    if (swapped) sizeof_hdr = static_cast<std::int32_t>(__builtin_bswap32(static_cast<std::uint32_t>(sizeof_hdr)));
+    if (swapped)
+      sizeof_hdr = static_cast<std::int32_t>(__builtin_bswap32(static_cast<std::uint32_t>(sizeof_hdr)));
     double vox_offset = 0.0;
     if (sizeof_hdr == 348 && got >= 348) {
       std::uint32_t bits = 0;
@@ -401,7 +418,8 @@ class DataCheck {
       total = fs::file_size(path_, ec);  // an uncompressed file: no need to read it
     } else if (got == static_cast<int>(sizeof h)) {
       std::vector<unsigned char> buf(1 << 16);
-      while ((n = gzread(f, buf.data(), static_cast<unsigned>(buf.size()))) > 0) total += static_cast<std::uintmax_t>(n);
+      while ((n = gzread(f, buf.data(), static_cast<unsigned>(buf.size()))) > 0)
+        total += static_cast<std::uintmax_t>(n);
     }
     int err = Z_OK;
     const std::string zmsg = n < 0 ? gzerror(f, &err) : "";
@@ -410,8 +428,8 @@ class DataCheck {
       throw InputError(path_ + ": cannot read the voxel data: corrupt compressed data (" + zmsg + ")");
     const auto need = static_cast<std::uintmax_t>(vox_offset) + bytes_;
     if (total < need)
-      throw InputError(path_ + ": cannot read the voxel data: truncated (the header declares " + std::to_string(voxels_) +
-                       " voxels, " + std::to_string(bytes_) + " bytes from byte " +
+      throw InputError(path_ + ": cannot read the voxel data: truncated (the header declares " +
+                       std::to_string(voxels_) + " voxels, " + std::to_string(bytes_) + " bytes from byte " +
                        std::to_string(static_cast<std::uintmax_t>(vox_offset)) + ", but the " +
                        (compressed ? "inflated " : "") + "file holds only " + std::to_string(total) +
                        " bytes)");
@@ -429,7 +447,8 @@ class DataCheck {
       if (b != std::string::npos && line.compare(b, 15, "ElementDataFile") == 0) return offset;
       if (offset > (1u << 20)) break;
     }
-    throw InputError(path_ + ": MetaImage header has no 'ElementDataFile = LOCAL' line before its voxel data");
+    throw InputError(path_ +
+                     ": MetaImage header has no 'ElementDataFile = LOCAL' line before its voxel data");
   }
 
   void inflated(const fs::path& data, std::uintmax_t offset) const {
@@ -464,12 +483,13 @@ class DataCheck {
       throw InputError(path_ + ": cannot read the voxel data: the compressed data inflate to more than the " +
                        std::to_string(bytes_) + " bytes the header declares");
     if (rc != Z_STREAM_END)
-      throw InputError(path_ + ": cannot read the voxel data: truncated compressed data (the stream ends after " +
-                       std::to_string(out) + " of the " + std::to_string(bytes_) + " bytes the header declares)");
+      throw InputError(
+          path_ + ": cannot read the voxel data: truncated compressed data (the stream ends after " +
+          std::to_string(out) + " of the " + std::to_string(bytes_) + " bytes the header declares)");
     if (out != bytes_)
-      throw InputError(path_ + ": cannot read the voxel data: the compressed data hold " + std::to_string(out) +
-                       " bytes; the header declares " + std::to_string(voxels_) + " voxels, " + std::to_string(bytes_) +
-                       " bytes");
+      throw InputError(path_ + ": cannot read the voxel data: the compressed data hold " +
+                       std::to_string(out) + " bytes; the header declares " + std::to_string(voxels_) +
+                       " voxels, " + std::to_string(bytes_) + " bytes");
   }
 
   void ascii(const fs::path& data, std::uintmax_t offset) const {
@@ -479,8 +499,9 @@ class DataCheck {
     std::string token;
     for (std::uintmax_t k = 0; k < voxels_; ++k) {
       if (!(in >> token))
-        throw InputError(path_ + ": cannot read the voxel data: truncated (the header declares " + std::to_string(voxels_) +
-                         " ASCII values; the file holds " + std::to_string(k) + ")");
+        throw InputError(path_ + ": cannot read the voxel data: truncated (the header declares " +
+                         std::to_string(voxels_) + " ASCII values; the file holds " + std::to_string(k) +
+                         ")");
       char* end = nullptr;
       const double v = std::strtod(token.c_str(), &end);
       if (end != token.c_str() + token.size() || token.empty())
@@ -519,7 +540,8 @@ RawImage read_dim(const std::string& path, itk::ImageIOBase::Pointer io) {
     std::uintmax_t voxels = 1;
     for (unsigned a = 0; a < dim; ++a) voxels *= checked[a];
     DataCheck check(path, voxels, static_cast<std::uintmax_t>(io->GetImageSizeInBytes()));
-    if (auto* meta = dynamic_cast<itk::MetaImageIO*>(io.GetPointer())) check.metaimage(*meta->GetMetaImagePointer());
+    if (auto* meta = dynamic_cast<itk::MetaImageIO*>(io.GetPointer()))
+      check.metaimage(*meta->GetMetaImagePointer());
     if (std::string(io->GetNameOfClass()) == "NiftiImageIO") check.nifti();
   }
   {
@@ -533,19 +555,23 @@ RawImage read_dim(const std::string& path, itk::ImageIOBase::Pointer io) {
       const auto size = reader->GetOutput()->GetLargestPossibleRegion().GetSize();
       for (unsigned a = 0; a < dim; ++a)
         if (size[a] != checked[a])
-          throw InputError(path + ": corrupt image header: it gives size " + std::to_string(size[a]) + " along axis " +
-                           std::to_string(a) + " on a second read but " + std::to_string(checked[a]) + " on the first");
+          throw InputError(path + ": corrupt image header: it gives size " + std::to_string(size[a]) +
+                           " along axis " + std::to_string(a) + " on a second read but " +
+                           std::to_string(checked[a]) + " on the first");
       reader->Update();
     } catch (const itk::ExceptionObject& e) {
       throw InputError(path + ": cannot read the voxel data (truncated or corrupt file?): " +
                        one_line(capture.text() + " " + e.GetDescription()));
     } catch (const std::exception& e) {  // std::length_error, std::bad_alloc, ... from inside ITK
-      throw InputError(path + ": cannot read the voxel data (truncated or corrupt file?): " + one_line(e.what()));
+      throw InputError(path +
+                       ": cannot read the voxel data (truncated or corrupt file?): " + one_line(e.what()));
     }
     const std::string said = capture.text();
     if (said.find("not read completely") != std::string::npos)
-      throw InputError(path + ": cannot read the voxel data: truncated (the file holds fewer bytes than the header declares: " +
-                       one_line(said) + ")");
+      throw InputError(
+          path +
+          ": cannot read the voxel data: truncated (the file holds fewer bytes than the header declares: " +
+          one_line(said) + ")");
   }
   typename ItkImage::Pointer img = reader->GetOutput();
   RawImage out;
@@ -593,15 +619,29 @@ void write_dim(const RawImage& image, const std::string& tmp) {
 
 }  // namespace
 
-int header_dimension(const std::string& path) { return static_cast<int>(open_header(path)->GetNumberOfDimensions()); }
+struct Header {
+  std::string path;
+  itk::ImageIOBase::Pointer io;
+};
 
-RawImage read(const std::string& path, int dim) {
-  itk::ImageIOBase::Pointer io = open_header(path);
+std::shared_ptr<Header> read_header(const std::string& path) {
+  return std::make_shared<Header>(Header{path, open_header(path)});
+}
+
+int dimension(const Header& header) { return static_cast<int>(header.io->GetNumberOfDimensions()); }
+
+int header_dimension(const std::string& path) { return dimension(*read_header(path)); }
+
+RawImage read(const Header& header, int dim) {
+  const std::string& path = header.path;
+  const itk::ImageIOBase::Pointer& io = header.io;
   if (static_cast<int>(io->GetNumberOfDimensions()) != dim)
-    throw InputError(path + ": image has " + std::to_string(io->GetNumberOfDimensions()) + " dimensions; expected " +
-                     std::to_string(dim));
+    throw InputError(path + ": image has " + std::to_string(io->GetNumberOfDimensions()) +
+                     " dimensions; expected " + std::to_string(dim));
   return dim == 2 ? read_dim<2>(path, io) : read_dim<3>(path, io);
 }
+
+RawImage read(const std::string& path, int dim) { return read(*read_header(path), dim); }
 
 void write(const RawImage& image, const std::string& path) {
   quiet_itk();
@@ -611,12 +651,14 @@ void write(const RawImage& image, const std::string& path) {
     throw std::invalid_argument(path + ": write_image: inconsistent image geometry");
   std::size_t n = 1;
   for (long s : image.size) n *= static_cast<std::size_t>(s);
-  if (image.data.size() != n) throw std::invalid_argument(path + ": write_image: data size does not match the image size");
+  if (image.data.size() != n)
+    throw std::invalid_argument(path + ": write_image: data size does not match the image size");
 
   const fs::path final_path(path);
   const std::string ext = final_path.extension().string();
   if (ext == ".mhd" || ext == ".nhdr")
-    throw std::invalid_argument(path + ": detached-header formats cannot be written atomically; use .mha, .nrrd, .nii or .nii.gz");
+    throw std::invalid_argument(
+        path + ": detached-header formats cannot be written atomically; use .mha, .nrrd, .nii or .nii.gz");
   const fs::path tmp = temporary_image_path(final_path);
   try {
     if (dim == 2)

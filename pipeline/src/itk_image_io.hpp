@@ -3,24 +3,33 @@
 // compiled in its own translation unit (itk_image_io.cpp) that never includes Eigen.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace vim::pipeline::itk_io {
 
 struct RawImage {
-  std::vector<long> size;          // voxels per axis (axis 0 fastest in data)
+  std::vector<long> size;  // voxels per axis (axis 0 fastest in data)
   std::vector<double> spacing;
   std::vector<double> origin;
-  std::vector<double> direction;   // row-major dim × dim
+  std::vector<double> direction;  // row-major dim × dim
   std::vector<float> data;
-  bool double_voxels = false;      // the file stores doubles: a finite value beyond ±FLT_MAX reads as ±inf
+  bool double_voxels = false;  // the file stores doubles: a finite value beyond ±FLT_MAX reads as ±inf
 };
 
+// A file whose header has been read and checked (the ITK ImageIO that read it, kept for the voxels).
+struct Header;
 // Reads and checks the header (existence, format, dimension 2/3, scalar pixels, size, spacing,
-// origin); returns the dimension. Throws InputError naming the file.
+// origin). Throws InputError naming the file.
+std::shared_ptr<Header> read_header(const std::string& path);
+int dimension(const Header& header);
+// read_header + dimension.
 int header_dimension(const std::string& path);
-// Header checks, then the voxels as float. Throws InputError.
+// The voxels of a file whose header was read, as float (the header is not parsed again by us; ITK's
+// reader reads it once more with the same ImageIO). Throws InputError.
+RawImage read(const Header& header, int dim);
+// read_header, then read.
 RawImage read(const std::string& path, int dim);
 // Writes through a temporary name that keeps the extension, then renames.
 void write(const RawImage& image, const std::string& path);

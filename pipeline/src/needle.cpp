@@ -1,170 +1,23 @@
-// Needle geometry (DESIGN.md §5): point location, shaft sampling, and the conjugate-gradient force
-// control used by the stick-slip and force models (see needle.hpp).
-#include <vim/pipeline/needle.hpp>
-
+// Needle geometry (docs/architecture.md): shaft sampling, the axial stiffness map used for force control by
+// the stick-slip and force models, and the needle-path mesh density (see needle.hpp).
 #include <Eigen/LU>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <string>
 #include <stdexcept>
+#include <string>
+#include <vim/pipeline/needle.hpp>
 
 namespace vim::pipeline {
 
 template <int dim>
-CellLocator<dim> CellLocator<dim>::simplex(const SimplexMesh<dim>& mesh) {
-  CellLocator loc;
-  loc.mesh_ = mesh;
-  const std::size_t nc = mesh.n_cells();
-  if (nc == 0) throw std::invalid_argument("CellLocator: empty mesh");
-  loc.inverse_.resize(nc);
-  loc.lo_ = Vec::Constant(std::numeric_limits<double>::max());
-  loc.hi_ = -loc.lo_;
-  double edge_sum = 0.0;
-  std::size_t edges = 0;
-  for (std::size_t c = 0; c < nc; ++c) {
-    const auto x = cell_points(mesh, c);
-    Eigen::Matrix<double, dim, dim> m;
-    for (int k = 0; k < dim; ++k) m.col(k) = x[k + 1] - x[0];
-    loc.inverse_[c] = m.inverse();
-    for (int a = 0; a <= dim; ++a) {
-      loc.lo_ = loc.lo_.cwiseMin(x[a]);
-      loc.hi_ = loc.hi_.cwiseMax(x[a]);
-      for (int b = a + 1; b <= dim; ++b, ++edges) edge_sum += (x[a] - x[b]).norm();
-    }
-  }
-  loc.mean_edge_ = edge_sum / static_cast<double>(edges);
-  loc.vertices_ = mesh.points;
-  // Buckets: about one cell per bucket on average.
-  const Vec ext = (loc.hi_ - loc.lo_).cwiseMax(Vec::Constant(1e-12));
-  const double cell = std::pow(ext.prod() / static_cast<double>(nc), 1.0 / dim);
-  std::size_t nbuckets = 1;
-  for (int d = 0; d < dim; ++d) {
-    loc.nb_[d] = std::max(1L, std::min(256L, static_cast<long>(std::ceil(ext[d] / cell))));
-    loc.bucket_size_[d] = ext[d] / static_cast<double>(loc.nb_[d]);
-    nbuckets *= static_cast<std::size_t>(loc.nb_[d]);
-  }
-  loc.buckets_.assign(nbuckets, {});
-  for (std::size_t c = 0; c < nc; ++c) {
-    const auto x = cell_points(mesh, c);
-    Vec a = x[0], b = x[0];
-    for (int k = 1; k <= dim; ++k) {
-      a = a.cwiseMin(x[k]);
-      b = b.cwiseMax(x[k]);
-    }
-    std::array<long, dim> i0{}, i1{};
-    for (int d = 0; d < dim; ++d) {
-      i0[d] = std::clamp(static_cast<long>(std::floor((a[d] - loc.lo_[d]) / loc.bucket_size_[d] - 1e-9)), 0L, loc.nb_[d] - 1);
-      i1[d] = std::clamp(static_cast<long>(std::floor((b[d] - loc.lo_[d]) / loc.bucket_size_[d] + 1e-9)), 0L, loc.nb_[d] - 1);
-    }
-    std::array<long, dim> i = i0;
-    while (true) {
-      std::size_t k = 0;
-      for (int d = dim - 1; d >= 0; --d) k = k * static_cast<std::size_t>(loc.nb_[d]) + static_cast<std::size_t>(i[d]);
-      loc.buckets_[k].push_back(static_cast<int>(c));
-      int d = 0;
-      for (; d < dim; ++d) {
-        if (++i[d] <= i1[d]) break;
-        i[d] = i0[d];
-      }
-      if (d == dim) break;
-    }
-  }
-  return loc;
-}
-
-template <int dim>
-CellLocator<dim> CellLocator<dim>::grid(const std::array<long, dim>& cells, const Vec& lo, const Vec& hi,
-                                        const std::vector<Vec>& vertices) {
-  CellLocator loc;
-  loc.is_grid_ = true;
-  loc.cells_ = cells;
-  loc.lo_ = lo;
-  loc.hi_ = hi;
-  std::size_t nlat = 1;
-  double edge = 0.0;
-  for (int d = 0; d < dim; ++d) {
-    if (cells[d] < 1) throw std::invalid_argument("CellLocator::grid: every axis needs >= 1 cell");
-    loc.bucket_size_[d] = (hi[d] - lo[d]) / static_cast<double>(cells[d]);
-    nlat *= static_cast<std::size_t>(cells[d] + 1);
-    edge += loc.bucket_size_[d];
-  }
-  loc.mean_edge_ = edge / dim;
-  loc.lattice_to_vertex_.assign(nlat, -1);
-  loc.vertices_ = vertices;
-  for (std::size_t v = 0; v < vertices.size(); ++v) {
-    std::size_t k = 0;
-    bool ok = true;
-    for (int d = dim - 1; d >= 0; --d) {
-      const double t = (vertices[v][d] - lo[d]) / loc.bucket_size_[d];
-      const long i = std::lround(t);
-      if (std::abs(t - static_cast<double>(i)) > 1e-6 || i < 0 || i > cells[d]) ok = false;
-      k = k * static_cast<std::size_t>(cells[d] + 1) + static_cast<std::size_t>(std::clamp(i, 0L, cells[d]));
-    }
-    if (ok) loc.lattice_to_vertex_[k] = static_cast<int>(v);
-  }
-  if (std::find(loc.lattice_to_vertex_.begin(), loc.lattice_to_vertex_.end(), -1) != loc.lattice_to_vertex_.end())
-    throw std::invalid_argument("CellLocator::grid: the model's vertices do not cover the lattice");
-  return loc;
-}
-
-template <int dim>
-long CellLocator<dim>::locate(const Vec& p, std::vector<int>* support) const {
-  constexpr double eps = 1e-10, weight_eps = 1e-9;
-  if (support) support->clear();
-  if (is_grid_) {
-    std::array<long, dim> i{};
-    std::array<double, dim> t{};
-    for (int d = 0; d < dim; ++d) {
-      const double c = (p[d] - lo_[d]) / bucket_size_[d];
-      if (c < -1e-9 || c > static_cast<double>(cells_[d]) + 1e-9) return -1;
-      i[d] = std::clamp(static_cast<long>(std::floor(c)), 0L, cells_[d] - 1);
-      t[d] = std::clamp(c - static_cast<double>(i[d]), 0.0, 1.0);
-    }
-    long cell = 0;
-    for (int d = dim - 1; d >= 0; --d) cell = cell * cells_[d] + i[d];
-    if (support)
-      for (int corner = 0; corner < (1 << dim); ++corner) {
-        double w = 1.0;
-        std::size_t k = 0;
-        for (int d = dim - 1; d >= 0; --d) {
-          const bool up = (corner >> d) & 1;
-          w *= up ? t[d] : 1.0 - t[d];
-          k = k * static_cast<std::size_t>(cells_[d] + 1) + static_cast<std::size_t>(i[d] + (up ? 1 : 0));
-        }
-        if (w > weight_eps) support->push_back(lattice_to_vertex_[k]);
-      }
-    if (support) std::sort(support->begin(), support->end());
-    return cell;
-  }
-  std::size_t k = 0;
-  for (int d = dim - 1; d >= 0; --d) {
-    const double c = (p[d] - lo_[d]) / bucket_size_[d];
-    if (c < -1e-9 * nb_[d] || c > static_cast<double>(nb_[d]) * (1.0 + 1e-9)) return -1;
-    k = k * static_cast<std::size_t>(nb_[d]) + static_cast<std::size_t>(std::clamp(static_cast<long>(std::floor(c)), 0L, nb_[d] - 1));
-  }
-  for (int c : buckets_[k]) {
-    const auto& cell = mesh_.cells[c];
-    const Eigen::Matrix<double, dim, 1> l = inverse_[c] * (p - mesh_.points[cell[0]]);
-    const double l0 = 1.0 - l.sum();
-    if (l0 < -eps || l.minCoeff() < -eps) continue;
-    if (support) {
-      if (l0 > weight_eps) support->push_back(cell[0]);
-      for (int a = 0; a < dim; ++a)
-        if (l[a] > weight_eps) support->push_back(cell[a + 1]);
-      std::sort(support->begin(), support->end());
-    }
-    return c;
-  }
-  return -1;
-}
-
-template <int dim>
-std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator, const Eigen::Matrix<double, dim, 1>& entry,
-                                          const Eigen::Matrix<double, dim, 1>& axis, double depth, double pitch,
-                                          const std::vector<bool>& blocked, bool snap_to_vertices) {
-  if (!(pitch > 0.0) || !(depth > 0.0)) throw std::invalid_argument("sample_shaft: depth and pitch must be > 0");
+std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator,
+                                          const Eigen::Matrix<double, dim, 1>& entry,
+                                          const Eigen::Matrix<double, dim, 1>& axis, double depth,
+                                          double pitch, const std::vector<bool>& blocked,
+                                          bool snap_to_vertices) {
+  if (!(pitch > 0.0) || !(depth > 0.0))
+    throw std::invalid_argument("sample_shaft: depth and pitch must be > 0");
   // Candidates every pitch. With snap_to_vertices, where the path runs along mesh edges (every vertex
   // of a candidate's support lies on the path's line), the candidate is replaced by those vertices,
   // each at its own arc length: a chain of points inside consecutive collinear edges makes nearly
@@ -190,12 +43,14 @@ std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator, const
       along = (r - sv * axis).norm() <= line_tol && sv >= -line_tol && sv < depth;
     }
     if (along) {
-      for (int v : sup) cand.push_back({std::max(0.0, (locator.vertex(v) - entry).dot(axis)), locator.vertex(v), {v}});
+      for (int v : sup)
+        cand.push_back({std::max(0.0, (locator.vertex(v) - entry).dot(axis)), locator.vertex(v), {v}});
     } else {
       cand.push_back({s, x, sup});
     }
   }
-  std::stable_sort(cand.begin(), cand.end(), [](const Candidate& a, const Candidate& b) { return a.s < b.s; });
+  std::stable_sort(cand.begin(), cand.end(),
+                   [](const Candidate& a, const Candidate& b) { return a.s < b.s; });
   std::vector<ShaftPoint<dim>> pts;
   std::vector<int> last;
   for (const auto& c : cand) {
@@ -234,7 +89,8 @@ AxialMap AxialMap::probe(Eigen::Index m, const std::function<Eigen::VectorXd(con
   return map;
 }
 
-void AxialMap::solve_free(Eigen::VectorXd& w, const std::vector<bool>& free, const Eigen::VectorXd& target) const {
+void AxialMap::solve_free(Eigen::VectorXd& w, const std::vector<bool>& free,
+                          const Eigen::VectorXd& target) const {
   std::vector<Eigen::Index> f, n;
   for (Eigen::Index j = 0; j < w.size(); ++j) (free[j] ? f : n).push_back(j);
   if (f.empty()) return;
@@ -250,10 +106,11 @@ void AxialMap::solve_free(Eigen::VectorXd& w, const std::vector<bool>& free, con
 }
 
 template <int dim>
-Image<dim> needle_density(const Image<dim>& like, const std::vector<NeedlePath<dim>>& paths, double size_ratio,
-                          double radius) {
+Image<dim> needle_density(const Image<dim>& like, const std::vector<NeedlePath<dim>>& paths,
+                          double size_ratio, double radius) {
   if (!(size_ratio > 0.0 && size_ratio <= 1.0))
-    throw std::invalid_argument("needle refinement size_ratio must be in (0, 1], got " + std::to_string(size_ratio));
+    throw std::invalid_argument("needle refinement size_ratio must be in (0, 1], got " +
+                                std::to_string(size_ratio));
   if (!(radius > 0.0 && std::isfinite(radius)))
     throw std::invalid_argument("needle refinement radius must be > 0, got " + std::to_string(radius));
   if (paths.empty()) throw std::invalid_argument("needle refinement needs at least one needle path");
@@ -271,11 +128,11 @@ Image<dim> needle_density(const Image<dim>& like, const std::vector<NeedlePath<d
 
 template Image<2> needle_density<2>(const Image<2>&, const std::vector<NeedlePath<2>>&, double, double);
 template Image<3> needle_density<3>(const Image<3>&, const std::vector<NeedlePath<3>>&, double, double);
-template class CellLocator<2>;
-template class CellLocator<3>;
 template std::vector<ShaftPoint<2>> sample_shaft<2>(const CellLocator<2>&, const Eigen::Matrix<double, 2, 1>&,
-                                                    const Eigen::Matrix<double, 2, 1>&, double, double, const std::vector<bool>&, bool);
+                                                    const Eigen::Matrix<double, 2, 1>&, double, double,
+                                                    const std::vector<bool>&, bool);
 template std::vector<ShaftPoint<3>> sample_shaft<3>(const CellLocator<3>&, const Eigen::Matrix<double, 3, 1>&,
-                                                    const Eigen::Matrix<double, 3, 1>&, double, double, const std::vector<bool>&, bool);
+                                                    const Eigen::Matrix<double, 3, 1>&, double, double,
+                                                    const std::vector<bool>&, bool);
 
 }  // namespace vim::pipeline

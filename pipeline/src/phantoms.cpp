@@ -1,10 +1,9 @@
 // Synthetic phantoms (see phantoms.hpp): the geometry of each is written so a test can recompute
 // the expected value at any point independently.
-#include <vim/pipeline/phantoms.hpp>
-
 #include <cmath>
 #include <random>
 #include <stdexcept>
+#include <vim/pipeline/phantoms.hpp>
 
 namespace vim::pipeline::phantoms {
 
@@ -167,22 +166,25 @@ OrientedImage<2> two_inclusions(int n) {
 }
 
 const std::vector<std::string>& names() {
-  static const std::vector<std::string> n = {"table1",   "prostate",           "diamond",
+  static const std::vector<std::string> n = {"table1",      "prostate",           "diamond",
                                              "two-circles", "two-circles-sizing", "two-inclusions"};
   return n;
 }
 
 std::string description(const std::string& name) {
-  if (name == "table1") return "paper Table I: cube [0,3]^3, sphere r=1 (2.0) in 1.0, SIZE^3 voxels (default 100)";
+  if (name == "table1")
+    return "paper Table I: cube [0,3]^3, sphere r=1 (2.0) in 1.0, SIZE^3 voxels (default 100)";
   if (name == "prostate")
     return "3D prostate elastogram (kPa, mm): 60x50x50 mm, gland 60 kPa, lesion 150 kPa, urethra 5 kPa, "
            "tissue 15 kPa; SIZE voxels along x (default 120 = 0.5 mm)";
-  if (name == "diamond") return "paper Figs. 2-4: 100x100 mm, diamond (2.0) in 1.0, SIZE^2 pixels (default 100)";
+  if (name == "diamond")
+    return "paper Figs. 2-4: 100x100 mm, diamond (2.0) in 1.0, SIZE^2 pixels (default 100)";
   if (name == "two-circles")
     return "paper Fig. 13(a): 100x100 mm, circles r=20 and r=5 (2.0) in 1.0, SIZE^2 pixels (default 200)";
   if (name == "two-circles-sizing") return "paper Fig. 13(d): sizing/density field for two-circles (1..10)";
   if (name == "two-inclusions")
-    return "2D elastogram (kPa, mm): 60x60 mm, inclusions 60 and 150 kPa in 15 kPa, SIZE^2 pixels (default 120)";
+    return "2D elastogram (kPa, mm): 60x60 mm, inclusions 60 and 150 kPa in 15 kPa, SIZE^2 pixels (default "
+           "120)";
   throw std::invalid_argument("unknown phantom '" + name + "'");
 }
 

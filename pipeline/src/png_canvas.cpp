@@ -1,16 +1,16 @@
-// Raster canvas and PNG output for the figures (see png.hpp).
-// The ITK PNG IO lives in png_io.cpp: ITK's bundled Eigen (itkeigen) must not share a TU with
-// the system Eigen that png.hpp uses.
-#include <vim/pipeline/png.hpp>
+// Canvas drawing through Cairo (see png.hpp): lines, polygons and rectangles on an RGB24 image
+// surface over the canvas's own pixels. Text is in png_text.cpp, PNG encoding and decoding in png_io.cpp.
+#include <cairo.h>
 
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <vim/pipeline/png.hpp>
 
 namespace vim::pipeline {
 
 // png_io.cpp
-void write_rgb_png(const std::filesystem::path& path, int width, int height, const std::vector<std::uint8_t>& rgb);
+void write_rgb24_png(const std::filesystem::path& path, int width, int height, const std::uint32_t* pixels);
 std::vector<std::uint8_t> read_rgb_png(const std::filesystem::path& path, int& width, int& height);
 
 namespace {
@@ -18,6 +18,11 @@ namespace {
 std::uint8_t lerp8(double a, double b, double t) {
   return static_cast<std::uint8_t>(std::lround(a + (b - a) * t));
 }
+
+void set_source(cairo_t* cr, Rgb c) { cairo_set_source_rgb(cr, c.r / 255.0, c.g / 255.0, c.b / 255.0); }
+
+// Degenerate input (non-finite or absurdly far points) draws nothing.
+bool drawable(double v) { return std::isfinite(v) && std::abs(v) <= 1e5; }
 
 }  // namespace
 
@@ -41,91 +46,100 @@ Rgb grey(double t) {
 }
 
 Rgb series_color(int k) {
-  static const Rgb palette[] = {{31, 119, 180}, {214, 39, 40}, {44, 160, 44}, {255, 127, 14}, {148, 103, 189}};
+  static const Rgb palette[] = {
+      {31, 119, 180}, {214, 39, 40}, {44, 160, 44}, {255, 127, 14}, {148, 103, 189}};
   return palette[static_cast<std::size_t>(k) % 5];
 }
 
 Canvas::Canvas(int width, int height, Rgb background) : width_(width), height_(height) {
-  if (width <= 0 || height <= 0) throw std::invalid_argument("canvas size must be positive");
-  pixels_.assign(static_cast<std::size_t>(width) * height, background);
+  if (width <= 0 || height <= 0 || width > 32767 || height > 32767)
+    throw std::invalid_argument("canvas size must be in [1, 32767] pixels, not " + std::to_string(width) +
+                                " x " + std::to_string(height));
+  pixels_.assign(static_cast<std::size_t>(width) * height, pack(background));
+}
+
+void Canvas::paint(const std::function<void(cairo_t*)>& draw) {
+  // RGB24 rows are 4 bytes per pixel with no padding, so the pixel vector is the surface's memory.
+  const int stride = cairo_format_stride_for_width(CAIRO_FORMAT_RGB24, width_);
+  if (stride != 4 * width_) throw std::logic_error("Canvas: unexpected Cairo RGB24 stride");
+  cairo_surface_t* surface = cairo_image_surface_create_for_data(
+      reinterpret_cast<unsigned char*>(pixels_.data()), CAIRO_FORMAT_RGB24, width_, height_, stride);
+  cairo_t* cr = cairo_create(surface);
+  cairo_set_antialias(cr, CAIRO_ANTIALIAS_GRAY);
+  draw(cr);
+  const cairo_status_t status = cairo_status(cr);
+  cairo_destroy(cr);
+  cairo_surface_flush(surface);
+  cairo_surface_destroy(surface);
+  if (status != CAIRO_STATUS_SUCCESS)
+    throw std::runtime_error(std::string("Cairo: ") + cairo_status_to_string(status));
 }
 
 void Canvas::line(double x0, double y0, double x1, double y1, Rgb c, int thickness) {
-  // Non-finite or absurdly far endpoints (degenerate input) draw nothing rather than loop for ages.
   for (double q : {x0, y0, x1, y1})
-    if (!std::isfinite(q) || std::abs(q) > 1e5) return;
-  // Endpoints are the pixels that contain them, so a point on the line always lands on its pixel.
-  long ax = static_cast<long>(std::floor(x0)), ay = static_cast<long>(std::floor(y0));
-  const long bx = static_cast<long>(std::floor(x1)), by = static_cast<long>(std::floor(y1));
-  const long dx = std::labs(bx - ax), dy = -std::labs(by - ay);
-  const long sx = ax < bx ? 1 : -1, sy = ay < by ? 1 : -1;
-  long err = dx + dy;
-  const int lo = -(thickness - 1) / 2, hi = thickness / 2;
-  for (long steps = 0;; ++steps) {
-    for (int oy = lo; oy <= hi; ++oy)
-      for (int ox = lo; ox <= hi; ++ox)
-        set(static_cast<int>(ax + ox), static_cast<int>(ay + oy), c);
-    if ((ax == bx && ay == by) || steps > dx - dy) break;
-    const long e2 = 2 * err;
-    if (e2 >= dy) { err += dy; ax += sx; }
-    if (e2 <= dx) { err += dx; ay += sy; }
-  }
+    if (!drawable(q)) return;
+  paint([&](cairo_t* cr) {
+    set_source(cr, c);
+    cairo_set_line_width(cr, std::max(1, thickness));
+    cairo_set_line_cap(cr, CAIRO_LINE_CAP_ROUND);
+    cairo_move_to(cr, x0, y0);
+    cairo_line_to(cr, x1, y1);
+    cairo_stroke(cr);
+  });
 }
 
 void Canvas::polyline_closed(const std::vector<Eigen::Vector2d>& pts, Rgb c, int thickness) {
-  for (std::size_t k = 0; k < pts.size(); ++k) {
-    const auto& a = pts[k];
-    const auto& b = pts[(k + 1) % pts.size()];
-    line(a.x(), a.y(), b.x(), b.y(), c, thickness);
-  }
+  if (pts.empty()) return;
+  for (const auto& p : pts)
+    if (!drawable(p.x()) || !drawable(p.y())) return;
+  paint([&](cairo_t* cr) {
+    set_source(cr, c);
+    cairo_set_line_width(cr, std::max(1, thickness));
+    cairo_set_line_cap(cr, CAIRO_LINE_CAP_ROUND);
+    cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
+    cairo_move_to(cr, pts[0].x(), pts[0].y());
+    for (std::size_t k = 1; k < pts.size(); ++k) cairo_line_to(cr, pts[k].x(), pts[k].y());
+    if (pts.size() > 2)
+      cairo_close_path(cr);
+    else if (pts.size() == 1)
+      cairo_line_to(cr, pts[0].x(), pts[0].y());  // a dot
+    cairo_stroke(cr);
+  });
 }
 
 void Canvas::fill_polygon(const std::vector<Eigen::Vector2d>& pts, Rgb c) {
   if (pts.size() < 3) return;
-  double ymin = pts[0].y(), ymax = pts[0].y();
-  for (const auto& p : pts) {
-    if (!p.allFinite()) return;
-    ymin = std::min(ymin, p.y());
-    ymax = std::max(ymax, p.y());
-  }
-  const int y0 = std::max(0, static_cast<int>(std::floor(ymin)));
-  const int y1 = std::min(height_ - 1, static_cast<int>(std::ceil(ymax)));
-  std::vector<double> xs;
-  for (int y = y0; y <= y1; ++y) {
-    const double yc = y + 0.5;
-    xs.clear();
-    for (std::size_t k = 0; k < pts.size(); ++k) {
-      const auto& a = pts[k];
-      const auto& b = pts[(k + 1) % pts.size()];
-      if ((a.y() <= yc) != (b.y() <= yc)) xs.push_back(a.x() + (yc - a.y()) * (b.x() - a.x()) / (b.y() - a.y()));
-    }
-    std::sort(xs.begin(), xs.end());
-    for (std::size_t k = 0; k + 1 < xs.size(); k += 2) {
-      const int xa = std::max(0, static_cast<int>(std::ceil(xs[k] - 0.5)));
-      const int xb = std::min(width_ - 1, static_cast<int>(std::ceil(xs[k + 1] - 0.5)) - 1);
-      for (int x = xa; x <= xb; ++x) pixels_[static_cast<std::size_t>(y) * width_ + x] = c;
-    }
-  }
+  for (const auto& p : pts)
+    if (!drawable(p.x()) || !drawable(p.y())) return;
+  paint([&](cairo_t* cr) {
+    set_source(cr, c);
+    cairo_set_fill_rule(cr, CAIRO_FILL_RULE_EVEN_ODD);
+    cairo_move_to(cr, pts[0].x(), pts[0].y());
+    for (std::size_t k = 1; k < pts.size(); ++k) cairo_line_to(cr, pts[k].x(), pts[k].y());
+    cairo_close_path(cr);
+    cairo_fill(cr);
+  });
 }
 
 void Canvas::fill_rect(int x0, int y0, int x1, int y1, Rgb c) {
-  for (int y = std::max(0, std::min(y0, y1)); y <= std::min(height_ - 1, std::max(y0, y1)); ++y)
-    for (int x = std::max(0, std::min(x0, x1)); x <= std::min(width_ - 1, std::max(x0, x1)); ++x)
-      pixels_[static_cast<std::size_t>(y) * width_ + x] = c;
+  const int left = std::min(x0, x1), top = std::min(y0, y1);
+  paint([&](cairo_t* cr) {
+    set_source(cr, c);
+    cairo_rectangle(cr, left, top, std::abs(x1 - x0) + 1, std::abs(y1 - y0) + 1);
+    cairo_fill(cr);
+  });
 }
 
 void Canvas::write_png(const std::filesystem::path& path) const {
-  std::vector<std::uint8_t> rgb;
-  rgb.reserve(pixels_.size() * 3);
-  for (const Rgb& c : pixels_) rgb.insert(rgb.end(), {c.r, c.g, c.b});
-  write_rgb_png(path, width_, height_, rgb);
+  write_rgb24_png(path, width_, height_, pixels_.data());
 }
 
 Canvas Canvas::read_png(const std::filesystem::path& path) {
   int w = 0, h = 0;
   const std::vector<std::uint8_t> rgb = read_rgb_png(path, w, h);
   Canvas c(w, h);
-  for (std::size_t k = 0; k < c.pixels_.size(); ++k) c.pixels_[k] = {rgb[3 * k], rgb[3 * k + 1], rgb[3 * k + 2]};
+  for (std::size_t k = 0; k < c.pixels_.size(); ++k)
+    c.pixels_[k] = pack({rgb[3 * k], rgb[3 * k + 1], rgb[3 * k + 2]});
   return c;
 }
 

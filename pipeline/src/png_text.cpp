@@ -1,67 +1,110 @@
-// Canvas::text (png.hpp): strings rasterised by VTK's FreeType tools with VTK's embedded Arial, so
-// figures get labels without a display, an X server or font files on the machine. Kept out of
-// png_canvas.cpp so only this file needs the VTK rendering headers.
-#include <vim/pipeline/png.hpp>
-
-#include <vtkFreeTypeTools.h>
-#include <vtkImageData.h>
-#include <vtkNew.h>
-#include <vtkStdString.h>
-#include <vtkTextProperty.h>
+// Canvas::text (png.hpp): a string rasterised by Cairo in DejaVu Sans (Debian fonts-dejavu-core,
+// found through fontconfig; another sans-serif face if it is missing) into a coverage mask the size
+// of its box, then blended over the canvas pixel by pixel, turned for vertical text. Rendering
+// unturned and turning the mask keeps vertical text the same glyphs as horizontal text.
+#include <cairo.h>
 
 #include <algorithm>
 #include <cmath>
-#include <mutex>
+#include <memory>
+#include <vector>
+#include <vim/pipeline/png.hpp>
 
 namespace vim::pipeline {
 
 namespace {
 
-// The string rasterised by VTK: coverage in the alpha channel of `img`, the string occupying pixels
-// [0, dims[0]) × [0, dims[1]) with y up. False for an empty string or a failed render.
-bool render(const std::string& s, int size, vtkImageData* img, int dims[2]) {
-  if (s.empty()) return false;
-  vtkNew<vtkTextProperty> prop;
-  prop->SetFontFamilyToArial();
-  prop->SetFontSize(std::max(1, size));
-  prop->SetColor(0.0, 0.0, 0.0);
-  prop->SetJustificationToLeft();
-  prop->SetVerticalJustificationToBottom();
-  // vtkFreeTypeTools is a process-wide singleton with a glyph cache.
-  static std::mutex m;
-  std::lock_guard<std::mutex> lock(m);
-  return vtkFreeTypeTools::GetInstance()->RenderString(prop, vtkStdString(s), 72, img, dims) && dims[0] > 0 &&
-         dims[1] > 0 && img->GetNumberOfScalarComponents() == 4;
+constexpr const char* kFontFamily = "DejaVu Sans";
+
+// A string's coverage (0–255) in a box of width × height pixels, row-major, top row first.
+struct Mask {
+  int width = 0, height = 0;
+  std::vector<std::uint8_t> coverage;
+};
+
+using Surface = std::unique_ptr<cairo_surface_t, decltype(&cairo_surface_destroy)>;
+using Context = std::unique_ptr<cairo_t, decltype(&cairo_destroy)>;
+
+void select_font(cairo_t* cr, int size) {
+  cairo_select_font_face(cr, kFontFamily, CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+  cairo_set_font_size(cr, std::max(1, size));
+  cairo_font_options_t* options = cairo_font_options_create();
+  cairo_font_options_set_antialias(options, CAIRO_ANTIALIAS_GRAY);
+  cairo_font_options_set_hint_metrics(options, CAIRO_HINT_METRICS_ON);
+  cairo_set_font_options(cr, options);
+  cairo_font_options_destroy(options);
+}
+
+// The box: from the left of the first glyph's ink (or the pen start) to the end of the advance (or
+// the last ink), from the font's ascent above the baseline to its descent below. `pen_x` is where
+// the pen starts inside the box, `baseline` the baseline's distance from the top.
+struct Layout {
+  int width = 0, height = 0;
+  double pen_x = 0.0, baseline = 0.0;
+};
+
+Layout layout(cairo_t* cr, const std::string& s) {
+  cairo_text_extents_t te;
+  cairo_font_extents_t fe;
+  cairo_text_extents(cr, s.c_str(), &te);
+  cairo_font_extents(cr, &fe);
+  Layout l;
+  l.pen_x = std::ceil(std::max(0.0, -te.x_bearing));
+  l.baseline = std::ceil(fe.ascent);
+  l.width = static_cast<int>(std::ceil(l.pen_x + std::max(te.x_advance, te.x_bearing + te.width)));
+  l.height = static_cast<int>(l.baseline + std::ceil(fe.descent));
+  return l;
+}
+
+Mask render(const std::string& s, int size, bool draw) {
+  Mask m;
+  if (s.empty()) return m;
+  Surface probe(cairo_image_surface_create(CAIRO_FORMAT_A8, 1, 1), cairo_surface_destroy);
+  Context pc(cairo_create(probe.get()), cairo_destroy);
+  select_font(pc.get(), size);
+  const Layout l = layout(pc.get(), s);
+  m.width = std::max(1, l.width);
+  m.height = std::max(1, l.height);
+  if (!draw) return m;
+  Surface surface(cairo_image_surface_create(CAIRO_FORMAT_A8, m.width, m.height), cairo_surface_destroy);
+  Context cr(cairo_create(surface.get()), cairo_destroy);
+  select_font(cr.get(), size);
+  cairo_move_to(cr.get(), l.pen_x, l.baseline);
+  cairo_show_text(cr.get(), s.c_str());
+  cairo_surface_flush(surface.get());
+  const unsigned char* data = cairo_image_surface_get_data(surface.get());
+  const int stride = cairo_image_surface_get_stride(surface.get());
+  m.coverage.resize(static_cast<std::size_t>(m.width) * m.height);
+  for (int y = 0; y < m.height; ++y)
+    std::copy(data + static_cast<std::size_t>(y) * stride,
+              data + static_cast<std::size_t>(y) * stride + m.width,
+              m.coverage.begin() + static_cast<std::ptrdiff_t>(y) * m.width);
+  return m;
 }
 
 }  // namespace
 
 std::array<int, 2> Canvas::text_size(const std::string& s, int size) {
-  vtkNew<vtkImageData> img;
-  int dims[2] = {0, 0};
-  return render(s, size, img, dims) ? std::array<int, 2>{{dims[0], dims[1]}} : std::array<int, 2>{{0, 0}};
+  const Mask m = render(s, size, false);
+  return {{m.width, m.height}};
 }
 
-std::array<int, 4> Canvas::text(int x, int y, const std::string& s, Rgb c, int size, Align h, Align v, bool vertical) {
-  vtkNew<vtkImageData> img;
-  int dims[2] = {0, 0};
-  if (!render(s, size, img, dims)) return {{x, y, 0, 0}};
-  const int tw = dims[0], th = dims[1];
-  const int* extent = img->GetDimensions();
-  const auto* rgba = static_cast<const unsigned char*>(img->GetScalarPointer());
-  const int bw = vertical ? th : tw, bh = vertical ? tw : th;
+std::array<int, 4> Canvas::text(int x, int y, const std::string& s, Rgb c, int size, Align h, Align v,
+                                bool vertical) {
+  const Mask m = render(s, size, true);
+  if (m.coverage.empty()) return {{x, y, 0, 0}};
+  const int bw = vertical ? m.height : m.width, bh = vertical ? m.width : m.height;
   auto place = [](int at, int length, Align a) {
     return a == Align::start ? at : a == Align::centre ? at - length / 2 : at - length;
   };
   const int left = place(x, bw, h), top = place(y, bh, v);
-  for (int iy = 0; iy < th; ++iy)
-    for (int ix = 0; ix < tw; ++ix) {
-      const int a = rgba[4 * (static_cast<std::size_t>(iy) * extent[0] + ix) + 3];
+  for (int iy = 0; iy < m.height; ++iy)
+    for (int ix = 0; ix < m.width; ++ix) {
+      const int a = m.coverage[static_cast<std::size_t>(iy) * m.width + ix];
       if (a == 0) continue;
-      // Horizontal: column ix, row th − 1 − iy from the top. Vertical (turned counter-clockwise):
-      // the string's start at the bottom, its top (iy = th − 1) on the left.
-      const int px = vertical ? left + (th - 1 - iy) : left + ix;
-      const int py = vertical ? top + (tw - 1 - ix) : top + (th - 1 - iy);
+      // Vertical (turned counter-clockwise): the string's start at the bottom, its top on the left.
+      const int px = vertical ? left + iy : left + ix;
+      const int py = vertical ? top + (m.width - 1 - ix) : top + iy;
       if (!inside(px, py)) continue;
       const Rgb b = at(px, py);
       auto mix = [a](std::uint8_t fg, std::uint8_t bg) {

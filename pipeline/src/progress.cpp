@@ -1,8 +1,7 @@
 // Log and Progress (see progress.hpp).
-#include <vim/pipeline/progress.hpp>
-
 #include <cstdio>
 #include <mutex>
+#include <vim/pipeline/progress.hpp>
 
 namespace vim::pipeline {
 
@@ -13,7 +12,8 @@ std::mutex g_mutex;
 
 void emit(const char* level, const std::string& stage, const std::string& message) {
   std::lock_guard<std::mutex> lock(g_mutex);
-  std::fprintf(stderr, "[vim %7.1fs] %s%s: %s\n", Log::elapsed_seconds(), level, stage.c_str(), message.c_str());
+  std::fprintf(stderr, "[vim %7.1fs] %s%s: %s\n", Log::elapsed_seconds(), level, stage.c_str(),
+               message.c_str());
   std::fflush(stderr);
 }
 }  // namespace
@@ -44,7 +44,8 @@ void Progress::report(double done, const std::string& message) {
   const auto now = std::chrono::steady_clock::now();
   const bool last = done >= total_;
   // At most one line a second, except with --verbose (every call) and for the last one.
-  if (!last && g_verbosity < Verbosity::verbose && std::chrono::duration<double>(now - last_).count() < 1.0) return;
+  if (!last && g_verbosity < Verbosity::verbose && std::chrono::duration<double>(now - last_).count() < 1.0)
+    return;
   last_ = now;
   const double elapsed = seconds();
   char buf[160];

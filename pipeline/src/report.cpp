@@ -1,11 +1,9 @@
 // report.json pieces and the text summary (see report.hpp).
-#include <vim/pipeline/report.hpp>
-
-#include <vim/quality.hpp>
-
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <vim/pipeline/report.hpp>
+#include <vim/quality.hpp>
 
 namespace vim::pipeline {
 
@@ -113,8 +111,10 @@ void print_image_info(std::ostream& out, const json& im) {
   out << "  spacing:    " << vec(im["spacing"]) << "\n";
   out << "  extent:     " << vec(im["extent"]) << "  (voxel box, image units)\n";
   out << "  origin:     " << vec(im["origin"]) << "  (centre of voxel 0)\n";
-  out << "  world box:  [" << vec(im["world_bounds"]["min"]) << "] .. [" << vec(im["world_bounds"]["max"]) << "]\n";
-  if (im.contains("world_centre")) out << "  centre:     " << vec(im["world_centre"]) << "  (world, centre of the voxel box)\n";
+  out << "  world box:  [" << vec(im["world_bounds"]["min"]) << "] .. [" << vec(im["world_bounds"]["max"])
+      << "]\n";
+  if (im.contains("world_centre"))
+    out << "  centre:     " << vec(im["world_centre"]) << "  (world, centre of the voxel box)\n";
   // identity, axis-aligned (a permutation with signs: flipped or swapped axes, e.g. a NIfTI's LPS
   // flips) or oblique
   bool identity = true, aligned = true;
@@ -127,11 +127,13 @@ void print_image_info(std::ostream& out, const json& im) {
     }
   out << "  direction:  "
       << (identity ? std::string("identity")
-                   : std::string(aligned ? "axis-aligned, flipped or permuted (" : "oblique (") + vec(im["direction"], "%.4f") + ")")
+                   : std::string(aligned ? "axis-aligned, flipped or permuted (" : "oblique (") +
+                         vec(im["direction"], "%.4f") + ")")
       << "\n";
   const json& v = im["values"];
-  std::snprintf(buf, sizeof buf, "  values:     min %.6g  max %.6g  mean %.6g  stddev %.6g\n", v["min"].get<double>(),
-                v["max"].get<double>(), v["mean"].get<double>(), v["stddev"].get<double>());
+  std::snprintf(buf, sizeof buf, "  values:     min %.6g  max %.6g  mean %.6g  stddev %.6g\n",
+                v["min"].get<double>(), v["max"].get<double>(), v["mean"].get<double>(),
+                v["stddev"].get<double>());
   out << buf;
 }
 
@@ -144,15 +146,15 @@ void print_summary(std::ostream& out, const json& r) {
   }
   if (r.contains("mesh")) {
     const json& m = r["mesh"];
-    std::snprintf(buf, sizeof buf, "mesh (%s)\n  nodes %ld, elements %ld\n", m.value("mesher", std::string()).c_str(),
-                  m.value("nodes", 0L), m.value("elements", 0L));
+    std::snprintf(buf, sizeof buf, "mesh (%s)\n  nodes %ld, elements %ld\n",
+                  m.value("mesher", std::string()).c_str(), m.value("nodes", 0L), m.value("elements", 0L));
     out << buf;
     if (m.contains("quality")) {
       const json& q = m["quality"];
       std::snprintf(buf, sizeof buf, "  %s %.2f..%.2f deg, min NRR %.3f, inverted %ld\n",
                     r["input"].value("dimension", 3) == 3 ? "dihedral" : "angles",
-                    q.value("min_dihedral_deg", 0.0), q.value("max_dihedral_deg", 0.0), q.value("min_nrr", 0.0),
-                    q.value("inverted", 0L));
+                    q.value("min_dihedral_deg", 0.0), q.value("max_dihedral_deg", 0.0),
+                    q.value("min_nrr", 0.0), q.value("inverted", 0L));
       out << buf;
     }
   }
@@ -169,7 +171,8 @@ void print_summary(std::ostream& out, const json& r) {
   }
   if (r.contains("segmentation")) {
     const json& s = r["segmentation"];
-    std::snprintf(buf, sizeof buf, "segmentation (threshold %g)\n  %d components, object: %ld elements, volume %.6g\n",
+    std::snprintf(buf, sizeof buf,
+                  "segmentation (threshold %g)\n  %d components, object: %ld elements, volume %.6g\n",
                   s.value("threshold", 0.0), s.value("components", 0), s.value("object_elements", 0L),
                   s.value("object_volume", 0.0));
     out << buf;

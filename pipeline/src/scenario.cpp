@@ -1,8 +1,6 @@
-// Scenario YAML parsing and validation (issue 6). yaml-cpp gives no position for missing keys or
+// Scenario YAML parsing and validation (scenario.hpp). yaml-cpp gives no position for missing keys or
 // bad conversions, so every access goes through the small checkers below, which name the key path,
 // the YAML line and the valid values.
-#include <vim/pipeline/scenario.hpp>
-
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -11,206 +9,14 @@
 #include <limits>
 #include <set>
 #include <sstream>
+#include <vim/fem/material.hpp>
+#include <vim/pipeline/scenario.hpp>
+
+#include "scenario_reader.hpp"
 
 namespace vim::pipeline {
 
 namespace {
-
-const char* const kFaceNames[] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};
-
-std::string join(const std::vector<std::string>& v, const char* sep = ", ") {
-  std::string s;
-  for (std::size_t i = 0; i < v.size(); ++i) s += (i ? sep : "") + v[i];
-  return s;
-}
-
-std::string fmt(double x) {
-  std::ostringstream s;
-  s << x;
-  return s.str();
-}
-
-// Hand-written equivalents of the former std::regex checks (std::regex_match dominated the parse
-// time under the fuzzer). ASCII only, like the [A-Za-z0-9] classes they replace.
-bool is_digit(char c) { return c >= '0' && c <= '9'; }
-bool is_alpha(char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); }
-// [+-]?[0-9]+
-bool is_integer_text(const std::string& t) {
-  std::size_t i = (!t.empty() && (t[0] == '+' || t[0] == '-')) ? 1 : 0;
-  if (i == t.size()) return false;
-  for (; i < t.size(); ++i)
-    if (!is_digit(t[i])) return false;
-  return true;
-}
-// [A-Za-z0-9_-]+
-bool is_folder_name(const std::string& t) {
-  if (t.empty()) return false;
-  for (char c : t)
-    if (!is_alpha(c) && !is_digit(c) && c != '_' && c != '-') return false;
-  return true;
-}
-// [A-Za-z_][A-Za-z0-9_]*
-bool is_identifier(const std::string& t) {
-  if (t.empty() || !(is_alpha(t[0]) || t[0] == '_')) return false;
-  for (char c : t)
-    if (!is_alpha(c) && !is_digit(c) && c != '_') return false;
-  return true;
-}
-
-std::string scalar_text(const YAML::Node& n) {
-  if (n.IsScalar()) return "'" + n.Scalar() + "'";
-  if (n.IsSequence()) return "a list of " + std::to_string(n.size());
-  if (n.IsMap()) return "a mapping";
-  return "nothing";
-}
-
-// The entries of a mapping, collected once by Reader::check_keys. yaml-cpp's Node::operator[](key)
-// decodes and copies every key of the mapping into a std::string (and copies Nodes) on each lookup,
-// which dominated the parse time under the fuzzer. Lookup semantics are yaml-cpp's: the first entry
-// whose key is a scalar equal to `key`; a missing key gives an undefined node (operator! is true).
-class Fields {
- public:
-  explicit Fields(const YAML::Node& n) : node_(n) {}
-  void add(bool scalar_key, std::string key, const YAML::Node& value) { entries_.push_back({scalar_key, std::move(key), value}); }
-  const YAML::Node& node() const { return node_; }
-  const YAML::Node& operator[](const char* key) const {
-    for (const Entry& e : entries_)
-      if (e.scalar_key && e.key == key) return e.value;
-    return undefined();
-  }
-
- private:
-  struct Entry {
-    bool scalar_key;
-    std::string key;
-    YAML::Node value;
-  };
-  static const YAML::Node& undefined() {
-    static const YAML::Node u(YAML::NodeType::Undefined);
-    return u;
-  }
-  YAML::Node node_;
-  std::vector<Entry> entries_;
-};
-
-class Reader {
- public:
-  explicit Reader(const Scenario& s) : s_(s) {}
-
-  [[noreturn]] void fail(const YAML::Node& n, const std::string& msg) const {
-    throw ScenarioError(s_.where(line(n)) + msg);
-  }
-  static int line(const YAML::Node& n) {
-    if (!n.IsDefined()) return 0;
-    const auto m = n.Mark();
-    return m.line >= 0 ? m.line + 1 : 0;
-  }
-
-  void expect_map(const YAML::Node& n, const std::string& path) const {
-    if (!n.IsMap()) fail(n, path + " must be a mapping, got " + scalar_text(n));
-  }
-  // Checks that n is a mapping with only valid keys and returns its entries for the lookups.
-  Fields check_keys(const YAML::Node& n, const std::string& path, const std::vector<std::string>& valid) const {
-    expect_map(n, path);
-    Fields fields(n);
-    std::vector<std::pair<std::string, int>> seen;  // key, line
-    for (const auto& kv : n) {
-      std::string k = kv.first.Scalar();
-      // yaml-cpp keeps both entries of a repeated key and looks up the first: refuse it instead of
-      // silently ignoring the later value.
-      for (const auto& [key, at] : seen)
-        if (key == k)
-          fail(kv.first, "duplicate key '" + (path.empty() ? k : path + "." + k) + "' (first given on line " +
-                             std::to_string(at) + "); give each key once");
-      seen.emplace_back(k, line(kv.first));
-      if (std::find(valid.begin(), valid.end(), k) == valid.end())
-        fail(kv.first, "unknown key '" + (path.empty() ? k : path + "." + k) + "'; valid keys" +
-                           (path.empty() ? "" : " of " + path) + ": " + join(valid));
-      fields.add(kv.first.IsScalar(), std::move(k), kv.second);
-    }
-    return fields;
-  }
-  const YAML::Node& require(const Fields& parent, const char* key, const std::string& path) const {
-    const YAML::Node& n = parent[key];
-    if (!n) fail(parent.node(), "missing key '" + path + "'");
-    return n;
-  }
-
-  double number(const YAML::Node& n, const std::string& path) const {
-    if (!n.IsScalar()) fail(n, path + " must be a number, got " + scalar_text(n));
-    double v = 0.0;
-    try {
-      v = n.as<double>();
-    } catch (const YAML::Exception&) {
-      fail(n, path + " must be a number, got " + scalar_text(n));
-    }
-    if (!std::isfinite(v)) fail(n, path + " must be a finite number, got " + scalar_text(n));
-    return v;
-  }
-  double positive(const YAML::Node& n, const std::string& path) const {
-    const double v = number(n, path);
-    if (!(v > 0.0)) fail(n, path + " must be > 0, got " + fmt(v));
-    return v;
-  }
-  long integer(const YAML::Node& n, const std::string& path) const {
-    if (!n.IsScalar()) fail(n, path + " must be an integer, got " + scalar_text(n));
-    if (!is_integer_text(n.Scalar())) fail(n, path + " must be an integer, got " + scalar_text(n));
-    try {
-      return n.as<long>();
-    } catch (const YAML::Exception&) {
-      fail(n, path + " must be an integer, got " + scalar_text(n));
-    }
-  }
-  std::string string(const YAML::Node& n, const std::string& path) const {
-    if (!n.IsScalar()) fail(n, path + " must be a string, got " + scalar_text(n));
-    return n.Scalar();
-  }
-  std::string choice(const YAML::Node& n, const std::string& path, const std::vector<std::string>& valid) const {
-    const std::string v = string(n, path);
-    if (std::find(valid.begin(), valid.end(), v) == valid.end())
-      fail(n, path + " = '" + v + "' is not valid; use one of: " + join(valid));
-    return v;
-  }
-  bool boolean(const YAML::Node& n, const std::string& path) const {
-    if (!n.IsScalar()) fail(n, path + " must be true or false, got " + scalar_text(n));
-    try {
-      return n.as<bool>();
-    } catch (const YAML::Exception&) {
-      fail(n, path + " must be true or false, got " + scalar_text(n));
-    }
-  }
-  std::vector<double> vector(const YAML::Node& n, const std::string& path, int dim) const {
-    if (!n.IsSequence() || static_cast<int>(n.size()) != dim)
-      fail(n, path + " must be a list of " + std::to_string(dim) + " numbers ([" + (dim == 3 ? "x, y, z" : "x, y") +
-                  "]) for a " + std::to_string(dim) + "D image, got " + scalar_text(n));
-    std::vector<double> v;
-    for (std::size_t i = 0; i < n.size(); ++i) v.push_back(number(n[i], path + "[" + std::to_string(i) + "]"));
-    return v;
-  }
-  std::vector<double> nonzero_vector(const YAML::Node& n, const std::string& path, int dim) const {
-    std::vector<double> v = vector(n, path, dim);
-    // Scaled by the largest component first, so that neither [1e200, 0, 0] (whose squared norm
-    // overflows) nor [1e-170, 0, 0] (which underflows) loses its direction.
-    double big = 0.0;
-    for (double x : v) big = std::max(big, std::abs(x));
-    if (!(big > 0.0)) fail(n, path + " must be a non-zero vector, got [" + join_numbers(v) + "]");
-    double s = 0.0;
-    for (double& x : v) {
-      x /= big;
-      s += x * x;
-    }
-    for (double& x : v) x /= std::sqrt(s);
-    return v;
-  }
-  static std::string join_numbers(const std::vector<double>& v) {
-    std::vector<std::string> s;
-    for (double x : v) s.push_back(fmt(x));
-    return join(s);
-  }
-
- private:
-  const Scenario& s_;
-};
 
 RegionSpec parse_region(const Reader& r, const YAML::Node& n, const std::string& path, int dim) {
   r.check_keys(n, path, {"box_face", "box", "sphere", "cylinder"});
@@ -226,7 +32,8 @@ RegionSpec parse_region(const Reader& r, const YAML::Node& n, const std::string&
     reg.face = r.string(v, p);
     const auto it = std::find(valid.begin(), valid.end(), reg.face);
     if (it == valid.end())
-      r.fail(v, p + " = '" + reg.face + "' is not a face of the " + std::to_string(dim) + "D image box; use one of: " + join(valid));
+      r.fail(v, p + " = '" + reg.face + "' is not a face of the " + std::to_string(dim) +
+                    "D image box; use one of: " + join(valid));
     const int k = static_cast<int>(it - valid.begin());
     reg.axis = k / 2;
     reg.upper = (k % 2) == 1;
@@ -236,7 +43,8 @@ RegionSpec parse_region(const Reader& r, const YAML::Node& n, const std::string&
     reg.lo = r.vector(r.require(f, "min", p + ".min"), p + ".min", dim);
     reg.hi = r.vector(r.require(f, "max", p + ".max"), p + ".max", dim);
     for (int d = 0; d < dim; ++d)
-      if (!(reg.lo[d] <= reg.hi[d])) r.fail(v, p + ": min must be <= max on every axis (axis " + std::to_string(d) + ")");
+      if (!(reg.lo[d] <= reg.hi[d]))
+        r.fail(v, p + ": min must be <= max on every axis (axis " + std::to_string(d) + ")");
   } else if (kind == "sphere") {
     const Fields f = r.check_keys(v, p, {"center", "radius"});
     reg.kind = RegionSpec::Kind::sphere;
@@ -253,14 +61,17 @@ RegionSpec parse_region(const Reader& r, const YAML::Node& n, const std::string&
 }
 
 NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string& path, int dim) {
-  const Fields f = r.check_keys(n, path, {"name", "entry", "direction", "depth", "steps", "diameter", "model", "friction",
-                                          "sample_spacing", "cutting_distance", "tip_force", "friction_per_length"});
+  const Fields f =
+      r.check_keys(n, path,
+                   {"name", "entry", "direction", "depth", "steps", "diameter", "model", "friction",
+                    "sample_spacing", "cutting_distance", "tip_force", "friction_per_length"});
   NeedleSpec s;
   s.line = Reader::line(n);
   if (f["name"]) {
     s.name = r.string(f["name"], path + ".name");
     if (!is_folder_name(s.name))
-      r.fail(f["name"], path + ".name = '" + s.name + "' must use only letters, digits, '_' and '-' (it names a folder)");
+      r.fail(f["name"], path + ".name = '" + s.name +
+                            "' must use only letters, digits, '_' and '-' (it names a folder)");
   }
   s.entry = r.vector(r.require(f, "entry", path + ".entry"), path + ".entry", dim);
   s.direction = r.nonzero_vector(r.require(f, "direction", path + ".direction"), path + ".direction", dim);
@@ -273,18 +84,24 @@ NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string&
     s.steps = static_cast<int>(steps);
   }
   s.diameter = r.positive(r.require(f, "diameter", path + ".diameter"), path + ".diameter");
-  if (f["model"]) s.model = r.choice(f["model"], path + ".model", {"kinematic", "force"}) == "force" ? NeedleSpec::Model::force : NeedleSpec::Model::kinematic;
+  if (f["model"])
+    s.model = r.choice(f["model"], path + ".model", {"kinematic", "force"}) == "force"
+                  ? NeedleSpec::Model::force
+                  : NeedleSpec::Model::kinematic;
   if (f["friction"]) {
     const YAML::Node& fn = f["friction"];
     const std::string fp = path + ".friction";
     if (s.model == NeedleSpec::Model::force)
       r.fail(fn, fp + " applies only to needle model 'kinematic'; the force model takes friction_per_length");
     const Fields fr = r.check_keys(fn, fp, {"model", "max_shear_per_length"});
-    const std::string m = r.choice(r.require(fr, "model", fp + ".model"), fp + ".model", {"stick", "stick-slip"});
+    const std::string m =
+        r.choice(r.require(fr, "model", fp + ".model"), fp + ".model", {"stick", "stick-slip"});
     s.friction = m == "stick" ? NeedleSpec::Friction::stick : NeedleSpec::Friction::stick_slip;
     if (s.friction == NeedleSpec::Friction::stick_slip) {
       if (!fr["max_shear_per_length"])
-        r.fail(fn, "missing key '" + fp + ".max_shear_per_length' (required for friction model stick-slip; force per unit length, > 0)");
+        r.fail(fn, "missing key '" + fp +
+                       ".max_shear_per_length' (required for friction model stick-slip; force per unit "
+                       "length, > 0)");
       s.max_shear_per_length = r.positive(fr["max_shear_per_length"], fp + ".max_shear_per_length");
     } else if (fr["max_shear_per_length"]) {
       r.fail(fr["max_shear_per_length"], fp + ".max_shear_per_length applies only to model stick-slip");
@@ -294,18 +111,25 @@ NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string&
     s.sample_spacing = r.positive(f["sample_spacing"], path + ".sample_spacing");
     // One embedded point (one constraint of the FEM solve) per sample_spacing of travel.
     if (s.depth / s.sample_spacing > 100000.0)
-      r.fail(f["sample_spacing"], path + ".sample_spacing = " + fmt(s.sample_spacing) + " puts more than 100000 shaft points "
-                                  "on the depth of " + fmt(s.depth) + "; use at least " + fmt(s.depth / 100000.0));
+      r.fail(f["sample_spacing"], path + ".sample_spacing = " + fmt(s.sample_spacing) +
+                                      " puts more than 100000 shaft points "
+                                      "on the depth of " +
+                                      fmt(s.depth) + "; use at least " + fmt(s.depth / 100000.0));
   }
   if (const YAML::Node& c = f["cutting_distance"]) {
     // The force model loads the newest shaft point with the tip force: with a cutting distance there
     // would be no point, hence no tip force at all, until the tip had travelled that far.
     if (s.model == NeedleSpec::Model::force)
-      r.fail(c, path + ".cutting_distance applies only to needle model 'kinematic'; the force model applies tip_force "
-                       "at the tissue the tip has reached");
+      r.fail(
+          c,
+          path +
+              ".cutting_distance applies only to needle model 'kinematic'; the force model applies tip_force "
+              "at the tissue the tip has reached");
     s.cutting_distance = r.number(c, path + ".cutting_distance");
-    if (s.cutting_distance < 0.0) r.fail(c, path + ".cutting_distance must be >= 0, got " + fmt(s.cutting_distance));
-    if (s.cutting_distance >= s.depth) r.fail(c, path + ".cutting_distance must be less than the depth (" + fmt(s.depth) + ")");
+    if (s.cutting_distance < 0.0)
+      r.fail(c, path + ".cutting_distance must be >= 0, got " + fmt(s.cutting_distance));
+    if (s.cutting_distance >= s.depth)
+      r.fail(c, path + ".cutting_distance must be less than the depth (" + fmt(s.depth) + ")");
   }
   const bool force = s.model == NeedleSpec::Model::force;
   for (const char* k : {"tip_force", "friction_per_length"}) {
@@ -333,10 +157,18 @@ std::string RegionSpec::describe() const {
     return o.str();
   };
   switch (kind) {
-    case Kind::box_face: s << "box_face " << face; break;
-    case Kind::box: s << "box " << v(lo) << ".." << v(hi); break;
-    case Kind::sphere: s << "sphere center " << v(center) << " radius " << radius; break;
-    case Kind::cylinder: s << "cylinder center " << v(center) << " axis " << v(axis_vector) << " radius " << radius; break;
+    case Kind::box_face:
+      s << "box_face " << face;
+      break;
+    case Kind::box:
+      s << "box " << v(lo) << ".." << v(hi);
+      break;
+    case Kind::sphere:
+      s << "sphere center " << v(center) << " radius " << radius;
+      break;
+    case Kind::cylinder:
+      s << "cylinder center " << v(center) << " axis " << v(axis_vector) << " radius " << radius;
+      break;
   }
   return s.str();
 }
@@ -349,42 +181,26 @@ std::string Scenario::where(int line) const {
   return line > 0 ? source + ":" + std::to_string(line) + ": " : source + ": ";
 }
 
-Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::string& source_name) {
-  Scenario s;
-  s.source = source_name;
-  s.text = yaml_text;
-  s.dim = dim;
-  if (dim != 2 && dim != 3) throw ScenarioError(s.where(0) + "only 2D and 3D images are supported");
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::Exception& e) {
-    throw ScenarioError(s.where(e.mark.line >= 0 ? e.mark.line + 1 : 0) + "YAML syntax error: " + e.msg);
-  }
-  const Reader r(s);
-  if (!root || root.IsNull()) throw ScenarioError(s.where(0) + "the scenario file is empty");
-  const Fields top = r.check_keys(root, "", {"units", "material", "mesh", "boundary_conditions", "needle", "needles", "targets", "output", "solver"});
+namespace {
 
-  if (const YAML::Node& u = top["units"]) {
-    const Fields f = r.check_keys(u, "units", {"length", "modulus"});
-    if (const YAML::Node& x = f["length"]) s.length_unit = r.string(x, "units.length");
-    if (const YAML::Node& x = f["modulus"]) s.modulus_unit = r.string(x, "units.modulus");
-  }
-
+// material: the modulus (from the image or constant, scale, clamp) and Poisson ratio.
+void parse_material(const Reader& r, const Fields& top, Scenario& s) {
   if (const YAML::Node& m = top["material"]) {
     const Fields f = r.check_keys(m, "material", {"youngs_modulus", "scale", "clamp", "poisson_ratio"});
     if (const YAML::Node& e = f["youngs_modulus"]) {
       if (e.IsScalar() && e.Scalar() == "image") {
         s.modulus_from_image = true;
       } else {
-        if (!e.IsScalar()) r.fail(e, "material.youngs_modulus must be 'image' or a number > 0, got " + scalar_text(e));
+        if (!e.IsScalar())
+          r.fail(e, "material.youngs_modulus must be 'image' or a number > 0, got " + scalar_text(e));
         double v = 0.0;
         try {
           v = e.as<double>();
         } catch (const YAML::Exception&) {
           r.fail(e, "material.youngs_modulus must be 'image' or a number > 0, got " + scalar_text(e));
         }
-        if (!(v > 0.0) || !std::isfinite(v)) r.fail(e, "material.youngs_modulus must be 'image' or a number > 0, got " + fmt(v));
+        if (!(v > 0.0) || !std::isfinite(v))
+          r.fail(e, "material.youngs_modulus must be 'image' or a number > 0, got " + fmt(v));
         s.modulus_from_image = false;
         s.youngs_modulus = v;
       }
@@ -392,28 +208,38 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
     if (const YAML::Node& x = f["scale"]) {
       s.scale = r.positive(x, "material.scale");
       if (!s.modulus_from_image && s.scale != 1.0)
-        r.fail(x, "material.scale applies only to youngs_modulus: image (it converts the image's values); with "
-                  "a constant youngs_modulus give the modulus itself and remove scale");
+        r.fail(x,
+               "material.scale applies only to youngs_modulus: image (it converts the image's values); with "
+               "a constant youngs_modulus give the modulus itself and remove scale");
     }
     if (const YAML::Node& c = f["clamp"]) {
       if (!c.IsSequence() || c.size() != 2)
         r.fail(c, "material.clamp must be a list [min, max], got " + scalar_text(c));
       const double lo = r.number(c[0], "material.clamp[0]"), hi = r.number(c[1], "material.clamp[1]");
       if (!(lo > 0.0)) r.fail(c, "material.clamp min must be > 0 (a Young's modulus), got " + fmt(lo));
-      if (!(hi >= lo)) r.fail(c, "material.clamp must have min <= max, got [" + fmt(lo) + ", " + fmt(hi) + "]");
+      if (!(hi >= lo))
+        r.fail(c, "material.clamp must have min <= max, got [" + fmt(lo) + ", " + fmt(hi) + "]");
       s.clamp = std::make_pair(lo, hi);
     }
     if (const YAML::Node& nu = f["poisson_ratio"]) {
       const double v = r.number(nu, "material.poisson_ratio");
       if (v >= 0.5)
-        r.fail(nu, "material.poisson_ratio = " + fmt(v) + " is not valid: it must be < 0.5 (0.5 is incompressible; use e.g. 0.49 with mesh.degree 2)");
-      if (!(v > -1.0)) r.fail(nu, "material.poisson_ratio = " + fmt(v) + " is not valid: it must be in (-1, 0.5)");
+        r.fail(
+            nu,
+            "material.poisson_ratio = " + fmt(v) +
+                " is not valid: it must be < 0.5 (0.5 is incompressible; use e.g. 0.49 with mesh.degree 2)");
+      if (!(v > -1.0))
+        r.fail(nu, "material.poisson_ratio = " + fmt(v) + " is not valid: it must be in (-1, 0.5)");
       s.poisson_ratio = v;
     }
   }
+}
 
+// mesh: the keys that set mesher options unless the command line does, and needle_refinement.
+void parse_mesh(const Reader& r, const Fields& top, Scenario& s) {
   if (const YAML::Node& m = top["mesh"]) {
-    const Fields f = r.check_keys(m, "mesh", {"nodes", "lambda", "degree", "min_dihedral", "needle_refinement"});
+    const Fields f =
+        r.check_keys(m, "mesh", {"nodes", "lambda", "degree", "min_dihedral", "needle_refinement"});
     if (const YAML::Node& x = f["nodes"]) {
       const long v = r.integer(x, "mesh.nodes");
       if (v < 8) r.fail(x, "mesh.nodes must be >= 8, got " + std::to_string(v));
@@ -441,28 +267,36 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
       const YAML::Node& ratio = r.require(g, "size_ratio", "mesh.needle_refinement.size_ratio");
       nr.size_ratio = r.number(ratio, "mesh.needle_refinement.size_ratio");
       if (!(nr.size_ratio > 0.0 && nr.size_ratio <= 1.0))
-        r.fail(ratio, "mesh.needle_refinement.size_ratio must be in (0, 1] (element size on the needle path / "
-                      "far from it, e.g. 0.5), got " + fmt(nr.size_ratio));
-      nr.radius = r.positive(r.require(g, "radius", "mesh.needle_refinement.radius"), "mesh.needle_refinement.radius");
+        r.fail(ratio,
+               "mesh.needle_refinement.size_ratio must be in (0, 1] (element size on the needle path / "
+               "far from it, e.g. 0.5), got " +
+                   fmt(nr.size_ratio));
+      nr.radius = r.positive(r.require(g, "radius", "mesh.needle_refinement.radius"),
+                             "mesh.needle_refinement.radius");
       s.needle_refinement = nr;
     }
   }
+}
 
+// boundary_conditions: at least one that holds the model (fixed or displacement).
+void parse_boundary_conditions(const Reader& r, const Fields& top, Scenario& s, int dim) {
   {
     const YAML::Node& bcs = r.require(top, "boundary_conditions", "boundary_conditions");
     if (!bcs.IsSequence() || bcs.size() == 0)
-      r.fail(bcs, "boundary_conditions must be a non-empty list (at least one fixed or displacement condition)");
+      r.fail(bcs,
+             "boundary_conditions must be a non-empty list (at least one fixed or displacement condition)");
     for (std::size_t i = 0; i < bcs.size(); ++i) {
       const std::string p = "boundary_conditions[" + std::to_string(i) + "]";
       const YAML::Node b = bcs[i];
       const Fields f = r.check_keys(b, p, {"type", "region", "value", "components", "support"});
       BoundaryConditionSpec bc;
       bc.line = Reader::line(b);
-      const std::string t = r.choice(r.require(f, "type", p + ".type"), p + ".type", {"fixed", "displacement", "pressure", "traction"});
-      bc.type = t == "fixed" ? BoundaryConditionSpec::Type::fixed
+      const std::string t = r.choice(r.require(f, "type", p + ".type"), p + ".type",
+                                     {"fixed", "displacement", "pressure", "traction"});
+      bc.type = t == "fixed"          ? BoundaryConditionSpec::Type::fixed
                 : t == "displacement" ? BoundaryConditionSpec::Type::displacement
-                : t == "pressure" ? BoundaryConditionSpec::Type::pressure
-                                  : BoundaryConditionSpec::Type::traction;
+                : t == "pressure"     ? BoundaryConditionSpec::Type::pressure
+                                      : BoundaryConditionSpec::Type::traction;
       bc.region = parse_region(r, r.require(f, "region", p + ".region"), p + ".region", dim);
       if (bc.type == BoundaryConditionSpec::Type::fixed) {
         if (f["value"]) r.fail(f["value"], p + ".value is not used by type fixed (use type displacement)");
@@ -477,24 +311,35 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
           r.fail(sn, sp + " applies only to type fixed on a volume region (box, sphere, cylinder)");
         if (sn.IsScalar()) {
           const std::string v = r.choice(sn, sp, {"nodes", "elastic"});
-          if (v == "elastic") r.fail(sn, sp + ": elastic needs a stiffness, e.g. {elastic: {stiffness: 15}} (modulus per length^2)");
+          if (v == "elastic")
+            r.fail(
+                sn,
+                sp + ": elastic needs a stiffness, e.g. {elastic: {stiffness: 15}} (modulus per length^2)");
         } else {
           const Fields sf = r.check_keys(sn, sp, {"elastic"});
-          const Fields ef = r.check_keys(r.require(sf, "elastic", sp + ".elastic"), sp + ".elastic", {"stiffness", "spacing"});
+          const Fields ef = r.check_keys(r.require(sf, "elastic", sp + ".elastic"), sp + ".elastic",
+                                         {"stiffness", "spacing"});
           bc.support = BoundaryConditionSpec::Support::elastic;
-          bc.support_stiffness = r.positive(r.require(ef, "stiffness", sp + ".elastic.stiffness"), sp + ".elastic.stiffness");
-          if (const YAML::Node& h = ef["spacing"]) bc.support_spacing = r.positive(h, sp + ".elastic.spacing");
+          bc.support_stiffness =
+              r.positive(r.require(ef, "stiffness", sp + ".elastic.stiffness"), sp + ".elastic.stiffness");
+          if (const YAML::Node& h = ef["spacing"])
+            bc.support_spacing = r.positive(h, sp + ".elastic.spacing");
         }
       }
       bc.components.assign(dim, true);
       if (const YAML::Node& c = f["components"]) {
-        if (bc.support == BoundaryConditionSpec::Support::elastic) r.fail(c, p + ".components cannot be combined with an elastic support");
-        if (!bc.is_dirichlet()) r.fail(c, p + ".components applies only to fixed and displacement conditions");
-        if (!c.IsSequence() || c.size() == 0) r.fail(c, p + ".components must be a non-empty list of axis names (x, y" + (dim == 3 ? ", z)" : ")"));
+        if (bc.support == BoundaryConditionSpec::Support::elastic)
+          r.fail(c, p + ".components cannot be combined with an elastic support");
+        if (!bc.is_dirichlet())
+          r.fail(c, p + ".components applies only to fixed and displacement conditions");
+        if (!c.IsSequence() || c.size() == 0)
+          r.fail(c,
+                 p + ".components must be a non-empty list of axis names (x, y" + (dim == 3 ? ", z)" : ")"));
         bc.components.assign(dim, false);
         for (std::size_t k = 0; k < c.size(); ++k) {
-          const std::string a = r.choice(c[k], p + ".components[" + std::to_string(k) + "]",
-                                         dim == 3 ? std::vector<std::string>{"x", "y", "z"} : std::vector<std::string>{"x", "y"});
+          const std::string a = r.choice(
+              c[k], p + ".components[" + std::to_string(k) + "]",
+              dim == 3 ? std::vector<std::string>{"x", "y", "z"} : std::vector<std::string>{"x", "y"});
           bc.components[a[0] - 'x'] = true;
         }
       }
@@ -503,10 +348,15 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
     bool dirichlet = false;
     for (const auto& bc : s.boundary_conditions) dirichlet = dirichlet || bc.is_dirichlet();
     if (!dirichlet)
-      r.fail(bcs, "boundary_conditions has no 'fixed' or 'displacement' condition: the model would be free to move "
-                  "(singular); fix at least one region, e.g. {type: fixed, region: {box_face: y_min}}");
+      r.fail(
+          bcs,
+          "boundary_conditions has no 'fixed' or 'displacement' condition: the model would be free to move "
+          "(singular); fix at least one region, e.g. {type: fixed, region: {box_face: y_min}}");
   }
+}
 
+// needle, or needles (a list with unique names).
+void parse_needles(const Reader& r, const Fields& top, Scenario& s, const YAML::Node& root, int dim) {
   {
     const YAML::Node &one = top["needle"], &many = top["needles"];
     if (one && many) r.fail(many, "give either 'needle' or 'needles', not both");
@@ -515,18 +365,23 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
       s.needles.push_back(parse_needle(r, one, "needle", dim));
     } else {
       s.needle_list = true;
-      if (!many.IsSequence() || many.size() == 0) r.fail(many, "needles must be a non-empty list of needle mappings");
+      if (!many.IsSequence() || many.size() == 0)
+        r.fail(many, "needles must be a non-empty list of needle mappings");
       std::set<std::string> names;
       for (std::size_t i = 0; i < many.size(); ++i) {
         NeedleSpec n = parse_needle(r, many[i], "needles[" + std::to_string(i) + "]", dim);
         if (!many[i]["name"]) n.name = "needle_" + std::to_string(i + 1);
         if (!names.insert(n.name).second)
-          r.fail(many[i], "needles[" + std::to_string(i) + "].name = '" + n.name + "' is used twice; names must be unique");
+          r.fail(many[i], "needles[" + std::to_string(i) + "].name = '" + n.name +
+                              "' is used twice; names must be unique");
         s.needles.push_back(n);
       }
     }
   }
+}
 
+// targets: named points whose displacement is recorded.
+void parse_targets(const Reader& r, const Fields& top, Scenario& s, int dim) {
   if (const YAML::Node& t = top["targets"]) {
     if (!t.IsSequence()) r.fail(t, "targets must be a list of {name, position}");
     std::set<std::string> names;
@@ -538,13 +393,18 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
       const YAML::Node& nn = r.require(f, "name", p + ".name");
       ts.name = r.string(nn, p + ".name");
       if (!is_identifier(ts.name))
-        r.fail(nn, p + ".name = '" + ts.name + "' must be an identifier (letters, digits, '_'; it names CSV columns)");
-      if (!names.insert(ts.name).second) r.fail(nn, p + ".name = '" + ts.name + "' is used twice; names must be unique");
+        r.fail(nn, p + ".name = '" + ts.name +
+                       "' must be an identifier (letters, digits, '_'; it names CSV columns)");
+      if (!names.insert(ts.name).second)
+        r.fail(nn, p + ".name = '" + ts.name + "' is used twice; names must be unique");
       ts.position = r.vector(r.require(f, "position", p + ".position"), p + ".position", dim);
       s.targets.push_back(ts);
     }
   }
+}
 
+// output (step files, fields) and solver.
+void parse_output_and_solver(const Reader& r, const Fields& top, Scenario& s) {
   if (const YAML::Node& o = top["output"]) {
     const Fields f = r.check_keys(o, "output", {"every", "fields"});
     if (const YAML::Node& x = f["every"]) {
@@ -556,16 +416,52 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
       if (!l.IsSequence()) r.fail(l, "output.fields must be a list");
       s.output_fields.clear();
       for (std::size_t i = 0; i < l.size(); ++i)
-        s.output_fields.push_back(r.choice(l[i], "output.fields[" + std::to_string(i) + "]",
-                                           {"displacement", "strain", "stress", "von_mises", "youngs_modulus"}));
+        s.output_fields.push_back(
+            r.choice(l[i], "output.fields[" + std::to_string(i) + "]",
+                     {"displacement", "strain", "stress", "von_mises", "youngs_modulus"}));
     }
   }
 
   if (const YAML::Node& v = top["solver"]) {
     const Fields f = r.check_keys(v, "solver", {"type", "tolerance"});
-    if (const YAML::Node& x = f["type"]) s.solver_type = r.choice(x, "solver.type", {"auto", "direct", "amg"});
+    if (const YAML::Node& x = f["type"])
+      s.solver_type = r.choice(x, "solver.type", {"auto", "direct", "amg"});
     if (const YAML::Node& x = f["tolerance"]) s.solver_tolerance = r.positive(x, "solver.tolerance");
   }
+}
+
+}  // namespace
+
+Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::string& source_name) {
+  Scenario s;
+  s.source = source_name;
+  s.text = yaml_text;
+  s.dim = dim;
+  if (dim != 2 && dim != 3) throw ScenarioError(s.where(0) + "only 2D and 3D images are supported");
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw ScenarioError(s.where(e.mark.line >= 0 ? e.mark.line + 1 : 0) + "YAML syntax error: " + e.msg);
+  }
+  const Reader r(s);
+  if (!root || root.IsNull()) throw ScenarioError(s.where(0) + "the scenario file is empty");
+  const Fields top = r.check_keys(root, "",
+                                  {"units", "material", "mesh", "boundary_conditions", "needle", "needles",
+                                   "targets", "output", "solver"});
+
+  if (const YAML::Node& u = top["units"]) {
+    const Fields f = r.check_keys(u, "units", {"length", "modulus"});
+    if (const YAML::Node& x = f["length"]) s.length_unit = r.string(x, "units.length");
+    if (const YAML::Node& x = f["modulus"]) s.modulus_unit = r.string(x, "units.modulus");
+  }
+
+  parse_material(r, top, s);
+  parse_mesh(r, top, s);
+  parse_boundary_conditions(r, top, s, dim);
+  parse_needles(r, top, s, root, dim);
+  parse_targets(r, top, s, dim);
+  parse_output_and_solver(r, top, s);
   return s;
 }
 
@@ -581,78 +477,6 @@ Scenario read_scenario(const std::string& path, int dim) {
   std::stringstream ss;
   ss << in.rdbuf();
   return parse_scenario_text(ss.str(), dim, path);
-}
-
-template <int dim>
-void check_scenario_geometry(const Scenario& s, const Eigen::Matrix<double, dim, 1>& box_min,
-                             const Eigen::Matrix<double, dim, 1>& box_max, const WorldTransform<dim>& tf) {
-  using V = Eigen::Matrix<double, dim, 1>;
-  const double tol = 1e-6 * (box_max - box_min).norm();
-  auto inside = [&](const V& p) {
-    for (int d = 0; d < dim; ++d)
-      if (p[d] < box_min[d] - tol || p[d] > box_max[d] + tol) return false;
-    return true;
-  };
-  auto vec = [](const std::vector<double>& x) {
-    V v;
-    for (int d = 0; d < dim; ++d) v[d] = x[d];
-    return v;
-  };
-  auto str = [](const V& w) {
-    std::ostringstream o;
-    o << "[";
-    for (int d = 0; d < dim; ++d) o << (d ? ", " : "") << w[d];
-    o << "]";
-    return o.str();
-  };
-  // The image box in world coordinates, for the messages (its corners for a rotated image).
-  V wlo = V::Constant(std::numeric_limits<double>::max()), whi = -wlo;
-  for (int c = 0; c < (1 << dim); ++c) {
-    V p;
-    for (int d = 0; d < dim; ++d) p[d] = ((c >> d) & 1) ? box_max[d] : box_min[d];
-    const V w = tf.to_world(p);
-    wlo = wlo.cwiseMin(w);
-    whi = whi.cwiseMax(w);
-  }
-  const bool oblique = !tf.direction.isIdentity(0.0);
-  const std::string box = oblique ? "the image box (an oblique box: the world bounding box of its corners is " + str(wlo) +
-                                        " .. " + str(whi) + ", its centre " + str(tf.to_world(0.5 * (box_min + box_max))) + ")"
-                                  : "the image box (world " + str(wlo) + " .. " + str(whi) + ")";
-  // For an oblique image a point can lie inside the bounding box but outside the image: say where it
-  // is along the image's own axes (the direction's columns, from voxel 0's centre).
-  auto along_axes = [&](const V& frame) -> std::string {
-    if (!oblique) return "";
-    return "; along the image axes from voxel 0's centre it is at " + str(frame - tf.origin) +
-           ", the box spans " + str(box_min - tf.origin) + " .. " + str(box_max - tf.origin);
-  };
-  for (std::size_t i = 0; i < s.needles.size(); ++i) {
-    const auto& n = s.needles[i];
-    const std::string p = s.needle_list ? "needles[" + std::to_string(i) + "]" : "needle";
-    const V entry = tf.to_frame(vec(n.entry));
-    if (!inside(entry))
-      throw ScenarioError(s.where(n.line) + p + ".entry " + str(vec(n.entry)) + " is outside " + box +
-                          along_axes(entry) + "; the entry must be inside the image or on its surface");
-    const V dir = tf.vector_to_frame(vec(n.direction));
-    // Largest travel that stays in the box.
-    double tmax = std::numeric_limits<double>::infinity();
-    for (int d = 0; d < dim; ++d) {
-      if (dir[d] > 1e-12) tmax = std::min(tmax, (box_max[d] - entry[d]) / dir[d]);
-      if (dir[d] < -1e-12) tmax = std::min(tmax, (box_min[d] - entry[d]) / dir[d]);
-    }
-    if (!(tmax > tol))
-      throw ScenarioError(s.where(n.line) + p + ".direction " + str(vec(n.direction)) + " points out of " + box +
-                          " at the entry " + str(vec(n.entry)));
-    if (n.depth > tmax + tol)
-      throw ScenarioError(s.where(n.line) + p + ".depth = " + fmt(n.depth) + " takes the tip out of " + box +
-                          "; the largest depth from this entry along this direction is " + fmt(tmax));
-  }
-  for (const auto& t : s.targets) {
-    const V position = tf.to_frame(vec(t.position));
-    if (!inside(position))
-      throw ScenarioError(s.where(t.line) + "target '" + t.name + "' position " + str(vec(t.position)) + " is outside " + box +
-                          along_axes(position));
-  }
-  // Geometric regions that cannot touch the box are caught later (selects no node), with the BC index.
 }
 
 template <int dim>
@@ -673,52 +497,20 @@ void check_modulus_image(const Scenario& s, const Image<dim>& image) {
                         "); add material.clamp: [min, max] with min > 0 to use it");
 }
 
+// Eq. 15 is fem::element_modulus (a constant modulus: the same value for every element, scale 1); its
+// message, without the function's name, follows the scenario's file and key.
 std::vector<double> scenario_modulus(const Scenario& s, const std::vector<double>& mean) {
-  std::vector<double> e(mean.size());
-  for (std::size_t j = 0; j < mean.size(); ++j) {
-    double v = s.modulus_from_image ? mean[j] * s.scale : s.youngs_modulus;
-    if (s.clamp && !std::isnan(v)) v = std::min(std::max(v, s.clamp->first), s.clamp->second);
-    if (!(v > 0.0) || !std::isfinite(v))
-      throw ScenarioError(s.where(0) + "material.youngs_modulus: element " + std::to_string(j) + " gets modulus " + fmt(v) +
-                          " (mean " + fmt(mean[j]) + " x scale " + fmt(s.scale) + "); add material.clamp: [min, max] with min > 0");
-    e[j] = v;
+  try {
+    if (s.modulus_from_image) return fem::element_modulus(mean, s.scale, s.clamp);
+    return fem::element_modulus(std::vector<double>(mean.size(), s.youngs_modulus), 1.0, s.clamp);
+  } catch (const std::invalid_argument& e) {
+    std::string what = e.what();
+    const std::string prefix = "element_modulus: ";
+    if (what.rfind(prefix, 0) == 0) what.erase(0, prefix.size());
+    throw ScenarioError(s.where(0) + "material.youngs_modulus: " + what + " (material.clamp)");
   }
-  return e;
 }
 
-template <int dim>
-NeedlePath<dim> needle_path(const NeedleSpec& n, const WorldTransform<dim>& tf) {
-  Eigen::Matrix<double, dim, 1> entry, direction;
-  for (int d = 0; d < dim; ++d) {
-    entry[d] = n.entry[static_cast<std::size_t>(d)];
-    direction[d] = n.direction[static_cast<std::size_t>(d)];
-  }
-  return {tf.to_frame(entry), tf.vector_to_frame(direction.normalized()).normalized(), n.depth};
-}
-
-template <int dim>
-std::vector<NeedlePath<dim>> needle_paths(const Scenario& s, const WorldTransform<dim>& tf) {
-  std::vector<NeedlePath<dim>> paths;
-  for (const auto& n : s.needles) paths.push_back(needle_path<dim>(n, tf));
-  return paths;
-}
-
-template <int dim>
-std::optional<Image<dim>> needle_refinement_density(const Scenario& s, const Image<dim>& image,
-                                                    const WorldTransform<dim>& tf) {
-  if (!s.needle_refinement) return std::nullopt;
-  return needle_density<dim>(image, needle_paths<dim>(s, tf), s.needle_refinement->size_ratio,
-                             s.needle_refinement->radius);
-}
-
-template std::optional<Image<2>> needle_refinement_density<2>(const Scenario&, const Image<2>&, const WorldTransform<2>&);
-template std::optional<Image<3>> needle_refinement_density<3>(const Scenario&, const Image<3>&, const WorldTransform<3>&);
-template NeedlePath<2> needle_path<2>(const NeedleSpec&, const WorldTransform<2>&);
-template NeedlePath<3> needle_path<3>(const NeedleSpec&, const WorldTransform<3>&);
-template std::vector<NeedlePath<2>> needle_paths<2>(const Scenario&, const WorldTransform<2>&);
-template std::vector<NeedlePath<3>> needle_paths<3>(const Scenario&, const WorldTransform<3>&);
-template void check_scenario_geometry<2>(const Scenario&, const Eigen::Matrix<double, 2, 1>&, const Eigen::Matrix<double, 2, 1>&, const WorldTransform<2>&);
-template void check_scenario_geometry<3>(const Scenario&, const Eigen::Matrix<double, 3, 1>&, const Eigen::Matrix<double, 3, 1>&, const WorldTransform<3>&);
 template void check_modulus_image<2>(const Scenario&, const Image<2>&);
 template void check_modulus_image<3>(const Scenario&, const Image<3>&);
 

@@ -156,8 +156,9 @@ void add_conditions(SolverDeck<dim>& deck, const Scenario& sc, const std::vector
 }  // namespace
 
 template <int dim>
-SolverDeck<dim> solver_deck(const MeshModel<dim>& model, const std::vector<double>& modulus,
-                            double poisson_ratio, unsigned degree, const Scenario* scenario) {
+SolverDeck<dim> solver_deck(const MeshModel<dim>& model, const SimplexMesh<dim>& world,
+                            const std::vector<double>& modulus, double poisson_ratio, unsigned degree,
+                            const Scenario* scenario) {
   if (degree < 1 || degree > 2) throw std::invalid_argument("solver deck: degree must be 1 or 2");
   if (modulus.size() != model.mesh.n_cells())
     throw std::invalid_argument("solver deck: one modulus per cell needed");
@@ -165,7 +166,8 @@ SolverDeck<dim> solver_deck(const MeshModel<dim>& model, const std::vector<doubl
   deck.degree = degree;
   deck.modulus = modulus;
   deck.poisson_ratio = poisson_ratio;
-  const SimplexMesh<dim> world = world_mesh(model);
+  if (world.n_points() != model.mesh.n_points() || world.n_cells() != model.mesh.n_cells())
+    throw std::invalid_argument("solver deck: the world mesh is not the model's mesh");
   deck.n_vertices = world.n_points();
   deck.nodes = world.points;
   std::vector<Vec<dim>> frame_nodes = model.mesh.points;
@@ -202,9 +204,9 @@ template const std::array<int, 2>& deck_face_corners<2>(int);
 template const std::array<int, 3>& deck_face_corners<3>(int);
 template struct SolverDeck<2>;
 template struct SolverDeck<3>;
-template SolverDeck<2> solver_deck<2>(const MeshModel<2>&, const std::vector<double>&, double, unsigned,
-                                      const Scenario*);
-template SolverDeck<3> solver_deck<3>(const MeshModel<3>&, const std::vector<double>&, double, unsigned,
-                                      const Scenario*);
+template SolverDeck<2> solver_deck<2>(const MeshModel<2>&, const SimplexMesh<2>&, const std::vector<double>&,
+                                      double, unsigned, const Scenario*);
+template SolverDeck<3> solver_deck<3>(const MeshModel<3>&, const SimplexMesh<3>&, const std::vector<double>&,
+                                      double, unsigned, const Scenario*);
 
 }  // namespace vim::pipeline

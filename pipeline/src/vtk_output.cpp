@@ -1,17 +1,13 @@
 // VTK XML writers (see vtk_output.hpp): vtkUnstructuredGrid with double-precision points and
 // data arrays, written by vtkXMLUnstructuredGridWriter (appended binary, zlib) under a temporary
 // name; the .pvd collection is a few lines of XML written by hand.
-#include <vim/pipeline/atomic_file.hpp>
-#include <vim/pipeline/quadratic_cells.hpp>
-#include <vim/pipeline/vtk_output.hpp>
-
 #include <vtkCallbackCommand.h>
 #include <vtkCellArray.h>
+#include <vtkCellData.h>
 #include <vtkCommand.h>
+#include <vtkDoubleArray.h>
 #include <vtkErrorCode.h>
 #include <vtkExecutive.h>
-#include <vtkCellData.h>
-#include <vtkDoubleArray.h>
 #include <vtkIdTypeArray.h>
 #include <vtkNew.h>
 #include <vtkPointData.h>
@@ -23,6 +19,9 @@
 #include <fstream>
 #include <stdexcept>
 #include <string>
+#include <vim/pipeline/atomic_file.hpp>
+#include <vim/pipeline/quadratic_cells.hpp>
+#include <vim/pipeline/vtk_output.hpp>
 
 namespace vim::pipeline {
 
@@ -51,11 +50,13 @@ UnstructuredGrid simplex_grid(const SimplexMesh<dim>& frame_mesh, const WorldTra
 }
 
 template <int dim>
-UnstructuredGrid quadratic_simplex_grid(const SimplexMesh<dim>& frame_mesh,
-                                        const WorldTransform<dim>& transform,
+UnstructuredGrid quadratic_simplex_grid(const UnstructuredGrid& linear,
                                         std::vector<std::array<int, 2>>* edges) {
-  UnstructuredGrid g = simplex_grid(frame_mesh, transform);
-  std::vector<std::array<int, dim + 1>> cells(frame_mesh.n_cells());
+  if (linear.vtk_cell_type != (dim == 3 ? 10 : 5) || linear.nodes_per_cell != dim + 1)
+    throw std::invalid_argument(
+        "quadratic_simplex_grid: the grid is not a linear simplex grid of the dimension");
+  UnstructuredGrid g = linear;
+  std::vector<std::array<int, dim + 1>> cells(linear.n_cells());
   for (std::size_t c = 0; c < cells.size(); ++c)
     for (int k = 0; k <= dim; ++k) cells[c][k] = static_cast<int>(g.connectivity[c * (dim + 1) + k]);
   const QuadraticCells<dim> q = quadratic_cells<dim>(cells, g.points.size());
@@ -77,11 +78,71 @@ std::array<std::array<int, 2>, 4> voxel_corner_order(bool mirrored) {
   return {{{{0, 0}}, {{1, 0}}, {{1, 1}}, {{0, 1}}}};
 }
 
+template <int dim>
+UnstructuredGrid voxel_grid(const Image<dim>& image, const WorldTransform<dim>& transform) {
+  UnstructuredGrid g;
+  g.vtk_cell_type = dim == 3 ? 12 : 9;
+  g.nodes_per_cell = 1 << dim;
+  std::array<long, dim> np{};
+  std::size_t n_points = 1;
+  for (int a = 0; a < dim; ++a) n_points *= static_cast<std::size_t>(np[a] = image.size[a] + 1);
+  g.points.reserve(n_points);
+  for (std::size_t k = 0; k < n_points; ++k) {
+    std::size_t r = k;
+    Eigen::Matrix<double, dim, 1> p;
+    for (int a = 0; a < dim; ++a) {
+      p[a] = image.origin[a] + (static_cast<double>(r % np[a]) - 0.5) * image.spacing[a];
+      r /= np[a];
+    }
+    const auto w = transform.to_world(p);
+    std::array<double, 3> q{};
+    for (int a = 0; a < dim; ++a) q[a] = w[a];
+    g.points.push_back(q);
+  }
+  const auto order2 = voxel_corner_order(transform.direction.determinant() < 0.0);
+  g.connectivity.reserve(image.voxel_count() * static_cast<std::size_t>(g.nodes_per_cell));
+  for (std::size_t k = 0; k < image.voxel_count(); ++k) {
+    const auto idx = image.index_of(k);
+    for (int z = 0; z < (dim == 3 ? 2 : 1); ++z)
+      for (const auto& c : order2) {
+        long id = 0, stride = 1;
+        for (int a = 0; a < dim; ++a) {
+          const long off = a == 0 ? c[0] : a == 1 ? c[1] : z;
+          id += (idx[a] + off) * stride;
+          stride *= np[a];
+        }
+        g.connectivity.push_back(id);
+      }
+  }
+  return g;
+}
+
+template UnstructuredGrid voxel_grid<2>(const Image<2>&, const WorldTransform<2>&);
+template UnstructuredGrid voxel_grid<3>(const Image<3>&, const WorldTransform<3>&);
+template <int dim>
+UnstructuredGrid simplex_grid(const SimplexMesh<dim>& world_mesh) {
+  UnstructuredGrid g;
+  g.vtk_cell_type = dim == 3 ? 10 : 5;
+  g.nodes_per_cell = dim + 1;
+  g.points.reserve(world_mesh.n_points());
+  for (const auto& p : world_mesh.points) {
+    std::array<double, 3> q{};
+    for (int a = 0; a < dim; ++a) q[a] = p[a];
+    g.points.push_back(q);
+  }
+  g.connectivity.reserve(world_mesh.n_cells() * (dim + 1));
+  for (const auto& c : world_mesh.cells)
+    for (int k = 0; k <= dim; ++k) g.connectivity.push_back(c[k]);
+  return g;
+}
+
+template UnstructuredGrid simplex_grid<2>(const SimplexMesh<2>&);
+template UnstructuredGrid simplex_grid<3>(const SimplexMesh<3>&);
 template UnstructuredGrid simplex_grid<2>(const SimplexMesh<2>&, const WorldTransform<2>&);
 template UnstructuredGrid simplex_grid<3>(const SimplexMesh<3>&, const WorldTransform<3>&);
-template UnstructuredGrid quadratic_simplex_grid<2>(const SimplexMesh<2>&, const WorldTransform<2>&,
+template UnstructuredGrid quadratic_simplex_grid<2>(const UnstructuredGrid&,
                                                     std::vector<std::array<int, 2>>*);
-template UnstructuredGrid quadratic_simplex_grid<3>(const SimplexMesh<3>&, const WorldTransform<3>&,
+template UnstructuredGrid quadratic_simplex_grid<3>(const UnstructuredGrid&,
                                                     std::vector<std::array<int, 2>>*);
 
 namespace {
@@ -115,7 +176,8 @@ void add_arrays(vtkDataSetAttributes* attributes, const FieldMap& fields, std::s
     a->SetNumberOfTuples(static_cast<vtkIdType>(n));
     for (std::size_t i = 0; i < n; ++i)
       for (int c = 0; c < out_components; ++c)
-        a->SetComponent(static_cast<vtkIdType>(i), c, c < f.components ? f.values[i * f.components + c] : 0.0);
+        a->SetComponent(static_cast<vtkIdType>(i), c,
+                        c < f.components ? f.values[i * f.components + c] : 0.0);
     attributes->AddArray(a);
   }
 }
@@ -174,8 +236,10 @@ void write_vtu(const fs::path& path, const UnstructuredGrid& grid) {
     vtkNew<vtkCallbackCommand> ignore;  // the pipeline's own "returned failure" report of the same error
     w->GetExecutive()->AddObserver(vtkCommand::ErrorEvent, ignore);
     const int ok = w->Write();
-    if (ok != 1 || w->GetErrorCode() != vtkErrorCode::NoError || !vtk_error.empty() || !ends_with_closing_tag(tmp)) {
-      std::string why = vtk_error.empty() ? vtkErrorCode::GetStringFromErrorCode(w->GetErrorCode()) : vtk_error;
+    if (ok != 1 || w->GetErrorCode() != vtkErrorCode::NoError || !vtk_error.empty() ||
+        !ends_with_closing_tag(tmp)) {
+      std::string why =
+          vtk_error.empty() ? vtkErrorCode::GetStringFromErrorCode(w->GetErrorCode()) : vtk_error;
       const auto nl = why.find_last_not_of(" \n");
       why.erase(nl == std::string::npos ? 0 : nl + 1);
       throw std::runtime_error("cannot write " + path.string() + (why.empty() ? "" : ": " + why) +
@@ -189,11 +253,20 @@ void write_pvd(const fs::path& path, const std::vector<std::pair<double, std::st
     std::string r;
     for (char c : s) {
       switch (c) {
-        case '&': r += "&amp;"; break;
-        case '<': r += "&lt;"; break;
-        case '>': r += "&gt;"; break;
-        case '"': r += "&quot;"; break;
-        default: r += c;
+        case '&':
+          r += "&amp;";
+          break;
+        case '<':
+          r += "&lt;";
+          break;
+        case '>':
+          r += "&gt;";
+          break;
+        case '"':
+          r += "&quot;";
+          break;
+        default:
+          r += c;
       }
     }
     return r;
@@ -203,7 +276,8 @@ void write_pvd(const fs::path& path, const std::vector<std::pair<double, std::st
         << "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
         << "  <Collection>\n";
     for (const auto& [t, file] : entries)
-      out << "    <DataSet timestep=\"" << t << "\" group=\"\" part=\"0\" file=\"" << escape(file) << "\"/>\n";
+      out << "    <DataSet timestep=\"" << t << "\" group=\"\" part=\"0\" file=\"" << escape(file)
+          << "\"/>\n";
     out << "  </Collection>\n</VTKFile>\n";
   });
 }

@@ -1,4 +1,4 @@
-// Bad --simulate scenarios through the real CLI (issue 6): exit code 1, one `vim-pipeline: error:`
+// Bad --simulate scenarios through the real CLI: exit code 1, one `vim-pipeline: error:`
 // line naming the key/value, and nothing left in --out. The unmodified base scenario must succeed,
 // so every failure below is caused by its one change.
 #include <vim/pipeline/image_io.hpp>

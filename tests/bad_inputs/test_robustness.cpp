@@ -1,4 +1,4 @@
-// Robustness of the real CLI (issue 10): a non-empty --out is refused unless --overwrite, option
+// Robustness of the real CLI: a non-empty --out is refused unless --overwrite, option
 // values out of range are usage errors naming the option, hand-written broken MetaImage files fail
 // with one line naming the file, and SIGKILL during a run never leaves an incomplete file under a
 // final name (every file is written to a hidden temporary name and renamed, atomic_file.hpp).

@@ -1,4 +1,4 @@
-// Determinism of the parallel node updates (paper §IV-B, DESIGN.md §3): nodes of one colour class
+// Determinism of the parallel node updates (paper §IV-B): nodes of one colour class
 // share no element, so results are bit-identical for 1 and 2 threads, for both strategies, and for
 // repeated runs with the same seed.
 #include "optimizer_test_util.hpp"

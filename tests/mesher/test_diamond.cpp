@@ -2,14 +2,14 @@
 // diamond-shaped feature. For λ = 0.8 the node moves from the centre out to a corner of the diamond
 // and to the minimiser of E found by a brute-force scan of node positions (which lies on the ray
 // through the corner, ≈0.06 beyond it: the three large triangles' variance keeps falling until the
-// geometric term stops it); for λ ≈ 0 it stays at the centre.
-#include "optimizer_test_util.hpp"
-
-#include <vim/vim.hpp>
-
+// geometric term stops it); for λ ≈ 0 a node started off the centre comes back to the scanned minimiser
+// at the centre.
 #include <gtest/gtest.h>
 
 #include <limits>
+#include <vim/vim.hpp>
+
+#include "optimizer_test_util.hpp"
 
 namespace vim {
 namespace {
@@ -30,7 +30,9 @@ SimplexMesh<2> four_triangles(const Eigen::Vector2d& centre) {
 }
 
 // Offset of p from the nearest ray centre → diamond corner (the lines x = 0.5, y = 0.5).
-double off_corner_rays(const Eigen::Vector2d& p) { return std::min(std::abs(p[0] - 0.5), std::abs(p[1] - 0.5)); }
+double off_corner_rays(const Eigen::Vector2d& p) {
+  return std::min(std::abs(p[0] - 0.5), std::abs(p[1] - 0.5));
+}
 double from_centre(const Eigen::Vector2d& p) { return (p - Eigen::Vector2d(0.5, 0.5)).norm(); }
 
 VimResult<2> run(double lambda) {
@@ -69,10 +71,33 @@ TEST(Diamond, LargeLambdaMovesCentreNodeToADiamondCorner) {
   EXPECT_LE(found, best + 0.02) << "the optimiser stopped far above the scanned minimum";
 }
 
-TEST(Diamond, SmallLambdaKeepsCentreNodeCentral) {
-  const auto r = run(0.01);
+// Started off the optimum, at (0.62, 0.41): the optimiser must bring the node to the minimiser of a
+// brute-force scan of E over node positions (step 0.005, half a voxel), which for λ ≈ 0 lies at the
+// centre (the ODT optimum of four triangles on a square; the diamond is symmetric about it).
+TEST(Diamond, SmallLambdaBringsAnOffCentreNodeToTheScannedOptimum) {
+  const double lambda = 0.01;
+  const Eigen::Vector2d start(0.62, 0.41);
+  VimOptions o;
+  o.lambda = lambda;
+  o.swaps = false;
+  o.max_iterations = 20;
+  const auto img = diamond_image();
+  const auto r = optimize<2>(img, four_triangles(start), o);
   const Eigen::Vector2d p = r.mesh.points[4];
-  EXPECT_LT((p - Eigen::Vector2d(0.5, 0.5)).norm(), 0.01) << p.transpose();
+
+  const auto e0 = testing::brute_force_energy(img, four_triangles(start));  // E_G0, E_D0 of the start
+  double best = std::numeric_limits<double>::infinity();
+  Eigen::Vector2d arg = start;
+  for (int i = 0; i <= 40; ++i)
+    for (int j = 0; j <= 40; ++j) {
+      const Eigen::Vector2d q(0.4 + 0.005 * i, 0.4 + 0.005 * j);
+      const double e = testing::brute_force_energy(img, four_triangles(q)).combined(e0.eg, e0.ed, lambda);
+      if (e < best) best = e, arg = q;
+    }
+  EXPECT_LT((arg - Eigen::Vector2d(0.5, 0.5)).norm(), 0.011) << "scan minimiser " << arg.transpose();
+  EXPECT_LT((p - arg).norm(), 0.011) << p.transpose() << " vs scan minimiser " << arg.transpose();
+  const double found = testing::brute_force_energy(img, r.mesh).combined(e0.eg, e0.ed, lambda);
+  EXPECT_LE(found, best + 1e-3 * best) << "the optimiser stopped above the scanned minimum";
 }
 
 }  // namespace

@@ -1,8 +1,9 @@
-// Tests of the VIM optimiser (paper §IV, DESIGN.md §3): E (Eq. 7) never increases, the quality
+// Tests of the VIM optimiser (paper §IV): E (Eq. 7) never increases, the quality
 // bound holds and no element inverts after every iteration, corners stay fixed and boundary nodes
 // on their face/edge, the caches equal a fresh evaluation, the final E equals a brute-force
 // per-voxel recomputation, E_D drops on the two-circle phantom, random walk, insertion, sizing
 // (§VI-E) and the documented errors.
+#include "optimizer_access.hpp"
 #include "optimizer_test_util.hpp"
 
 #include <vim/initial_mesh.hpp>
@@ -75,7 +76,7 @@ void check_invariants(const Image<dim>& img, int nodes, double lambda, int itera
   };
   for (int it = 1; it <= iterations; ++it) {
     // Colour classes: no two nodes of a class share a cell.
-    for (const auto& cls : opt.colour_classes()) {
+    for (const auto& cls : OptimizerTestAccess<dim>::colour_classes(opt)) {
       std::set<int> members(cls.begin(), cls.end());
       for (int v : cls)
         for (int c : opt.adjacency().cells_of(v))
@@ -428,7 +429,7 @@ void check_odt_step(unsigned seed) {
   VimOptimizer<dim> opt(mesh, nullptr, nullptr, VimOptions{});
   int interior = 0, face = 0;
   for (int node = 0; node < static_cast<int>(mesh.points.size()); ++node) {
-    const std::uint8_t mask = opt.fixed_axes(node);
+    const std::uint8_t mask = OptimizerTestAccess<dim>::fixed_axes(opt, node);
     if (mask == (1u << dim) - 1) continue;
     const bool on_face = mask != 0;
     if (on_face && face >= 4) continue;
@@ -487,7 +488,7 @@ void check_odt_step(unsigned seed) {
       feasible = feasible && opt.acceptable(sx);
     }
     if (!feasible) continue;  // the quality bound would stop the step short of the minimum
-    ASSERT_TRUE(opt.update_node(node, 1)) << "node " << node;
+    ASSERT_TRUE(OptimizerTestAccess<dim>::update_node(opt, node, 1)) << "node " << node;
     const P got = opt.mesh().points[node];
     EXPECT_LT((got - want).norm(), 1e-7) << "node " << node << (on_face ? " (face)" : " (interior)") << " mask " << int(mask)
         << " x0 " << x0.transpose() << " got " << got.transpose() << " want " << want.transpose() << " E " << ring_energy(got) << " vs " << ring_energy(want);

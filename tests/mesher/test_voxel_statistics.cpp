@@ -1,4 +1,4 @@
-// Tests of VoxelStatistics (voxel enclosure by rows + prefix sums, DESIGN.md §3, paper Eq. 4–6):
+// Tests of VoxelStatistics (voxel enclosure by rows + prefix sums, paper Eq. 4–6):
 // partition of the voxel centres on tie-heavy grid-aligned and perturbed meshes, and agreement with
 // an independent per-voxel barycentric enumeration on random simplices, images and spacings.
 #include "primitives_test_util.hpp"

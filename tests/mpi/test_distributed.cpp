@@ -3,6 +3,7 @@
 // also runs: simplex (P1, P2, 2D) and voxel models (3D, 2D).
 #include "../fem/box_mesh.hpp"
 
+#include <vim/fem/distributed.hpp>
 #include <vim/fem/elasticity.hpp>
 
 #include <deal.II/base/mpi.h>
@@ -42,7 +43,7 @@ void compare(ElasticModel<dim>& model) {
   const auto ref = model.solve({}, direct);
   SolverOptions amg;
   amg.tolerance = 1e-13;
-  const auto sol = model.solve_distributed(MPI_COMM_WORLD, amg);
+  const auto sol = solve_distributed(model, MPI_COMM_WORLD, amg);
   EXPECT_EQ(sol.stats.method, "cg+amg (mpi, " + std::to_string(ranks) + " ranks)");
   double d = 0, s = 0;
   for (std::size_t i = 0; i < ref.vertex_displacement.size(); ++i)
@@ -140,5 +141,5 @@ TEST(Distributed, VoxelModel2DOddSizes) {
 TEST(Distributed, SingularThrowsOnEveryRank) {
   const auto mesh = test::kuhn_box<3>({{3, 3, 3}}, {{0, 0, 0}}, {{1, 1, 1}});
   ElasticModel<3> model(mesh, std::vector<double>(mesh.n_cells(), 1.0), 0.3, 1);
-  EXPECT_THROW(model.solve_distributed(MPI_COMM_WORLD), std::runtime_error);
+  EXPECT_THROW(solve_distributed(model, MPI_COMM_WORLD), std::runtime_error);
 }

@@ -1,11 +1,15 @@
 // Figures (figures.hpp, png.hpp): the PNGs exist with the expected size, are not blank, and the
 // drawn element outlines pass through the mesh's actual intersection with the slice plane (crossing
-// points computed here from the tetrahedra, pixel mapping recomputed from the image box).
+// points computed here from the tetrahedra, pixel mapping recomputed from the image box). Lines are
+// anti-aliased: a pixel a line crosses carries the line's colour in proportion to the share of the
+// pixel the line covers, and that share is what the outline checks measure (the files are decoded by
+// ITK's PNG reader, not by the encoder).
 #include <vim/initial_mesh.hpp>
 #include <vim/pipeline/figures.hpp>
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -36,13 +40,49 @@ double pixel_variance(const Canvas& c) {
   return s2 / n - (s / n) * (s / n);
 }
 
-bool near_colour(const Canvas& c, double x, double y, Rgb colour, int radius) {
+// Some pixel within `radius` of (x, y) has `colour`, each channel within `tolerance` of it.
+bool near_colour(const Canvas& c, double x, double y, Rgb colour, int radius, int tolerance = 0) {
   for (int dy = -radius; dy <= radius; ++dy)
     for (int dx = -radius; dx <= radius; ++dx) {
       const int px = static_cast<int>(std::floor(x)) + dx, py = static_cast<int>(std::floor(y)) + dy;
-      if (c.inside(px, py) && c.at(px, py) == colour) return true;
+      if (!c.inside(px, py)) continue;
+      const Rgb p = c.at(px, py);
+      if (std::abs(p.r - colour.r) <= tolerance && std::abs(p.g - colour.g) <= tolerance &&
+          std::abs(p.b - colour.b) <= tolerance)
+        return true;
     }
   return false;
+}
+
+// Share of the red outline colour in a pixel drawn over the grey image (r = g = b underneath):
+// a·(255, 0, 0) + (1 − a)·(v, v, v) has r − g = 255·a.
+double red_share(Rgb p) { return (p.r - std::max(p.g, p.b)) / 255.0; }
+
+// Share of black ink in pixel (x, y): (1 − a)·background with the background taken as the brightest
+// pixel within 3 pixels (the fill colours around an outline; never darker than what lies under it).
+double black_share(const Canvas& c, int x, int y) {
+  int bright = 1;
+  for (int dy = -3; dy <= 3; ++dy)
+    for (int dx = -3; dx <= 3; ++dx)
+      if (c.inside(x + dx, y + dy)) {
+        const Rgb q = c.at(x + dx, y + dy);
+        bright = std::max({bright, int{q.r}, int{q.g}, int{q.b}});
+      }
+  const Rgb p = c.at(x, y);
+  return 1.0 - std::max({p.r, p.g, p.b}) / static_cast<double>(bright);
+}
+
+// A line passes through the pixel that holds (x, y): that pixel carries some of its colour (at least
+// the share of a disc of half the line width around a point on it), and a pixel next to it at least
+// half (the pixel whose centre lies nearest the line).
+template <class Share>
+void expect_line_through(double x, double y, Share share, const std::string& what) {
+  const int px = static_cast<int>(std::floor(x)), py = static_cast<int>(std::floor(y));
+  double best = 0.0;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) best = std::max(best, share(px + dx, py + dy));
+  EXPECT_GT(share(px, py), 0.1) << what << " at pixel " << px << "," << py;
+  EXPECT_GE(best, 0.5) << what << " near pixel " << px << "," << py;
 }
 
 template <int dim>
@@ -94,7 +134,22 @@ TEST(Canvas, PrimitivesAndPngRoundTrip) {
   EXPECT_EQ(c.at(12, 7), colors::white);  // pixel centre 12.5 is outside
   EXPECT_EQ(c.at(1, 5), colors::white);
   c.line(0.2, 15.7, 29.9, 15.1, colors::black);
-  for (int x = 0; x < 30; ++x) EXPECT_EQ(c.at(x, 15), colors::black) << x;
+  // Anti-aliased: each pixel of a column takes black in proportion to the share of it inside the band
+  // of width 1 around the line (its slope is 0.02, so the band is 1.0002 pixels high): coverage
+  // computed here per row from the line's height at the column's centre; Cairo's sampled coverage
+  // is within 16/255 of it. Rows 13 and 17 stay white.
+  long partial = 0;
+  for (int x = 1; x < 29; ++x) {
+    const double yc = 15.7 + (15.1 - 15.7) * ((x + 0.5) - 0.2) / (29.9 - 0.2);
+    for (int y = 14; y <= 16; ++y) {
+      const double cover = std::clamp(std::min(yc + 0.5, y + 1.0) - std::max(yc - 0.5, double(y)), 0.0, 1.0);
+      EXPECT_NEAR(c.at(x, y).r, 255.0 * (1.0 - cover), 16.0) << x << "," << y;
+      partial += c.at(x, y).r > 0 && c.at(x, y).r < 255;
+    }
+    EXPECT_EQ(c.at(x, 13), colors::white) << x;
+    EXPECT_EQ(c.at(x, 17), colors::white) << x;
+  }
+  EXPECT_GT(partial, 28);  // every column has a partly covered pixel
   c.write_png(dir / "c.png");
   const Canvas r = Canvas::read_png(dir / "c.png");
   ASSERT_EQ(r.width(), 30);
@@ -213,19 +268,19 @@ TEST(Figures, ThreeSlicesShowImageAndMeshCrossSection) {
       Eigen::Vector3d centre = Eigen::Vector3d::Zero();
       for (const auto& p : pts) {
         const Eigen::Vector2d q = left_px(p);
-        EXPECT_EQ(c.at(static_cast<int>(std::floor(q.x())), static_cast<int>(std::floor(q.y()))), colors::outline)
-            << names[axis] << " cell " << cell;
-        EXPECT_EQ(c.at(static_cast<int>(std::floor(q.x())) + right_x0 - 12, static_cast<int>(std::floor(q.y()))),
-                  colors::black)
-            << names[axis] << " cell " << cell;
+        const std::string what = std::string(names[axis]) + " cell " + std::to_string(cell);
+        expect_line_through(q.x(), q.y(), [&](int x, int y) { return red_share(c.at(x, y)); }, what);
+        expect_line_through(q.x() + right_x0 - 12, q.y(), [&](int x, int y) { return black_share(c, x, y); }, what);
         centre += p / static_cast<double>(pts.size());
         ++checked;
       }
       // Inside the section (away from outlines) the right panel shows the element mean.
+      // (A thin section's centre may lie on its outline: then the pixel is darkened by the black line.)
       const Eigen::Vector2d q = left_px(centre);
-      const Rgb inside = c.at(static_cast<int>(std::floor(q.x())) + right_x0 - 12, static_cast<int>(std::floor(q.y())));
+      const int qx = static_cast<int>(std::floor(q.x())) + right_x0 - 12, qy = static_cast<int>(std::floor(q.y()));
+      const Rgb inside = c.at(qx, qy);
       const Rgb expected = viridis((model.values[cell].mean - lo) / (hi - lo));
-      EXPECT_TRUE(inside == expected || inside == colors::black);
+      EXPECT_TRUE(inside == expected || black_share(c, qx, qy) > 0.1);
       mean_coloured += inside == expected;
     }
     EXPECT_EQ(info["slices"][axis]["cut_elements"].get<long>(), cut);
@@ -236,7 +291,7 @@ TEST(Figures, ThreeSlicesShowImageAndMeshCrossSection) {
     for (int py = 0; py < h; py += 7)
       for (int px = 0; px < w; px += 7) {
         const Rgb got = c.at(12 + px, 12 + py);
-        if (got == colors::outline) continue;
+        if (red_share(got) > 0.0) continue;  // an outline crosses the pixel
         std::array<long, 3> i = {{7, 4, 5}};
         i[u] = std::lround((bmin[u] + (px + 0.5) / scale - im.image.origin[u]) / im.image.spacing[u]);
         i[v] = std::lround((bmin[v] + (py + 0.5) / scale - im.image.origin[v]) / im.image.spacing[v]);
@@ -290,14 +345,15 @@ TEST(Figures, TwoDimensionalOverlayAndDiscretizedImage) {
   const double lo = 0.0, hi = 23 + 2 * 17;
   long red = 0;
   for (int y = 12; y < 12 + h; ++y)
-    for (int x = 12; x < 12 + w; ++x) red += overlay.at(x, y) == colors::outline;
+    for (int x = 12; x < 12 + w; ++x) red += red_share(overlay.at(x, y)) > 0.0;
   EXPECT_LT(red, static_cast<long>(w) * h / 5);  // outlines, not a red blob
   for (std::size_t cell = 0; cell < model.mesh.n_cells(); ++cell) {
     const auto x = cell_points(model.mesh, cell);
     for (int k = 0; k < 3; ++k) {
       const Eigen::Vector2d a = px(x[k]), b = px(x[(k + 1) % 3]);
-      EXPECT_EQ(overlay.at(static_cast<int>(std::floor(a.x())), static_cast<int>(std::floor(a.y()))), colors::outline);
-      EXPECT_TRUE(near_colour(overlay, 0.5 * (a.x() + b.x()), 0.5 * (a.y() + b.y()), colors::outline, 1));
+      auto red = [&](int x, int y) { return red_share(overlay.at(x, y)); };
+      expect_line_through(a.x(), a.y(), red, "vertex of cell " + std::to_string(cell));
+      expect_line_through(0.5 * (a.x() + b.x()), 0.5 * (a.y() + b.y()), red, "edge of cell " + std::to_string(cell));
     }
     const Eigen::Vector2d m = px(centroid<2>(x));
     EXPECT_EQ(disc.at(static_cast<int>(std::floor(m.x())), static_cast<int>(std::floor(m.y()))),
@@ -327,12 +383,14 @@ TEST(Figures, EnergyPlotIsNormalisedToTheFirstIteration) {
   EXPECT_LT(yr[1] - yr[0], 2.0);  // normalised, not absolute (E_G would reach 10)
   auto px = [&](double x) { return area[0] + (x - xr[0]) / (xr[1] - xr[0]) * (area[2] - area[0]); };
   auto py = [&](double y) { return area[3] - (y - yr[0]) / (yr[1] - yr[0]) * (area[3] - area[1]); };
+  // The curves are 2-pixel anti-aliased lines: a pixel near each point is (almost) wholly covered,
+  // within 48 of the series colour in each channel (the series colours differ by more than 100).
   for (int k = 1; k < 4; ++k) {
-    EXPECT_TRUE(near_colour(c, px(k), py(e[k] / e[0]), series_color(0), 2)) << k;
-    EXPECT_TRUE(near_colour(c, px(k), py(g[k] / g[0]), series_color(1), 2)) << k;
-    EXPECT_TRUE(near_colour(c, px(k), py(d[k] / d[0]), series_color(2), 2)) << k;
+    EXPECT_TRUE(near_colour(c, px(k), py(e[k] / e[0]), series_color(0), 2, 48)) << k;
+    EXPECT_TRUE(near_colour(c, px(k), py(g[k] / g[0]), series_color(1), 2, 48)) << k;
+    EXPECT_TRUE(near_colour(c, px(k), py(d[k] / d[0]), series_color(2), 2, 48)) << k;
   }
-  EXPECT_FALSE(near_colour(c, px(3), py(0.95), series_color(2), 2));  // no E_D curve up there at the end
+  EXPECT_FALSE(near_colour(c, px(3), py(0.95), series_color(2), 2, 48));  // no E_D curve up there at the end
 }
 
 TEST(Figures, LinePlotSkipsNonFiniteValues) {
@@ -401,9 +459,8 @@ TEST(Figures, DeformedSliceFollowsTheDisplacement) {
     auto x = cell_points(model.mesh, cell);
     for (auto& p : x) p += shift;
     for (const auto& p : crossings(x, 2, slice[2])) {
-      const int px = static_cast<int>(std::floor(12 + (p[0] - lo[0] + pad) * scale));
-      const int py = static_cast<int>(std::floor(12 + (p[1] - lo[1] + pad) * scale));
-      EXPECT_EQ(c.at(px, py), colors::black);
+      const double px = 12 + (p[0] - lo[0] + pad) * scale, py = 12 + (p[1] - lo[1] + pad) * scale;
+      expect_line_through(px, py, [&](int x, int y) { return black_share(c, x, y); }, "cell " + std::to_string(cell));
       ++checked;
     }
   }

@@ -1,5 +1,5 @@
-// Scenario parsing and validation (scenario.hpp): every key of issue 6 is read with its value, and
-// every malformed input gives a ScenarioError that names the key, the value and the YAML line.
+// Scenario parsing and validation (scenario.hpp): every key of the scenario format is read with its
+// value, and every malformed input gives a ScenarioError that names the key, the value and the YAML line.
 #include <vim/pipeline/scenario.hpp>
 
 #include <gtest/gtest.h>

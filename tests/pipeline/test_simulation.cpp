@@ -1,7 +1,9 @@
 // Needle-insertion simulation (simulation.hpp) against independent truths: symmetry of the mesh
-// and the load about the needle axis, linearity in the modulus, the monolithic constrained solve,
-// the friction limit, the prescribed force sums, invariance under the image's direction matrix, and
-// the files it writes.
+// and the load about the needle axis, linearity in the modulus, the friction limit, invariance under
+// the image's direction matrix, and the files it writes (reference solutions:
+// test_simulation_references.cpp).
+#include "simulation_test_util.hpp"
+
 #include <vim/initial_mesh.hpp>
 #include <vim/pipeline/simulation.hpp>
 
@@ -25,87 +27,10 @@
 using namespace vim;
 using namespace vim::pipeline;
 namespace fs = std::filesystem;
+using namespace vim::pipeline::simulation_test;
 
 namespace {
 using V3 = Eigen::Vector3d;
-
-// A block meshed with the Kuhn grid (frame coordinates), element means from E(centroid).
-MeshModel<3> block(const V3& lo, const V3& hi, const std::array<int, 3>& n, const std::function<double(const V3&)>& E) {
-  MeshModel<3> m;
-  m.mesh = regular_grid_mesh<3>(lo, hi, n);
-  for (std::size_t c = 0; c < m.mesh.n_cells(); ++c) {
-    ElementValue v;
-    v.voxels = 1;
-    v.mean = E(centroid<3>(cell_points(m.mesh, c)));
-    m.values.push_back(v);
-  }
-  return m;
-}
-
-// Block [-6,6]x[-6,6]x[0,24] with 7x7x13 nodes, needle along +z on the axis x = y = 0: the Kuhn
-// grid of the quadrant [0,6]x[0,6]x[0,24] mirrored into the four quadrants, so that the mesh (and
-// the problem) is exactly symmetric under x -> -x, y -> -y and x <-> y.
-MeshModel<3> axis_block(double E = 10.0) {
-  const SimplexMesh<3> q = regular_grid_mesh<3>(V3(0, 0, 0), V3(6, 6, 24), {{4, 4, 13}});
-  MeshModel<3> m;
-  std::map<std::tuple<long, long, long>, int> ids;
-  auto id = [&](const V3& p) {
-    const auto key = std::make_tuple(std::lround(p[0] * 1e6), std::lround(p[1] * 1e6), std::lround(p[2] * 1e6));
-    const auto it = ids.find(key);
-    if (it != ids.end()) return it->second;
-    m.mesh.points.push_back(p);
-    return ids[key] = static_cast<int>(m.mesh.points.size() - 1);
-  };
-  for (const double sx : {1.0, -1.0})
-    for (const double sy : {1.0, -1.0})
-      for (const auto& c : q.cells) {
-        SimplexMesh<3>::Cell cell;
-        for (int k = 0; k < 4; ++k) cell[k] = id(V3(sx * q.points[c[k]][0], sy * q.points[c[k]][1], q.points[c[k]][2]));
-        m.mesh.cells.push_back(cell);
-      }
-  orient_positively(m.mesh);
-  m.values.assign(m.mesh.n_cells(), ElementValue{1, E, 0.0});
-  return m;
-}
-
-std::string yaml(const std::string& needle, const std::string& targets = "[]", const std::string& material = "{}",
-                 const std::string& bcs = "[{type: fixed, region: {box_face: z_max}}]") {
-  return "material: " + material + "\nboundary_conditions: " + bcs + "\nneedle: " + needle + "\ntargets: " + targets + "\n";
-}
-
-const std::string kStick = "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1}";
-
-SimulationOptions quiet() {
-  SimulationOptions o;
-  o.progress = false;
-  return o;
-}
-
-// quiet(), writing the output files below `dir` (emptied first).
-SimulationOptions writing_into(const fs::path& dir) {
-  fs::remove_all(dir);
-  SimulationOptions o = quiet();
-  o.output_file = [dir](const std::string& rel) {
-    const fs::path p = dir / rel;
-    fs::create_directories(p.parent_path());
-    return p;
-  };
-  return o;
-}
-
-std::map<std::tuple<long, long, long>, std::size_t> vertex_index(const std::vector<V3>& pts) {
-  std::map<std::tuple<long, long, long>, std::size_t> m;
-  for (std::size_t i = 0; i < pts.size(); ++i)
-    m[{std::lround(pts[i][0] * 1000), std::lround(pts[i][1] * 1000), std::lround(pts[i][2] * 1000)}] = i;
-  return m;
-}
-
-double max_norm(const std::vector<V3>& u) {
-  double m = 0.0;
-  for (const auto& x : u) m = std::max(m, x.norm());
-  return m;
-}
-
 }  // namespace
 
 TEST(Simulation, StickFieldIsSymmetricAboutTheNeedleAxis) {
@@ -190,30 +115,6 @@ TEST(Simulation, DoublingTheModulusDoublesTheForceNotTheDisplacement) {
   }
 }
 
-TEST(Simulation, FastPathMatchesMonolithicSolveAtEveryStep) {
-  // Stick-slip too, so that the condensed path is exercised with changing constraint values.
-  for (const std::string friction : {"", ", friction: {model: stick-slip, max_shear_per_length: 3}"}) {
-    const std::string needle = "{entry: [0.5, -0.3, 0], direction: [0.1, 0.05, 1], depth: 12, steps: 5, diameter: 1" + friction + "}";
-    const Scenario sc = parse_scenario_text(yaml(needle, "[{name: t, position: [1, 1, 18]}]"), 3);
-    auto o = quiet();
-    o.keep_step_fields = true;
-    const auto fast = run_simulation<3>(axis_block(), sc, o);
-    o.monolithic = true;
-    const auto mono = run_simulation<3>(axis_block(), sc, o);
-    const auto &f = fast.needles[0], &m = mono.needles[0];
-    ASSERT_EQ(f.vertex_displacement.size(), m.vertex_displacement.size());
-    for (std::size_t k = 1; k < f.vertex_displacement.size(); ++k) {
-      const double scale = max_norm(m.vertex_displacement[k]);
-      ASSERT_GT(scale, 0.0);
-      double d = 0.0;
-      for (std::size_t v = 0; v < f.vertex_displacement[k].size(); ++v)
-        d = std::max(d, (f.vertex_displacement[k][v] - m.vertex_displacement[k][v]).norm());
-      EXPECT_LT(d / scale, 1e-8) << "step " << k << friction;
-      EXPECT_NEAR(f.axial_force[k], m.axial_force[k], 1e-8 * std::abs(m.axial_force[k])) << "step " << k;
-    }
-  }
-}
-
 TEST(Simulation, StickSlipLoadsStayWithinTheFrictionLimit) {
   const double limit = 2.0;  // per unit length
   const std::string needle =
@@ -279,26 +180,6 @@ TEST(Simulation, UnsettledStickSlipStepsAreReported) {
   EXPECT_NE(cut.warnings[0].find("active set still changed after 1 sweep;"), std::string::npos) << cut.warnings[0];
   EXPECT_EQ(cut.report["warnings"].size(), 1u);
   EXPECT_EQ(cut.report["needles"][0]["unsettled_steps"].size(), c.unsettled_steps.size());
-}
-
-TEST(Simulation, ForceModelAppliesTheGivenForcesTipPushesAheadNotBehind) {
-  // Entry inside the block; tip force only. Targets on the axis 4 ahead of the tip and 4 behind the entry.
-  const std::string needle =
-      "{entry: [0, 0, 8], direction: [0, 0, 1], depth: 6, steps: 3, diameter: 1, model: force, tip_force: 5, "
-      "friction_per_length: 0.1}";
-  const Scenario sc = parse_scenario_text(
-      yaml(needle, "[{name: ahead, position: [0, 0, 18]}, {name: behind, position: [0, 0, 4]}]", "{poisson_ratio: 0.3}",
-           "[{type: fixed, region: {box_face: z_max}}, {type: fixed, region: {box_face: z_min}}]"),
-      3);
-  const auto res = run_simulation<3>(axis_block(), sc, quiet());
-  const auto& r = res.needles[0];
-  for (std::size_t k = 1; k < r.depth.size(); ++k) {
-    // Σ axial point forces = tip force + friction per length × depth (the carried lengths sum to the depth).
-    EXPECT_NEAR(r.axial_force[k], 5.0 + 0.1 * r.depth[k], 1e-6 * 5.0) << "step " << k;
-  }
-  const V3 ahead = r.target_displacement.back()[0], behind = r.target_displacement.back()[1];
-  EXPECT_GT(ahead[2], 0.0);
-  EXPECT_LT(behind.norm(), 0.5 * ahead.norm());
 }
 
 TEST(Simulation, StiffLesionMovesLessThanTheSamePointInSoftTissue) {
@@ -451,16 +332,6 @@ TEST(Simulation, CuttingDistanceLeavesTheShaftTissueThatFarBehindTheTip) {
       EXPECT_EQ(r.point_axial_force.back()[j], 0.0) << "s = " << r.point_s[j];
     }
   }
-}
-
-TEST(Simulation, VoxelModelAgreesWithTheGridMeshInSign) {
-  Image<3> img({{6, 6, 12}}, {{2, 2, 2}}, {{-5, -5, 1}}, 10.0f);  // box [-6,6]^2 x [0,24]
-  const Scenario sc = parse_scenario_text(yaml(kStick, "[{name: ahead, position: [0, 0, 16]}]"), 3);
-  auto sim = NeedleSimulation<3>::voxel(img, WorldTransform<3>{}, sc, quiet());
-  const auto r = sim.run().needles[0];
-  EXPECT_GT(r.axial_force.back(), 0.0);
-  EXPECT_GT(r.target_displacement.back()[0][2], 0.0);
-  EXPECT_EQ(sim.youngs_modulus().size(), 432u);
 }
 
 TEST(Simulation, TwoDimensionalNeedle) {

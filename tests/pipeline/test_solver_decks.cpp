@@ -163,7 +163,7 @@ void expect_calculix_agrees(unsigned degree, const std::array<int, dim>& nodes) 
   eo.degree = degree;
   nlohmann::json report;
   write_exports<dim>(m, dir, {"inp"}, report, eo);
-  const SolverDeck<dim> deck = solver_deck(m, m.youngs_modulus, sc.poisson_ratio, degree, &sc);
+  const SolverDeck<dim> deck = solver_deck(m, world_mesh(m), m.youngs_modulus, sc.poisson_ratio, degree, &sc);
   const OurSolution<dim> ours = our_solution(sim, m, deck);
   ASSERT_GT(ours.largest, 1e-3);
   const auto theirs = run_calculix(dir);

@@ -1,4 +1,4 @@
-// Deformation validation (issue 8), CI-sized: a 2D two-inclusion phantom (inclusions 10× stiffer)
+// Deformation validation, CI-sized: a 2D two-inclusion phantom (inclusions 10× stiffer)
 // under uniaxial compression. The VIM model and the regular-grid model with the same node count
 // (element modulus = element mean, Eq. 15) are compared with the fine voxel reference (one Q1 cell
 // per voxel): VIM's relative L2 displacement error must be below the grid's at every node count,

@@ -1,4 +1,4 @@
-// Prostate phantom (issue 8), CI-sized: the 2 mm image (30×25×25 voxels), the material of
+// Prostate phantom, CI-sized: the 2 mm image (30×25×25 voxels), the material of
 // examples/prostate_needle.yaml (Eq. 15 moduli with its scale and clamp, ν = 0.45, λ = 0.3) and a
 // compression load (x_max face clamped, x_min face pushed 5% of the length along +x). The VIM model
 // and the regular grid it starts from (same nodes) are compared with the fine voxel reference (one

@@ -1,4 +1,4 @@
-// Paper Table I (issue 8), CI-sized: the 125-node row on the sphere phantom. VIM must reach at most
+// Paper Table I, CI-sized: the 125-node row on the sphere phantom. VIM must reach at most
 // the paper's TF% (5.52%), beat the regular grid it starts from, and keep the 150° dihedral bound.
 // Metrics come from bench/metrics.hpp, which recomputes voxel enclosure independently of the mesher.
 #include "../../bench/metrics.hpp"

@@ -3,12 +3,10 @@
 // normalised combination E = (1−λ)·E_G/E_G0 + λ·E_D/E_D0 of Eq. 7 / §IV-C.
 #pragma once
 
-#include <vim/simplex_mesh.hpp>
-
 #include <Eigen/Core>
-
 #include <array>
 #include <cmath>
+#include <vim/simplex_mesh.hpp>
 
 namespace vim {
 
@@ -25,7 +23,8 @@ double squared_edge_sum(const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>
 // E_G from a signed volume the caller already has (the optimiser's inner loop): bit-identical to
 // geometric_energy(x) when volume == signed_volume(x).
 template <int dim>
-double geometric_energy_of_volume(const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>& x, double volume) {
+double geometric_energy_of_volume(const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>& x,
+                                  double volume) {
   return std::abs(volume) * squared_edge_sum<dim>(x) / static_cast<double>((dim + 1) * (dim + 2));
 }
 

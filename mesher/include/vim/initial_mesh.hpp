@@ -3,13 +3,11 @@
 // diagonal; max dihedral 90° on cubes), node counts from a node budget or a spacing.
 #pragma once
 
-#include <vim/simplex_mesh.hpp>
-
 #include <Eigen/Core>
-
 #include <array>
 #include <cstdint>
 #include <vector>
+#include <vim/simplex_mesh.hpp>
 
 namespace vim {
 
@@ -17,7 +15,8 @@ namespace vim {
 // 5×5×5); each axis ≥ 2. Throws std::invalid_argument if node_budget < 2^dim or the box is empty.
 template <int dim>
 std::array<int, dim> nodes_per_axis_for_budget(const Eigen::Matrix<double, dim, 1>& box_min,
-                                               const Eigen::Matrix<double, dim, 1>& box_max, long node_budget);
+                                               const Eigen::Matrix<double, dim, 1>& box_max,
+                                               long node_budget);
 
 // Nodes per axis for cells of edge ≈ spacing (rounded; each axis ≥ 2). Throws if spacing <= 0.
 template <int dim>
@@ -33,7 +32,8 @@ SimplexMesh<dim> regular_grid_mesh(const Eigen::Matrix<double, dim, 1>& box_min,
 
 // Per node: the number of box faces it lies on within tol (0 interior, 1 face, ..., dim corner).
 template <int dim>
-std::vector<std::uint8_t> boundary_kind(const SimplexMesh<dim>& mesh, const Eigen::Matrix<double, dim, 1>& box_min,
+std::vector<std::uint8_t> boundary_kind(const SimplexMesh<dim>& mesh,
+                                        const Eigen::Matrix<double, dim, 1>& box_min,
                                         const Eigen::Matrix<double, dim, 1>& box_max, double tol);
 
 }  // namespace vim

@@ -4,15 +4,13 @@
 // default, and `vim-pipeline --check-invariants` turns it on for one run.
 #pragma once
 
-#include <vim/quality.hpp>
-#include <vim/simplex_mesh.hpp>
-
 #include <Eigen/Core>
-
 #include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <vector>
+#include <vim/quality.hpp>
+#include <vim/simplex_mesh.hpp>
 
 namespace vim {
 

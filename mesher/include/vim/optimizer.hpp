@@ -3,6 +3,12 @@
 // §IV-B that lower E = (1−λ)·E_G/E_G0 + λ·E_D/E_D0 (Eq. 7) under the quality bound.
 #pragma once
 
+#include <tbb/enumerable_thread_specific.h>
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <vector>
 #include <vim/adjacency.hpp>
 #include <vim/image.hpp>
 #include <vim/invariants.hpp>
@@ -10,14 +16,6 @@
 #include <vim/simplex_mesh.hpp>
 #include <vim/vim.hpp>
 #include <vim/voxel_statistics.hpp>
-
-#include <Eigen/Core>
-
-#include <tbb/enumerable_thread_specific.h>
-
-#include <array>
-#include <cstdint>
-#include <vector>
 
 namespace vim {
 
@@ -43,17 +41,6 @@ struct EnergyTotals {
   double geometric = 0.0, discretization = 0.0, energy = 0.0;
 };
 
-// What the quality test of a 1-ring element can reuse while one of its vertices moves: the face
-// opposite that vertex (3D: its unoriented normal and length) and the longest of its edges.
-template <int dim>
-struct FixedFace {
-  int vertex = -1;  // local index of the moving vertex
-  Eigen::Matrix<double, dim, 1> normal = Eigen::Matrix<double, dim, 1>::Zero();
-  double length = 0.0, longest2 = 0.0;
-};
-template <int dim>
-FixedFace<dim> fixed_face(const std::array<Eigen::Matrix<double, dim, 1>, dim + 1>& x, int vertex);
-
 template <int dim>
 class VimOptimizer {
  public:
@@ -70,7 +57,7 @@ class VimOptimizer {
 
   // Fixes E_G0, E_D0 from the current mesh (§IV-C) and recomputes every element's cost.
   // E_D0 == 0 (constant image, or no image) switches the image term off. If the mesh's E_D is 0 but the
-  // image varies inside the box (the mesh fits it exactly), E_D0 is estimated instead (see vim.cpp).
+  // image varies inside the box (the mesh fits it exactly), E_D0 is estimated instead (normalization.cpp).
   void fix_normalization();
   double eg0() const { return eg0_; }
   double ed0() const { return ed0_; }
@@ -81,17 +68,15 @@ class VimOptimizer {
   // writes Σ_i |Δx_i|² to *sum_sq, the number of nodes whose update ran to *searched and the number
   // of candidate positions evaluated to *evaluations.
   long update_nodes(int iteration, double* sum_sq, long* searched = nullptr, long* evaluations = nullptr);
-  // Updates one node (sequential use; tests). Returns true if it moved.
-  bool update_node(int node, int iteration);
 
   // One sequential pass of connectivity swaps (2D flips; 3D 2-3, 3-2, 4-4). Returns accepted swaps.
   long swap_pass();
   // Individual swaps (tests and swap_pass). Each is taken iff every new element is acceptable, the
   // new elements tile the same region, and E drops. Return true if taken.
-  bool try_flip(int cell, int local_vertex);        // 2D: flip the edge opposite local_vertex
-  bool try_swap_23(int cell, int local_vertex);     // 3D: the facet opposite local_vertex
-  bool try_swap_32(int a, int b);                   // 3D: interior edge with 3 cells
-  bool try_swap_44(int a, int b);                   // 3D: interior edge with 4 cells
+  bool try_flip(int cell, int local_vertex);     // 2D: flip the edge opposite local_vertex
+  bool try_swap_23(int cell, int local_vertex);  // 3D: the facet opposite local_vertex
+  bool try_swap_32(int a, int b);                // 3D: interior edge with 3 cells
+  bool try_swap_44(int a, int b);                // 3D: interior edge with 4 cells
 
   // Splits the longest edge of up to k highest-cost elements (all cells sharing the edge are
   // split). Only splits that keep every new element acceptable and do not raise E are taken.
@@ -106,7 +91,7 @@ class VimOptimizer {
 
   // Sums over live cells (deterministic order, extended precision).
   EnergyTotals totals() const;
-  // Brute-force recomputation of the totals from the mesh (tests).
+  // Brute-force recomputation of the totals from the mesh (check_invariants, tests).
   EnergyTotals recompute_totals() const;
 
   // Live cells in index order, positively oriented.
@@ -115,41 +100,45 @@ class VimOptimizer {
   const SimplexMesh<dim>& mesh() const { return mesh_; }
   const std::vector<char>& alive() const { return alive_; }
   const Adjacency<dim>& adjacency() const { return adj_; }
-  const std::vector<CellCache>& caches() const { return cache_; }
-  std::uint8_t fixed_axes(int node) const { return fixed_[node]; }
-  std::size_t n_live_cells() const { return n_live_; }
   double bbox_diagonal() const { return (box_max_ - box_min_).norm(); }
   const Point& box_min() const { return box_min_; }
   const Point& box_max() const { return box_max_; }
-  // Colour classes of the node graph used by update_nodes (greedy, node order).
-  const std::vector<std::vector<int>>& colour_classes() const { return colours_; }
+  // Recomputes the colour classes of the node graph (greedy, node order) after swaps or insertion.
   void recolour();
 
   // Evaluates one simplex (all cache fields; cost uses the current normalisation).
   CellCache evaluate(const Simplex& x) const;
-  bool acceptable(const Simplex& x) const { return acceptable(x, signed_volume<dim>(x)); }
+  // The quality bound (vim::acceptable with the options' bounds, decided by QualityCheck).
+  bool acceptable(const Simplex& x) const { return quality_(x, signed_volume<dim>(x)); }
   // Same, with x's signed volume already computed by the caller and optionally the precomputed face
   // opposite a moving vertex (bit-identical result).
-  bool acceptable(const Simplex& x, double volume, const FixedFace<dim>* fixed = nullptr) const;
+  bool acceptable(const Simplex& x, double volume, const FixedFace<dim>* fixed = nullptr) const {
+    return quality_(x, volume, fixed);
+  }
   Simplex simplex(int cell) const { return cell_points(mesh_, static_cast<std::size_t>(cell)); }
 
  private:
+  template <int>
+  friend struct OptimizerTestAccess;  // tests/support/optimizer_access.hpp
+
   struct Scratch {
     std::vector<int> ring, local;
     std::vector<Simplex> base;
     std::vector<CellCache> trial, best;
     std::vector<Point> dirs, kept;
     struct Probe {
-      double value, f1;       // lower probe value; exact value at the first probe point (or NaN)
+      double value, f1;  // lower probe value; exact value at the first probe point (or NaN)
       std::size_t direction;
     };
-    std::vector<Probe> top;       // screening: the best directions so far
-    std::vector<double> known_f1; // per kept direction: Probe::f1
+    std::vector<Probe> top;             // screening: the best directions so far
+    std::vector<double> known_f1;       // per kept direction: Probe::f1
     std::vector<FixedFace<dim>> faces;  // per 1-ring element: the face opposite the node
     std::vector<int> order;             // 1-ring positions by decreasing current E_D (voxel sums first)
     std::vector<double> ed_cost;        // per 1-ring element: the candidate's weighted E_D term
     long evaluations = 0;               // candidates evaluated by the current node update
   };
+  struct NodeSearch;  // one node's candidate search (node_update.cpp)
+  double load_ring(int node, Scratch& s, bool* image) const;
   bool update_node_impl(int node, int iteration, Scratch& s, double* moved_sq);
   double evaluate_candidate(const Point& p, Scratch& s, double bound, bool image) const;
   double cost_of(const CellCache& c) const;
@@ -182,15 +171,12 @@ class VimOptimizer {
   const VoxelStatistics<dim>* stats_;
   const Image<dim>* density_;
   VimOptions options_;
-  QualityBound bound_;
-  double cos_max_ = -1.0, cos_min_ = 1.0;  // cosines of the dihedral bounds
-  bool sqrt_free_ = false;                   // acceptable() may use the squared-cosine test
-  double reject2_ = 1.0, defer2_ = 1.0;      // (cos_max_ ∓ 1e-9)²
+  QualityCheck<dim> quality_;
   Point box_min_, box_max_;
   double boundary_tol_ = 0.0;
-  double min_step_ = 0.0;        // line-search stopping step (physical)
+  double min_step_ = 0.0;  // line-search stopping step (physical)
   double eg0_ = 1.0, ed0_ = 0.0;
-  double wg_ = 1.0, wd_ = 0.0;   // cost = wg·E_G + wd·E_D
+  double wg_ = 1.0, wd_ = 0.0;  // cost = wg·E_G + wd·E_D
   mutable tbb::enumerable_thread_specific<Scratch> scratch_;
 };
 

@@ -2,20 +2,20 @@
 // threshold into face-connected components, and flag the largest component (by volume) as "the object".
 #pragma once
 
+#include <vector>
 #include <vim/simplex_mesh.hpp>
 #include <vim/vim.hpp>
-
-#include <vector>
 
 namespace vim {
 
 struct Segmentation {
-  std::vector<int> component;  // per cell: component id (0, 1, ... in order of lowest cell index), -1 if mean <= threshold
-  std::vector<bool> object;    // per cell: belongs to the largest component
+  std::vector<int>
+      component;  // per cell: component id (0, 1, ... in order of lowest cell index), -1 if mean <= threshold
+  std::vector<bool> object;  // per cell: belongs to the largest component
   int n_components = 0;
-  int largest = -1;            // id of the largest component by volume (ties: smallest id); -1 if none
-  long largest_size = 0;       // its cell count
-  double largest_volume = 0.0; // its volume
+  int largest = -1;             // id of the largest component by volume (ties: smallest id); -1 if none
+  long largest_size = 0;        // its cell count
+  double largest_volume = 0.0;  // its volume
 };
 
 // Components connect cells that share a facet (dim vertices). values.size() must equal the cell count.

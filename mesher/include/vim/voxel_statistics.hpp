@@ -1,16 +1,14 @@
-// Voxel enclosure and per-element voxel statistics (paper Eq. 4–6, DESIGN.md §3): which voxel
+// Voxel enclosure and per-element voxel statistics (paper Eq. 4–6; docs/architecture.md): which voxel
 // centres lie in a simplex, their count n, shifted sums S = Σ(h−shift), Q = Σ(h−shift)², and the
 // element mean/variance, read from per-row prefix sums in O(rows) with a consistent tie rule.
 #pragma once
 
-#include <vim/image.hpp>
-#include <vim/vim.hpp>
-
 #include <Eigen/Core>
-
 #include <array>
 #include <cstdint>
 #include <vector>
+#include <vim/image.hpp>
+#include <vim/vim.hpp>
 
 namespace vim {
 
@@ -33,9 +31,9 @@ class VoxelStatistics {
   explicit VoxelStatistics(const Image<dim>& image);
 
   struct Sums {
-    long n = 0;       // voxel centres inside
-    double s = 0.0;   // Σ (h − shift)
-    double q = 0.0;   // Σ (h − shift)²
+    long n = 0;      // voxel centres inside
+    double s = 0.0;  // Σ (h − shift)
+    double q = 0.0;  // Σ (h − shift)²
   };
 
   // Voxel centres inside x (tie rule above): O(rows), allocation-free, thread-safe.
@@ -66,9 +64,11 @@ class VoxelStatistics {
  private:
   struct Faces;  // per-simplex face planes in index space (defined in the .cpp)
   bool prepare(const Simplex& x, Faces& f) const;  // index_box + face planes
-  bool prepare_faces(Faces& f) const;               // face planes, with f's box already set
+  bool prepare_faces(Faces& f) const;              // face planes, with f's box already set
   bool uniform_box(const std::array<long, dim>& lo, const std::array<long, dim>& hi) const;
-  Sums scan(const Faces& f) const;                  // the scanline sums over a prepared simplex
+  Sums scan(const Faces& f) const;  // the scanline sums over a prepared simplex
+  // Row j's interval [a, b] of voxel centres inside the prepared simplex (empty if a > b).
+  static void clip_row(const Faces& f, const std::array<long, dim>& j, long& a, long& b);
   template <class Visit>
   void visit_voxels(const Simplex& x, Visit&& visit) const;  // every voxel centre in x (tie rule)
   // x's vertices in continuous index space and the voxel index range of its bounding box (with the
@@ -78,9 +78,9 @@ class VoxelStatistics {
 
   const Image<dim>* image_;
   double shift_ = 0.0;
-  long row_length_ = 0;             // size[0] + 1 prefix entries per row
-  std::vector<double> prefix_;      // rows × (size[0] + 1) interleaved pairs (Σ(h−shift), Σ(h−shift)²)
-  Point centre_;                    // c* in index space
+  long row_length_ = 0;         // size[0] + 1 prefix entries per row
+  std::vector<double> prefix_;  // rows × (size[0] + 1) interleaved pairs (Σ(h−shift), Σ(h−shift)²)
+  Point centre_;                // c* in index space
   // Summed-area table ((size+1) per axis) of "edge" voxels: those whose value differs from one of
   // their axis neighbours. A box holding none is uniform (it is connected through axis neighbours).
   // Counts are kept modulo 2^32 (see uniform_box).

@@ -1,6 +1,6 @@
-// Mesh exports for other tools: legacy VTK for deal.II's GridIn::read_vtk, FEBio (.feb, febio_spec
-// 4.0), Gmsh 4.1 (.msh: physical groups for material bins, box faces and scenario regions) and
-// CalculiX/Abaqus (.inp). With a scenario (--simulate) mesh.inp and mesh.feb are complete jobs: the
+// Mesh exports for other tools (docs/architecture.md): legacy VTK for deal.II's GridIn::read_vtk, FEBio
+// (.feb, febio_spec 4.0), Gmsh 4.1 (.msh: physical groups for material bins, box faces and scenario regions)
+// and CalculiX/Abaqus (.inp). With a scenario (--simulate) mesh.inp and mesh.feb are complete jobs: the
 // scenario's conditions on node sets and surfaces, a static step, quadratic elements for degree 2
 // (solver_deck.hpp). All in WORLD coordinates (direction matrix applied), every cell positively
 // oriented in world space, each file written under a temporary name and renamed.
@@ -18,7 +18,7 @@
 
 namespace vim::pipeline {
 
-// Everything the exports need from the run, in one struct (the CLI fills it).
+// How the files are written; the run fills it at the export call (run_write_outputs.cpp).
 struct ExportOptions {
   double poisson_ratio = 0.49;  // ν written to .feb and .inp (nearly incompressible soft tissue)
   int max_material_bins = 255;  // material ids of .vtk/.msh stay in 1..255 (8-bit safe for every reader)
@@ -67,12 +67,25 @@ void write_msh(const std::filesystem::path& path, const SolverDeck<dim>& deck, c
 template <int dim>
 void write_inp(const std::filesystem::path& path, const SolverDeck<dim>& deck);
 
+// What the exports write, computed once by the caller: the model (element values and modulus) and the
+// same mesh in world coordinates (world_mesh(model), which the run also writes to mesh.vtu).
+template <int dim>
+struct ExportInput {
+  const MeshModel<dim>& model;
+  const SimplexMesh<dim>& world;
+  ExportOptions options = {};
+};
+
 // Writes dir/mesh.{vtk,feb,msh,inp} for the requested formats (subset of export_formats(); an
 // unknown name throws std::invalid_argument before anything is written) and fills
 // report["exports"]: files written, skipped formats with the reason (FEBio has no 2D solid
 // elements), material_table [{id, E, E_min, E_max, elements}], element_modulus, poisson_ratio,
 // degree, not_expressed (scenario features the decks do not hold), and warnings: without a scenario, a
 // non-positive element modulus (an image that is not a modulus map) is warned about, naming the fix.
+template <int dim>
+void write_exports(const ExportInput<dim>& input, const std::filesystem::path& dir,
+                   const std::vector<std::string>& formats, nlohmann::json& report);
+// The same, with the world mesh computed here.
 template <int dim>
 void write_exports(const MeshModel<dim>& model, const std::filesystem::path& dir,
                    const std::vector<std::string>& formats, nlohmann::json& report,

@@ -1,33 +1,30 @@
-// Figures people look at (issue 7): image slices with the mesh cross-section (3D: three orthogonal
+// Figures people look at: image slices with the mesh cross-section (3D: three orthogonal
 // slices, image + outlines beside the element means; 2D: the image with the mesh overlaid and the
 // discretized image, like the paper's Figs. 4–6), the energy history (Fig. 9), simulation line plots
 // and a deformed-mesh slice. Drawn in the image's axis-aligned frame (the mesher's coordinates), PNG.
 #pragma once
 
+#include <Eigen/Core>
+#include <array>
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
 #include <vim/pipeline/image_io.hpp>
 #include <vim/pipeline/model.hpp>
 #include <vim/pipeline/png.hpp>
 #include <vim/vim.hpp>
-
-#include <nlohmann/json.hpp>
-
-#include <Eigen/Core>
-
-#include <array>
-#include <cmath>
-#include <filesystem>
-#include <string>
-#include <vector>
 
 namespace vim::pipeline {
 
 // Maps in-plane frame coordinates (u, v) of a slice to continuous canvas pixel coordinates: the
 // pixel (i, j) covers [i, i+1) × [j, j+1). u grows to the right, v grows downwards (image rows).
 struct SliceView {
-  int axis = -1;          // frame axis normal to the slice (-1 in 2D)
-  int u = 0, v = 1;       // in-plane frame axes
+  int axis = -1;                    // frame axis normal to the slice (-1 in 2D)
+  int u = 0, v = 1;                 // in-plane frame axes
   double u_min = 0.0, v_min = 0.0;  // physical coordinates of the panel's top-left corner
-  double scale = 1.0;     // pixels per physical unit (same on both axes: true aspect ratio)
+  double scale = 1.0;               // pixels per physical unit (same on both axes: true aspect ratio)
   int x_offset = 0, y_offset = 0;   // panel position on the canvas
   int width = 0, height = 0;        // panel size in pixels
 
@@ -94,7 +91,7 @@ template <int dim>
 nlohmann::json write_deformed_slice(const MeshModel<dim>& model,
                                     const std::vector<Eigen::Matrix<double, dim, 1>>& displacement,
                                     const std::filesystem::path& path,
-                                    const Eigen::Matrix<double, dim, 1>& slice_point, int normal_axis = dim - 1,
-                                    const std::string& caption = "|u|");
+                                    const Eigen::Matrix<double, dim, 1>& slice_point,
+                                    int normal_axis = dim - 1, const std::string& caption = "|u|");
 
 }  // namespace vim::pipeline

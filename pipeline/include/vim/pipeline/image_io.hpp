@@ -3,14 +3,13 @@
 // matrix stays here and is applied to every output (world = origin + D·(p − origin)).
 #pragma once
 
-#include <vim/image.hpp>
-#include <vim/pipeline/input_error.hpp>
-
 #include <Eigen/Core>
 #include <Eigen/LU>  // OrientedImage::to_frame
-
+#include <memory>
 #include <stdexcept>
 #include <string>
+#include <vim/image.hpp>
+#include <vim/pipeline/input_error.hpp>
 
 namespace vim::pipeline {
 
@@ -24,7 +23,11 @@ struct OrientedImage {
   Eigen::Matrix<double, dim, dim> direction = Eigen::Matrix<double, dim, dim>::Identity();
 
   using Point = Eigen::Matrix<double, dim, 1>;
-  Point origin() const { Point o; for (int a = 0; a < dim; ++a) o[a] = image.origin[a]; return o; }
+  Point origin() const {
+    Point o;
+    for (int a = 0; a < dim; ++a) o[a] = image.origin[a];
+    return o;
+  }
   // Axis-aligned physical frame (the mesher's) -> world (ITK physical point, as Slicer shows it).
   Point to_world(const Point& p) const { return origin() + direction * (p - origin()); }
   Point to_frame(const Point& w) const { return origin() + direction.inverse() * (w - origin()); }
@@ -39,6 +42,29 @@ Image<dim> in_frame_of(const OrientedImage<dim>& reference, const OrientedImage<
 
 // Number of spatial dimensions in the file's header (2 or 3); throws InputError otherwise.
 int image_dimension(const std::string& path);
+
+namespace itk_io {
+struct Header;
+}
+
+// An image file whose header has been read and checked once (existence, format, dimension 2 or 3,
+// scalar pixels, size, spacing, origin): the dimension is known before the voxels are read, which
+// read() then does without opening the header again. Throws InputError naming the file.
+class ImageFile {
+ public:
+  explicit ImageFile(std::string path);
+  const std::string& path() const { return path_; }
+  int dimension() const { return dimension_; }
+  // The voxels and geometry (the checks of read_image); InputError if dim != dimension().
+  template <int dim>
+  OrientedImage<dim> read() const;
+
+ private:
+  std::string path_;
+  mutable std::shared_ptr<itk_io::Header> header_;
+  mutable bool used_ = false;
+  int dimension_ = 0;
+};
 
 // Reads a scalar image; throws InputError for a missing/unreadable file, an unsupported format,
 // vector pixels, an empty image, NaN/Inf voxels or non-positive spacing.

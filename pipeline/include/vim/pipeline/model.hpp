@@ -2,16 +2,14 @@
 // image's axis-aligned physical frame, per-element statistics/modulus, and the frame→world map.
 #pragma once
 
-#include <vim/image.hpp>
-#include <vim/simplex_mesh.hpp>
-#include <vim/vim.hpp>
-
 #include <Eigen/Core>
-
 #include <cmath>
 #include <map>
 #include <string>
 #include <vector>
+#include <vim/image.hpp>
+#include <vim/simplex_mesh.hpp>
+#include <vim/vim.hpp>
 
 namespace vim::pipeline {
 
@@ -27,8 +25,12 @@ struct WorldTransform {
     return origin + direction.transpose() * (w - origin);  // direction is orthonormal (ITK)
   }
   // A vector (displacement, force) from frame to world axes.
-  Eigen::Matrix<double, dim, 1> vector_to_world(const Eigen::Matrix<double, dim, 1>& v) const { return direction * v; }
-  Eigen::Matrix<double, dim, 1> vector_to_frame(const Eigen::Matrix<double, dim, 1>& v) const { return direction.transpose() * v; }
+  Eigen::Matrix<double, dim, 1> vector_to_world(const Eigen::Matrix<double, dim, 1>& v) const {
+    return direction * v;
+  }
+  Eigen::Matrix<double, dim, 1> vector_to_frame(const Eigen::Matrix<double, dim, 1>& v) const {
+    return direction.transpose() * v;
+  }
   // The world axis that image axis c lies along (±), or -1 if it lies along none (an oblique image).
   int world_axis_of(int c) const {
     for (int a = 0; a < dim; ++a)
@@ -45,11 +47,12 @@ struct WorldTransform {
 
 template <int dim>
 struct MeshModel {
-  SimplexMesh<dim> mesh;                 // frame coordinates, positively oriented
-  std::vector<ElementValue> values;      // per cell: voxel count, mean, variance
-  std::vector<double> youngs_modulus;    // per cell (Eq. 15: scaled/clamped mean); may be empty before the model stage
-  std::vector<int> segment;              // per cell component id (-1 none); empty when no threshold
-  std::vector<int> object;               // per cell 1 if in the largest component; empty when no threshold
+  SimplexMesh<dim> mesh;             // frame coordinates, positively oriented
+  std::vector<ElementValue> values;  // per cell: voxel count, mean, variance
+  std::vector<double>
+      youngs_modulus;        // per cell (Eq. 15: scaled/clamped mean); may be empty before the model stage
+  std::vector<int> segment;  // per cell component id (-1 none); empty when no threshold
+  std::vector<int> object;   // per cell 1 if in the largest component; empty when no threshold
   WorldTransform<dim> transform;
 };
 

@@ -1,51 +1,23 @@
-// Needle geometry for the kinematic insertion model (DESIGN.md §5): locating points in the model's
-// cells, sampling the embedded shaft points along the straight path, and the axial stiffness map of
+// Needle geometry for the kinematic insertion model: sampling the embedded shaft points along the
+// straight path (docs/architecture.md; points located with fem::CellLocator), and the axial stiffness map of
 // the embedded points, which the stick-slip and force models use for force control.
 #pragma once
 
-#include <vim/image.hpp>
-#include <vim/simplex_mesh.hpp>
-
 #include <Eigen/Core>
 #include <Eigen/Dense>
-
 #include <algorithm>
 #include <array>
 #include <functional>
 #include <vector>
+#include <vim/fem/cell_locator.hpp>
+#include <vim/image.hpp>
+#include <vim/simplex_mesh.hpp>
 
 namespace vim::pipeline {
 
-// Point location in a simplex mesh or in a regular grid of cells (frame coordinates). locate()
-// returns the cell containing p (-1 outside) and, optionally, the model vertices whose P1/Q1 shape
-// functions are non-zero at p (the support of an embedded-point constraint there).
+// The project's point locator (simplex meshes and voxel grids), shared with the elastic model.
 template <int dim>
-class CellLocator {
- public:
-  using Vec = Eigen::Matrix<double, dim, 1>;
-  static CellLocator simplex(const SimplexMesh<dim>& mesh);
-  // Grid of cells[0]×…×cells[dim-1] cells on [lo, hi]; `vertices` are the model's vertices in its own
-  // numbering (every lattice point must be one of them).
-  static CellLocator grid(const std::array<long, dim>& cells, const Vec& lo, const Vec& hi, const std::vector<Vec>& vertices);
-
-  long locate(const Vec& p, std::vector<int>* support = nullptr) const;
-  // Mean edge length of the cells (a length scale for the shaft sampling).
-  double mean_edge_length() const { return mean_edge_; }
-  // Position of vertex v (the numbering of the supports).
-  const Vec& vertex(int v) const { return vertices_[static_cast<std::size_t>(v)]; }
-
- private:
-  bool is_grid_ = false;
-  SimplexMesh<dim> mesh_;  // own copy (cells and points)
-  std::vector<Eigen::Matrix<double, dim, dim>> inverse_;  // per simplex: maps x - x0 to barycentrics 1..dim
-  Vec lo_, hi_, bucket_size_;
-  std::array<long, dim> nb_{};
-  std::vector<std::vector<int>> buckets_;
-  std::array<long, dim> cells_{};
-  std::vector<int> lattice_to_vertex_;
-  std::vector<Vec> vertices_;
-  double mean_edge_ = 0.0;
-};
+using CellLocator = fem::CellLocator<dim>;
 
 // One embedded shaft point: reference (frame) position entry + s·axis and the length of shaft it stands for.
 template <int dim>
@@ -64,9 +36,11 @@ struct ShaftPoint {
 // make nearly dependent constraints (condition number > 1e10 along a 2D box edge); the simulation
 // re-samples with it when the solve reports that (fem::DependentPointConstraints).
 template <int dim>
-std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator, const Eigen::Matrix<double, dim, 1>& entry,
-                                          const Eigen::Matrix<double, dim, 1>& axis, double depth, double pitch,
-                                          const std::vector<bool>& blocked, bool snap_to_vertices = false);
+std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator,
+                                          const Eigen::Matrix<double, dim, 1>& entry,
+                                          const Eigen::Matrix<double, dim, 1>& axis, double depth,
+                                          double pitch, const std::vector<bool>& blocked,
+                                          bool snap_to_vertices = false);
 
 // The affine map from the axial values w of a fixed set of m point constraints to their axial forces,
 // f = K w + c (the condensed stiffness of the embedded points along the needle; K is symmetric positive
@@ -75,7 +49,8 @@ std::vector<ShaftPoint<dim>> sample_shaft(const CellLocator<dim>& locator, const
 struct AxialMap {
   Eigen::MatrixXd K;
   Eigen::VectorXd c;
-  static AxialMap probe(Eigen::Index m, const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& forces, double sigma);
+  static AxialMap probe(Eigen::Index m, const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& forces,
+                        double sigma);
   Eigen::VectorXd operator()(const Eigen::VectorXd& w) const { return K * w + c; }
   // Sets the free entries of w so that the forces there equal target (the other entries are kept).
   void solve_free(Eigen::VectorXd& w, const std::vector<bool>& free, const Eigen::VectorXd& target) const;
@@ -99,7 +74,7 @@ struct NeedlePath {
 // far from every path. Throws std::invalid_argument unless 0 < size_ratio <= 1, radius > 0 and
 // there is at least one path.
 template <int dim>
-Image<dim> needle_density(const Image<dim>& like, const std::vector<NeedlePath<dim>>& paths, double size_ratio,
-                          double radius);
+Image<dim> needle_density(const Image<dim>& like, const std::vector<NeedlePath<dim>>& paths,
+                          double size_ratio, double radius);
 
 }  // namespace vim::pipeline

@@ -4,11 +4,10 @@
 // Used by the tests and by the vim-make-phantom executable.
 #pragma once
 
-#include <vim/pipeline/image_io.hpp>
-
 #include <cstdint>
 #include <string>
 #include <vector>
+#include <vim/pipeline/image_io.hpp>
 
 namespace vim::pipeline::phantoms {
 

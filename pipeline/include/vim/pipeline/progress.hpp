@@ -16,7 +16,7 @@ class Log {
   static void info(const std::string& stage, const std::string& message);     // normal and verbose
   static void detail(const std::string& stage, const std::string& message);   // verbose only
   static void warning(const std::string& stage, const std::string& message);  // unless quiet
-  static double elapsed_seconds();  // since program start
+  static double elapsed_seconds();                                            // since program start
 };
 
 // A stage with `total` units of work: report(done, msg) prints at most ~once a second (and always

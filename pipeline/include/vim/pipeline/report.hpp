@@ -4,16 +4,14 @@
 // values (moduli) in the image's unit, angles in degrees, times in seconds.
 #pragma once
 
+#include <chrono>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <ostream>
+#include <string>
 #include <vim/pipeline/image_io.hpp>
 #include <vim/pipeline/model.hpp>
 #include <vim/vim.hpp>
-
-#include <nlohmann/json.hpp>
-
-#include <chrono>
-#include <filesystem>
-#include <ostream>
-#include <string>
 
 namespace vim::pipeline {
 

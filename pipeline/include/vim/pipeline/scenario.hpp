@@ -1,20 +1,18 @@
-// Needle-insertion scenario (issue 6, DESIGN.md §5): the YAML file given to `--simulate`, parsed
+// Needle-insertion scenario (docs/architecture.md): the YAML file given to `--simulate`, parsed
 // and validated in one place. Every error is a ScenarioError whose message names the file, the
 // YAML line, the key and the value, and says what is valid.
 #pragma once
 
-#include <vim/image.hpp>
-#include <vim/pipeline/image_io.hpp>
-#include <vim/pipeline/model.hpp>
-#include <vim/pipeline/needle.hpp>
-
 #include <Eigen/Core>
-
 #include <array>
 #include <optional>
 #include <string>
 #include <utility>
 #include <vector>
+#include <vim/image.hpp>
+#include <vim/pipeline/image_io.hpp>
+#include <vim/pipeline/model.hpp>
+#include <vim/pipeline/needle.hpp>
 
 namespace vim::pipeline {
 
@@ -27,9 +25,9 @@ struct ScenarioError : InputError {
 // (for an identity direction matrix these are the world x/y/z faces).
 struct RegionSpec {
   enum class Kind { box_face, box, sphere, cylinder } kind = Kind::box_face;
-  int axis = 0;        // box_face: 0..dim-1
-  bool upper = false;  // box_face: *_max
-  std::string face;    // box_face name as written
+  int axis = 0;                                     // box_face: 0..dim-1
+  bool upper = false;                               // box_face: *_max
+  std::string face;                                 // box_face name as written
   std::vector<double> center, axis_vector, lo, hi;  // dim values each (world)
   double radius = 0.0;
   std::string describe() const;
@@ -38,7 +36,7 @@ struct RegionSpec {
 struct BoundaryConditionSpec {
   enum class Type { fixed, displacement, pressure, traction } type = Type::fixed;
   RegionSpec region;
-  std::vector<double> value;  // displacement / traction: dim values (world axes); pressure: 1 value
+  std::vector<double> value;     // displacement / traction: dim values (world axes); pressure: 1 value
   std::vector<bool> components;  // fixed/displacement: which world components (default all)
   int line = 0;                  // YAML line (1-based) of the list entry
   // How a `fixed` condition on a volume region (box, sphere, cylinder) holds the tissue:
@@ -62,15 +60,16 @@ struct NeedleSpec {
   double diameter = 0.0;
   enum class Model { kinematic, force } model = Model::kinematic;
   enum class Friction { stick, stick_slip } friction = Friction::stick;
-  double max_shear_per_length = 0.0;  // stick-slip limit (force per unit length of shaft)
+  double max_shear_per_length = 0.0;  // stick-slip limit (force per unit length of shaft, e.g. mN/mm)
   double sample_spacing = 0.0;        // distance between embedded shaft points; 0 = automatic
   // Kinematic model: the tip cuts a material point (it joins the shaft) once the tip has passed the
   // point's current position by this distance; until then it is tissue ahead of the tip (not held by
   // the needle). 0 = as soon as the tip reaches it. A length of the needle (e.g. its bevel), the same
   // for every mesh.
   double cutting_distance = 0.0;
-  double tip_force = 0.0;             // force model: cutting force at the tip (force units)
-  double friction_per_length = 0.0;   // force model: friction force per unit shaft length
+  double tip_force = 0.0;  // force model: cutting force at the tip (modulus × length²: kPa·mm² = mN in
+                           // 3D; per unit thickness, mN/mm, in 2D)
+  double friction_per_length = 0.0;  // force model: friction force per unit shaft length
   int line = 0;
 };
 
@@ -114,7 +113,8 @@ struct Scenario {
   std::vector<TargetSpec> targets;
 
   int output_every = 1;
-  std::vector<std::string> output_fields = {"displacement", "strain", "stress", "von_mises", "youngs_modulus"};
+  std::vector<std::string> output_fields = {"displacement", "strain", "stress", "von_mises",
+                                            "youngs_modulus"};
   bool wants(const std::string& field) const;
 
   std::string solver_type = "auto";  // auto | direct | amg
@@ -126,7 +126,8 @@ struct Scenario {
 
 // Parses and validates a scenario for a `dim`-dimensional image (vectors must have dim values).
 // Throws ScenarioError for syntax errors, missing/unknown keys, wrong types and ranges.
-Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::string& source_name = "scenario");
+Scenario parse_scenario_text(const std::string& yaml_text, int dim,
+                             const std::string& source_name = "scenario");
 Scenario read_scenario(const std::string& path, int dim);
 
 // Checks the scenario against the image geometry (world = transform.to_world(frame)): needle entry
@@ -134,7 +135,8 @@ Scenario read_scenario(const std::string& path, int dim);
 // path inside the box, targets inside the box. box_min/box_max are the image box in the frame.
 template <int dim>
 void check_scenario_geometry(const Scenario& scenario, const Eigen::Matrix<double, dim, 1>& box_min,
-                             const Eigen::Matrix<double, dim, 1>& box_max, const WorldTransform<dim>& transform);
+                             const Eigen::Matrix<double, dim, 1>& box_max,
+                             const WorldTransform<dim>& transform);
 
 // A needle's straight path (entry → entry + depth·direction) in frame coordinates; needle_paths: every
 // needle's.

@@ -3,7 +3,7 @@
 // sets hold), so that both select the same nodes.
 #pragma once
 
-#include <vim/fem/elasticity.hpp>
+#include <vim/fem/conditions.hpp>
 #include <vim/pipeline/model.hpp>
 #include <vim/pipeline/scenario.hpp>
 

@@ -1,4 +1,4 @@
-// Needle-insertion simulation on the meshed model (issue 6, DESIGN.md §5): per-cell modulus (Eq. 15),
+// Needle-insertion simulation on the meshed model (docs/architecture.md): per-cell modulus (Eq. 15),
 // boundary conditions from the scenario (world regions mapped to the image frame), and a rigid straight
 // needle advanced in steps. Each step is one ElasticModel::solve with embedded-point constraints on
 // the fast condensed path (K factorised once, K⁻¹Cᵀ columns cached as shaft points are picked up).
@@ -15,28 +15,36 @@
 //    tip at the end of a step only to be held back by the needle.
 //  * kinematic / stick-slip: the same, but a point whose axial load exceeds max_shear_per_length × (the
 //    shaft length it carries: its segment of the path as far as the tip has passed; the point the tip
-//    pushes carries everything up to the tip, so the limits sum to max_shear_per_length × depth) slides: its axial value is solved (conjugate gradients on the condensed map, each
-//    iteration one fast solve) so that its load equals the limit; slip accumulates (u_j = d − s_j − slip_j).
-//    Lateral displacement stays 0. Active set: sliding points whose load falls below the limit stick again.
-//  * force: every passed shaft point carries the axial friction force friction_per_length × (carried length) and
+//    pushes carries everything up to the tip, so the limits sum to max_shear_per_length × depth) slides:
+//    its axial value is solved on the axial map of the active points (AxialMap, probed with one fast
+//    solve per point) so that its load equals the limit; slip accumulates (u_j = d − s_j − slip_j).
+//    Lateral displacement stays 0. Active set: a sliding point that would have to move ahead of the
+//    needle to hold its limit sticks again.
+//  * force: every passed shaft point carries the axial friction force friction_per_length × (carried length)
+//  and
 //    the most recently picked-up point also the tip force; lateral displacement 0 (the shaft holds the
 //    tissue). Point loads are realised as point constraints whose axial values are solved for.
 // Needle force: F = −Σ point_force (the force the tissue exerts on the needle), world axes; reported as
-// axial = −F·a (insertion resistance, > 0 when the tissue resists) and lateral = |F − (F·a)a|.
+// axial = −F·a (insertion resistance, > 0 when the tissue resists) and lateral = |F − (F·a)a|. Forces
+// are in modulus × length² (kPa·mm² = mN) in 3D and per unit thickness (mN/mm) in 2D (plane strain).
+//
+// Code: NeedleSimulation builds the model once (simulation.cpp); each needle runs the stepping loop of
+// needle_insertion.cpp, which talks to the physics only through a FrictionLaw (friction_stick.cpp,
+// friction_stick_slip.cpp, friction_force.cpp) and a NeedleCoupling (needle_coupling.hpp); the files
+// and report entries are written by simulation_output.cpp.
 #pragma once
-
-#include <vim/fem/elasticity.hpp>
-#include <vim/pipeline/model.hpp>
-#include <vim/pipeline/scenario.hpp>
-
-#include <nlohmann/json.hpp>
 
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
+#include <vim/fem/elasticity.hpp>
+#include <vim/pipeline/model.hpp>
+#include <vim/pipeline/scenario.hpp>
+#include <vim/pipeline/vtk_output.hpp>
 
 namespace vim::pipeline {
 
@@ -44,37 +52,49 @@ struct SimulationOptions {
   // Where to write: returns the absolute path for a file relative to the output folder (creating
   // parent folders), e.g. OutputDirectory::file. Empty: write nothing (tests, benchmarks).
   std::function<std::filesystem::path(const std::string& relative)> output_file;
-  std::optional<unsigned> degree;   // overrides scenario mesh.degree (the CLI's --degree)
-  bool monolithic = false;          // solve each step with solve_monolithic (reference for the fast path)
-  bool keep_step_fields = false;    // keep every step's vertex displacement in the result (tests)
-  bool progress = true;             // a progress line per step on stderr
+  std::optional<unsigned> degree;  // overrides scenario mesh.degree (the CLI's --degree)
+  bool monolithic = false;         // solve each step with solve_monolithic (reference for the fast path)
+  bool keep_step_fields = false;   // keep every step's vertex displacement in the result (tests)
+  bool progress = true;            // a progress line per step on stderr
   // Stick-slip: active-set sweeps per step (each one condensed solve). A step whose set still changes
   // after this many keeps the last iterate and is listed in NeedleRun::unsettled_steps and the warnings.
   int max_active_set_iterations = 100;
+  // The model's grid in world coordinates when the caller has built it (MeshingRun's world grid, the
+  // geometry of mesh.vtu): simplex_grid of the mesh, or voxel_grid of the image. Null: the simulation
+  // builds the same grid itself.
+  std::shared_ptr<const UnstructuredGrid> world_grid;
+  // The caller has checked the scenario against this image's box (check_scenario_geometry, and for
+  // the voxel model check_modulus_image): the simulation does not check it again.
+  bool scenario_checked = false;
 };
 
 template <int dim>
 struct NeedleRun {
   using Vec = Eigen::Matrix<double, dim, 1>;
   std::string name;
-  Vec axis;                                        // world, unit
-  std::vector<double> depth;                       // per step (step 0 = rest)
-  std::vector<Vec> tip;                            // world
-  std::vector<Vec> force;                          // world: force of the tissue on the needle
-  std::vector<double> axial_force, lateral_force;  // see the header comment
+  Vec axis;                                           // world, unit
+  std::vector<double> depth;                          // per step (step 0 = rest)
+  std::vector<Vec> tip;                               // world
+  std::vector<Vec> force;                             // world: force of the tissue on the needle
+  std::vector<double> axial_force, lateral_force;     // see the header comment
   std::vector<std::vector<Vec>> target_displacement;  // [step][target], world axes
-  std::vector<std::vector<Vec>> vertex_displacement;  // world axes: every step if keep_step_fields, else the last
-  std::vector<int> active_points;                  // shaft points constrained at each step
-  std::vector<int> solves;                         // model solves per step (> 1 with sliding points)
-  std::vector<int> active_set_sweeps;              // stick-slip: active-set sweeps per step (step 0 = rest; 0: sticking held)
-  std::vector<int> unsettled_steps;                // stick-slip steps whose active set did not settle (see SimulationOptions)
-  std::vector<double> point_s, point_length;       // shaft points: travel at pick-up, shaft length each stands for
-  std::vector<std::vector<double>> point_axial_force;  // [step][point]: axial force on the body (0 if not active)
-  double max_displacement = 0.0;                   // largest vertex displacement norm over all steps
-  double solve_seconds = 0.0;                      // total time in solves
-  std::vector<double> step_seconds;                // wall time per step (step 0 = 0; step 1 includes assembly + factorisation)
+  std::vector<std::vector<Vec>>
+      vertex_displacement;         // world axes: every step if keep_step_fields, else the last
+  std::vector<int> active_points;  // shaft points constrained at each step
+  std::vector<int> solves;         // model solves per step (> 1 with sliding points)
+  std::vector<int>
+      active_set_sweeps;  // stick-slip: active-set sweeps per step (step 0 = rest; 0: sticking held)
+  std::vector<int>
+      unsettled_steps;  // stick-slip steps whose active set did not settle (see SimulationOptions)
+  std::vector<double> point_s, point_length;  // shaft points: travel at pick-up, shaft length each stands for
+  std::vector<std::vector<double>>
+      point_axial_force;          // [step][point]: axial force on the body (0 if not active)
+  double max_displacement = 0.0;  // largest vertex displacement norm over all steps
+  double solve_seconds = 0.0;     // total time in solves
+  std::vector<double>
+      step_seconds;  // wall time per step (step 0 = 0; step 1 includes assembly + factorisation)
   double steps_per_second = 0.0;
-  fem::SolverStats stats;                          // of the last solve
+  fem::SolverStats stats;  // of the last solve
 };
 
 template <int dim>
@@ -82,7 +102,7 @@ struct SimulationResult {
   std::vector<NeedleRun<dim>> needles;
   std::vector<std::string> target_names;  // the scenario's targets, in the order of target_displacement
   std::vector<std::string> warnings;      // results the user should not take at face value (also in report)
-  nlohmann::json report;  // for report.json["simulation"]
+  nlohmann::json report;                  // for report.json["simulation"]
 };
 
 template <int dim>
@@ -94,8 +114,8 @@ class NeedleSimulation {
   // mesh (regions that select no node, targets outside the mesh) and throws ScenarioError; writes nothing.
   NeedleSimulation(const MeshModel<dim>& model, const Scenario& scenario, SimulationOptions options = {});
   // Fine voxel reference model: one Q1 cell per voxel of `image`, E = voxel value × scale (clamped).
-  static NeedleSimulation voxel(const Image<dim>& image, const WorldTransform<dim>& transform, const Scenario& scenario,
-                                SimulationOptions options = {});
+  static NeedleSimulation voxel(const Image<dim>& image, const WorldTransform<dim>& transform,
+                                const Scenario& scenario, SimulationOptions options = {});
   ~NeedleSimulation();
   NeedleSimulation(NeedleSimulation&&) noexcept;
 
@@ -113,6 +133,7 @@ class NeedleSimulation {
 
 // Convenience: construct + run.
 template <int dim>
-SimulationResult<dim> run_simulation(const MeshModel<dim>& model, const Scenario& scenario, SimulationOptions options = {});
+SimulationResult<dim> run_simulation(const MeshModel<dim>& model, const Scenario& scenario,
+                                     SimulationOptions options = {});
 
 }  // namespace vim::pipeline

@@ -64,10 +64,12 @@ struct SolverDeck {
   std::vector<long> face_nodes(const Face& f) const;
 };
 
-// The deck of `model` with the per-cell `modulus`. Without a scenario: mesh, moduli and box faces only.
+// The deck of `model` with the per-cell `modulus`; `world` is world_mesh(model) (exports.hpp), computed
+// once by the caller. Without a scenario: mesh, moduli and box faces only.
 template <int dim>
-SolverDeck<dim> solver_deck(const MeshModel<dim>& model, const std::vector<double>& modulus,
-                            double poisson_ratio, unsigned degree, const Scenario* scenario);
+SolverDeck<dim> solver_deck(const MeshModel<dim>& model, const SimplexMesh<dim>& world,
+                            const std::vector<double>& modulus, double poisson_ratio, unsigned degree,
+                            const Scenario* scenario);
 
 // Abaqus/CalculiX corner numbers of face f (0-based local vertices).
 template <int dim>

@@ -2,13 +2,12 @@
 // Every file goes through write_atomically (temporary name, then rename).
 #pragma once
 
-#include <vim/pipeline/model.hpp>
-
 #include <array>
 #include <filesystem>
 #include <string>
 #include <utility>
 #include <vector>
+#include <vim/pipeline/model.hpp>
 
 namespace vim::pipeline {
 
@@ -19,7 +18,7 @@ struct UnstructuredGrid {
                            // 8, VTK_VOXEL = 11, VTK_QUADRATIC_TRIANGLE = 22, VTK_QUADRATIC_TETRA = 24
   int nodes_per_cell = 4;
   std::vector<long> connectivity;  // n_cells * nodes_per_cell
-  FieldMap point_data;           // 2D vectors are padded to 3 components by the writer
+  FieldMap point_data;             // 2D vectors are padded to 3 components by the writer
   FieldMap cell_data;
   std::size_t n_cells() const { return nodes_per_cell ? connectivity.size() / nodes_per_cell : 0; }
 };
@@ -29,19 +28,29 @@ struct UnstructuredGrid {
 // positively oriented frame cell inside out, so two of its vertices are then swapped.
 template <int dim>
 UnstructuredGrid simplex_grid(const SimplexMesh<dim>& frame_mesh, const WorldTransform<dim>& transform);
-
-// The grid of simplex_grid with quadratic cells (VTK_QUADRATIC_TETRA = 24, VTK_QUADRATIC_TRIANGLE = 22)
-// for P2 fields: its points, then one mid-edge point per edge in quadratic_cells' numbering; `edges`
-// (if given) gets each mid-edge point's vertex pair (ElasticModel::edge_midpoint_displacement's input).
+// Grid of a simplex mesh that is already in world coordinates and positively oriented there
+// (world_mesh in exports.hpp): its points and cells as they are.
 template <int dim>
-UnstructuredGrid quadratic_simplex_grid(const SimplexMesh<dim>& frame_mesh,
-                                        const WorldTransform<dim>& transform,
+UnstructuredGrid simplex_grid(const SimplexMesh<dim>& world_mesh);
+
+// A linear simplex grid (either simplex_grid) with quadratic cells (VTK_QUADRATIC_TETRA = 24,
+// VTK_QUADRATIC_TRIANGLE = 22) for P2 fields: its points, then one mid-edge point per edge in
+// quadratic_cells' numbering; `edges` (if given) gets each mid-edge point's vertex pair
+// (ElasticModel::edge_midpoint_displacement's input). Throws std::invalid_argument for other cells.
+template <int dim>
+UnstructuredGrid quadratic_simplex_grid(const UnstructuredGrid& linear,
                                         std::vector<std::array<int, 2>>* edges = nullptr);
 
 // Corner order of a VTK quad / hexahedron over a voxel, as (x, y) index offsets of each z layer: (0,0),
 // (1,0), (1,1), (0,1), counter-clockwise in the frame; reversed in-plane when the direction matrix
 // mirrors, so that the world cell is positively oriented (VTK's convention) either way.
 std::array<std::array<int, 2>, 4> voxel_corner_order(bool mirrored);
+
+// Grid of an image's voxels in WORLD coordinates: one quad (2D) / hexahedron (3D) per voxel, in the
+// image's voxel order, on the lattice of voxel corners numbered lexicographically (axis 0 fastest),
+// which is also the vertex numbering of fem::ElasticModel::voxel_grid; corners in voxel_corner_order.
+template <int dim>
+UnstructuredGrid voxel_grid(const Image<dim>& image, const WorldTransform<dim>& transform);
 
 void write_vtu(const std::filesystem::path& path, const UnstructuredGrid& grid);
 

@@ -1,38 +1,49 @@
 // Incremental vertex→cells and facet→cells adjacency used by the swaps of paper §IV-B.
-// Facet keys pack the sorted vertex ids (2D: 2×32 bits, 3D: 3×21 bits).
-#include <vim/adjacency.hpp>
-
+// Built from vim::match_facets; facet keys pack the sorted vertex ids (2D: 2×32 bits, 3D: 3×21 bits).
 #include <algorithm>
 #include <iterator>
 #include <stdexcept>
 #include <string>
+#include <vim/adjacency.hpp>
+#include <vim/facets.hpp>
 
 namespace vim {
 
 template <int dim>
-typename Adjacency<dim>::FaceKey Adjacency<dim>::face_key(const Cell& v, int k) {
-  std::array<std::uint64_t, dim> f{};
-  int j = 0;
-  for (int i = 0; i <= dim; ++i)
-    if (i != k) f[j++] = static_cast<std::uint64_t>(v[i]);
-  std::sort(f.begin(), f.end());
+typename Adjacency<dim>::FaceKey Adjacency<dim>::key_of(const std::array<int, dim>& f) {
   if constexpr (dim == 2) {
-    return (f[0] << 32) | f[1];
+    return (static_cast<FaceKey>(f[0]) << 32) | static_cast<FaceKey>(f[1]);
   } else {
-    return (f[0] << 42) | (f[1] << 21) | f[2];
+    return (static_cast<FaceKey>(f[0]) << 42) | (static_cast<FaceKey>(f[1]) << 21) |
+           static_cast<FaceKey>(f[2]);
   }
 }
 
 template <int dim>
-void Adjacency<dim>::build(std::size_t n_points, const std::vector<Cell>& cells, const std::vector<char>& alive) {
+typename Adjacency<dim>::FaceKey Adjacency<dim>::face_key(const Cell& v, int k) {
+  return key_of(sorted_facet<dim>(v, k));
+}
+
+template <int dim>
+void Adjacency<dim>::build(std::size_t n_points, const std::vector<Cell>& cells,
+                           const std::vector<char>& alive) {
   if (dim == 3 && n_points > (std::size_t(1) << 21))
     throw std::invalid_argument("mesh has " + std::to_string(n_points) +
                                 " nodes: the swap adjacency supports at most 2097152");
+  const FacetIncidence<dim> facets = match_facets<dim>(n_points, cells, alive);
   vertex_cells_.assign(n_points, {});
+  for (std::size_t c = 0; c < cells.size(); ++c)
+    if (alive.empty() || alive[c])
+      for (int v : cells[c]) vertex_cells_[v].push_back(static_cast<int>(c));  // ascending: c grows
   faces_.clear();
   faces_.reserve(cells.size() * (dim + 1) / 2 + 16);
-  for (std::size_t c = 0; c < cells.size(); ++c)
-    if (alive.empty() || alive[c]) add_cell(static_cast<int>(c), cells[c]);
+  for (std::size_t g = 0; g < facets.n_facets(); ++g) {
+    if (facets.count(g) > 2)
+      throw std::invalid_argument("non-manifold mesh: a facet is shared by more than two cells");
+    const int first = static_cast<int>(facets.use(g, 0).cell());
+    const int second = facets.count(g) == 2 ? static_cast<int>(facets.use(g, 1).cell()) : -1;
+    faces_.emplace(key_of(facets.use(g, 0).vertices), std::array<int, 2>{first, second});
+  }
 }
 
 template <int dim>
@@ -79,12 +90,6 @@ int Adjacency<dim>::neighbor(int c, const Cell& v, int k) const {
   auto it = faces_.find(face_key(v, k));
   if (it == faces_.end()) return -1;
   return it->second[0] == c ? it->second[1] : it->second[0];
-}
-
-template <int dim>
-std::array<int, 2> Adjacency<dim>::face_cells(FaceKey key) const {
-  auto it = faces_.find(key);
-  return it == faces_.end() ? std::array<int, 2>{-1, -1} : it->second;
 }
 
 template <int dim>

@@ -1,40 +1,76 @@
-// Internal to vim_fem (deal.II inside): the state behind ElasticModel<dim>, shared by the serial
-// TU (elasticity.cpp) and the MPI TU (elasticity_mpi.cpp). Weak form (step-8):
+// Internal to vim_fem (deal.II inside): the state behind ElasticModel<dim>, shared by its translation
+// units — model.cpp (set-up, conditions, assembly), solvers.cpp (UMFPACK, CG+AMG, the point-constraint
+// solves), postprocess.cpp (fields, point location, sampling, energies) and distributed.cpp (MPI).
+// Weak form (deal.II step-8; paper §VI-C):
 //   ∫ λ (∇·u)(∇·v) + 2μ ε(u):ε(v) dx = ∫ b·v dx + ∫_Γ (t − p n)·v ds,   λ, μ per cell from (E_j, ν).
 #pragma once
 
-#include <vim/fem/elasticity.hpp>
-
+#include <deal.II/base/mpi.h>
 #include <deal.II/base/quadrature.h>
 #include <deal.II/dofs/dof_handler.h>
 #include <deal.II/fe/fe_system.h>
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/fe/mapping.h>
-#include <deal.II/grid/grid_tools_cache.h>
 #include <deal.II/grid/tria.h>
 #include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/full_matrix.h>
-#include <deal.II/lac/sparse_direct.h>
 #include <deal.II/lac/sparse_matrix.h>
 #include <deal.II/lac/sparsity_pattern.h>
 #include <deal.II/lac/trilinos_precondition.h>
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/vector.h>
-
 #include <suitesparse/umfpack.h>
-
-#include <Epetra_MultiVector.h>
-#include <Teuchos_ParameterList.hpp>
 
 #include <array>
 #include <cmath>
 #include <functional>
 #include <map>
 #include <memory>
-#include <tuple>
+#include <sstream>
+#include <string>
+#include <utility>
 #include <vector>
+#include <vim/fem/model.hpp>
+
+#include "input_checks.hpp"
 
 namespace vim::fem {
+
+// ---- conversions between the public Eigen types and deal.II's ------------------------------------
+template <int dim>
+dealii::Point<dim> to_point(const Vec<dim>& v) {
+  dealii::Point<dim> p;
+  for (int d = 0; d < dim; ++d) p[d] = v[d];
+  return p;
+}
+template <int dim>
+Vec<dim> to_vec(const dealii::Point<dim>& p) {
+  Vec<dim> v;
+  for (int d = 0; d < dim; ++d) v[d] = p[d];
+  return v;
+}
+inline std::string fmt_point(const double* x, int dim) {
+  std::ostringstream s;
+  s << "(";
+  for (int d = 0; d < dim; ++d) s << (d ? ", " : "") << x[d];
+  s << ")";
+  return s.str();
+}
+
+// Columns are unit vectors, mutually orthogonal (within 1e-9), and finite.
+template <int dim>
+bool is_orthonormal(const Eigen::Matrix<double, dim, dim>& axes) {
+  return axes.allFinite() &&
+         (axes.transpose() * axes).isApprox(Eigen::Matrix<double, dim, dim>::Identity(), 1e-9);
+}
+
+// Throws std::invalid_argument for a tolerance that is not finite and > 0, or no iterations.
+inline void check_solver_options(const SolverOptions& opt) {
+  if (!(opt.tolerance > 0.0) || !std::isfinite(opt.tolerance))
+    throw std::invalid_argument("SolverOptions: tolerance must be finite and > 0, got " +
+                                std::to_string(opt.tolerance));
+  if (opt.max_iterations == 0) throw std::invalid_argument("SolverOptions: max_iterations must be > 0");
+}
 
 // One scalar constraint row c·u = g on the free DoFs (Dirichlet DoFs condensed into g).
 struct ConstraintRow {
@@ -56,6 +92,24 @@ void dof_groups(const dealii::FiniteElement<dim>& fe, const std::vector<dealii::
     const auto ci = fe.system_to_component_index(i);
     groups[ci.second][ci.first] = idx[i];
   }
+}
+
+// P1 simplex: the shape functions are the barycentric coordinates (shape function k of
+// FE_SimplexP(1) belongs to cell vertex k), with constant gradients ∇λ_k = row k−1 of J⁻¹ (k ≥ 1) and
+// ∇λ_0 = −Σ ∇λ_k, J = [x_1 − x_0, …, x_dim − x_0]. Fills g and returns the cell's volume.
+template <int dim, class CellIterator>
+double barycentric_gradients(const CellIterator& cell, std::array<dealii::Tensor<1, dim>, dim + 1>& g) {
+  dealii::Tensor<2, dim> J;
+  const dealii::Point<dim> x0 = cell->vertex(0);
+  for (int k = 1; k <= dim; ++k)
+    for (int d = 0; d < dim; ++d) J[d][k - 1] = cell->vertex(k)[d] - x0[d];
+  const dealii::Tensor<2, dim> Jinv = dealii::invert(J);
+  g[0] = dealii::Tensor<1, dim>();
+  for (int k = 1; k <= dim; ++k) {
+    g[k] = Jinv[k - 1];
+    g[0] -= g[k];
+  }
+  return std::abs(dealii::determinant(J)) / (dim == 2 ? 2.0 : 6.0);
 }
 
 // UMFPACK LU of the symmetric K, factorised once; solves without iterative refinement and with
@@ -81,7 +135,9 @@ class UmfpackLU {
 
 template <int dim>
 struct ElasticModel<dim>::Impl {
-  using Key = std::pair<std::array<double, dim>, std::array<double, dim>>;  // (position, direction) of a constraint row
+  using Key = std::pair<std::array<double, dim>, std::array<double, dim>>;  // (position, direction) of a row
+  using Cell = typename dealii::DoFHandler<dim>::active_cell_iterator;
+  using Located = std::pair<typename dealii::Triangulation<dim>::active_cell_iterator, dealii::Point<dim>>;
 
   // ---- input -------------------------------------------------------------------------------
   bool voxel = false;
@@ -91,12 +147,13 @@ struct ElasticModel<dim>::Impl {
   std::array<long, dim> grid_cells{};
   dealii::Point<dim> grid_min, grid_max;
   bool mesh_built = false;
-  bool dofs_ready = false;  // dof and cache set up (setup_dofs); simplex models too only on first serial use
+  bool dofs_ready = false;  // DoFs set up (setup_dofs); simplex models too only on first serial use
   // Voxel cells are congruent boxes: K_e = λ_e Kλ + μ_e Kμ and ∫N_i from the first cell assembled.
   mutable bool voxel_reference_ready = false;
   mutable dealii::FullMatrix<double> voxel_K_lambda, voxel_K_mu;
   mutable std::vector<double> voxel_shape_integral;
   std::vector<Vec<dim>> vertices;
+  std::vector<typename SimplexMesh<dim>::Cell> simplices;  // simplex models: the input cells
   std::vector<double> E;  // per input cell (material_id of a deal.II cell = its input index)
   double nu = 0.3;
   unsigned degree = 1;
@@ -115,13 +172,17 @@ struct ElasticModel<dim>::Impl {
   std::unique_ptr<dealii::Quadrature<dim - 1>> face_quadrature;
   dealii::Point<dim> unit_centroid;
   dealii::DoFHandler<dim> dof;
-  std::unique_ptr<dealii::GridTools::Cache<dim>> cache;
+
+  // ---- point location (built on first use) -------------------------------------------------
+  mutable std::unique_ptr<CellLocator<dim>> locator;
+  // the deal.II cell of each locator cell (index = material id = input cell / voxel index)
+  mutable std::vector<typename dealii::Triangulation<dim>::active_cell_iterator> cell_of_index;
 
   // ---- assembled system (serial) -----------------------------------------------------------
   bool assembled = false;
   std::vector<dealii::Point<dim>> support_points;  // per DoF
-  std::vector<int> dof_bc;                          // per DoF: owning DirichletBC or -1
-  std::vector<unsigned> dof_component;              // per DoF: vector component
+  std::vector<int> dof_bc;                         // per DoF: owning DirichletBC or -1
+  std::vector<unsigned> dof_component;             // per DoF: vector component
   // Post-processing cache (built on first use when it fits in ~400 MB): per cell, its DoFs and the
   // gradients of the scalar basis functions at the centroid; per vertex, its DoFs.
   bool post_cache = false;
@@ -151,105 +212,74 @@ struct ElasticModel<dim>::Impl {
   bool have_solution = false;
   dealii::Vector<double> u;
 
-  // ---- shared helpers (elasticity.cpp) -----------------------------------------------------
+  // ---- set-up, conditions and assembly (model.cpp) -------------------------------------------
   void setup_dofs();
   // Builds the serial voxel triangulation if not built yet, and the DoFs (every serial entry point).
   void ensure_mesh();
+  // Forgets the assembled system and the solver state (a condition was added).
+  void invalidate();
   // Index of the voxel containing x (clamped to the grid), axis 0 fastest.
   std::size_t voxel_index(const dealii::Point<dim>& x) const;
-  // Per-DoF support points over the cells given by `cells` (all active cells in serial).
   // The Dirichlet conditions at one support point x whose DoFs, by component, are `dofs` (first
   // condition wins per DoF; see DirichletBC::axes): adds their lines to `constraints`, calls
   // hold(dof, b) for every DoF condition b holds, and appends the constrained directions at x to
   // `constrained` if it is given.
-  void constrain_point(const dealii::Point<dim>& x, const std::array<dealii::types::global_dof_index, dim>& dofs,
+  void constrain_point(const dealii::Point<dim>& x,
+                       const std::array<dealii::types::global_dof_index, dim>& dofs,
                        dealii::AffineConstraints<double>& constraints,
                        const std::function<void(dealii::types::global_dof_index, int)>& hold,
-                       std::vector<std::pair<dealii::Point<dim>, dealii::Tensor<1, dim>>>* constrained) const;
-  // Throws unless the constrained directions (point, unit direction; this rank's share, summed over
-  // `comm`) remove every rigid motion.
-  void check_rigid_modes_removed(const std::vector<std::pair<dealii::Point<dim>, dealii::Tensor<1, dim>>>& constrained,
-                                 MPI_Comm comm = MPI_COMM_SELF) const;
+                       ConstrainedDirections<dim>* constrained) const;
   // Local stiffness and load of one cell (fe_values/fe_face_values reinit'ed inside).
-  void local_system(const typename dealii::DoFHandler<dim>::active_cell_iterator& cell,
-                    dealii::FEValues<dim>& fe_values, dealii::FEFaceValues<dim>& fe_face_values,
-                    dealii::FullMatrix<double>& Ke, dealii::Vector<double>& fe_rhs) const;
+  void local_system(const Cell& cell, dealii::FEValues<dim>& fe_values,
+                    dealii::FEFaceValues<dim>& fe_face_values, dealii::FullMatrix<double>& Ke,
+                    dealii::Vector<double>& fe_rhs) const;
   std::unique_ptr<dealii::FEValues<dim>> make_fe_values() const;
   std::unique_ptr<dealii::FEFaceValues<dim>> make_face_values() const;
+  // K, K_full, f, f_full, the Dirichlet constraints and the volume supports (once per set of conditions).
+  void assemble();
+
+  // ---- solvers (solvers.cpp) -----------------------------------------------------------------
+  // Assembles, then factorises K (UMFPACK) or sets up AMG, as `opt` and the size ask (once per method).
+  void prepare_solver(const SolverOptions& opt);
+  // x = K⁻¹ b with the prepared solver; returns CG iterations (0 for the direct solver).
+  unsigned apply_inverse(const dealii::Vector<double>& b, dealii::Vector<double>& x, const SolverOptions& opt,
+                         double* residual = nullptr) const;
+
+  // ---- post-processing and point location (postprocess.cpp) ---------------------------------
+  const CellLocator<dim>& cell_locator() const;
+  // The cell containing x and x's reference coordinates, or (tria.end(), ·) if x is outside the mesh.
+  Located locate(const dealii::Point<dim>& x) const;
+  // Vertex displacement, centroid strain/stress, energy and reactions of u.
+  Solution<dim> postprocess();
   // Strain at the centroid of `cell` from the local DoF values.
-  Eigen::Matrix<double, dim, dim> centroid_strain(const typename dealii::DoFHandler<dim>::active_cell_iterator& cell,
-                                                  dealii::FEValues<dim>& centroid_values,
+  Eigen::Matrix<double, dim, dim> centroid_strain(const Cell& cell, dealii::FEValues<dim>& centroid_values,
                                                   const std::vector<double>& local_u) const;
-  void stress_of(const Eigen::Matrix<double, dim, dim>& eps, double E_cell, Eigen::Matrix<double, dim, dim>& sigma,
-                 double& von_mises) const;
+  void stress_of(const Eigen::Matrix<double, dim, dim>& eps, double E_cell,
+                 Eigen::Matrix<double, dim, dim>& sigma, double& von_mises) const;
+
+ private:
+  void local_voxel(const Cell& cell, dealii::FEValues<dim>& fv, double lambda, double mu,
+                   dealii::FullMatrix<double>& Ke, dealii::Vector<double>& Fe) const;
+  void local_p1(const Cell& cell, double lambda, double mu, dealii::FullMatrix<double>& Ke,
+                dealii::Vector<double>& Fe) const;
+  void local_quadrature(const Cell& cell, dealii::FEValues<dim>& fv, double lambda, double mu,
+                        dealii::FullMatrix<double>& Ke, dealii::Vector<double>& Fe) const;
+  void add_surface_loads(const Cell& cell, dealii::FEFaceValues<dim>& ffv, dealii::Vector<double>& Fe) const;
+  void find_support_points_and_components();
+  ConstrainedDirections<dim> apply_dirichlet_conditions();
+  void assemble_cells();
+  void assemble_supports();
+  void build_post_cache();
 };
 
-// P1 simplex: the shape functions are the barycentric coordinates (shape function k of
-// FE_SimplexP(1) belongs to cell vertex k), with constant gradients ∇λ_k = row k−1 of J⁻¹ (k ≥ 1) and
-// ∇λ_0 = −Σ ∇λ_k, J = [x_1 − x_0, …, x_dim − x_0]. Fills g and returns the cell's volume.
-template <int dim, class CellIterator>
-double barycentric_gradients(const CellIterator& cell, std::array<dealii::Tensor<1, dim>, dim + 1>& g) {
-  dealii::Tensor<2, dim> J;
-  const dealii::Point<dim> x0 = cell->vertex(0);
-  for (int k = 1; k <= dim; ++k)
-    for (int d = 0; d < dim; ++d) J[d][k - 1] = cell->vertex(k)[d] - x0[d];
-  const dealii::Tensor<2, dim> Jinv = dealii::invert(J);
-  g[0] = dealii::Tensor<1, dim>();
-  for (int k = 1; k <= dim; ++k) {
-    g[k] = Jinv[k - 1];
-    g[0] -= g[k];
+// The model's state, for the functions outside ElasticModel that need it (solve_distributed).
+struct ModelAccess {
+  template <int dim>
+  using State = typename ElasticModel<dim>::Impl;
+  template <int dim>
+  static State<dim>& state(ElasticModel<dim>& model) {
+    return *model.impl_;
   }
-  return std::abs(dealii::determinant(J)) / (dim == 2 ? 2.0 : 6.0);
-}
-
-// CG preconditioner for elasticity (serial and MPI solves): ML AMG with the rigid-body modes at
-// the DoF support points (local index -> point, component) as a pre-computed null space.
-// Linear elements (P1 simplices, Q1 voxel hexahedra): unsmoothed aggregation (damping factor 0),
-// aggregation threshold 0, W-cycle; Chebyshev degree 1 on voxel grids (81 nonzeros per row), 2 on
-// simplices. Voxel 50³ grid (398k DoFs, 2 ranks): smoothed aggregation (threshold 0.02, degree 2)
-// took 37 CG iterations but a ~2.5x longer set-up and 1.43x the peak memory (1.05 vs 0.73 GB per
-// rank; the 100³ grid ran out of memory with it); the unsmoothed hierarchy takes 66 iterations
-// (V-cycle) / 53 (W-cycle) and is faster overall. P1 Kuhn 68³ (985k DoFs, 2 ranks): smoothed
-// aggregation (threshold 0.02) set-up 10.8 s + CG 7.6 s (62 iterations), threshold 0 13.0 + 5.0 s
-// (38), unsmoothed V-cycle 2.5 + 9.1 s (102), unsmoothed W-cycle 2.7 + 6.4 s (62), with 18 % less
-// peak memory (docs/performance.md, issue 5). P2 keeps smoothed aggregation (threshold 0.02,
-// degree 2, V-cycle), not re-measured.
-template <int dim>
-inline void amg_setup(const dealii::TrilinosWrappers::SparseMatrix& K, const std::function<dealii::Point<dim>(unsigned)>& support_of_local,
-               const std::function<unsigned(unsigned)>& component_of_local, unsigned degree, bool voxel_grid,
-               dealii::TrilinosWrappers::PreconditionAMG& amg) {
-  const bool unsmoothed = degree == 1;
-  constexpr int nm = dim == 2 ? 3 : 6;
-  dealii::TrilinosWrappers::PreconditionAMG::AdditionalData data;
-  data.elliptic = true;
-  data.higher_order_elements = degree > 1;
-  data.smoother_sweeps = voxel_grid ? 1 : 2;
-  data.aggregation_threshold = unsmoothed ? 0.0 : 0.02;
-  data.w_cycle = unsmoothed;
-  Teuchos::ParameterList pl;
-  std::unique_ptr<Epetra_MultiVector> unused;
-  data.set_parameters(pl, unused, K);
-  if (unsmoothed) pl.set("aggregation: damping factor", 0.0);
-  Epetra_MultiVector nsp(K.trilinos_matrix().DomainMap(), nm);
-  const int n_local = K.trilinos_matrix().DomainMap().NumMyElements();
-  for (int i = 0; i < n_local; ++i) {
-    const dealii::Point<dim> x = support_of_local(static_cast<unsigned>(i));
-    const unsigned c = component_of_local(static_cast<unsigned>(i));
-    for (int k = 0; k < nm; ++k) nsp[k][i] = 0.0;
-    nsp[c][i] = 1.0;
-    if constexpr (dim == 2) {
-      nsp[2][i] = c == 0 ? -x[1] : x[0];
-    } else {
-      const double rot[3][3] = {{0.0, x[2], -x[1]}, {-x[2], 0.0, x[0]}, {x[1], -x[0], 0.0}};
-      for (int a = 0; a < 3; ++a) nsp[3 + a][i] = rot[a][c];
-    }
-  }
-  pl.set("null space: type", "pre-computed");
-  pl.set("null space: dimension", nm);
-  pl.set("null space: vectors", nsp.Values());
-  pl.set("null space: add default vectors", false);
-  pl.set("PDE equations", dim);
-  amg.initialize(K, pl);
-}
+};
 
 }  // namespace vim::fem

@@ -1,6 +1,6 @@
 // Incremental mesh adjacency for the connectivity updates of paper §IV-B (GRUMMP-style swaps):
 // vertex → incident cells and facet → the one or two cells sharing it, updated cell by cell so a
-// swap never rebuilds the structure (DESIGN.md §3 "Connectivity update").
+// swap never rebuilds the structure (docs/architecture.md, "Core").
 #pragma once
 
 #include <array>
@@ -15,11 +15,11 @@ template <int dim>
 class Adjacency {
  public:
   using Cell = std::array<int, dim + 1>;
-  using FaceKey = std::uint64_t;
 
-  // Builds from scratch; cells with alive[c] == 0 are skipped (alive may be empty = all alive).
-  // Throws std::invalid_argument if a facet is shared by more than two cells or, in 3D, the mesh
-  // has more than 2^21 nodes (facet keys pack three 21-bit indices).
+  // Builds from scratch (facets matched by vim::match_facets); cells with alive[c] == 0 are skipped
+  // (alive may be empty = all alive). Throws std::invalid_argument if a facet is shared by more than
+  // two cells, a vertex id is outside [0, n_points) or, in 3D, the mesh has more than 2^21 nodes
+  // (facet keys pack three 21-bit indices).
   void build(std::size_t n_points, const std::vector<Cell>& cells, const std::vector<char>& alive = {});
 
   void add_point() { vertex_cells_.emplace_back(); }
@@ -29,22 +29,24 @@ class Adjacency {
 
   const std::vector<int>& cells_of(int vertex) const { return vertex_cells_[vertex]; }
   std::size_t n_points() const { return vertex_cells_.size(); }
-  std::size_t n_faces() const { return faces_.size(); }
 
-  // Key of the facet of v opposite its local vertex k (vertex ids sorted, packed).
-  static FaceKey face_key(const Cell& v, int k);
   // The cell other than c sharing the facet of c opposite local vertex k; -1 on the boundary.
   int neighbor(int c, const Cell& v, int k) const;
-  // The (up to two, -1 = none) cells holding a facet.
-  std::array<int, 2> face_cells(FaceKey key) const;
 
   // Cells containing both a and b (the edge's ring), in ascending order, written to out.
   void cells_with_edge(int a, int b, std::vector<int>& out) const;
 
   // True iff this structure equals the one built from scratch from (cells, alive).
-  bool consistent(std::size_t n_points, const std::vector<Cell>& cells, const std::vector<char>& alive = {}) const;
+  bool consistent(std::size_t n_points, const std::vector<Cell>& cells,
+                  const std::vector<char>& alive = {}) const;
 
  private:
+  using FaceKey = std::uint64_t;
+  // Key of the facet of v opposite its local vertex k (vim::sorted_facet, packed: 2D 2×32 bits,
+  // 3D 3×21 bits).
+  static FaceKey face_key(const Cell& v, int k);
+  static FaceKey key_of(const std::array<int, dim>& sorted);
+
   std::vector<std::vector<int>> vertex_cells_;  // kept sorted ascending
   std::unordered_map<FaceKey, std::array<int, 2>> faces_;
 };

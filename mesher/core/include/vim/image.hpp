@@ -1,10 +1,9 @@
 // Image<dim>: a scalar voxel map in the image's axis-aligned physical frame.
 // Voxel centre of index i is origin + i ⊙ spacing (ITK convention, without the direction matrix,
-// which the pipeline keeps and applies at output; see DESIGN.md §2 "Coordinates").
+// which the pipeline keeps and applies at output; see docs/architecture.md, "Coordinates").
 #pragma once
 
 #include <Eigen/Core>
-
 #include <array>
 #include <cmath>
 #include <cstddef>
@@ -18,10 +17,10 @@ struct Image {
   using Point = Eigen::Matrix<double, dim, 1>;
   using Index = std::array<long, dim>;
 
-  std::array<long, dim> size{};      // voxels per axis; axis 0 varies fastest in `data`
-  std::array<double, dim> spacing{}; // physical voxel size per axis (> 0)
-  std::array<double, dim> origin{};  // physical position of the centre of voxel (0,...,0)
-  std::vector<float> data;           // size[0]*...*size[dim-1] values
+  std::array<long, dim> size{};       // voxels per axis; axis 0 varies fastest in `data`
+  std::array<double, dim> spacing{};  // physical voxel size per axis (> 0)
+  std::array<double, dim> origin{};   // physical position of the centre of voxel (0,...,0)
+  std::vector<float> data;            // size[0]*...*size[dim-1] values
 
   Image() = default;
   Image(const std::array<long, dim>& sz, const std::array<double, dim>& sp,
@@ -37,7 +36,8 @@ struct Image {
 
   std::size_t linear_index(const Index& i) const {
     std::size_t k = 0;
-    for (int a = dim - 1; a >= 0; --a) k = k * static_cast<std::size_t>(size[a]) + static_cast<std::size_t>(i[a]);
+    for (int a = dim - 1; a >= 0; --a)
+      k = k * static_cast<std::size_t>(size[a]) + static_cast<std::size_t>(i[a]);
     return k;
   }
   Index index_of(std::size_t k) const {

@@ -1,10 +1,13 @@
-// Eq. 15 of the paper: each element's Young's modulus is the mean of the image values whose voxel
-// centres it encloses (computed by the mesher), scaled to the model's units and optionally clamped.
-#include <vim/fem/elasticity.hpp>
-
+// Material of the elastic model. Eq. 15 of the paper: each element's Young's modulus is the mean of the
+// image values whose voxel centres it encloses (computed by the mesher), scaled to the model's units and
+// optionally clamped. Also block means of a voxel image and the Lamé parameters.
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+#include <vim/fem/material.hpp>
+
+#include "input_checks.hpp"
 
 namespace vim::fem {
 
@@ -45,15 +48,17 @@ std::vector<double> element_modulus(const std::vector<double>& element_mean, dou
 }
 
 template <int dim>
-std::vector<double> block_mean(const std::array<long, dim>& dims, const std::vector<double>& values, int factor,
-                               std::array<long, dim>* coarse_dims) {
-  if (factor < 1) throw std::invalid_argument("block_mean: factor must be >= 1, got " + std::to_string(factor));
+std::vector<double> block_mean(const std::array<long, dim>& dims, const std::vector<double>& values,
+                               int factor, std::array<long, dim>* coarse_dims) {
+  if (factor < 1)
+    throw std::invalid_argument("block_mean: factor must be >= 1, got " + std::to_string(factor));
   std::array<long, dim> cd;
   long n = 1, nc = 1;
   for (int d = 0; d < dim; ++d) {
     if (dims[d] < 1 || dims[d] % factor != 0) {
       std::ostringstream m;
-      m << "block_mean: image size " << dims[d] << " along axis " << d << " is not a positive multiple of factor " << factor;
+      m << "block_mean: image size " << dims[d] << " along axis " << d
+        << " is not a positive multiple of factor " << factor;
       throw std::invalid_argument(m.str());
     }
     cd[d] = dims[d] / factor;
@@ -89,15 +94,13 @@ std::pair<double, double> lame_parameters(double E, double nu) {
     m << "Young's modulus must be finite and > 0, got " << E;
     throw std::invalid_argument(m.str());
   }
-  if (!(nu > -1.0 && nu < 0.5)) {
-    std::ostringstream m;
-    m << "Poisson ratio " << nu << " is outside (-1, 0.5)";
-    throw std::invalid_argument(m.str());
-  }
+  check_poisson_ratio(nu);
   return {E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)), E / (2.0 * (1.0 + nu))};
 }
 
-template std::vector<double> block_mean<2>(const std::array<long, 2>&, const std::vector<double>&, int, std::array<long, 2>*);
-template std::vector<double> block_mean<3>(const std::array<long, 3>&, const std::vector<double>&, int, std::array<long, 3>*);
+template std::vector<double> block_mean<2>(const std::array<long, 2>&, const std::vector<double>&, int,
+                                           std::array<long, 2>*);
+template std::vector<double> block_mean<3>(const std::array<long, 3>&, const std::vector<double>&, int,
+                                           std::array<long, 3>*);
 
 }  // namespace vim::fem

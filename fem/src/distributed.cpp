@@ -1,0 +1,413 @@
+// The elastic model solved over MPI ranks (docs/architecture.md, fem module): simplex models on a
+// parallel::shared::Triangulation (a copy of the serial triangulation every rank holds, METIS
+// partition, cells away from the own part artificial); voxel models on a p4est
+// parallel::distributed::Triangulation built from the grid description alone (no serial mesh).
+// Each rank assembles its cells into Trilinos matrices and solves with CG + ML AMG fed the
+// rigid-body modes. Outputs are gathered so every rank gets the full Solution.
+#include <deal.II/base/index_set.h>
+#include <deal.II/base/multithread_info.h>
+#include <deal.II/base/timer.h>
+#include <deal.II/distributed/shared_tria.h>
+#include <deal.II/distributed/tria.h>
+#include <deal.II/dofs/dof_tools.h>
+#include <deal.II/grid/grid_generator.h>
+#include <deal.II/grid/grid_tools.h>
+#include <deal.II/lac/dynamic_sparsity_pattern.h>
+#include <deal.II/lac/solver_cg.h>
+#include <deal.II/lac/solver_control.h>
+#include <deal.II/lac/sparsity_tools.h>
+#include <deal.II/lac/trilinos_sparsity_pattern.h>
+#include <deal.II/lac/trilinos_vector.h>
+#include <dlfcn.h>
+
+#include <cfloat>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+#include <unordered_map>
+#include <vim/fem/distributed.hpp>
+
+#include "amg.hpp"
+#include "model_state.hpp"
+
+namespace vim::fem {
+
+using namespace dealii;
+
+template <int dim>
+using State = ModelAccess::State<dim>;
+
+namespace {
+
+// One thread per rank while a multi-rank solve runs (restored afterwards). OpenBLAS, which Trilinos
+// ML calls, keeps nproc − 1 worker threads per process that spin in sched_yield after each BLAS call
+// (perf, 1 rank: 12 % of the samples in that thread); with a rank per core they take CPU from the
+// other ranks. The same holds for OpenMP (libgomp) teams and deal.II's TBB tasks. The BLAS and OpenMP
+// setters are looked up at run time: absent (another BLAS, no OpenMP) means nothing to limit.
+class OneThreadPerRank {
+ public:
+  OneThreadPerRank()
+      : blas_get_(reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"))),
+        blas_set_(reinterpret_cast<void (*)(int)>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))),
+        omp_get_(reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "omp_get_max_threads"))),
+        omp_set_(reinterpret_cast<void (*)(int)>(dlsym(RTLD_DEFAULT, "omp_set_num_threads"))),
+        tbb_saved_(MultithreadInfo::n_threads()) {
+    if (blas_get_ && blas_set_) blas_saved_ = blas_get_(), blas_set_(1);
+    if (omp_get_ && omp_set_) omp_saved_ = omp_get_(), omp_set_(1);
+    MultithreadInfo::set_thread_limit(1);
+  }
+  ~OneThreadPerRank() {
+    if (blas_saved_ > 1) blas_set_(blas_saved_);
+    if (omp_saved_ > 1) omp_set_(omp_saved_);
+    MultithreadInfo::set_thread_limit(tbb_saved_);
+  }
+  OneThreadPerRank(const OneThreadPerRank&) = delete;
+  OneThreadPerRank& operator=(const OneThreadPerRank&) = delete;
+
+ private:
+  int (*blas_get_)();
+  void (*blas_set_)(int);
+  int (*omp_get_)();
+  void (*omp_set_)(int);
+  unsigned tbb_saved_;
+  int blas_saved_ = 0, omp_saved_ = 0;
+};
+
+// The distributed mesh, DoFs, Dirichlet constraints and assembled system of one solve.
+template <int dim>
+struct DistributedSystem {
+  std::unique_ptr<parallel::TriangulationBase<dim>> tria;
+  DoFHandler<dim> dof;
+  IndexSet owned, relevant;
+  // per relevant DoF (position in `relevant`): support point and component
+  std::vector<Point<dim>> rel_point;
+  std::vector<unsigned char> rel_comp;
+  AffineConstraints<double> constraints;
+  std::unordered_map<types::global_dof_index, int> dof_bc;  // Dirichlet DoF -> its condition
+  TrilinosWrappers::SparseMatrix K;
+  TrilinosWrappers::MPI::Vector f;
+};
+
+// Simplex models: parallel::shared::Triangulation (METIS partition, cells away from the own part
+// artificial). deal.II 9.4.1's fullydistributed::Triangulation::create_triangulation sorts the
+// cells with a comparator that binary-searches the coarse-cell map twice per comparison: with
+// every cell a coarse cell (~2M tets for ~1M DoFs) that dominated the set-up (docs/performance.md).
+// partition_metis explicitly: partition_auto picks Zoltan's hypergraph partitioner, far slower here.
+// Voxel models: a parallel::distributed::Triangulation (p4est) of a coarse block grid refined
+// globally r times (2^r the largest power of two dividing every axis), so a rank holds the coarse
+// grid plus its own part of the voxel grid and never the whole serial mesh; each cell's modulus is
+// looked up by its centre (material id = voxel index).
+template <int dim>
+std::unique_ptr<parallel::TriangulationBase<dim>> distributed_triangulation(const State<dim>& m,
+                                                                            MPI_Comm comm) {
+  if (!m.voxel) {
+    auto t = std::make_unique<parallel::shared::Triangulation<dim>>(
+        comm, Triangulation<dim>::none, /*allow_artificial_cells=*/true,
+        parallel::shared::Triangulation<dim>::partition_metis);
+    t->copy_triangulation(m.tria);
+    return t;
+  }
+  auto t = std::make_unique<parallel::distributed::Triangulation<dim>>(comm);
+  unsigned r = 0;
+  auto divisible = [&](unsigned k) {
+    for (int d = 0; d < dim; ++d)
+      if (m.grid_cells[d] % (1L << k) != 0) return false;
+    return true;
+  };
+  while (r < 10 && divisible(r + 1)) ++r;
+  std::vector<unsigned> reps(dim);
+  for (int d = 0; d < dim; ++d) reps[d] = static_cast<unsigned>(m.grid_cells[d] >> r);
+  GridGenerator::subdivided_hyper_rectangle(*t, reps, m.grid_min, m.grid_max);
+  t->refine_global(r);
+  for (const auto& cell : t->active_cell_iterators())
+    if (!cell->is_artificial())
+      cell->set_material_id(static_cast<types::material_id>(m.voxel_index(cell->center())));
+  return t;
+}
+
+// Support points and components of the relevant DoFs.
+template <int dim>
+void relevant_support_points(const State<dim>& m, DistributedSystem<dim>& sys) {
+  const FiniteElement<dim>& fe = *m.fe;
+  sys.rel_point.resize(sys.relevant.n_elements());
+  sys.rel_comp.resize(sys.relevant.n_elements());
+  if (m.degree == 1) {
+    // P1/Q1: every DoF sits on a vertex (component c of vertex v is vertex_dof_index(v, c))
+    for (const auto& cell : sys.dof.active_cell_iterators()) {
+      if (cell->is_artificial()) continue;
+      for (const unsigned v : cell->vertex_indices())
+        for (unsigned c = 0; c < unsigned(dim); ++c) {
+          const auto k = sys.relevant.index_within_set(cell->vertex_dof_index(v, c));
+          sys.rel_point[k] = cell->vertex(v);
+          sys.rel_comp[k] = static_cast<unsigned char>(c);
+        }
+    }
+    return;
+  }
+  Quadrature<dim> sq(fe.get_unit_support_points());
+  FEValues<dim> sv(*m.mapping, fe, sq, update_quadrature_points);
+  std::vector<types::global_dof_index> idx(fe.n_dofs_per_cell());
+  for (const auto& cell : sys.dof.active_cell_iterators()) {
+    if (cell->is_artificial()) continue;
+    sv.reinit(cell);
+    cell->get_dof_indices(idx);
+    for (unsigned i = 0; i < idx.size(); ++i) {
+      const auto k = sys.relevant.index_within_set(idx[i]);
+      sys.rel_point[k] = sv.quadrature_point(i);
+      sys.rel_comp[k] = static_cast<unsigned char>(fe.system_to_component_index(i).first);
+    }
+  }
+}
+
+// Dirichlet constraints (first condition wins) on the relevant DoFs, then the rigid-mode check over
+// all ranks.
+template <int dim>
+void distributed_constraints(const State<dim>& m, DistributedSystem<dim>& sys, MPI_Comm comm) {
+  sys.constraints.reinit(sys.relevant);
+  ConstrainedDirections<dim> constrained_owned;
+  // The DoFs at one support point share their owner, so a point counts on one rank.
+  std::vector<char> seen(sys.relevant.n_elements(), 0);
+  std::vector<types::global_dof_index> idx(m.fe->n_dofs_per_cell());
+  std::vector<std::array<types::global_dof_index, dim>> groups;
+  const auto hold = [&sys](types::global_dof_index i, int b) { sys.dof_bc[i] = b; };
+  for (const auto& cell : sys.dof.active_cell_iterators()) {
+    if (cell->is_artificial()) continue;
+    cell->get_dof_indices(idx);
+    dof_groups<dim>(*m.fe, idx, groups);
+    for (const auto& g : groups) {
+      const auto k = sys.relevant.index_within_set(g[0]);
+      if (seen[k]) continue;
+      seen[k] = 1;
+      m.constrain_point(sys.rel_point[k], g, sys.constraints, hold,
+                        sys.owned.is_element(g[0]) ? &constrained_owned : nullptr);
+    }
+  }
+  sys.constraints.close();
+  check_rigid_modes_removed<dim>(constrained_owned, m.vertices, m.bcs, comm);
+}
+
+template <int dim>
+void assemble_distributed(const State<dim>& m, DistributedSystem<dim>& sys, MPI_Comm comm) {
+  {
+    // deal.II's DynamicSparsityPattern + distribute_sparsity_pattern: inserting into the Trilinos
+    // (Epetra_FECrsGraph) pattern directly took ~3x the assembly time on the voxel grids.
+    DynamicSparsityPattern dsp(sys.relevant);
+    DoFTools::make_sparsity_pattern(sys.dof, dsp, sys.constraints, false);
+    SparsityTools::distribute_sparsity_pattern(dsp, sys.owned, comm, sys.relevant);
+    sys.K.reinit(sys.owned, sys.owned, dsp, comm);
+  }  // the pattern is copied into K: free it before the AMG set-up
+  sys.f.reinit(sys.owned, comm);
+  auto fv = m.make_fe_values();
+  auto ffv = m.make_face_values();
+  const unsigned dpc = m.fe->n_dofs_per_cell();
+  FullMatrix<double> Ke(dpc, dpc);
+  Vector<double> Fe(dpc);
+  std::vector<types::global_dof_index> idx(dpc);
+  for (const auto& cell : sys.dof.active_cell_iterators()) {
+    if (!cell->is_locally_owned()) continue;
+    m.local_system(cell, *fv, *ffv, Ke, Fe);
+    cell->get_dof_indices(idx);
+    sys.constraints.distribute_local_to_global(Ke, Fe, idx, sys.K, sys.f);
+  }
+  sys.K.compress(VectorOperation::add);
+  sys.f.compress(VectorOperation::add);
+}
+
+// CG + AMG with the rigid-body modes (rotations about the bounding-box centre); fills the iterations,
+// relative residual and AMG set-up time of `stats`.
+template <int dim>
+TrilinosWrappers::MPI::Vector solve_cg_amg(const State<dim>& m, const DistributedSystem<dim>& sys,
+                                           const SolverOptions& opt, MPI_Comm comm, SolverStats& stats) {
+  Vec<dim> lo = m.vertices[0], hi = m.vertices[0];
+  for (const auto& v : m.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+  Point<dim> mid;
+  for (int d = 0; d < dim; ++d) mid[d] = 0.5 * (lo[d] + hi[d]);
+  const auto local = [&sys](unsigned i) {
+    return sys.relevant.index_within_set(sys.owned.nth_index_in_set(i));
+  };
+  TrilinosWrappers::PreconditionAMG amg;
+  Timer amg_timer;
+  amg_setup<dim>(
+      sys.K, [&](unsigned i) { return Point<dim>(sys.rel_point[local(i)] - mid); },
+      [&](unsigned i) { return unsigned(sys.rel_comp[local(i)]); }, m.degree, m.voxel, amg);
+  stats.precondition_seconds = amg_timer.wall_time();
+  TrilinosWrappers::MPI::Vector u(sys.owned, comm);
+  const double fn = sys.f.l2_norm();
+  if (fn > 0.0) {
+    SolverControl control(opt.max_iterations, opt.tolerance * fn);
+    SolverCG<TrilinosWrappers::MPI::Vector> cg(control);
+    try {
+      cg.solve(sys.K, u, sys.f, amg);
+    } catch (const SolverControl::NoConvergence& e) {
+      std::ostringstream s;
+      s << "solve_distributed: CG+AMG did not converge in " << e.last_step
+        << " iterations (relative residual " << e.last_residual / fn << ", tolerance " << opt.tolerance
+        << ")";
+      throw std::runtime_error(s.str());
+    }
+    stats.iterations = control.last_step();
+    stats.residual = control.last_value() / fn;
+  }
+  return u;
+}
+
+// Writes the values of the vertices of `cell` into vert (index: the model's vertex numbering · dim + c).
+template <int dim>
+void cell_vertex_values(const State<dim>& m, const typename DoFHandler<dim>::active_cell_iterator& cell,
+                        const TrilinosWrappers::MPI::Vector& ug, std::vector<double>& vert) {
+  if (m.voxel) {
+    // vertices: lexicographic grid index from the position (the numbering of m.vertices)
+    for (const unsigned v : cell->vertex_indices()) {
+      std::size_t gv = 0, stride = 1;
+      for (int d = 0; d < dim; ++d) {
+        const double h = (m.grid_max[d] - m.grid_min[d]) / m.grid_cells[d];
+        const long i = std::lround((cell->vertex(v)[d] - m.grid_min[d]) / h);
+        gv += static_cast<std::size_t>(i) * stride;
+        stride *= static_cast<std::size_t>(m.grid_cells[d] + 1);
+      }
+      for (unsigned c = 0; c < unsigned(dim); ++c) vert[gv * dim + c] = ug[cell->vertex_dof_index(v, c)];
+    }
+    return;
+  }
+  // vertices: the shared triangulation is a copy of the serial one, same vertex numbering
+  const auto& serial_vertices = m.tria.get_vertices();
+  for (const unsigned v : cell->vertex_indices()) {
+    const unsigned gv = cell->vertex_index(v);
+    if (gv >= serial_vertices.size() ||
+        serial_vertices[gv].distance(cell->vertex(v)) > 1e-12 * cell->diameter())
+      throw std::logic_error("solve_distributed: vertex numbering differs from the serial mesh");
+    for (unsigned c = 0; c < unsigned(dim); ++c) vert[gv * dim + c] = ug[cell->vertex_dof_index(v, c)];
+  }
+}
+
+// Per-rank shares of the outputs, reduced over the ranks: vertex values (MAX: shared vertices agree),
+// per-cell strain, stress and von Mises (SUM: each cell owned once), reactions and energy (SUM).
+struct GatheredFields {
+  std::vector<double> vert, cellf, react;
+  double energy = 0.0;
+};
+
+template <int dim>
+GatheredFields gather_fields(const State<dim>& m, const DistributedSystem<dim>& sys,
+                             const TrilinosWrappers::MPI::Vector& ug, MPI_Comm comm) {
+  constexpr int per_cell = 2 * dim * dim + 1;
+  GatheredFields g;
+  g.vert.assign(m.vertices.size() * dim, -DBL_MAX);
+  g.cellf.assign(m.E.size() * per_cell, 0.0);
+  g.react.assign(m.bcs.size() * dim, 0.0);
+  const unsigned dpc = m.fe->n_dofs_per_cell();
+  Quadrature<dim> cq(std::vector<Point<dim>>{m.unit_centroid});
+  FEValues<dim> cv(*m.mapping, *m.fe, cq, update_gradients);
+  auto fv = m.make_fe_values();
+  auto ffv = m.make_face_values();
+  FullMatrix<double> Ke(dpc, dpc);
+  Vector<double> Fe(dpc), uev(dpc), Ku(dpc);
+  std::vector<double> ue(dpc);
+  std::vector<types::global_dof_index> idx(dpc);
+  for (const auto& cell : sys.dof.active_cell_iterators()) {
+    if (!cell->is_locally_owned()) continue;
+    cell->get_dof_indices(idx);
+    for (unsigned i = 0; i < dpc; ++i) uev[i] = ue[i] = ug[idx[i]];
+    cell_vertex_values<dim>(m, cell, ug, g.vert);
+    const unsigned j = cell->material_id();
+    Eigen::Matrix<double, dim, dim> eps = m.centroid_strain(cell, cv, ue), sigma;
+    double vm = 0;
+    m.stress_of(eps, m.E[j], sigma, vm);
+    double* out = &g.cellf[static_cast<std::size_t>(j) * per_cell];
+    for (int a = 0; a < dim * dim; ++a) out[a] = eps.data()[a], out[dim * dim + a] = sigma.data()[a];
+    out[2 * dim * dim] = vm;
+    // energy ½ u_eᵀ K_e u_e and reactions (K_e u_e − F_e) on Dirichlet DoFs, element by element
+    m.local_system(cell, *fv, *ffv, Ke, Fe);
+    Ke.vmult(Ku, uev);
+    g.energy += 0.5 * (uev * Ku);
+    for (unsigned i = 0; i < dpc; ++i) {
+      const auto it = sys.dof_bc.find(idx[i]);
+      if (it != sys.dof_bc.end())
+        g.react[it->second * dim + m.fe->system_to_component_index(i).first] += Ku[i] - Fe[i];
+    }
+  }
+  const auto reduce = [comm](std::vector<double>& v, bool max) {
+    if (max)
+      Utilities::MPI::max(ArrayView<const double>(v.data(), v.size()), comm,
+                          ArrayView<double>(v.data(), v.size()));
+    else
+      Utilities::MPI::sum(ArrayView<const double>(v.data(), v.size()), comm,
+                          ArrayView<double>(v.data(), v.size()));
+  };
+  reduce(g.vert, true);
+  reduce(g.cellf, false);
+  reduce(g.react, false);
+  g.energy = Utilities::MPI::sum(g.energy, comm);
+  return g;
+}
+
+template <int dim>
+Solution<dim> solution_of(const State<dim>& m, const GatheredFields& g) {
+  constexpr int per_cell = 2 * dim * dim + 1;
+  Solution<dim> s;
+  const std::size_t nv = m.vertices.size(), nc = m.E.size();
+  s.vertex_displacement.resize(nv);
+  for (std::size_t v = 0; v < nv; ++v)
+    for (int c = 0; c < dim; ++c)
+      s.vertex_displacement[v][c] = g.vert[v * dim + c] == -DBL_MAX ? 0.0 : g.vert[v * dim + c];
+  s.cell_strain.resize(nc);
+  s.cell_stress.resize(nc);
+  s.von_mises.resize(nc);
+  for (std::size_t j = 0; j < nc; ++j) {
+    const double* in = &g.cellf[j * per_cell];
+    for (int a = 0; a < dim * dim; ++a)
+      s.cell_strain[j].data()[a] = in[a], s.cell_stress[j].data()[a] = in[dim * dim + a];
+    s.von_mises[j] = in[2 * dim * dim];
+  }
+  s.dirichlet_reaction.assign(m.bcs.size(), Vec<dim>::Zero());
+  for (std::size_t b = 0; b < m.bcs.size(); ++b)
+    for (int c = 0; c < dim; ++c) s.dirichlet_reaction[b][c] = g.react[b * dim + c];
+  s.strain_energy = g.energy;
+  return s;
+}
+
+}  // namespace
+
+template <int dim>
+Solution<dim> solve_distributed(ElasticModel<dim>& model, MPI_Comm comm, const SolverOptions& opt) {
+  const State<dim>& m = ModelAccess::state(model);
+  check_solver_options(opt);
+  if (!m.supports.empty())
+    throw std::invalid_argument(
+        "solve_distributed: volume supports (add_volume_support) are not supported; use solve()");
+  Timer timer;
+  const unsigned n_ranks = Utilities::MPI::n_mpi_processes(comm);
+  std::optional<OneThreadPerRank> one_thread;
+  if (n_ranks > 1) one_thread.emplace();
+
+  DistributedSystem<dim> sys;
+  sys.tria = distributed_triangulation<dim>(m, comm);
+  sys.dof.reinit(*sys.tria);
+  sys.dof.distribute_dofs(*m.fe);
+  sys.owned = sys.dof.locally_owned_dofs();
+  DoFTools::extract_locally_relevant_dofs(sys.dof, sys.relevant);
+  relevant_support_points<dim>(m, sys);
+  distributed_constraints<dim>(m, sys, comm);
+  SolverStats stats;
+  stats.setup_seconds = timer.wall_time();
+  assemble_distributed<dim>(m, sys, comm);
+  stats.assemble_seconds = timer.wall_time();
+
+  timer.restart();
+  TrilinosWrappers::MPI::Vector u = solve_cg_amg<dim>(m, sys, opt, comm, stats);
+  sys.constraints.distribute(u);
+  TrilinosWrappers::MPI::Vector ug(sys.owned, sys.relevant, comm);
+  ug = u;
+  stats.solve_seconds = timer.wall_time();
+
+  Solution<dim> s = solution_of<dim>(m, gather_fields<dim>(m, sys, ug, comm));
+  stats.method = "cg+amg (mpi, " + std::to_string(n_ranks) + " ranks)";
+  stats.n_dofs = sys.dof.n_dofs();
+  s.stats = stats;
+  return s;
+}
+
+template Solution<2> solve_distributed<2>(ElasticModel<2>&, MPI_Comm, const SolverOptions&);
+template Solution<3> solve_distributed<3>(ElasticModel<3>&, MPI_Comm, const SolverOptions&);
+
+}  // namespace vim::fem

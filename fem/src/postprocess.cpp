@@ -1,0 +1,346 @@
+// Post-processing and sampling of the elastic model (docs/architecture.md, fem module): vertex
+// displacements, strain and stress at cell centroids, von Mises stress, strain energy and Dirichlet
+// reactions of a solution; point location (CellLocator) and the displacement at arbitrary points and
+// at edge midpoints; the strain energy of a given vertex field.
+#include <deal.II/base/quadrature.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vim/fem/material.hpp>
+
+#include "model_state.hpp"
+
+namespace vim::fem {
+
+using namespace dealii;
+
+// Per cell, its DoFs and the gradients of the scalar basis functions at the centroid (when they fit in
+// ~400 MB); per vertex, its DoFs.
+template <int dim>
+void ElasticModel<dim>::Impl::build_post_cache() {
+  const unsigned dpc = fe->n_dofs_per_cell();
+  const unsigned ns = fe->base_element(0).n_dofs_per_cell();
+  const std::size_t nc = tria.n_active_cells();
+  vertex_dofs.assign(tria.n_vertices(), {});
+  const double bytes = double(nc) * (dpc * sizeof(types::global_dof_index) + ns * dim * sizeof(double));
+  post_cache = bytes < 400e6;
+  if (post_cache) {
+    cell_dofs.resize(nc * dpc);
+    centroid_grads.resize(nc * ns * dim);
+    cell_index.resize(nc);
+  }
+  Quadrature<dim> cq(std::vector<Point<dim>>{unit_centroid});
+  FEValues<dim> cv(*mapping, *fe, cq, update_gradients);
+  std::size_t k = 0;
+  for (const auto& cell : dof.active_cell_iterators()) {
+    for (const unsigned v : cell->vertex_indices())
+      for (unsigned c = 0; c < unsigned(dim); ++c)
+        vertex_dofs[cell->vertex_index(v)][c] = cell->vertex_dof_index(v, c);
+    if (post_cache) {
+      cv.reinit(cell);
+      std::vector<types::global_dof_index> idx(dpc);
+      cell->get_dof_indices(idx);
+      std::copy(idx.begin(), idx.end(), cell_dofs.begin() + k * dpc);
+      // the scalar basis gradient: take the component-0 copy of each scalar function
+      for (unsigned i = 0; i < dpc; ++i) {
+        const auto [c, sidx] = fe->system_to_component_index(i);
+        if (c != 0) continue;
+        const Tensor<1, dim> g = cv.shape_grad(i, 0);
+        for (int d = 0; d < dim; ++d) centroid_grads[(k * ns + sidx) * dim + d] = g[d];
+      }
+      cell_index[k] = cell->material_id();
+    }
+    ++k;
+  }
+}
+
+namespace {
+
+// Centroid strain, stress and von Mises stress of every cell from u: through the post-processing cache
+// when it was built, else cell by cell with FEValues.
+template <int dim, class State>
+void cell_fields(const State& m, const Vector<double>& u, Solution<dim>& s) {
+  const unsigned dpc = m.fe->n_dofs_per_cell();
+  const unsigned ns = m.fe->base_element(0).n_dofs_per_cell();
+  const unsigned nc = m.tria.n_active_cells();
+  if (m.post_cache) {
+    std::vector<unsigned> comp(dpc), scalar(dpc);
+    for (unsigned i = 0; i < dpc; ++i)
+      comp[i] = m.fe->system_to_component_index(i).first,
+      scalar[i] = m.fe->system_to_component_index(i).second;
+    for (std::size_t k = 0; k < nc; ++k) {
+      const types::global_dof_index* idx = &m.cell_dofs[k * dpc];
+      const double* G = &m.centroid_grads[k * ns * dim];
+      Eigen::Matrix<double, dim, dim> grad = Eigen::Matrix<double, dim, dim>::Zero();
+      for (unsigned i = 0; i < dpc; ++i) {
+        const double ui = u[idx[i]];
+        for (int d = 0; d < dim; ++d) grad(comp[i], d) += ui * G[scalar[i] * dim + d];
+      }
+      const unsigned j = m.cell_index[k];
+      s.cell_strain[j] = 0.5 * (grad + grad.transpose());
+      m.stress_of(s.cell_strain[j], m.E[j], s.cell_stress[j], s.von_mises[j]);
+    }
+    return;
+  }
+  Quadrature<dim> cq(std::vector<Point<dim>>{m.unit_centroid});
+  FEValues<dim> cv(*m.mapping, *m.fe, cq, update_gradients);
+  std::vector<types::global_dof_index> idx(dpc);
+  std::vector<double> ue(dpc);
+  for (const auto& cell : m.dof.active_cell_iterators()) {
+    cell->get_dof_indices(idx);
+    for (unsigned i = 0; i < dpc; ++i) ue[i] = u[idx[i]];
+    const unsigned j = cell->material_id();
+    s.cell_strain[j] = m.centroid_strain(cell, cv, ue);
+    m.stress_of(s.cell_strain[j], m.E[j], s.cell_stress[j], s.von_mises[j]);
+  }
+}
+
+}  // namespace
+
+template <int dim>
+Solution<dim> ElasticModel<dim>::Impl::postprocess() {
+  Solution<dim> s;
+  if (vertex_dofs.empty()) build_post_cache();
+  s.vertex_displacement.resize(tria.n_vertices());
+  for (std::size_t v = 0; v < vertex_dofs.size(); ++v)
+    for (int c = 0; c < dim; ++c) s.vertex_displacement[v][c] = u[vertex_dofs[v][c]];
+  const unsigned nc = tria.n_active_cells();
+  s.cell_strain.assign(nc, Eigen::Matrix<double, dim, dim>::Zero());
+  s.cell_stress.assign(nc, Eigen::Matrix<double, dim, dim>::Zero());
+  s.von_mises.assign(nc, 0.0);
+  cell_fields<dim>(*this, u, s);
+  Vector<double> Ku(u.size());
+  K_full.vmult(Ku, u);
+  s.strain_energy = 0.5 * (u * Ku);
+  s.dirichlet_reaction.assign(bcs.size(), Vec<dim>::Zero());
+  for (unsigned i = 0; i < u.size(); ++i)
+    if (dof_bc[i] >= 0) s.dirichlet_reaction[dof_bc[i]][dof_component[i]] += Ku[i] - f_full[i];
+  s.stats.n_dofs = dof.n_dofs();
+  s.stats.assemble_seconds = assemble_seconds;
+  return s;
+}
+
+template <int dim>
+Eigen::Matrix<double, dim, dim> ElasticModel<dim>::Impl::centroid_strain(
+    const Cell& cell, FEValues<dim>& cv, const std::vector<double>& ue) const {
+  Eigen::Matrix<double, dim, dim> grad = Eigen::Matrix<double, dim, dim>::Zero();
+  if (!voxel && degree == 1) {
+    std::array<Tensor<1, dim>, dim + 1> g;
+    barycentric_gradients<dim>(cell, g);
+    for (unsigned i = 0; i < ue.size(); ++i) {
+      const auto [c, v] = fe->system_to_component_index(i);
+      for (int d = 0; d < dim; ++d) grad(c, d) += ue[i] * g[v][d];
+    }
+    return 0.5 * (grad + grad.transpose());
+  }
+  cv.reinit(cell);
+  for (unsigned i = 0; i < ue.size(); ++i) {
+    const unsigned c = fe->system_to_component_index(i).first;
+    const Tensor<1, dim> g = cv.shape_grad(i, 0);
+    for (int d = 0; d < dim; ++d) grad(c, d) += ue[i] * g[d];
+  }
+  return 0.5 * (grad + grad.transpose());
+}
+
+template <int dim>
+void ElasticModel<dim>::Impl::stress_of(const Eigen::Matrix<double, dim, dim>& eps, double E_cell,
+                                        Eigen::Matrix<double, dim, dim>& sigma, double& von_mises) const {
+  const auto [lambda, mu] = lame_parameters(E_cell, nu);
+  const double tr = eps.trace();
+  sigma = 2.0 * mu * eps;
+  for (int d = 0; d < dim; ++d) sigma(d, d) += lambda * tr;
+  // full 3×3 stress; in 2D (plane strain) σ_zz = λ tr ε
+  Eigen::Matrix3d s3 = Eigen::Matrix3d::Zero();
+  s3.topLeftCorner<dim, dim>() = sigma;
+  if (dim == 2) s3(2, 2) = lambda * tr;
+  const Eigen::Matrix3d dev = s3 - s3.trace() / 3.0 * Eigen::Matrix3d::Identity();
+  von_mises = std::sqrt(1.5 * (dev.array() * dev.array()).sum());
+}
+
+// ================================================================================================
+// point location
+
+template <int dim>
+const CellLocator<dim>& ElasticModel<dim>::locator() const {
+  return impl_->cell_locator();
+}
+
+template <int dim>
+const CellLocator<dim>& ElasticModel<dim>::Impl::cell_locator() const {
+  if (locator) return *locator;
+  if (voxel) {
+    locator = std::make_unique<CellLocator<dim>>(
+        CellLocator<dim>::grid(grid_cells, to_vec<dim>(grid_min), to_vec<dim>(grid_max), vertices));
+  } else {
+    SimplexMesh<dim> mesh;
+    mesh.points = vertices;
+    mesh.cells = simplices;
+    locator = std::make_unique<CellLocator<dim>>(CellLocator<dim>::simplex(mesh));
+  }
+  return *locator;
+}
+
+// The locator's cell (input cell index = material id; voxel index on the grid), accepted when x's
+// reference coordinates in it lie in the reference cell within 1e-10 and map back to x.
+template <int dim>
+typename ElasticModel<dim>::Impl::Located ElasticModel<dim>::Impl::locate(const Point<dim>& x) const {
+  const long c = cell_locator().locate(to_vec<dim>(x));
+  if (c < 0) return {tria.end(), Point<dim>()};
+  if (cell_of_index.empty()) {
+    cell_of_index.assign(E.size(), tria.end());
+    for (const auto& cell : tria.active_cell_iterators()) cell_of_index[cell->material_id()] = cell;
+  }
+  const auto& cell = cell_of_index[static_cast<std::size_t>(c)];
+  try {
+    const Point<dim> xi = mapping->transform_real_to_unit_cell(cell, x);
+    if (cell->reference_cell().contains_point(xi, 1e-10) &&
+        mapping->transform_unit_to_real_cell(cell, xi).distance(x) <= 1e-9 * std::max(1.0, cell->diameter()))
+      return {cell, xi};
+  } catch (...) {  // the mapping could not invert: x is not in this cell
+  }
+  return {tria.end(), Point<dim>()};
+}
+
+// ================================================================================================
+// sampling and energies
+
+template <int dim>
+std::vector<Vec<dim>> ElasticModel<dim>::sample(const std::vector<Vec<dim>>& points,
+                                                PointSample* info) const {
+  const Impl& m = *impl_;
+  if (!m.have_solution)
+    throw std::runtime_error("sample: no solution yet; call solve() first");  // solve() built the mesh
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (!points[i].allFinite())
+      throw std::invalid_argument("sample: point " + std::to_string(i) + " is not finite");
+  std::vector<Vec<dim>> out(points.size(), Vec<dim>::Zero());
+  std::vector<bool> inside(points.size(), false);
+  std::vector<types::global_dof_index> idx(m.fe->n_dofs_per_cell());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const auto where = m.locate(to_point<dim>(points[i]));
+    if (where.first == m.tria.end()) continue;
+    const typename Impl::Cell cell(&m.tria, where.first->level(), where.first->index(), &m.dof);
+    Quadrature<dim> q(std::vector<Point<dim>>{where.second});
+    FEValues<dim> fv(*m.mapping, *m.fe, q, update_values);
+    fv.reinit(cell);
+    cell->get_dof_indices(idx);
+    Vec<dim> v = Vec<dim>::Zero();
+    for (unsigned j = 0; j < idx.size(); ++j)
+      v[m.fe->system_to_component_index(j).first] += m.u[idx[j]] * fv.shape_value(j, 0);
+    out[i] = v;
+    inside[i] = true;
+  }
+  if (info) {
+    info->inside = inside;
+    info->n_outside = static_cast<std::size_t>(std::count(inside.begin(), inside.end(), false));
+  }
+  return out;
+}
+
+// The last solution at edge midpoints through the cell's own shape functions on the reference simplex
+// (no point location: an edge's midpoint is the midpoint of two reference vertices of every cell that
+// holds the edge).
+template <int dim>
+std::vector<Vec<dim>> ElasticModel<dim>::edge_midpoint_displacement(
+    const std::vector<std::array<int, 2>>& edges) const {
+  const Impl& m = *impl_;
+  if (m.voxel) throw std::invalid_argument("edge_midpoint_displacement: simplex models only");
+  if (!m.have_solution)
+    throw std::runtime_error("edge_midpoint_displacement: no solution yet; call solve() first");
+  std::map<std::pair<unsigned, unsigned>, std::size_t> wanted;
+  for (std::size_t e = 0; e < edges.size(); ++e) {
+    const auto [a, b] = edges[e];
+    wanted[{static_cast<unsigned>(std::min(a, b)), static_cast<unsigned>(std::max(a, b))}] = e;
+  }
+  std::vector<Vec<dim>> out(edges.size(), Vec<dim>::Zero());
+  std::vector<bool> found(edges.size(), false);
+  const FiniteElement<dim>& fe = *m.fe;
+  std::vector<types::global_dof_index> idx(fe.n_dofs_per_cell());
+  for (const auto& cell : m.dof.active_cell_iterators()) {
+    cell->get_dof_indices(idx);
+    for (unsigned a = 0; a < cell->n_vertices(); ++a)
+      for (unsigned b = a + 1; b < cell->n_vertices(); ++b) {
+        const unsigned va = cell->vertex_index(a), vb = cell->vertex_index(b);
+        const auto it = wanted.find({std::min(va, vb), std::max(va, vb)});
+        if (it == wanted.end() || found[it->second]) continue;
+        const ReferenceCell ref = cell->reference_cell();
+        const Point<dim> mid = 0.5 * (ref.template vertex<dim>(a) + ref.template vertex<dim>(b));
+        Vec<dim> v = Vec<dim>::Zero();
+        for (unsigned j = 0; j < idx.size(); ++j)
+          v[fe.system_to_component_index(j).first] += m.u[idx[j]] * fe.shape_value(j, mid);
+        out[it->second] = v;
+        found[it->second] = true;
+      }
+  }
+  for (std::size_t e = 0; e < edges.size(); ++e)
+    if (!found[e])
+      throw std::invalid_argument("edge_midpoint_displacement: vertices " + std::to_string(edges[e][0]) +
+                                  " and " + std::to_string(edges[e][1]) + " are not an edge of the mesh");
+  return out;
+}
+
+// Element by element (independent of the Dirichlet conditions): Σ ½ u_eᵀ K_e u_e, u interpolated from
+// the vertex values with the linear element.
+template <int dim>
+double ElasticModel<dim>::strain_energy_of(const std::vector<Vec<dim>>& U) const {
+  Impl& m = *impl_;
+  m.ensure_mesh();
+  if (U.size() != m.tria.n_vertices()) {
+    std::ostringstream s;
+    s << "strain_energy_of: " << U.size() << " vertex values for " << m.tria.n_vertices() << " vertices";
+    throw std::invalid_argument(s.str());
+  }
+  const unsigned n = m.dof.n_dofs();
+  Vector<double> u(n);
+  const auto& unit = m.fe->get_unit_support_points();
+  std::vector<types::global_dof_index> idx(m.fe->n_dofs_per_cell());
+  for (const auto& cell : m.dof.active_cell_iterators()) {
+    cell->get_dof_indices(idx);
+    for (unsigned i = 0; i < idx.size(); ++i) {
+      const unsigned c = m.fe->system_to_component_index(i).first;
+      double v = 0.0;
+      for (const unsigned k : cell->vertex_indices())
+        v += m.linear_fe->shape_value(k, unit[i]) * U[cell->vertex_index(k)][c];
+      u[idx[i]] = v;
+    }
+  }
+  auto fv = m.make_fe_values();
+  auto ffv = m.make_face_values();
+  const unsigned dpc = m.fe->n_dofs_per_cell();
+  FullMatrix<double> Ke(dpc, dpc);
+  Vector<double> Fe(dpc), ue(dpc), Ku(dpc);
+  double energy = 0.0;
+  for (const auto& cell : m.dof.active_cell_iterators()) {
+    m.local_system(cell, *fv, *ffv, Ke, Fe);
+    cell->get_dof_indices(idx);
+    for (unsigned i = 0; i < dpc; ++i) ue[i] = u[idx[i]];
+    Ke.vmult(Ku, ue);
+    energy += 0.5 * (ue * Ku);
+  }
+  return energy;
+}
+
+#define VIM_FEM_POSTPROCESS(dim)                                                                       \
+  template void ElasticModel<dim>::Impl::build_post_cache();                                           \
+  template Solution<dim> ElasticModel<dim>::Impl::postprocess();                                       \
+  template Eigen::Matrix<double, dim, dim> ElasticModel<dim>::Impl::centroid_strain(                   \
+      const Cell&, FEValues<dim>&, const std::vector<double>&) const;                                  \
+  template void ElasticModel<dim>::Impl::stress_of(const Eigen::Matrix<double, dim, dim>&, double,     \
+                                                   Eigen::Matrix<double, dim, dim>&, double&) const;   \
+  template std::vector<Vec<dim>> ElasticModel<dim>::sample(const std::vector<Vec<dim>>&, PointSample*) \
+      const;                                                                                           \
+  template std::vector<Vec<dim>> ElasticModel<dim>::edge_midpoint_displacement(                        \
+      const std::vector<std::array<int, 2>>&) const;                                                   \
+  template double ElasticModel<dim>::strain_energy_of(const std::vector<Vec<dim>>&) const;             \
+  template const CellLocator<dim>& ElasticModel<dim>::locator() const;                                 \
+  template const CellLocator<dim>& ElasticModel<dim>::Impl::cell_locator() const;                      \
+  template ElasticModel<dim>::Impl::Located ElasticModel<dim>::Impl::locate(const Point<dim>&) const;
+VIM_FEM_POSTPROCESS(2)
+VIM_FEM_POSTPROCESS(3)
+
+}  // namespace vim::fem

@@ -1,0 +1,118 @@
+// How the needle acts on the tissue (docs/architecture.md, needle coupling). The stepping loop
+// (NeedleSimulation::run) advances the tip and picks up the embedded shaft points; at each step
+//  * a FrictionLaw chooses the axial value of every active shaft point (how far along the needle axis
+//    the tissue there is moved): stuck to the needle, sliding at a friction limit, or loaded by a
+//    prescribed friction and tip force; it asks the tissue for its response through TissueResponse;
+//  * a NeedleCoupling turns those values into the point-constraint rows of the model solve.
+// The laws and couplings are dimension-free or templated on dim alone and never see the loop: a new
+// law is one class in its own file and one line in make_friction_law (friction_law.cpp).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <vector>
+#include <vim/fem/elasticity.hpp>
+#include <vim/pipeline/needle.hpp>
+#include <vim/pipeline/scenario.hpp>
+
+namespace vim::pipeline {
+
+// The shaft points as the loop hands them to a friction law at one step. Per-point vectors have one
+// entry per shaft point (in shaft order); only those of `active` points mean anything at this step.
+struct ShaftState {
+  std::vector<std::size_t> active;  // points on the needle at this step, in shaft order
+  std::size_t tip = 0;              // the active point the tip pushes (the last picked up)
+  std::vector<bool> joined;         // picked up at this step
+  std::vector<double> axial;        // axial constraint value: kept between steps, set by the law
+  std::vector<double> stick;        // the value that moves the point with the needle at this step
+  std::vector<double> carried;      // shaft length the point carries (its segment up to the tip)
+
+  // Moves a point with the needle (it sticks).
+  void stick_to_needle(std::size_t j) { axial[j] = stick[j]; }
+  // The entries of the active points, in the order of `active`, and back.
+  Eigen::VectorXd compact(const std::vector<double>& v) const;
+  void expand(const Eigen::VectorXd& c, std::vector<double>& v) const;
+};
+
+// The tissue's answer to axial values of the active shaft points, for a friction law.
+class TissueResponse {
+ public:
+  virtual ~TissueResponse() = default;
+  // One model solve with the active points at `axial`; the axial force on the body per shaft point
+  // (0 for points not active). The last call of a step is the step's solution.
+  virtual std::vector<double> solve(const std::vector<double>& axial) = 0;
+  // The affine map from the active points' axial values to their axial forces (needle.hpp), probed
+  // with m + 1 solves when the number of active points m has changed since the last probe.
+  virtual const AxialMap& axial_map() = 0;
+};
+
+// What a law did at one step (stick-slip: the active-set sweeps and whether the set settled).
+struct FrictionStep {
+  int sweeps = 0;
+  bool settled = true;
+};
+
+// A friction law between the shaft and the tissue: it sets `state.axial` of the active points and
+// leaves the tissue solved with those values (its last TissueResponse::solve).
+class FrictionLaw {
+ public:
+  virtual ~FrictionLaw() = default;
+  // Called once before the first step with the number of shaft points.
+  virtual void start(std::size_t n_points) = 0;
+  virtual FrictionStep update(ShaftState& state, TissueResponse& tissue) = 0;
+  // The law keeps an active set whose sweeps are recorded per step (NeedleRun::active_set_sweeps).
+  virtual bool has_active_set() const { return false; }
+  // The axial force of a needle advancing under this law never falls in linear elastic tissue (the
+  // simulation warns where the discretisation makes it fall).
+  virtual bool axial_force_never_falls() const { return false; }
+  // The law's keys of the needle's report.json entry ("model", "friction", its parameters).
+  virtual void describe(nlohmann::json& needle_report) const = 0;
+};
+
+// The law of a needle of the scenario (needle.model, needle.friction and their parameters);
+// max_active_set_iterations caps the stick-slip sweeps per step.
+std::unique_ptr<FrictionLaw> make_friction_law(const NeedleSpec& spec, int max_active_set_iterations);
+
+// The rows a needle imposes on the model at one step.
+template <int dim>
+class NeedleCoupling {
+ public:
+  using Vec = Eigen::Matrix<double, dim, 1>;
+  virtual ~NeedleCoupling() = default;
+  // The point constraints that hold the active points at their axial values (several rows per shaft
+  // point are allowed: the forces are summed back per point by axial_forces).
+  virtual std::vector<fem::PointConstraint<dim>> rows(const std::vector<std::size_t>& active,
+                                                      const std::vector<double>& axial) const = 0;
+  // Per shaft point: the axial force on the body of its rows in a solution of rows(active, ·).
+  virtual std::vector<double> axial_forces(const std::vector<std::size_t>& active,
+                                           const fem::Solution<dim>& solution) const = 0;
+  // The tissue displacement at each shaft point before the needle touches it (the external loads):
+  // the rows keep its part across the axis rather than pulling the tissue back to the rest line.
+  virtual void keep_offsets(const std::vector<Vec>& displacement) = 0;
+};
+
+// A thin straight needle: one point constraint per shaft point, holding it on the needle's axis line
+// (lateral displacement 0, or the loads' offset) at its axial value along `axis`. `axes` are the
+// constraint axes (the frame axes, or the world axes seen from the frame on an oblique image whose
+// supports hold world components).
+template <int dim>
+class LineCoupling final : public NeedleCoupling<dim> {
+ public:
+  using Vec = Eigen::Matrix<double, dim, 1>;
+  using Mat = Eigen::Matrix<double, dim, dim>;
+  LineCoupling(std::vector<Vec> positions, const Vec& axis, const Mat& axes);
+  std::vector<fem::PointConstraint<dim>> rows(const std::vector<std::size_t>& active,
+                                              const std::vector<double>& axial) const override;
+  std::vector<double> axial_forces(const std::vector<std::size_t>& active,
+                                   const fem::Solution<dim>& solution) const override;
+  void keep_offsets(const std::vector<Vec>& displacement) override;
+
+ private:
+  std::vector<Vec> positions_, lateral_;
+  Vec axis_;
+  Mat axes_;
+};
+
+}  // namespace vim::pipeline

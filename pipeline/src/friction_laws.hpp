@@ -1,0 +1,17 @@
+// Private to friction_law.cpp: the friction laws of the needle (needle_coupling.hpp), each in its
+// own file. A new law adds a file and a line in make_friction_law.
+#pragma once
+
+#include <memory>
+#include <vim/pipeline/needle_coupling.hpp>
+
+namespace vim::pipeline {
+
+// Kinematic needle, stick: every shaft point moves with the needle (friction_stick.cpp).
+std::unique_ptr<FrictionLaw> make_stick_law(const NeedleSpec& spec);
+// Kinematic needle, stick-slip with a Coulomb limit per shaft length (friction_stick_slip.cpp).
+std::unique_ptr<FrictionLaw> make_stick_slip_law(const NeedleSpec& spec, int max_sweeps);
+// Force needle: prescribed friction per shaft length and tip force (friction_force.cpp).
+std::unique_ptr<FrictionLaw> make_force_law(const NeedleSpec& spec);
+
+}  // namespace vim::pipeline

@@ -1,0 +1,236 @@
+// One needle inserted step by step (needle_insertion.hpp).
+#include "needle_insertion.hpp"
+
+#include <algorithm>
+#include <sstream>
+
+#include "simulation_output.hpp"
+
+namespace vim::pipeline {
+
+template <int dim>
+NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim>& context, const NeedleSpec& spec,
+                                      std::string prefix, bool snap_to_vertices)
+    : ctx_(context), spec_(spec), prefix_(std::move(prefix)) {
+  axis_world_ = vec<dim>(spec.direction).normalized();
+  entry_world_ = vec<dim>(spec.entry);
+  const NeedlePath<dim> path = needle_path<dim>(spec, ctx_.tf);
+  axis_ = path.axis;
+  pitch_ = spec.sample_spacing > 0.0 ? spec.sample_spacing : 0.5 * ctx_.locator.mean_edge_length();
+  shaft_ =
+      sample_shaft<dim>(ctx_.locator, path.entry, axis_, spec.depth, pitch_, ctx_.blocked, snap_to_vertices);
+  if (shaft_.empty())
+    throw ScenarioError(
+        ctx_.sc.where(spec.line) + "needle '" + spec.name +
+        "': no point of its path lies in the free part of the mesh (is it inside a fixed region?)");
+  const std::size_t np = shaft_.size();
+  std::vector<Vec> positions;
+  start_.assign(np, 0.0);
+  for (std::size_t j = 0; j < np; ++j) {
+    positions.push_back(shaft_[j].position);
+    if (j > 0) start_[j] = start_[j - 1] + shaft_[j - 1].length;
+  }
+  coupling_ = std::make_unique<LineCoupling<dim>>(std::move(positions), axis_, ctx_.point_axes);
+  law_ = make_friction_law(spec, ctx_.opt.max_active_set_iterations);
+  law_->start(np);
+  for (const auto& t : ctx_.sc.targets) targets_.push_back(ctx_.tf.to_frame(vec<dim>(t.position)));
+  // External loads (a prescribed displacement, a pressure, a traction) act from the start: before the
+  // tip reaches the first shaft point (step 0 included) the tissue deforms under them alone, not rest.
+  loaded_ = std::any_of(
+      ctx_.sc.boundary_conditions.begin(), ctx_.sc.boundary_conditions.end(),
+      [](const BoundaryConditionSpec& bc) { return bc.type != BoundaryConditionSpec::Type::fixed; });
+  write_ = static_cast<bool>(ctx_.opt.output_file) && ctx_.sc.output_every > 0;
+  state_.joined.assign(np, false);
+  state_.axial.assign(np, 0.0);
+  state_.stick.assign(np, 0.0);
+  state_.carried.assign(np, 0.0);
+  picked_.assign(np, false);
+  run_.name = spec.name;
+  run_.axis = axis_world_;
+  for (const auto& p : shaft_) {
+    run_.point_s.push_back(p.s);
+    run_.point_length.push_back(p.length);
+  }
+}
+
+template <int dim>
+std::vector<double> NeedleInsertion<dim>::solve(const std::vector<double>& axial) {
+  const std::vector<fem::PointConstraint<dim>> rows = coupling_->rows(state_.active, axial);
+  const auto t = Clock::now();
+  solution_ = ctx_.opt.monolithic ? ctx_.model->solve_monolithic(rows, ctx_.solver)
+                                  : ctx_.model->solve(rows, ctx_.solver);
+  solve_seconds_ += seconds_since(t);
+  ++solves_;
+  return coupling_->axial_forces(state_.active, solution_);
+}
+
+template <int dim>
+const AxialMap& NeedleInsertion<dim>::axial_map() {
+  if (map_size_ == state_.active.size()) return map_;
+  map_ = AxialMap::probe(
+      static_cast<Eigen::Index>(state_.active.size()),
+      [&](const Eigen::VectorXd& wc) {
+        std::vector<double> full(shaft_.size(), 0.0);
+        state_.expand(wc, full);
+        return state_.compact(solve(full));
+      },
+      pitch_);
+  map_size_ = state_.active.size();
+  return map_;
+}
+
+template <int dim>
+NeedleRun<dim> NeedleInsertion<dim>::run(nlohmann::json& report) {
+  Progress progress("needle " + spec_.name, spec_.steps);
+  const auto t_run = Clock::now();
+  rest();
+  if (law_->has_active_set()) run_.active_set_sweeps.assign(static_cast<std::size_t>(spec_.steps) + 1, 0);
+  for (int k = 1; k <= spec_.steps; ++k) {
+    advance_one_step(k);
+    if (ctx_.opt.progress) {
+      std::ostringstream msg;
+      msg << "step " << k << "/" << spec_.steps << ", depth " << run_.depth.back() << " "
+          << ctx_.sc.length_unit << ", axial force " << run_.axial_force.back() << ", "
+          << state_.active.size() << " shaft points";
+      progress.report(k, msg.str());
+    }
+  }
+  const double run_seconds = seconds_since(t_run);
+  run_.solve_seconds = solve_seconds_;
+  run_.steps_per_second = run_seconds > 0.0 ? spec_.steps / run_seconds : 0.0;
+  if (ctx_.opt.output_file) {
+    if (write_) write_pvd(ctx_.opt.output_file(prefix_ + "simulation.pvd"), pvd_);
+    write_needle_csv<dim>(ctx_.opt.output_file(prefix_ + "needle.csv"), run_, ctx_.sc);
+  }
+  report = needle_report<dim>(spec_, run_, *law_, pitch_, prefix_, run_seconds, solves_, ctx_.opt.monolithic,
+                              ctx_.sc);
+  return std::move(run_);
+}
+
+// Step 0: rest, or the external loads alone; their displacement across the axis at the shaft points
+// is kept by the coupling.
+template <int dim>
+void NeedleInsertion<dim>::rest() {
+  if (loaded_) {
+    solve(state_.axial);
+    std::vector<Vec> at;
+    for (const auto& p : shaft_) at.push_back(p.position);
+    coupling_->keep_offsets(ctx_.model->sample(at));
+  }
+  have_solution_ = loaded_;
+  record(0.0, loaded_ ? &solution_ : nullptr, loaded_ ? 1 : 0);
+  run_.step_seconds.push_back(0.0);
+  if (write_) output_step(0, loaded_ ? &solution_ : nullptr);
+}
+
+template <int dim>
+void NeedleInsertion<dim>::advance_one_step(int k) {
+  const double d = spec_.depth * static_cast<double>(k) / static_cast<double>(spec_.steps);
+  const double d_prev = run_.depth.back();
+  const int solves_before = solves_;
+  const auto t_step = Clock::now();
+  pick_up(d, d - d_prev);
+  if (state_.active.empty()) {
+    // The tip has not reached the first embedded point yet: the needle does not touch the tissue.
+    if (loaded_)
+      solve(state_.axial);
+    else
+      solution_ = fem::Solution<dim>{};
+    record(d, loaded_ ? &solution_ : nullptr, solves_ - solves_before);
+  } else {
+    const FrictionStep step = law_->update(state_, *this);
+    if (law_->has_active_set()) {
+      run_.active_set_sweeps[static_cast<std::size_t>(k)] = step.sweeps;
+      if (!step.settled) run_.unsettled_steps.push_back(k);
+    }
+    record(d, &solution_, solves_ - solves_before);
+  }
+  have_solution_ = !state_.active.empty() || loaded_;
+  run_.stats = solution_.stats;
+  run_.step_seconds.push_back(seconds_since(t_step));
+  if (write_ && (k % ctx_.sc.output_every == 0 || k == spec_.steps))
+    output_step(k, state_.active.empty() && !loaded_ ? nullptr : &solution_);
+}
+
+// The active set of the step at needle travel `depth` (`travel` since the last step): the points picked
+// up before and those the tip reaches now, with the value that moves each with the needle and the
+// shaft length each carries.
+template <int dim>
+void NeedleInsertion<dim>::pick_up(double depth, double travel) {
+  const std::size_t np = shaft_.size();
+  const double cut = depth - spec_.cutting_distance;
+  const double eps = 1e-9 * spec_.depth;
+  std::fill(state_.stick.begin(), state_.stick.end(), 0.0);
+  std::fill(state_.joined.begin(), state_.joined.end(), false);
+  for (std::size_t j = 0; j < np && shaft_[j].s < cut - eps; ++j) {
+    if (picked_[j]) continue;
+    double ua = 0.0;
+    if (have_solution_) ua = ctx_.model->sample({shaft_[j].position})[0].dot(axis_);
+    if (shaft_[j].s + ua >= cut - eps) break;
+    state_.joined[j] = true;
+  }
+  state_.active.clear();
+  state_.tip = np;
+  for (std::size_t j = 0; j < np; ++j) {
+    if (!picked_[j] && !state_.joined[j]) continue;
+    state_.stick[j] = picked_[j] ? state_.axial[j] + travel : cut - shaft_[j].s;
+    if (!picked_[j]) state_.axial[j] = state_.stick[j];
+    picked_[j] = true;
+    state_.active.push_back(j);
+    state_.tip = j;
+  }
+  for (std::size_t j : state_.active)
+    state_.carried[j] = j == state_.tip ? depth - start_[j] : std::min(shaft_[j].length, depth - start_[j]);
+}
+
+// Needle force F = −Σ point forces (the force the tissue exerts on the needle), world axes; axial =
+// −F·a (insertion resistance, > 0 when the tissue resists) and lateral = |F − (F·a)a|.
+template <int dim>
+void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim>* s, int solves) {
+  run_.depth.push_back(depth);
+  run_.tip.push_back(entry_world_ + depth * axis_world_);
+  Vec f = Vec::Zero();
+  if (s)
+    for (const auto& pf : s->point_force) f -= pf;
+  f = ctx_.tf.vector_to_world(f);
+  run_.force.push_back(f);
+  const double ax = f.dot(axis_world_);
+  run_.axial_force.push_back(0.0 - ax);  // +0 at rest
+  run_.lateral_force.push_back((f - ax * axis_world_).norm());
+  std::vector<Vec> td(targets_.size(), Vec::Zero());
+  if (s && !targets_.empty()) {
+    const auto u = ctx_.model->sample(targets_);
+    for (std::size_t t = 0; t < u.size(); ++t) td[t] = ctx_.tf.vector_to_world(u[t]);
+  }
+  run_.target_displacement.push_back(td);
+  std::vector<Vec> vd;
+  if (s) {
+    vd.reserve(s->vertex_displacement.size());
+    for (const auto& u : s->vertex_displacement) {
+      vd.push_back(ctx_.tf.vector_to_world(u));
+      run_.max_displacement = std::max(run_.max_displacement, u.norm());
+    }
+  } else {
+    vd.assign(ctx_.model->vertices().size(), Vec::Zero());
+  }
+  if (ctx_.opt.keep_step_fields || run_.vertex_displacement.empty())
+    run_.vertex_displacement.push_back(std::move(vd));
+  else
+    run_.vertex_displacement.back() = std::move(vd);
+  std::vector<double> pa(shaft_.size(), 0.0);
+  if (s) pa = coupling_->axial_forces(state_.active, *s);
+  run_.point_axial_force.push_back(std::move(pa));
+  run_.active_points.push_back(static_cast<int>(state_.active.size()));
+  run_.solves.push_back(solves);
+}
+
+template <int dim>
+void NeedleInsertion<dim>::output_step(int k, const fem::Solution<dim>* solution) {
+  write_step_vtu<dim>(ctx_, ctx_.opt.output_file(prefix_ + "steps/" + step_file(k)), solution);
+  pvd_.emplace_back(run_.depth.back(), "steps/" + step_file(k));
+}
+
+template class NeedleInsertion<2>;
+template class NeedleInsertion<3>;
+
+}  // namespace vim::pipeline

@@ -1,0 +1,42 @@
+// Private to the simulation sources: the files and report entries of a needle simulation, apart from
+// the physics — step VTUs (displacement, strain, stress, von Mises, modulus in world axes), needle.csv,
+// summary.csv and the report.json entries.
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vim/pipeline/needle_coupling.hpp>
+
+#include "simulation_context.hpp"
+
+namespace vim::pipeline {
+
+// "step_0007.vtu"
+std::string step_file(int k);
+
+// The world grid with the scenario's output fields of a solution (zero fields when null: rest).
+template <int dim>
+void write_step_vtu(const SimulationContext<dim>& ctx, const std::filesystem::path& path,
+                    const fem::Solution<dim>* solution);
+
+// Per step: depth, tip, axial and lateral force, each target's displacement and its norm.
+template <int dim>
+void write_needle_csv(const std::filesystem::path& path, const NeedleRun<dim>& run, const Scenario& sc);
+
+// One row per needle of a needle list: final numbers.
+template <int dim>
+void write_summary_csv(const std::filesystem::path& path, const std::vector<NeedleRun<dim>>& needles,
+                       const Scenario& sc);
+
+// The needle's entry of report.json["simulation"]["needles"].
+template <int dim>
+nlohmann::json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const FrictionLaw& law,
+                             double pitch, const std::string& prefix, double run_seconds, int solves,
+                             bool monolithic, const Scenario& sc);
+
+// The model part of report.json["simulation"]: scenario, units, model kind, size and modulus range.
+template <int dim>
+nlohmann::json model_report(const SimulationContext<dim>& ctx);
+
+}  // namespace vim::pipeline

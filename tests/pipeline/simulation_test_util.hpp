@@ -1,0 +1,104 @@
+// Shared set-up of the needle-simulation tests: the axis-symmetric block mesh, scenario text,
+// quiet options and small field helpers (test code only).
+#pragma once
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <string>
+#include <tuple>
+#include <vector>
+#include <vim/initial_mesh.hpp>
+#include <vim/pipeline/simulation.hpp>
+
+namespace vim::pipeline::simulation_test {
+
+using V3 = Eigen::Vector3d;
+
+// A block meshed with the Kuhn grid (frame coordinates), element means from E(centroid).
+inline MeshModel<3> block(const V3& lo, const V3& hi, const std::array<int, 3>& n,
+                          const std::function<double(const V3&)>& E) {
+  MeshModel<3> m;
+  m.mesh = regular_grid_mesh<3>(lo, hi, n);
+  for (std::size_t c = 0; c < m.mesh.n_cells(); ++c) {
+    ElementValue v;
+    v.voxels = 1;
+    v.mean = E(centroid<3>(cell_points(m.mesh, c)));
+    m.values.push_back(v);
+  }
+  return m;
+}
+
+// Block [-6,6]x[-6,6]x[0,24] with 7x7x13 nodes, needle along +z on the axis x = y = 0: the Kuhn
+// grid of the quadrant [0,6]x[0,6]x[0,24] mirrored into the four quadrants, so that the mesh (and
+// the problem) is exactly symmetric under x -> -x, y -> -y and x <-> y.
+inline MeshModel<3> axis_block(double E = 10.0) {
+  const SimplexMesh<3> q = regular_grid_mesh<3>(V3(0, 0, 0), V3(6, 6, 24), {{4, 4, 13}});
+  MeshModel<3> m;
+  std::map<std::tuple<long, long, long>, int> ids;
+  auto id = [&](const V3& p) {
+    const auto key =
+        std::make_tuple(std::lround(p[0] * 1e6), std::lround(p[1] * 1e6), std::lround(p[2] * 1e6));
+    const auto it = ids.find(key);
+    if (it != ids.end()) return it->second;
+    m.mesh.points.push_back(p);
+    return ids[key] = static_cast<int>(m.mesh.points.size() - 1);
+  };
+  for (const double sx : {1.0, -1.0})
+    for (const double sy : {1.0, -1.0})
+      for (const auto& c : q.cells) {
+        SimplexMesh<3>::Cell cell;
+        for (int k = 0; k < 4; ++k)
+          cell[k] = id(V3(sx * q.points[c[k]][0], sy * q.points[c[k]][1], q.points[c[k]][2]));
+        m.mesh.cells.push_back(cell);
+      }
+  orient_positively(m.mesh);
+  m.values.assign(m.mesh.n_cells(), ElementValue{1, E, 0.0});
+  return m;
+}
+
+inline std::string yaml(const std::string& needle, const std::string& targets = "[]",
+                        const std::string& material = "{}",
+                        const std::string& bcs = "[{type: fixed, region: {box_face: z_max}}]") {
+  return "material: " + material + "\nboundary_conditions: " + bcs + "\nneedle: " + needle +
+         "\ntargets: " + targets + "\n";
+}
+
+inline const std::string kStick =
+    "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1}";
+
+inline SimulationOptions quiet() {
+  SimulationOptions o;
+  o.progress = false;
+  return o;
+}
+
+// quiet(), writing the output files below `dir` (emptied first).
+inline SimulationOptions writing_into(const std::filesystem::path& dir) {
+  std::filesystem::remove_all(dir);
+  SimulationOptions o = quiet();
+  o.output_file = [dir](const std::string& rel) {
+    const std::filesystem::path p = dir / rel;
+    std::filesystem::create_directories(p.parent_path());
+    return p;
+  };
+  return o;
+}
+
+inline std::map<std::tuple<long, long, long>, std::size_t> vertex_index(const std::vector<V3>& pts) {
+  std::map<std::tuple<long, long, long>, std::size_t> m;
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    m[{std::lround(pts[i][0] * 1000), std::lround(pts[i][1] * 1000), std::lround(pts[i][2] * 1000)}] = i;
+  return m;
+}
+
+inline double max_norm(const std::vector<V3>& u) {
+  double m = 0.0;
+  for (const auto& x : u) m = std::max(m, x.norm());
+  return m;
+}
+
+}  // namespace vim::pipeline::simulation_test
