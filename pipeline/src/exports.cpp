@@ -135,8 +135,11 @@ void write_exports(const ExportInput<dim>& input, const fs::path& dir,
                                 std::to_string(options.poisson_ratio));
   if (options.max_material_bins < 1 || options.max_material_bins > 255)
     throw std::invalid_argument("max_material_bins must be in [1, 255]");
+  if (options.degree < 1 || options.degree > 2) throw std::invalid_argument("export degree must be 1 or 2");
   const MaterialBins bins = material_bins(model, options.max_material_bins);
   const SimplexMesh<dim>& world = input.world;
+  const SolverDeck<dim> deck = solver_deck(model, world, bins.element_modulus, options.poisson_ratio,
+                                           options.degree, options.scenario);
   fs::create_directories(dir);
 
   nlohmann::json& out = report["exports"];
@@ -145,6 +148,9 @@ void write_exports(const ExportInput<dim>& input, const fs::path& dir,
                               ? "youngs_modulus"
                               : "element mean";
   out["poisson_ratio"] = options.poisson_ratio;
+  out["degree"] = options.degree;
+  out["conditions"] = options.scenario != nullptr;
+  out["not_expressed"] = deck.not_expressed;
   nlohmann::json table = nlohmann::json::array();
   for (std::size_t k = 0; k < bins.n_bins(); ++k)
     table.push_back({{"id", k + 1},
@@ -155,6 +161,14 @@ void write_exports(const ExportInput<dim>& input, const fs::path& dir,
   out["material_table"] = table;
   out["element_modulus"] = bins.element_modulus;
   out["files"] = nlohmann::json::object();
+  const auto nonpositive = std::count_if(bins.element_modulus.begin(), bins.element_modulus.end(),
+                                         [](double e) { return !(e > 0.0); });
+  if (nonpositive > 0 && !options.scenario)
+    out["warnings"].push_back(
+        std::to_string(nonpositive) + " of " + std::to_string(bins.element_modulus.size()) +
+        " elements have a modulus <= 0 (their image mean): mesh.inp and mesh.feb cannot be "
+        "solved as they are. Use --simulate with a scenario whose material.scale maps the image "
+        "to a modulus and material.clamp: [min, max] lifts values <= 0");
 
   std::vector<std::string> done;
   for (const auto& f : export_formats()) {
@@ -166,15 +180,15 @@ void write_exports(const ExportInput<dim>& input, const fs::path& dir,
       write_vtk_legacy<dim>(path, world, bins);
     } else if (f == "feb") {
       if constexpr (dim == 3) {
-        write_feb(path, world, bins, options.poisson_ratio);
+        write_feb(path, deck);
       } else {
         out["skipped"]["feb"] = "FEBio has no 2D solid elements; mesh.feb is written for 3D models only";
         continue;
       }
     } else if (f == "msh") {
-      write_msh<dim>(path, world, bins);
+      write_msh<dim>(path, deck, bins);
     } else if (f == "inp") {
-      write_inp<dim>(path, world, bins, options.poisson_ratio);
+      write_inp<dim>(path, deck);
     }
     out["files"][f] = path.string();
   }

@@ -66,10 +66,18 @@ void MeshingRun<dim>::write_outputs() {
     for (const auto& f : o.exports)
       if (!(dim == 2 && f == "feb")) out().file("mesh." + f);
     // .feb and .inp carry ν: the scenario's when there is one, else ExportOptions' default (0.49).
+    // With a scenario they are complete solver jobs: its conditions, ν and element degree (build_model
+    // set model_.youngs_modulus to the modulus simulated).
     ExportOptions export_options;
-    if (scenario_) export_options.poisson_ratio = scenario_->poisson_ratio;
+    if (scenario_) {
+      export_options.poisson_ratio = scenario_->poisson_ratio;
+      export_options.scenario = &*scenario_;
+      export_options.degree = static_cast<unsigned>(o.degree);
+    }
     write_exports<dim>(ExportInput<dim>{model_, world_mesh_, export_options}, out().path(), o.exports,
                        report_);
+    for (const auto& w : report_["exports"].value("warnings", nlohmann::json::array()))
+      warn("export", w.get<std::string>());
     for (auto& [format, path] : report_["exports"]["files"].items()) path = "mesh." + format;
   }
   if (dim == 3)

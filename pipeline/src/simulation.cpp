@@ -9,6 +9,7 @@
 #include <limits>
 #include <sstream>
 #include <vim/pipeline/needle.hpp>
+#include <vim/pipeline/scenario_regions.hpp>
 #include <vim/pipeline/simulation.hpp>
 #include <vim/pipeline/vtk_output.hpp>
 
@@ -40,20 +41,7 @@ struct NeedleSimulation<dim>::Impl : SimulationContext<dim> {
 
 template <int dim>
 fem::Region<dim> SimulationContext<dim>::region(const RegionSpec& r) const {
-  if (r.kind == RegionSpec::Kind::box_face) {
-    const double tol = 1e-6 * (box_max - box_min).norm();
-    return fem::box_face_region<dim>(box_min, box_max, r.axis, r.upper, tol);
-  }
-  std::function<bool(const Vec&)> world;
-  if (r.kind == RegionSpec::Kind::box) {
-    world = fem::box_region<dim>(vec<dim>(r.lo), vec<dim>(r.hi)).contains;
-  } else if (r.kind == RegionSpec::Kind::sphere) {
-    world = fem::sphere_region<dim>(vec<dim>(r.center), r.radius).contains;
-  } else {
-    world = fem::cylinder_region<dim>(vec<dim>(r.center), vec<dim>(r.axis_vector), r.radius).contains;
-  }
-  const WorldTransform<dim> t = tf;
-  return {r.describe(), [world, t](const Vec& x) { return world(t.to_world(x)); }};
+  return scenario_region<dim>(r, box_min, box_max, tf);
 }
 
 // Elastic support of a volume region: a lattice of pitch h anchored at the region (its centre; a box's
@@ -220,6 +208,9 @@ NeedleSimulation<dim>::NeedleSimulation(const MeshModel<dim>& mm, const Scenario
   m.model.emplace(mm.mesh, m.E, scenario.poisson_ratio, m.degree);
   m.grid = m.opt.world_grid ? m.opt.world_grid
                             : std::make_shared<const UnstructuredGrid>(simplex_grid(mm.mesh, mm.transform));
+  // P2: quadratic cells carry the mid-edge values (edges), so ParaView interpolates quadratically.
+  if (m.degree == 2)
+    m.grid = std::make_shared<const UnstructuredGrid>(quadratic_simplex_grid<dim>(*m.grid, &m.edges));
   m.setup(m.model->vertices());
   m.build_seconds = seconds_since(t0);
 }

@@ -1,9 +1,10 @@
 // Private to the simulation sources: what NeedleSimulation (simulation.hpp) builds once and every
 // needle insertion reads — the scenario, the FEM model in the image frame, point location, the
-// boundary conditions' blocked vertices, the world grid of the output files.
+// boundary conditions' blocked vertices, the world grid of the output files (quadratic cells for P2).
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <memory>
 #include <optional>
@@ -26,6 +27,7 @@ struct SimulationContext {
   std::vector<double> E;                         // per cell, as used
   Vec box_min, box_max;                          // frame
   std::shared_ptr<const UnstructuredGrid> grid;  // world, no fields; its points are the model's vertices
+  std::vector<std::array<int, 2>> edges;         // degree 2: vertex pairs of the grid's mid-edge points
   std::vector<bool> blocked;                     // vertices held in every direction
   // Axes of the needle's point constraints: the world axes seen from the frame when a support holds
   // world components of an oblique image, so that a shaft point on such a node leaves the held

@@ -40,8 +40,13 @@ void write_step_vtu(const SimulationContext<dim>& ctx, const std::filesystem::pa
   if (sc.wants("displacement")) {
     Field f{dim, {}};
     f.values.reserve(g.points.size() * dim);
+    // Degree 2: the grid's mid-edge points follow its vertices; their values are the P2 edge DoFs of the
+    // last solve (s is the model's last solution).
+    const std::size_t nv = g.points.size() - ctx.edges.size();
+    const std::vector<Vec> mid =
+        s && !ctx.edges.empty() ? ctx.model->edge_midpoint_displacement(ctx.edges) : std::vector<Vec>{};
     for (std::size_t v = 0; v < g.points.size(); ++v) {
-      const Vec u = s ? Vec(D * s->vertex_displacement[v]) : Vec::Zero();
+      const Vec u = !s ? Vec::Zero() : v < nv ? Vec(D * s->vertex_displacement[v]) : Vec(D * mid[v - nv]);
       for (int d = 0; d < dim; ++d) f.values.push_back(u[d]);
     }
     g.point_data["displacement"] = std::move(f);

@@ -20,6 +20,7 @@
 #include <stdexcept>
 #include <string>
 #include <vim/pipeline/atomic_file.hpp>
+#include <vim/pipeline/quadratic_cells.hpp>
 #include <vim/pipeline/vtk_output.hpp>
 
 namespace vim::pipeline {
@@ -45,6 +46,30 @@ UnstructuredGrid simplex_grid(const SimplexMesh<dim>& frame_mesh, const WorldTra
     g.connectivity.push_back(c[mirrored ? 0 : 1]);
     for (int k = 2; k <= dim; ++k) g.connectivity.push_back(c[k]);
   }
+  return g;
+}
+
+template <int dim>
+UnstructuredGrid quadratic_simplex_grid(const UnstructuredGrid& linear,
+                                        std::vector<std::array<int, 2>>* edges) {
+  if (linear.vtk_cell_type != (dim == 3 ? 10 : 5) || linear.nodes_per_cell != dim + 1)
+    throw std::invalid_argument(
+        "quadratic_simplex_grid: the grid is not a linear simplex grid of the dimension");
+  UnstructuredGrid g = linear;
+  std::vector<std::array<int, dim + 1>> cells(linear.n_cells());
+  for (std::size_t c = 0; c < cells.size(); ++c)
+    for (int k = 0; k <= dim; ++k) cells[c][k] = static_cast<int>(g.connectivity[c * (dim + 1) + k]);
+  const QuadraticCells<dim> q = quadratic_cells<dim>(cells, g.points.size());
+  for (const auto& [a, b] : q.edges) {
+    std::array<double, 3> mid{};
+    for (int k = 0; k < 3; ++k) mid[k] = 0.5 * (g.points[a][k] + g.points[b][k]);
+    g.points.push_back(mid);
+  }
+  g.vtk_cell_type = dim == 3 ? 24 : 22;
+  g.nodes_per_cell = QuadraticCells<dim>::nodes_per_cell;
+  g.connectivity.clear();
+  for (const auto& c : q.cells) g.connectivity.insert(g.connectivity.end(), c.begin(), c.end());
+  if (edges) *edges = q.edges;
   return g;
 }
 
@@ -115,6 +140,10 @@ template UnstructuredGrid simplex_grid<2>(const SimplexMesh<2>&);
 template UnstructuredGrid simplex_grid<3>(const SimplexMesh<3>&);
 template UnstructuredGrid simplex_grid<2>(const SimplexMesh<2>&, const WorldTransform<2>&);
 template UnstructuredGrid simplex_grid<3>(const SimplexMesh<3>&, const WorldTransform<3>&);
+template UnstructuredGrid quadratic_simplex_grid<2>(const UnstructuredGrid&,
+                                                    std::vector<std::array<int, 2>>*);
+template UnstructuredGrid quadratic_simplex_grid<3>(const UnstructuredGrid&,
+                                                    std::vector<std::array<int, 2>>*);
 
 namespace {
 

@@ -381,15 +381,15 @@ TEST(Exports, RoundTrip3D) {
   {
     const std::string xml = slurp(dir / "mesh.feb");
     expect_well_formed_xml(xml);
-    EXPECT_EQ(capture(xml, "<febio_spec version=\"([0-9.]+)\">"), "3.0");
+    EXPECT_EQ(capture(xml, "<febio_spec version=\"([0-9.]+)\">"), "4.0");
     EXPECT_EQ(capture(xml, "<material id=\"1\" name=\"(\\w+)\" type=\"isotropic elastic\">"), "tissue");
     const std::string map = capture(xml, "<E type=\"map\">(\\w+)</E>");
     const std::string part = capture(xml, "<Elements type=\"tet4\" name=\"(\\w+)\">");
-    EXPECT_EQ(capture(xml, "<ElementData name=\"(\\w+)\" elem_set=\"" + part + "\">"), map);
+    EXPECT_EQ(capture(xml, "<ElementData type=\"scalar\" name=\"(\\w+)\" elem_set=\"" + part + "\">"), map);
     EXPECT_EQ(capture(xml, "<SolidDomain name=\"" + part + "\" mat=\"(\\w+)\"/>"), "tissue");
     const auto nodes = xml_values(xml, "node", "id");
     const auto elems = xml_values(xml, "elem", "id");
-    const auto e_map = xml_values(xml, "elem", "lid");
+    const auto e_map = xml_values(xml, "e", "lid");
     ASSERT_EQ(nodes.size(), world.n_points());
     for (std::size_t i = 0; i < world.n_points(); ++i)
       for (int a = 0; a < 3; ++a) EXPECT_NEAR(nodes.at(i + 1).at(a), world.points[i][a], 1e-9);

@@ -123,6 +123,14 @@ class ElasticModel {
   // Displacement of the last solution at arbitrary points (located with locator()).
   std::vector<Vec<dim>> sample(const std::vector<Vec<dim>>& points, PointSample* info = nullptr) const;
 
+  // Displacement of the last solution at the midpoint of each edge, given as a pair of vertex indices
+  // (input numbering) of an edge of the simplex mesh: for P2 the values of the edge's mid-node DoFs
+  // (P2 support points), for P1 the mean of the two vertex values. Together with
+  // Solution::vertex_displacement this is the whole P2 field (quadratic cells for VTK, C3D10/CPE6
+  // nodes). Simplex models only; throws std::invalid_argument for a pair that is no edge of the mesh
+  // and std::runtime_error before the first solve.
+  std::vector<Vec<dim>> edge_midpoint_displacement(const std::vector<std::array<int, 2>>& edges) const;
+
   // ½ uᵀ K u for the continuous piecewise-linear field with the given vertex values (interpolated
   // into the FE space; exact for P1/Q1, and for P2 a linear-per-cell field is represented exactly).
   double strain_energy_of(const std::vector<Vec<dim>>& vertex_displacement) const;

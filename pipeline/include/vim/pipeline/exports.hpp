@@ -1,7 +1,9 @@
-// Mesh exports for other tools (docs/architecture.md): legacy VTK for deal.II's GridIn::read_vtk,
-// FEBio (.feb, per-element E map), Gmsh 4.1 (.msh, physical group per material bin) and Abaqus (.inp,
-// element set + material per bin). All in WORLD coordinates (direction matrix applied), every cell
-// positively oriented in world space, each file written under a temporary name and renamed.
+// Mesh exports for other tools (docs/architecture.md): legacy VTK for deal.II's GridIn::read_vtk, FEBio
+// (.feb, febio_spec 4.0), Gmsh 4.1 (.msh: physical groups for material bins, box faces and scenario regions)
+// and CalculiX/Abaqus (.inp). With a scenario (--simulate) mesh.inp and mesh.feb are complete jobs: the
+// scenario's conditions on node sets and surfaces, a static step, quadratic elements for degree 2
+// (solver_deck.hpp). All in WORLD coordinates (direction matrix applied), every cell positively
+// oriented in world space, each file written under a temporary name and renamed.
 #pragma once
 
 #include <Eigen/Core>
@@ -11,12 +13,20 @@
 #include <string>
 #include <vector>
 #include <vim/pipeline/model.hpp>
+#include <vim/pipeline/scenario.hpp>
+#include <vim/pipeline/solver_deck.hpp>
 
 namespace vim::pipeline {
 
+// How the files are written; the run fills it at the export call (run_write_outputs.cpp).
 struct ExportOptions {
   double poisson_ratio = 0.49;  // ν written to .feb and .inp (nearly incompressible soft tissue)
-  int max_material_bins = 255;  // material ids stay in 1..255 (8-bit safe for every reader)
+  int max_material_bins = 255;  // material ids of .vtk/.msh stay in 1..255 (8-bit safe for every reader)
+  // --simulate: the scenario whose conditions mesh.inp / mesh.feb / mesh.msh carry (regions, held
+  // components, pressures, tractions, a static step), and the FEM degree of their elements (2:
+  // C3D10/CPE6, tet10, 10-node tetrahedra). The model's youngs_modulus must then be the one simulated.
+  const Scenario* scenario = nullptr;
+  unsigned degree = 1;
 };
 
 // The valid --export names, in the order the files are written: vtk, feb, msh, inp.
@@ -51,13 +61,11 @@ SimplexMesh<dim> world_mesh(const MeshModel<dim>& model);
 template <int dim>
 void write_vtk_legacy(const std::filesystem::path& path, const SimplexMesh<dim>& world,
                       const MaterialBins& bins);
-void write_feb(const std::filesystem::path& path, const SimplexMesh<3>& world, const MaterialBins& bins,
-               double poisson_ratio);
+void write_feb(const std::filesystem::path& path, const SolverDeck<3>& deck);
 template <int dim>
-void write_msh(const std::filesystem::path& path, const SimplexMesh<dim>& world, const MaterialBins& bins);
+void write_msh(const std::filesystem::path& path, const SolverDeck<dim>& deck, const MaterialBins& bins);
 template <int dim>
-void write_inp(const std::filesystem::path& path, const SimplexMesh<dim>& world, const MaterialBins& bins,
-               double poisson_ratio);
+void write_inp(const std::filesystem::path& path, const SolverDeck<dim>& deck);
 
 // What the exports write, computed once by the caller: the model (element values and modulus) and the
 // same mesh in world coordinates (world_mesh(model), which the run also writes to mesh.vtu).
@@ -71,7 +79,9 @@ struct ExportInput {
 // Writes dir/mesh.{vtk,feb,msh,inp} for the requested formats (subset of export_formats(); an
 // unknown name throws std::invalid_argument before anything is written) and fills
 // report["exports"]: files written, skipped formats with the reason (FEBio has no 2D solid
-// elements), material_table [{id, E, E_min, E_max, elements}], element_modulus, poisson_ratio.
+// elements), material_table [{id, E, E_min, E_max, elements}], element_modulus, poisson_ratio,
+// degree, not_expressed (scenario features the decks do not hold), and warnings: without a scenario, a
+// non-positive element modulus (an image that is not a modulus map) is warned about, naming the fix.
 template <int dim>
 void write_exports(const ExportInput<dim>& input, const std::filesystem::path& dir,
                    const std::vector<std::string>& formats, nlohmann::json& report);

@@ -15,7 +15,7 @@ namespace vim::pipeline {
 struct UnstructuredGrid {
   std::vector<std::array<double, 3>> points;
   int vtk_cell_type = 10;  // VTK_TRIANGLE = 5, VTK_TETRA = 10, VTK_QUAD = 9, VTK_HEXAHEDRON = 12, VTK_PIXEL =
-                           // 8, VTK_VOXEL = 11
+                           // 8, VTK_VOXEL = 11, VTK_QUADRATIC_TRIANGLE = 22, VTK_QUADRATIC_TETRA = 24
   int nodes_per_cell = 4;
   std::vector<long> connectivity;  // n_cells * nodes_per_cell
   FieldMap point_data;             // 2D vectors are padded to 3 components by the writer
@@ -32,6 +32,14 @@ UnstructuredGrid simplex_grid(const SimplexMesh<dim>& frame_mesh, const WorldTra
 // (world_mesh in exports.hpp): its points and cells as they are.
 template <int dim>
 UnstructuredGrid simplex_grid(const SimplexMesh<dim>& world_mesh);
+
+// A linear simplex grid (either simplex_grid) with quadratic cells (VTK_QUADRATIC_TETRA = 24,
+// VTK_QUADRATIC_TRIANGLE = 22) for P2 fields: its points, then one mid-edge point per edge in
+// quadratic_cells' numbering; `edges` (if given) gets each mid-edge point's vertex pair
+// (ElasticModel::edge_midpoint_displacement's input). Throws std::invalid_argument for other cells.
+template <int dim>
+UnstructuredGrid quadratic_simplex_grid(const UnstructuredGrid& linear,
+                                        std::vector<std::array<int, 2>>* edges = nullptr);
 
 // Corner order of a VTK quad / hexahedron over a voxel, as (x, y) index offsets of each z layer: (0,0),
 // (1,0), (1,1), (0,1), counter-clockwise in the frame; reversed in-plane when the direction matrix
