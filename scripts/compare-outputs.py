@@ -5,6 +5,7 @@ Usage: scripts/compare-outputs.py DIR_A DIR_B [--rtol 1e-12] [--skip REGEX]...  
 import argparse, json, math, os, re, sys
 
 TIMING = re.compile(r"^timing$|seconds|per_second|_time|time_|wall|date|command_line|threads|version|elapsed|rss|memory|hostname|\bout\b|path|file", re.I)
+SKIP_KEYS = []
 NUM = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
 
 def close(a, b, rtol, scale):
@@ -13,7 +14,7 @@ def close(a, b, rtol, scale):
 def cmp_json(a, b, rtol, where, out):
     if isinstance(a, dict) and isinstance(b, dict):
         for k in sorted(set(a) | set(b)):
-            if TIMING.search(k):
+            if TIMING.search(k) or any(r.search(f"{where}.{k}") for r in SKIP_KEYS):
                 continue
             if k not in a or k not in b:
                 out.append(f"{where}.{k}: only in {'B' if k not in a else 'A'}"); continue
@@ -94,7 +95,10 @@ def main():
     ap.add_argument("a"); ap.add_argument("b")
     ap.add_argument("--rtol", type=float, default=1e-12)
     ap.add_argument("--skip", action="append", default=[], help="regex of relative paths to skip")
+    ap.add_argument("--skip-key", action="append", default=[], help="regex of JSON key paths to skip")
     o = ap.parse_args()
+    global SKIP_KEYS
+    SKIP_KEYS = [re.compile(k) for k in o.skip_key]
     files = lambda d: {os.path.relpath(os.path.join(r, f), d) for r, _, fs in os.walk(d) for f in fs}
     fa, fb = files(o.a), files(o.b)
     out = []
