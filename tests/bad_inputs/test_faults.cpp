@@ -86,8 +86,9 @@ TEST(Faults, SigkillAtRandomMomentsOfAMultiNeedleRunLeavesOnlyCompleteFiles) {
 TEST(Faults, FullDiskGivesOneErrorAndNoFinalNamedPartialFile) {
   const auto dir = scratch_dir("faults", "full_disk");
   const MultiNeedleCase c = make_case(dir);
-  // Limits below the smallest output, inside mesh.vtu, and among the step files of the needles.
-  for (long limit : {2048L, 60000L, 400000L}) {
+  // Limits below the smallest output, inside mesh.vtu, and among the step files of the needles (the
+  // largest output, a step file, is about 65 KB).
+  for (long limit : {2048L, 20000L, 62000L}) {
     SCOPED_TRACE("RLIMIT_FSIZE " + std::to_string(limit) + " bytes");
     const fs::path out = dir / ("out" + std::to_string(limit));
     const ProcessResult r = run_to_end(c.args(out), dir / "err.txt", limit);
@@ -95,6 +96,7 @@ TEST(Faults, FullDiskGivesOneErrorAndNoFinalNamedPartialFile) {
     EXPECT_EQ(r.code, 1) << r.err;
     EXPECT_EQ(r.err.rfind("vim-pipeline: error: ", 0), 0u) << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line only: " << r.err;
+    EXPECT_NE(r.err.find("cannot write " + out.string()), std::string::npos) << "names the file: " << r.err;
     for (const auto& f : final_files(out)) EXPECT_EQ(incomplete_reason(f), "") << f;
   }
 }
