@@ -410,6 +410,13 @@ class DataCheck {
       gzclose(f);
       return;  // not a header this check understands; ITK has read it already
     }
+    // A NaN, infinite or absurd offset (fuzz_nifti_header: NaN) would make the byte count below undefined.
+    if (!(vox_offset < 1e15)) {
+      std::ostringstream v;
+      v << vox_offset;
+      throw InputError(path_ + ": NIfTI header vox_offset = " + v.str() +
+                       " is not a byte offset in a file (valid: a finite number of bytes, at least the header size)");
+    }
     const bool compressed = ends(".gz");
     std::uintmax_t total = got > 0 ? static_cast<std::uintmax_t>(got) : 0;
     int n = 0;
