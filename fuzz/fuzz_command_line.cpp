@@ -3,21 +3,20 @@
 // the documented ranges or stop with exit code 0 (--help, --version) or 2 (usage error); a crash, an
 // exception or a sanitizer report is a bug. Only parsing runs: no file is read or written. Built by
 // scripts/fuzz.sh (fuzz/CMakeLists.txt) against a normal build's libraries (VIM_BUILD_DIR).
-#include <vim/pipeline/cli.hpp>
-
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
+#include <vim/pipeline/cli.hpp>
 
 namespace {
 
 void check_options(const vim::pipeline::RunOptions& o) {
   const bool ok = (o.info || !o.out.empty()) && !o.image.empty() && o.nodes >= 4 && o.nodes <= 100000000 &&
                   std::isfinite(o.spacing) && o.spacing >= 0.0 && o.lambda >= 0.0 && o.lambda < 1.0 &&
-                  o.max_dihedral_deg > 90.0 && o.max_dihedral_deg < 180.0 && o.threads >= 0 && o.threads <= 1024 &&
-                  (o.degree == 1 || o.degree == 2) && o.max_memory >= 0.0 &&
+                  o.max_dihedral_deg > 90.0 && o.max_dihedral_deg < 180.0 && o.threads >= 0 &&
+                  o.threads <= 1024 && (o.degree == 1 || o.degree == 2) && o.max_memory >= 0.0 &&
                   (!o.threshold || std::isfinite(*o.threshold));
   if (!ok) __builtin_trap();
 }

@@ -3,7 +3,7 @@
 // throw InputError naming the file; a crash, any other exception or a sanitizer report is a bug.
 #pragma once
 
-#include <vim/pipeline/image_io.hpp>
+#include <unistd.h>
 
 #include <cstddef>
 #include <cstdint>
@@ -11,8 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
-
-#include <unistd.h>
+#include <vim/pipeline/image_io.hpp>
 
 namespace vim::fuzz {
 

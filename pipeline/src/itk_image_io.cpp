@@ -410,13 +410,6 @@ class DataCheck {
       gzclose(f);
       return;  // not a header this check understands; ITK has read it already
     }
-    // A NaN, infinite or absurd offset (fuzz_nifti_header: NaN) would make the byte count below undefined.
-    if (!(vox_offset < 1e15)) {
-      std::ostringstream v;
-      v << vox_offset;
-      throw InputError(path_ + ": NIfTI header vox_offset = " + v.str() +
-                       " is not a byte offset in a file (valid: a finite number of bytes, at least the header size)");
-    }
     const bool compressed = ends(".gz");
     std::uintmax_t total = got > 0 ? static_cast<std::uintmax_t>(got) : 0;
     int n = 0;
@@ -433,6 +426,14 @@ class DataCheck {
     gzclose(f);
     if (n < 0)
       throw InputError(path_ + ": cannot read the voxel data: corrupt compressed data (" + zmsg + ")");
+    // A NaN, infinite or absurd offset (fuzz_nifti_header: NaN) would make the byte count undefined.
+    if (!(vox_offset < 1e15)) {
+      std::ostringstream v;
+      v << vox_offset;
+      throw InputError(
+          path_ + ": NIfTI header vox_offset = " + v.str() +
+          " is not a byte offset in a file (valid: a finite number of bytes, at least the header size)");
+    }
     const auto need = static_cast<std::uintmax_t>(vox_offset) + bytes_;
     if (total < need)
       throw InputError(path_ + ": cannot read the voxel data: truncated (the header declares " +

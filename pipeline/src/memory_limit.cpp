@@ -9,7 +9,8 @@
 namespace vim::pipeline {
 
 double estimated_peak_bytes(double voxels, double nodes) {
-  return MemoryModel::base_bytes + MemoryModel::bytes_per_voxel * voxels + MemoryModel::bytes_per_node * nodes;
+  return MemoryModel::base_bytes + MemoryModel::bytes_per_voxel * voxels +
+         MemoryModel::bytes_per_node * nodes;
 }
 
 namespace {

@@ -5,9 +5,9 @@
 // and every simulation step.
 #include <chrono>
 #include <cmath>
+#include <vim/adjacency.hpp>
 #include <vim/energy.hpp>
 #include <vim/initial_mesh.hpp>
-#include <vim/adjacency.hpp>
 #include <vim/pipeline/exports.hpp>
 #include <vim/pipeline/memory_limit.hpp>
 #include <vim/pipeline/meshing_run.hpp>
@@ -101,10 +101,11 @@ void MeshingRun<dim>::check_node_limit(const std::array<int, dim>& n, double vox
   const double limit = static_cast<double>(Adjacency<dim>::max_points());
   const std::string given = o.spacing > 0.0 ? fmt("--spacing %g", o.spacing) : fmt("--nodes %ld", o.nodes);
   if (o.mesher == MesherKind::vim && nodes > limit)
-    throw InputError(fmt("%s gives an initial grid of %s = %.0f nodes; VIM in %dD supports at most %.0f "
-                         "(facet keys pack %d bits per node): use %s",
-                         given.c_str(), axes.c_str(), nodes, dim, limit, dim == 3 ? 21 : 32,
-                         o.spacing > 0.0 ? "a larger --spacing" : "fewer --nodes"));
+    throw InputError(
+        fmt("%s gives an initial grid of %s = %.0f nodes; VIM in %dD supports at most %.0f "
+            "(facet keys pack %d bits per node): use %s",
+            given.c_str(), axes.c_str(), nodes, dim, limit, dim == 3 ? 21 : 32,
+            o.spacing > 0.0 ? "a larger --spacing" : "fewer --nodes"));
   check_memory_fits(voxels, nodes, o.max_memory);
 }
 

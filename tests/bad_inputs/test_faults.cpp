@@ -27,14 +27,15 @@ namespace {
 struct MultiNeedleCase {
   fs::path image, scenario;
   std::vector<std::string> args(const fs::path& out) const {
-    return {image.string(), "--nodes",    "300", "--max-iterations", "3",          "--threads",
-            "1",            "--simulate", scenario.string(),         "--out",     out.string(), "-q"};
+    return {image.string(), "--nodes",         "300",   "--max-iterations", "3", "--threads", "1",
+            "--simulate",   scenario.string(), "--out", out.string(),       "-q"};
   }
 };
 
 MultiNeedleCase make_case(const fs::path& dir) {
   MultiNeedleCase c{dir / "inclusions.mha", dir / "two_needles.yaml"};
-  const std::string cmd = std::string(VIM_PHANTOM_EXE) + " two-inclusions " + c.image.string() + " --size 40 >/dev/null";
+  const std::string cmd =
+      std::string(VIM_PHANTOM_EXE) + " two-inclusions " + c.image.string() + " --size 40 >/dev/null";
   EXPECT_EQ(std::system(cmd.c_str()), 0);
   std::ofstream(c.scenario) << R"(material: {youngs_modulus: image, poisson_ratio: 0.3, clamp: [1, 1000]}
 boundary_conditions:
@@ -47,7 +48,8 @@ output: {every: 1}
   return c;
 }
 
-ProcessResult run_to_end(const std::vector<std::string>& args, const fs::path& err, long file_size_limit = -1) {
+ProcessResult run_to_end(const std::vector<std::string>& args, const fs::path& err,
+                         long file_size_limit = -1) {
   return wait_cli(spawn_cli(args, err, file_size_limit), err);
 }
 
@@ -61,7 +63,8 @@ TEST(Faults, SigkillAtRandomMomentsOfAMultiNeedleRunLeavesOnlyCompleteFiles) {
   const double duration = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   ASSERT_EQ(full.code, 0) << full.err;
   const auto complete = final_files(dir / "full");
-  ASSERT_TRUE(fs::exists(dir / "full" / "left" / "needle.csv") && fs::exists(dir / "full" / "right" / "needle.csv"));
+  ASSERT_TRUE(fs::exists(dir / "full" / "left" / "needle.csv") &&
+              fs::exists(dir / "full" / "right" / "needle.csv"));
   for (const auto& f : complete) ASSERT_EQ(incomplete_reason(f), "") << f;  // the checker accepts a whole run
 
   std::mt19937 rng(34);  // fixed seed: the same 20 kill times at every run of the test

@@ -32,8 +32,8 @@ void check_reproducers(const std::string& corpus, bool ext_from_first_byte) {
     }
     const fs::path image = dir / (name + ext);
     std::ofstream(image, std::ios::binary) << bytes;
-    const ProcessResult r = wait_cli(spawn_cli({image.string(), "--nodes", "64", "--max-iterations", "1", "--out",
-                                                (dir / ("out_" + name)).string(), "-q"},
+    const ProcessResult r = wait_cli(spawn_cli({image.string(), "--nodes", "64", "--max-iterations", "1",
+                                                "--out", (dir / ("out_" + name)).string(), "-q"},
                                                dir / "err.txt"),
                                      dir / "err.txt");
     SCOPED_TRACE(name);

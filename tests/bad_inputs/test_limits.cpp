@@ -3,13 +3,12 @@
 // nodes; 3D VIM keys hold 2^21 = 2097152 nodes, node ids 2^31 - 1) and the documented memory model
 // (200 MB + 24 B per voxel + 1600 B per node: 751^3 nodes need about 677 GB, more than any test
 // machine has; 1M is far below the libraries alone).
-#include <vim/pipeline/memory_limit.hpp>
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <string>
 #include <vector>
+#include <vim/pipeline/memory_limit.hpp>
 
 #include "run_cli.hpp"
 
@@ -30,7 +29,8 @@ class Limits : public ::testing::Test {
     EXPECT_EQ(r.code, 1) << r.err;
     EXPECT_EQ(r.err.rfind("vim-pipeline: error: ", 0), 0u) << r.err;
     EXPECT_EQ(count_lines(r.err), 1) << r.err;
-    for (const auto& p : parts) EXPECT_NE(r.err.find(p), std::string::npos) << "lacks '" << p << "': " << r.err;
+    for (const auto& p : parts)
+      EXPECT_NE(r.err.find(p), std::string::npos) << "lacks '" << p << "': " << r.err;
     EXPECT_EQ(count_files(out), 0) << "files left in --out";
   }
   TempDir dir_{"limits"};
@@ -53,14 +53,16 @@ TEST_F(Limits, MemoryEstimateAboveMaxMemoryIsRefused) {
   // The default limit is the memory available to the process: 751^3 grid nodes cannot fit.
   expect_refused("--mesher grid --spacing 0.004", {"estimated peak memory", "available"});
   const std::string out = dir_ / "ok";
-  const CliResult ok = run_pipeline(quote(dir_ / "cube.mha") + " --nodes 125 --max-iterations 1 --export none " +
-                                    "--max-memory 64G -q --out " + quote(out));
+  const CliResult ok =
+      run_pipeline(quote(dir_ / "cube.mha") + " --nodes 125 --max-iterations 1 --export none " +
+                   "--max-memory 64G -q --out " + quote(out));
   EXPECT_EQ(ok.code, 0) << ok.err;
 }
 
 TEST_F(Limits, MaxMemoryValuesOutsideTheGrammarAreUsageErrors) {
   for (const char* bad : {"abc", "0", "-5G", "8X", "nan"}) {
-    const CliResult r = run_pipeline(quote(dir_ / "cube.mha") + " --max-memory " + bad + " --out " + quote(dir_ / "o"));
+    const CliResult r =
+        run_pipeline(quote(dir_ / "cube.mha") + " --max-memory " + bad + " --out " + quote(dir_ / "o"));
     EXPECT_EQ(r.code, 2) << bad << ": " << r.err;
     EXPECT_NE(r.err.find("--max-memory"), std::string::npos) << r.err;
   }

@@ -2,12 +2,12 @@
 // swaps run sequentially in a fixed order, so the mesh (every coordinate bit), the cells and the
 // energy history are identical at 1, 2, 4 and 8 threads. Truth: the 1-thread run (brute-force
 // comparison, bit for bit), plus the check that insertion did add nodes.
-#include "optimizer_test_util.hpp"
+#include <gtest/gtest.h>
 
 #include <vim/initial_mesh.hpp>
 #include <vim/vim.hpp>
 
-#include <gtest/gtest.h>
+#include "optimizer_test_util.hpp"
 
 namespace vim {
 namespace {

@@ -1,13 +1,12 @@
 // Node limits. Truth: the key layout (3D facet keys pack three 21-bit node ids, so 2^21 = 2097152
 // nodes is the most whose keys cannot collide) and arithmetic on the grid size ((1/h + 1)^3 nodes
 // for spacing h on a unit cube, compared with the 2^31 - 1 int node ids).
-#include <vim/adjacency.hpp>
-#include <vim/initial_mesh.hpp>
-
 #include <gtest/gtest.h>
 
 #include <stdexcept>
 #include <string>
+#include <vim/adjacency.hpp>
+#include <vim/initial_mesh.hpp>
 
 namespace vim {
 namespace {

@@ -2,13 +2,12 @@
 // image meshed from 2197 nodes with --sizing on at --threads 1, 2, 4 and 8 gives byte-identical
 // mesh.vtu files (every array, every bit) and identical report.json numbers once the timings, the
 // thread count and the output paths are taken out.
-#include <vim/pipeline/image_io.hpp>
-
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <nlohmann/json.hpp>
 #include <string>
+#include <vim/pipeline/image_io.hpp>
 
 #include "run_cli.hpp"
 
@@ -23,7 +22,8 @@ namespace {
 // depend on the thread count.
 json comparable(const json& j, const std::string& from) {
   std::string text = j.dump();
-  for (std::size_t p = text.find(from); p != std::string::npos; p = text.find(from, p)) text.replace(p, from.size(), "OUT");
+  for (std::size_t p = text.find(from); p != std::string::npos; p = text.find(from, p))
+    text.replace(p, from.size(), "OUT");
   json r = json::parse(text);
   r.erase("command_line");
   r.erase("timing");
@@ -56,8 +56,8 @@ TEST(DeterminismCli, SameMeshAndReportAtOneTwoFourEightThreadsWithSizing) {
   auto run_at = [&](int threads) {
     const std::string out = dir / ("t" + std::to_string(threads));
     const CliResult r = run_pipeline(quote(image) + " --nodes 2200 --sizing " + quote(sizing) +
-                                     " --max-iterations 3 --export none -q --threads " + std::to_string(threads) +
-                                     " --out " + quote(out));
+                                     " --max-iterations 3 --export none -q --threads " +
+                                     std::to_string(threads) + " --out " + quote(out));
     EXPECT_EQ(r.code, 0) << r.err;
     return out;
   };

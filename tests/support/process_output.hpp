@@ -3,25 +3,23 @@
 // that every file left under a final name is complete of its kind.
 #pragma once
 
-#include <vtkNew.h>
-#include <vtkUnstructuredGrid.h>
-#include <vtkXMLUnstructuredGridReader.h>
-
-#include <nlohmann/json.hpp>
-
-#include <algorithm>
-#include <cctype>
-#include <filesystem>
-#include <fstream>
-#include <sstream>
-#include <string>
-#include <vector>
-
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <vtkNew.h>
+#include <vtkUnstructuredGrid.h>
+#include <vtkXMLUnstructuredGridReader.h>
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
 
 namespace vim::test {
 
@@ -42,7 +40,8 @@ inline std::string slurp(const fs::path& p) {
 
 // fork/exec of vim-pipeline with stdout to /dev/null and stderr to `err_file`; file_size_limit >= 0
 // sets RLIMIT_FSIZE (bytes) in the child, with SIGXFSZ ignored (a full disk, without privileges).
-inline pid_t spawn_cli(const std::vector<std::string>& args, const fs::path& err_file, long file_size_limit = -1) {
+inline pid_t spawn_cli(const std::vector<std::string>& args, const fs::path& err_file,
+                       long file_size_limit = -1) {
   std::vector<std::string> argv_s{VIM_PIPELINE_EXE};
   argv_s.insert(argv_s.end(), args.begin(), args.end());
   const pid_t pid = ::fork();
@@ -115,7 +114,8 @@ inline std::string incomplete_reason(const fs::path& p) {
     vtkNew<vtkXMLUnstructuredGridReader> reader;
     reader->SetFileName(p.c_str());
     reader->Update();
-    if (reader->GetErrorCode() != 0 || reader->GetOutput() == nullptr) return "vtkXMLUnstructuredGridReader fails";
+    if (reader->GetErrorCode() != 0 || reader->GetOutput() == nullptr)
+      return "vtkXMLUnstructuredGridReader fails";
   } else if (ext == ".pvd" || ext == ".feb" || ext == ".xml") {
     if (rtrim(text).back() != '>') return "xml file ends mid-element";
   } else if (ext == ".csv") {
@@ -126,11 +126,13 @@ inline std::string incomplete_reason(const fs::path& p) {
     while (std::getline(in, line)) {
       const std::size_t c = std::count(line.begin(), line.end(), ',') + 1;
       if (columns == 0) columns = c;
-      if (c != columns) return "csv line with " + std::to_string(c) + " columns, header has " + std::to_string(columns);
+      if (c != columns)
+        return "csv line with " + std::to_string(c) + " columns, header has " + std::to_string(columns);
     }
   } else if (ext == ".png") {
     // The last chunk of a PNG is IEND: length 0, "IEND", 4-byte CRC.
-    if (text.size() < 12 || text.compare(text.size() - 8, 4, "IEND") != 0) return "png does not end with IEND";
+    if (text.size() < 12 || text.compare(text.size() - 8, 4, "IEND") != 0)
+      return "png does not end with IEND";
   } else if (ext == ".msh") {
     const std::string t = rtrim(text);
     if (t.compare(t.rfind('\n') + 1, 4, "$End") != 0) return "msh does not end with an $End* line";

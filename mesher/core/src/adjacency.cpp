@@ -28,7 +28,8 @@ template <int dim>
 void Adjacency<dim>::build(std::size_t n_points, const std::vector<Cell>& cells,
                            const std::vector<char>& alive) {
   if (n_points > max_points())
-    throw std::invalid_argument("mesh has " + std::to_string(n_points) + " nodes: the swap adjacency supports at most " +
+    throw std::invalid_argument("mesh has " + std::to_string(n_points) +
+                                " nodes: the swap adjacency supports at most " +
                                 std::to_string(max_points()));
   const FacetIncidence<dim> facets = match_facets<dim>(n_points, cells, alive);
   vertex_cells_.assign(n_points, {});

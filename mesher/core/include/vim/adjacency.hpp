@@ -6,8 +6,8 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
-#include <unordered_map>
 #include <limits>
+#include <unordered_map>
 #include <vector>
 
 namespace vim {

@@ -10,8 +10,8 @@
 namespace vim::pipeline {
 
 struct MemoryModel {
-  static constexpr double base_bytes = 200e6;      // the loaded libraries (deal.II, ITK, VTK, TBB)
-  static constexpr double bytes_per_voxel = 24.0;  // float image 4, prefix sums 16, read copy 4
+  static constexpr double base_bytes = 200e6;       // the loaded libraries (deal.II, ITK, VTK, TBB)
+  static constexpr double bytes_per_voxel = 24.0;   // float image 4, prefix sums 16, read copy 4
   static constexpr double bytes_per_node = 1600.0;  // mesh, adjacency, caches, outputs
 };
 
