@@ -239,6 +239,7 @@ itk::ImageIOBase::Pointer open_header(const std::string& path) {
   if (fs::file_size(path, ec) == 0) throw InputError(path + ": file is empty (0 bytes)");
   check_metaimage_header_text(path);
   check_nrrd_header_text(path);
+  check_nifti_header_numbers(path);
 
   itk::ImageIOBase::Pointer io =
       itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::ImageIOFactory::IOFileModeEnum::ReadMode);
