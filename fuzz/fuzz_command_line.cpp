@@ -13,7 +13,7 @@
 namespace {
 
 void check_options(const vim::pipeline::RunOptions& o) {
-  const bool ok = (o.info || !o.out.empty()) && !o.image.empty() && o.nodes >= 4 && o.nodes <= 100000000 &&
+  const bool ok = (o.info || !o.out.empty()) && o.nodes >= 4 && o.nodes <= 100000000 &&
                   std::isfinite(o.spacing) && o.spacing >= 0.0 && o.lambda >= 0.0 && o.lambda < 1.0 &&
                   o.max_dihedral_deg > 90.0 && o.max_dihedral_deg < 180.0 && o.threads >= 0 &&
                   o.threads <= 1024 && (o.degree == 1 || o.degree == 2) && o.max_memory >= 0.0 &&

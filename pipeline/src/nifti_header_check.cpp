@@ -2,12 +2,14 @@
 // reads the header: a NaN or infinite pixdim, quaternion, offset or srow value makes
 // NiftiImageIO::ReadImageInformation abort the process (vnl_svd asserts a finite matrix; found by
 // fuzz_nifti_header). Finite values beyond 1e15 are refused too: squared or multiplied they overflow.
+// The header size field must be 348 or 540 as well.
 #include <zlib.h>
 
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <sstream>
+#include <string>
 #include <vim/pipeline/input_error.hpp>
 
 #include "itk_image_io.hpp"
@@ -55,8 +57,14 @@ void check_nifti_header_numbers(const std::string& path) {
   gzclose(f);
   std::int32_t size = 0;
   std::memcpy(&size, h, 4);
+  const std::int32_t raw = size;
   const bool swapped = size != 348 && size != 540;
   if (swapped) size = static_cast<std::int32_t>(__builtin_bswap32(static_cast<std::uint32_t>(size)));
+  // ITK's niftilib accepts any sizeof_hdr when the magic matches, and then the data-size check cannot
+  // tell the layout: a 472-byte file declaring 5e8 voxels was read into 15 GB (fuzz_nifti_header).
+  if (got >= 4 && size != 348 && size != 540)
+    throw InputError(path + ": NIfTI header starts with sizeof_hdr = " + std::to_string(raw) +
+                     "; valid: 348 (NIfTI-1) or 540 (NIfTI-2), in either byte order");
   const bool one = size == 348 && got >= 348, two = size == 540 && got >= 540;
   if (!one && !two) return;  // not a header this check understands; ITK decides
   for (const Field& field : one ? kNifti1 : kNifti2)
