@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets in fuzz/ (a standalone clang project, not part of the normal build)
-# and runs each for SECONDS seconds on a copy of the seed corpus fuzz/corpus/<target>/.
+# and runs each for SECONDS seconds on a copy of the seed corpus fuzz/corpus/<target>/ (image_header:
+# corpus/image, nifti_header: corpus/nifti, scenario, command_line).
 #   scripts/fuzz.sh [SECONDS] [BUILD_DIR]      (defaults: 60, ../build-fuzz next to the checkout)
-# Environment: JOBS (build parallelism, default 1), FUZZ_TARGETS (default "scenario image_header"),
-# RUNS (stop each target after RUNS executions as well, e.g. RUNS=1000000; default: time only).
+# Environment: JOBS (build parallelism, default 1), FUZZ_TARGETS (default "scenario image_header
+# nifti_header command_line"), RUNS (stop each target after RUNS executions as well; the reference
+# run is RUNS=1000000 SECONDS=100000, docs/reliability.md), VIM_BUILD_DIR (a normal build whose
+# libraries fuzz_command_line links; default ./build of the checkout).
 # Crash reproducers are left in BUILD_DIR/artifacts/; exit status 1 if any target found one.
 # fuzz/lsan.supp suppresses leaks inside third-party libraries (recorded in docs/robustness.md).
 # max_malloc_fill_size=0 and a 16 MB quarantine roughly halve the time per input (ASan otherwise
@@ -13,12 +16,12 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 seconds=${1:-60}
 build=${2:-$root/../build-fuzz}
 jobs=${JOBS:-1}
-targets=${FUZZ_TARGETS:-"scenario image_header"}
+targets=${FUZZ_TARGETS:-"scenario image_header nifti_header command_line"}
 cxx=${CXX_FUZZ:-$(command -v clang++ || command -v clang++-14)}
 cc=${CC_FUZZ:-$(command -v clang || command -v clang-14)}
 
 cmake -S "$root/fuzz" -B "$build" -DCMAKE_BUILD_TYPE=Release \
-  -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_C_COMPILER="$cc" >/dev/null
+  -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_C_COMPILER="$cc" -DVIM_BUILD_DIR="${VIM_BUILD_DIR:-$root/build}" >/dev/null
 for t in $targets; do cmake --build "$build" -j"$jobs" --target "fuzz_$t"; done
 
 mkdir -p "$build/artifacts"
@@ -26,6 +29,9 @@ status=0
 summary=""
 for t in $targets; do
   seeds="$root/fuzz/corpus/${t%_header}"
+  # The parser prints --help and usage errors: its stdout and stderr are closed (libFuzzer keeps its own).
+  mask=0
+  [ "$t" = command_line ] && mask=3
   corpus="$build/corpus/$t"
   mkdir -p "$corpus"
   cp -n "$seeds"/* "$corpus"/ 2>/dev/null || true
@@ -36,7 +42,7 @@ for t in $targets; do
   ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1:max_malloc_fill_size=0:quarantine_size_mb=16 \
   UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
     "$build/fuzz_$t" -max_total_time="$seconds" ${RUNS:+-runs="$RUNS"} -timeout=20 -rss_limit_mb=2048 -max_len=4096 \
-    -print_final_stats=1 -artifact_prefix="$build/artifacts/${t}-" "$corpus" >"$log" 2>&1
+    -print_final_stats=1 -close_fd_mask=$mask -artifact_prefix="$build/artifacts/${t}-" "$corpus" >"$log" 2>&1
   rc=$?
   set -e
   execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")

@@ -1,27 +1,37 @@
 #!/usr/bin/env bash
-# Builds the mesher and pipeline test suites with -fsanitize=address,undefined (VIM_SANITIZE=ON)
-# and the mesh-invariant checks on (VIM_CHECKED=ON: every VIM stage of every test run is checked)
-# in a separate build dir and runs them. CI (scripts/test.sh) runs the mesher suite this way
-# (TARGETS=test_mesher); the pipeline suite needs a full ASan build of the deal.II code (~1 h on
-# the 2-core machine) and runs from this script.
+# Builds the test suites with -fsanitize=address,undefined (VIM_SANITIZE=ON: the project's own
+# code; deal.II, ITK and VTK are the uninstrumented system libraries) and the mesh-invariant checks
+# on (VIM_CHECKED=ON: every VIM stage of every test run is checked) in a separate build dir and runs
+# them, timing the build and the run of each suite. CI (scripts/test.sh) runs the mesher, pipeline
+# and bad-input suites this way; the fem suite and the validation smoke run from this script
+# (docs/reliability.md records the last run and its commit).
 #   scripts/sanitize.sh [BUILD_DIR]            (default: ../build-sanitize next to the checkout)
-# Environment: JOBS (default 1), TARGETS (default "test_mesher test_pipeline"), CONFIGURE_ONLY=1 to
-# stop after cmake, GTEST_FILTER passed through.
-# Leak detection is off: MPI and deal.II leave intentional allocations at exit.
+# Environment: JOBS (default 1), TARGETS (default: every suite below), CONFIGURE_ONLY=1 to stop after
+# cmake, GTEST_FILTER passed through, VALIDATION_FILTER (the validation smoke; default below).
+# Leak detection is on; scripts/lsan.supp suppresses only the intentional allocations of MPI,
+# deal.II and the libraries below them.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$root/../build-sanitize}
 jobs=${JOBS:-1}
-targets=${TARGETS:-"test_mesher test_pipeline"}
+targets=${TARGETS:-"test_mesher test_fem test_pipeline test_bad_inputs test_validation"}
+# The validation smoke: Eq. 15 end to end (exact on aligned grids) and the Table I metrics.
+validation_filter=${VALIDATION_FILTER:-"Eq15EndToEnd.*:Table1Metrics.*"}
 
 # Release, not RelWithDebInfo: deal_ii_setup_target only knows Debug/Release. -g for stacks.
 cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DVIM_SANITIZE=ON -DVIM_CHECKED=ON -DVIM_BUILD_BENCH=OFF \
   -DCMAKE_CXX_FLAGS="-g" >/dev/null
 echo "configured $build (VIM_SANITIZE=ON, VIM_CHECKED=ON)"
 [ "${CONFIGURE_ONLY:-0}" = 1 ] && exit 0
-cmake --build "$build" -j"$jobs" --target $targets
+declare -A build_seconds
+for t in $targets; do
+  t0=$(date +%s)
+  cmake --build "$build" -j"$jobs" --target "$t"
+  build_seconds[$t]=$(( $(date +%s) - t0 ))
+done
 
-export ASAN_OPTIONS=detect_leaks=0:abort_on_error=0:halt_on_error=1
+export ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:halt_on_error=1
+export LSAN_OPTIONS=suppressions="$root/scripts/lsan.supp":print_suppressions=0
 export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 status=0
@@ -30,15 +40,20 @@ for t in $targets; do
   exe=$(find "$build/tests" -maxdepth 2 -type f -name "$t" -perm -u+x | head -1)
   log="$build/$t.sanitize.log"
   echo "== $t (log: $log)"
+  filter=${GTEST_FILTER:-*}
+  [ "$t" = test_validation ] && filter=${GTEST_FILTER:-$validation_filter}
+  t0=$(date +%s)
   set +e
-  (cd "$build/tests" && "$exe") >"$log" 2>&1
+  (cd "$build/tests" && GTEST_FILTER="$filter" "$exe") >"$log" 2>&1
   rc=$?
   set -e
+  run_seconds=$(( $(date +%s) - t0 ))
   reports=$(grep -cE 'ERROR: AddressSanitizer|runtime error:|ERROR: LeakSanitizer' "$log" || true)
   passed=$(grep -oE '\[  PASSED  \] [0-9]+' "$log" | grep -oE '[0-9]+$' || echo 0)
   failed=$(grep -oE '\[  FAILED  \] [0-9]+ test' "$log" | grep -oE '[0-9]+' || echo 0)
   [ "$rc" -ne 0 ] || [ "$reports" -ne 0 ] && status=1
-  summary+=$(printf '%-14s exit %-3s passed %-4s failed %-4s sanitizer reports %s' "$t" "$rc" "$passed" "$failed" "$reports")$'\n'
+  summary+=$(printf '%-16s exit %-3s passed %-4s failed %-4s sanitizer reports %-3s build %5s s run %5s s' \
+    "$t" "$rc" "$passed" "$failed" "$reports" "${build_seconds[$t]}" "$run_seconds")$'\n'
 done
 echo "== summary"
 printf '%s' "$summary"

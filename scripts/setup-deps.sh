@@ -23,6 +23,7 @@ PACKAGES=(
   pybind11-dev python3-dev python3-numpy python3-pytest python3-meshio
   libcairo2-dev fonts-dejavu-core
   clang-format
+  clang libclang-rt-14-dev   # libFuzzer and the sanitizer runtimes for fuzz/ (scripts/fuzz.sh)
 )
 
 missing=()

@@ -2,7 +2,9 @@
 // subdivision of a regular grid over the box, and the boundary classification of its nodes.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vim/initial_mesh.hpp>
@@ -36,6 +38,21 @@ long product(const std::array<int, dim>& n) {
   long p = 1;
   for (int v : n) p *= v;
   return p;
+}
+
+// Node ids are int: a grid of more nodes cannot be indexed (its product, in double, cannot overflow).
+template <int dim>
+void check_node_count(const std::array<int, dim>& n, const std::string& what) {
+  double total = 1.0;
+  std::string axes;
+  for (int a = 0; a < dim; ++a) {
+    total *= n[a];
+    axes += (a ? " x " : "") + std::to_string(n[a]);
+  }
+  if (total > static_cast<double>(std::numeric_limits<int>::max()))
+    throw std::invalid_argument(what + " gives a grid of " + axes + " nodes, more than the " +
+                                std::to_string(std::numeric_limits<int>::max()) +
+                                " a mesh can index; use a larger spacing or fewer nodes");
 }
 
 }  // namespace
@@ -73,7 +90,11 @@ std::array<int, dim> nodes_per_axis_for_spacing(const Eigen::Matrix<double, dim,
     throw std::invalid_argument("spacing: node spacing must be a finite value > 0 (got " +
                                 std::to_string(spacing) + ")");
   check_box<dim>(box_min, box_max);
-  return counts_for_cell_size<dim>(box_min, box_max, spacing);
+  const auto n = counts_for_cell_size<dim>(box_min, box_max, spacing);
+  std::ostringstream what;
+  what << "spacing: node spacing " << spacing;
+  check_node_count<dim>(n, what.str());
+  return n;
 }
 
 template <int dim>
@@ -85,6 +106,7 @@ SimplexMesh<dim> regular_grid_mesh(const Eigen::Matrix<double, dim, 1>& box_min,
     if (n[a] < 2)
       throw std::invalid_argument("nodes_per_axis: every axis needs >= 2 nodes (axis " + std::to_string(a) +
                                   " has " + std::to_string(n[a]) + ")");
+  check_node_count<dim>(n, "nodes_per_axis");
   SimplexMesh<dim> mesh;
   const long total = product<dim>(n);
   mesh.points.reserve(static_cast<std::size_t>(total));

@@ -39,10 +39,10 @@ long VimOptimizer<dim>::insert_nodes(long k) {
     adj_.cells_with_edge(a, b, ring);
     const Point mid = 0.5 * (mesh_.points[a] + mesh_.points[b]);
     const int m = static_cast<int>(mesh_.points.size());
+    adj_.add_point();  // first: throws beyond the node limit before the mesh changes
     mesh_.points.push_back(mid);
     fixed_.push_back(classify(mid));
     dirty_.push_back(1);
-    adj_.add_point();
     std::vector<Cell> split;
     for (int rc : ring) {
       Cell w1 = mesh_.cells[rc], w2 = mesh_.cells[rc];

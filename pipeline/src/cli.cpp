@@ -10,6 +10,7 @@
 #include <vim/pipeline/cli.hpp>
 #include <vim/pipeline/exports.hpp>
 #include <vim/pipeline/image_io.hpp>
+#include <vim/pipeline/memory_limit.hpp>
 #include <vim/pipeline/meshing_run.hpp>
 #include <vim/pipeline/report.hpp>
 #include <vim/version.hpp>
@@ -64,6 +65,21 @@ CLI::Validator finite_number(bool positive) {
         return std::string();
       },
       desc);
+}
+
+// A byte count with an optional k/M/G/T suffix (parse_memory_size), replaced by the plain number.
+CLI::Validator memory_size() {
+  return CLI::Validator(
+      [](std::string& s) -> std::string {
+        const auto bytes = parse_memory_size(s);
+        if (!bytes) return "value " + s + " is not a memory size > 0 such as 512M, 8G or 1000000";
+        std::ostringstream v;
+        v.precision(17);
+        v << *bytes;
+        s = v.str();
+        return std::string();
+      },
+      "SIZE");
 }
 
 CLI::Validator half_open_unit() { return number_in(0.0, 1.0, true); }
@@ -175,6 +191,12 @@ void add_mesh_options(CLI::App& app, RunOptions& o) {
          "Sizing/density image (same dimension as IMAGE, values > 0; larger = denser) for an "
          "E_G-only initialisation (paper §VI-E) of at most --max-iterations iterations (default: none)")
       ->type_name("IMAGE");
+  app.add_option("--max-memory", o.max_memory,
+                 "Refuse to mesh when the estimated peak memory exceeds this many bytes; suffixes k, M, G, T "
+                 "(powers of 1024), e.g. 8G (default: the memory available to the process, cgroup limit "
+                 "included)")
+      ->type_name("SIZE")
+      ->transform(memory_size());
   app.add_option("--threshold", o.threshold,
                  "Segment elements whose mean value is > T into face-connected components; the largest "
                  "by volume is the object (paper §VI-B) (default: off; unit of the image values)")

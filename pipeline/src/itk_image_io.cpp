@@ -239,6 +239,7 @@ itk::ImageIOBase::Pointer open_header(const std::string& path) {
   if (fs::file_size(path, ec) == 0) throw InputError(path + ": file is empty (0 bytes)");
   check_metaimage_header_text(path);
   check_nrrd_header_text(path);
+  check_nifti_header_numbers(path);
 
   itk::ImageIOBase::Pointer io =
       itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::ImageIOFactory::IOFileModeEnum::ReadMode);
@@ -426,6 +427,14 @@ class DataCheck {
     gzclose(f);
     if (n < 0)
       throw InputError(path_ + ": cannot read the voxel data: corrupt compressed data (" + zmsg + ")");
+    // A NaN, infinite or absurd offset (fuzz_nifti_header: NaN) would make the byte count undefined.
+    if (!(vox_offset < 1e15)) {
+      std::ostringstream v;
+      v << vox_offset;
+      throw InputError(
+          path_ + ": NIfTI header vox_offset = " + v.str() +
+          " is not a byte offset in a file (valid: a finite number of bytes, at least the header size)");
+    }
     const auto need = static_cast<std::uintmax_t>(vox_offset) + bytes_;
     if (total < need)
       throw InputError(path_ + ": cannot read the voxel data: truncated (the header declares " +

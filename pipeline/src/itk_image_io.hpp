@@ -31,6 +31,9 @@ int header_dimension(const std::string& path);
 RawImage read(const Header& header, int dim);
 // read_header, then read.
 RawImage read(const std::string& path, int dim);
+// For .nii/.nii.gz: throws InputError naming the file and field when a geometry number of the header
+// (pixdim, quaternion, offsets, srow) is NaN, infinite or beyond 1e15 (nifti_header_check.cpp).
+void check_nifti_header_numbers(const std::string& path);
 // Writes through a temporary name that keeps the extension, then renames.
 void write(const RawImage& image, const std::string& path);
 

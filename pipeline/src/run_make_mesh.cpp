@@ -6,9 +6,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <vim/adjacency.hpp>
 #include <vim/energy.hpp>
 #include <vim/initial_mesh.hpp>
 #include <vim/pipeline/exports.hpp>
+#include <vim/pipeline/memory_limit.hpp>
 #include <vim/pipeline/meshing_run.hpp>
 #include <vim/pipeline/report.hpp>
 #include <vim/quality.hpp>
@@ -91,11 +93,35 @@ std::function<void(const IterationRecord&)> vim_progress(
 
 }  // namespace
 
+// Before the grid is built: VIM's node limit (3D facet keys pack 21 bits per node) and the memory.
+template <int dim>
+void MeshingRun<dim>::check_node_limit(const std::array<int, dim>& n, double voxels) const {
+  const RunOptions& o = options_;
+  double nodes = 1.0;
+  std::string axes;
+  for (int a = 0; a < dim; ++a) {
+    nodes *= n[a];
+    axes += (a ? "x" : "") + std::to_string(n[a]);
+  }
+  const double limit = static_cast<double>(Adjacency<dim>::max_points());
+  const std::string given = o.spacing > 0.0 ? fmt("--spacing %g", o.spacing) : fmt("--nodes %ld", o.nodes);
+  if (o.mesher == MesherKind::vim && nodes > limit)
+    throw InputError(
+        fmt("%s gives an initial grid of %s = %.0f nodes; VIM in %dD supports at most %.0f "
+            "(facet keys pack %d bits per node): use %s",
+            given.c_str(), axes.c_str(), nodes, dim, limit, dim == 3 ? 21 : 32,
+            o.spacing > 0.0 ? "a larger --spacing" : "fewer --nodes"));
+  check_memory_fits(voxels, nodes, o.max_memory);
+}
+
 template <int dim>
 void MeshingRun<dim>::make_mesh() {
   const RunOptions& o = options_;
   const Image<dim>& image = image_->image;
+  const double voxels = static_cast<double>(image.voxel_count()) +
+                        (sizing_ ? static_cast<double>(sizing_->image.voxel_count()) : 0.0);
   if (o.mesher == MesherKind::voxel) {
+    check_memory_fits(voxels, static_cast<double>(image.voxel_count()), o.max_memory);  // a node per voxel
     // The fine voxel model: one quad/hexahedron per voxel.
     StageTimer t(report_, "voxel_grid");
     world_grid_ = std::make_shared<const UnstructuredGrid>(voxel_grid<dim>(image, model_.transform));
@@ -109,6 +135,7 @@ void MeshingRun<dim>::make_mesh() {
   const auto bmin = image.box_min(), bmax = image.box_max();
   nodes_per_axis_ = o.spacing > 0.0 ? nodes_per_axis_for_spacing<dim>(bmin, bmax, o.spacing)
                                     : nodes_per_axis_for_budget<dim>(bmin, bmax, o.nodes);
+  check_node_limit(nodes_per_axis_, voxels);
   SimplexMesh<dim> initial = regular_grid_mesh<dim>(bmin, bmax, nodes_per_axis_);
   t_init.stop();
   std::string axes;

@@ -45,6 +45,7 @@ json options_json(const RunOptions& o) {
   j["sizing"] = o.sizing.empty() ? json(nullptr) : json(o.sizing);
   j["threshold"] = o.threshold ? json(*o.threshold) : json(nullptr);
   j["mesher"] = to_string(o.mesher);
+  j["max_memory"] = o.max_memory > 0.0 ? json(o.max_memory) : json(nullptr);
   j["degree"] = o.degree;
   j["simulate"] = o.simulate.empty() ? json(nullptr) : json(o.simulate);
   j["export"] = o.exports;

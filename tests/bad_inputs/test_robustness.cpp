@@ -4,6 +4,8 @@
 // final name (every file is written to a hidden temporary name and renamed, atomic_file.hpp).
 #include <vim/pipeline/image_io.hpp>
 
+#include "process_output.hpp"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -32,111 +34,11 @@
 
 using namespace vim;
 using namespace vim::pipeline;
+using namespace vim::test;
 namespace fs = std::filesystem;
 
 namespace {
 
-struct CliResult {
-  int code = -1;    // exit status, or -1 when killed by a signal
-  int signal = 0;   // terminating signal, if any
-  std::string err;  // everything the CLI wrote to stderr
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-// fork/exec of vim-pipeline with stdout to /dev/null and stderr to `err_file`.
-pid_t spawn_cli(const std::vector<std::string>& args, const fs::path& err_file) {
-  std::vector<std::string> argv_s{VIM_PIPELINE_EXE};
-  argv_s.insert(argv_s.end(), args.begin(), args.end());
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    const int out = ::open("/dev/null", O_WRONLY);
-    const int err = ::open(err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (out >= 0) ::dup2(out, 1);
-    if (err >= 0) ::dup2(err, 2);
-    std::vector<char*> argv;
-    for (auto& s : argv_s) argv.push_back(s.data());
-    argv.push_back(nullptr);
-    ::execv(argv[0], argv.data());
-    ::_exit(127);
-  }
-  return pid;
-}
-
-CliResult wait_cli(pid_t pid, const fs::path& err_file) {
-  CliResult r;
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  if (WIFEXITED(status)) r.code = WEXITSTATUS(status);
-  if (WIFSIGNALED(status)) r.signal = WTERMSIG(status);
-  r.err = slurp(err_file);
-  return r;
-}
-
-// Files in `dir` (recursively) with a final name: not hidden temporaries (".NAME.PID.N.partial",
-// ".NAME.tmpPID_N.EXT").
-std::vector<fs::path> final_files(const fs::path& dir) {
-  std::vector<fs::path> files;
-  if (!fs::exists(dir)) return files;
-  for (const auto& e : fs::recursive_directory_iterator(dir)) {
-    if (!e.is_regular_file()) continue;
-    const std::string name = e.path().filename().string();
-    if (name.empty() || name[0] == '.' || e.path().extension() == ".partial") continue;
-    files.push_back(e.path());
-  }
-  return files;
-}
-
-std::string rtrim(std::string s) {
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
-  return s;
-}
-
-bool ends_with(const std::string& s, const std::string& tail) {
-  return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
-}
-
-// Empty string when `p` is a complete file of its kind, else what is wrong with it.
-std::string incomplete_reason(const fs::path& p) {
-  const std::string text = slurp(p);
-  const std::string ext = p.extension().string();
-  if (rtrim(text).empty()) return "empty";
-  if (ext == ".json") {
-    try {
-      const auto parsed = nlohmann::json::parse(text);
-      if (parsed.is_discarded()) return "json discarded";
-    } catch (const std::exception& e) {
-      return std::string("json does not parse: ") + e.what();
-    }
-  } else if (ext == ".vtu") {
-    if (!ends_with(rtrim(text), "</VTKFile>")) return "vtu does not end with </VTKFile>";
-    vtkNew<vtkXMLUnstructuredGridReader> reader;
-    reader->SetFileName(p.c_str());
-    reader->Update();
-    if (reader->GetErrorCode() != 0 || reader->GetOutput() == nullptr) return "vtkXMLUnstructuredGridReader fails";
-  } else if (ext == ".pvd" || ext == ".feb" || ext == ".xml") {
-    if (rtrim(text).back() != '>') return "xml file ends mid-element";
-  } else if (ext == ".csv") {
-    if (text.back() != '\n') return "csv ends in the middle of a line";
-    std::istringstream in(text);
-    std::string line;
-    std::size_t columns = 0;
-    while (std::getline(in, line)) {
-      const std::size_t c = std::count(line.begin(), line.end(), ',') + 1;
-      if (columns == 0) columns = c;
-      if (c != columns) return "csv line with " + std::to_string(c) + " columns, header has " + std::to_string(columns);
-    }
-  } else if (ext == ".msh") {
-    const std::string t = rtrim(text);
-    if (t.compare(t.rfind('\n') + 1, 4, "$End") != 0) return "msh does not end with an $End* line";
-  }
-  return "";
-}
 
 // Hand-written MetaImage: `header` lines (without ElementDataFile) then raw float data.
 void write_mha(const fs::path& path, const std::string& header, const std::vector<float>& data) {
@@ -180,7 +82,7 @@ class Robustness : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
-  CliResult run(std::vector<std::string> args) {
+  ProcessResult run(std::vector<std::string> args) {
     const fs::path err = dir_ / "stderr.txt";
     return wait_cli(spawn_cli(args, err), err);
   }
@@ -193,7 +95,7 @@ class Robustness : public ::testing::Test {
   }
 
   // The one-line error contract: `code`, one "vim-pipeline: error:" line containing every part.
-  static void expect_one_line_error(const CliResult& r, int code, const std::vector<std::string>& parts) {
+  static void expect_one_line_error(const ProcessResult& r, int code, const std::vector<std::string>& parts) {
     EXPECT_EQ(r.signal, 0) << "killed by signal " << r.signal << ": " << r.err;
     EXPECT_EQ(r.code, code) << r.err;
     EXPECT_EQ(r.err.rfind("vim-pipeline: error: ", 0), 0u) << r.err;
@@ -207,7 +109,7 @@ class Robustness : public ::testing::Test {
   void expect_bad_image(const fs::path& image, const std::vector<std::string>& problem) {
     std::vector<std::string> parts{image.filename().string()};
     parts.insert(parts.end(), problem.begin(), problem.end());
-    const CliResult r = run({image.string(), "--nodes", "64", "--out", out_.string(), "-q"});
+    const ProcessResult r = run({image.string(), "--nodes", "64", "--out", out_.string(), "-q"});
     expect_one_line_error(r, 1, parts);
     EXPECT_TRUE(out_is_empty()) << "files left in --out";
   }
@@ -223,7 +125,7 @@ class Robustness : public ::testing::Test {
 TEST_F(Robustness, RerunIntoNonEmptyOutRefusesUnlessOverwrite) {
   const std::string img = small_image();
   const std::vector<std::string> args{img, "--nodes", "64", "--max-iterations", "2", "--export", "none", "--out", out_.string()};
-  CliResult r = run(args);
+  ProcessResult r = run(args);
   ASSERT_EQ(r.code, 0) << r.err;
   ASSERT_TRUE(fs::exists(out_ / "report.json"));
   const auto before = fs::last_write_time(out_ / "report.json");
@@ -242,7 +144,7 @@ TEST_F(Robustness, RerunIntoNonEmptyOutRefusesUnlessOverwrite) {
 TEST_F(Robustness, StrayFileInOutIsRefusedAndKept) {
   fs::create_directories(out_);
   std::ofstream(out_ / "notes.txt") << "mine\n";
-  const CliResult r = run({small_image(), "--nodes", "64", "--out", out_.string()});
+  const ProcessResult r = run({small_image(), "--nodes", "64", "--out", out_.string()});
   expect_one_line_error(r, 1, {out_.string(), "--overwrite"});
   EXPECT_EQ(slurp(out_ / "notes.txt"), "mine\n");
   EXPECT_EQ(std::distance(fs::directory_iterator(out_), fs::directory_iterator{}), 1);
@@ -250,14 +152,14 @@ TEST_F(Robustness, StrayFileInOutIsRefusedAndKept) {
 
 TEST_F(Robustness, OutIsARegularFile) {
   std::ofstream(out_) << "x";
-  const CliResult r = run({small_image(), "--nodes", "64", "--out", out_.string()});
+  const ProcessResult r = run({small_image(), "--nodes", "64", "--out", out_.string()});
   expect_one_line_error(r, 1, {out_.string(), "not a directory"});
   EXPECT_EQ(slurp(out_), "x");
 }
 
 TEST_F(Robustness, FailedRunLeavesNewOutAbsent) {
   // Fails after the output directory is validated (a 3D mesh needs 8 nodes).
-  const CliResult r = run({small_image(), "--nodes", "5", "--out", out_.string()});
+  const ProcessResult r = run({small_image(), "--nodes", "5", "--out", out_.string()});
   expect_one_line_error(r, 1, {"--nodes", "5"});
   EXPECT_FALSE(fs::exists(out_));
 }
@@ -266,7 +168,7 @@ TEST_F(Robustness, FailedRunLeavesNewOutAbsent) {
 TEST_F(Robustness, OutBelowARegularFileIsRefusedUpFront) {
   std::ofstream(dir_ / "afile") << "x";
   const fs::path out = dir_ / "afile" / "sub";
-  const CliResult r = run({small_image(), "--nodes", "64", "--out", out.string()});
+  const ProcessResult r = run({small_image(), "--nodes", "64", "--out", out.string()});
   expect_one_line_error(r, 1, {"--out", "cannot be created", "is not a directory"});
   EXPECT_EQ(slurp(dir_ / "afile"), "x");
 }
@@ -280,7 +182,7 @@ TEST_F(Robustness, FailedOverwriteRunLeavesNoStaleReport) {
   ASSERT_TRUE(fs::exists(out_ / "figures" / "energy.png"));
   fs::remove(out_ / "figures" / "energy.png");
   fs::create_directories(out_ / "figures" / "energy.png" / "blocker");  // the rename onto it must fail
-  const CliResult r = run({img, "--nodes", "64", "--export", "none", "--overwrite", "--out", out_.string(), "-q"});
+  const ProcessResult r = run({img, "--nodes", "64", "--export", "none", "--overwrite", "--out", out_.string(), "-q"});
   EXPECT_EQ(r.code, 1) << r.err;
   EXPECT_FALSE(fs::exists(out_ / "report.json")) << "a stale report.json survived";
   EXPECT_FALSE(fs::exists(out_ / "mesh.vtu"));
@@ -288,7 +190,7 @@ TEST_F(Robustness, FailedOverwriteRunLeavesNoStaleReport) {
   fs::remove_all(out_);
   ASSERT_EQ(run({img, "--nodes", "64", "--export", "none", "--out", out_.string(), "-q"}).code, 0);
   const std::string before = slurp(out_ / "report.json");
-  const CliResult early = run({img, "--nodes", "5", "--overwrite", "--out", out_.string(), "-q"});
+  const ProcessResult early = run({img, "--nodes", "5", "--overwrite", "--out", out_.string(), "-q"});
   EXPECT_EQ(early.code, 1);
   EXPECT_EQ(slurp(out_ / "report.json"), before);
 }
@@ -321,14 +223,14 @@ TEST_F(Robustness, OptionValuesOutOfRange) {
     std::string shown;
     for (const auto& a : c.args) shown += a + " ";
     SCOPED_TRACE(shown);
-    const CliResult r = run(args);
+    const ProcessResult r = run(args);
     expect_one_line_error(r, 2, {c.option});
     EXPECT_FALSE(fs::exists(out_)) << "a usage error created --out";
   }
 }
 
 TEST_F(Robustness, MissingOutIsAUsageError) {
-  const CliResult r = run({small_image(), "--nodes", "64"});
+  const ProcessResult r = run({small_image(), "--nodes", "64"});
   expect_one_line_error(r, 2, {"--out"});
 }
 
@@ -595,7 +497,7 @@ TEST_F(Robustness, MhaTwoByTwoByTwoMeshesOrFailsCleanly) {
   // The smallest meshable image: must either mesh (every output complete) or fail on one line.
   const fs::path p = dir_ / "tiny.mha";
   write_mha(p, mha_header("2 2 2"), {1, 2, 3, 4, 5, 6, 7, 8});
-  const CliResult r = run({p.string(), "--nodes", "8", "--out", out_.string(), "-q"});
+  const ProcessResult r = run({p.string(), "--nodes", "8", "--out", out_.string(), "-q"});
   ASSERT_EQ(r.signal, 0) << r.err;
   if (r.code == 0) {
     EXPECT_EQ(r.err, "");
@@ -620,7 +522,7 @@ TEST_F(Robustness, SigkillNeverLeavesAnIncompleteFinalFile) {
   auto args = base;
   args.insert(args.end(), {"--out", out_.string(), "-q"});
   const auto t0 = std::chrono::steady_clock::now();
-  const CliResult full = run(args);
+  const ProcessResult full = run(args);
   const double duration = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   ASSERT_EQ(full.code, 0) << full.err;
   const auto complete = final_files(out_);
@@ -639,7 +541,7 @@ TEST_F(Robustness, SigkillNeverLeavesAnIncompleteFinalFile) {
     const auto delay = std::chrono::duration<double>(std::max(0.05, fractions[k] * duration));
     std::this_thread::sleep_for(delay);
     ::kill(pid, SIGKILL);
-    const CliResult r = wait_cli(pid, err);
+    const ProcessResult r = wait_cli(pid, err);
     SCOPED_TRACE("killed after " + std::to_string(delay.count()) + " s");
     for (const auto& f : final_files(out)) {
       ++left_files;

@@ -27,9 +27,10 @@ typename Adjacency<dim>::FaceKey Adjacency<dim>::face_key(const Cell& v, int k) 
 template <int dim>
 void Adjacency<dim>::build(std::size_t n_points, const std::vector<Cell>& cells,
                            const std::vector<char>& alive) {
-  if (dim == 3 && n_points > (std::size_t(1) << 21))
+  if (n_points > max_points())
     throw std::invalid_argument("mesh has " + std::to_string(n_points) +
-                                " nodes: the swap adjacency supports at most 2097152");
+                                " nodes: the swap adjacency supports at most " +
+                                std::to_string(max_points()));
   const FacetIncidence<dim> facets = match_facets<dim>(n_points, cells, alive);
   vertex_cells_.assign(n_points, {});
   for (std::size_t c = 0; c < cells.size(); ++c)
@@ -44,6 +45,15 @@ void Adjacency<dim>::build(std::size_t n_points, const std::vector<Cell>& cells,
     const int second = facets.count(g) == 2 ? static_cast<int>(facets.use(g, 1).cell()) : -1;
     faces_.emplace(key_of(facets.use(g, 0).vertices), std::array<int, 2>{first, second});
   }
+}
+
+template <int dim>
+void Adjacency<dim>::add_point() {
+  if (vertex_cells_.size() >= max_points())
+    throw std::length_error("mesh would have " + std::to_string(vertex_cells_.size() + 1) +
+                            " nodes: the swap adjacency supports at most " + std::to_string(max_points()) +
+                            " (facet keys pack " + (dim == 3 ? "21" : "32") + " bits per node)");
+  vertex_cells_.emplace_back();
 }
 
 template <int dim>

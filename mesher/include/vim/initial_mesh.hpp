@@ -18,7 +18,8 @@ std::array<int, dim> nodes_per_axis_for_budget(const Eigen::Matrix<double, dim, 
                                                const Eigen::Matrix<double, dim, 1>& box_max,
                                                long node_budget);
 
-// Nodes per axis for cells of edge ≈ spacing (rounded; each axis ≥ 2). Throws if spacing <= 0.
+// Nodes per axis for cells of edge ≈ spacing (rounded; each axis ≥ 2). Throws if spacing <= 0 or
+// the grid would have more nodes than int ids can index (a tiny spacing).
 template <int dim>
 std::array<int, dim> nodes_per_axis_for_spacing(const Eigen::Matrix<double, dim, 1>& box_min,
                                                 const Eigen::Matrix<double, dim, 1>& box_max, double spacing);

@@ -6,6 +6,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <unordered_map>
 #include <vector>
 
@@ -22,7 +23,12 @@ class Adjacency {
   // (facet keys pack three 21-bit indices).
   void build(std::size_t n_points, const std::vector<Cell>& cells, const std::vector<char>& alive = {});
 
-  void add_point() { vertex_cells_.emplace_back(); }
+  // The largest node count whose facet keys cannot collide (3D: 2^21; 2D: the int node ids).
+  static constexpr std::size_t max_points() {
+    return dim == 3 ? std::size_t(1) << 21 : std::size_t(std::numeric_limits<int>::max());
+  }
+  // One more node; throws std::length_error beyond max_points() (keys would collide silently).
+  void add_point();
   void pop_point() { vertex_cells_.pop_back(); }  // the last point must have no cells
   void add_cell(int c, const Cell& v);
   void remove_cell(int c, const Cell& v);

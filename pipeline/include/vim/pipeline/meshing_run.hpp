@@ -98,6 +98,7 @@ class MeshingRun {
   void warn(const std::string& stage, const std::string& message);
   void read_sizing_image();
   void check_scenario();
+  void check_node_limit(const std::array<int, dim>& nodes_per_axis, double voxels) const;
   void optimize_mesh(SimplexMesh<dim> initial);
   void segment_mesh();
   void write_simulation_figures(const SimulationResult<dim>& result);

@@ -40,6 +40,7 @@ struct RunOptions {
   std::string sizing;                     // --sizing IMAGE (density for the E_G-only initialisation)
   std::optional<double> threshold;        // --threshold T: segment element means > T
   MesherKind mesher = MesherKind::vim;
+  double max_memory = 0.0;  // --max-memory in bytes (0 = the memory available to the process)
 
   // Simulation and outputs
   int degree = 1;        // --degree: FEM polynomial degree (1 = P1, the paper's model; 2 = P2)
