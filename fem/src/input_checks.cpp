@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 #include <vector>
+#include <vim/facets.hpp>
 
 namespace vim::fem {
 
@@ -54,16 +55,6 @@ void check_voxel_grid(const std::array<long, dim>& cells, const Vec<dim>& box_mi
 }
 
 namespace {
-
-// The vertex ids of the facet of `cell` opposite its local vertex k, sorted.
-template <int dim>
-std::array<int, dim> facet_vertices(const typename SimplexMesh<dim>::Cell& cell, int k) {
-  std::array<int, dim> v;
-  for (int i = 0, j = 0; i <= dim; ++i)
-    if (i != k) v[j++] = cell[i];
-  std::sort(v.begin(), v.end());
-  return v;
-}
 
 template <int dim>
 void check_vertices_and_volumes(const SimplexMesh<dim>& mesh) {
@@ -163,40 +154,6 @@ void check_rigid_modes_removed(const ConstrainedDirections<dim>& constrained,
 
 // Facets (sorted vertex ids) bucketed by their smallest vertex (counting sort, linear, instead of a hash
 // map of all facets); equal facets are found by sorting each small bucket.
-template <int dim>
-void match_facets(const SimplexMesh<dim>& mesh,
-                  const std::function<void(const std::size_t*, std::size_t)>& visit) {
-  struct Facet {
-    std::array<int, dim> v;
-    std::size_t pos;  // cell·(dim+1) + local facet
-  };
-  const int np = static_cast<int>(mesh.points.size());
-  std::vector<std::size_t> start(static_cast<std::size_t>(np) + 1, 0);
-  for (const auto& cell : mesh.cells)
-    for (int k = 0; k <= dim; ++k) ++start[static_cast<std::size_t>(facet_vertices<dim>(cell, k)[0]) + 1];
-  for (int v = 0; v < np; ++v) start[v + 1] += start[v];
-  std::vector<Facet> facets(mesh.cells.size() * (dim + 1));
-  std::vector<std::size_t> next(start.begin(), start.end() - 1);
-  for (std::size_t c = 0; c < mesh.cells.size(); ++c)
-    for (int k = 0; k <= dim; ++k) {
-      const Facet f{facet_vertices<dim>(mesh.cells[c], k), c * (dim + 1) + static_cast<std::size_t>(k)};
-      facets[next[f.v[0]]++] = f;
-    }
-  std::vector<std::size_t> group;
-  for (int v = 0; v < np; ++v) {
-    const auto b = facets.begin() + static_cast<std::ptrdiff_t>(start[v]);
-    const auto e = facets.begin() + static_cast<std::ptrdiff_t>(start[v + 1]);
-    std::sort(b, e, [](const Facet& x, const Facet& y) { return x.v != y.v ? x.v < y.v : x.pos < y.pos; });
-    for (auto g = b; g != e;) {
-      group.clear();
-      auto h = g;
-      for (; h != e && h->v == g->v; ++h) group.push_back(h->pos);
-      visit(group.data(), group.size());
-      g = h;
-    }
-  }
-}
-
 // The error reported is the first offending (cell, facet) in cell order, as in a sequential scan: the
 // second cell on a facet whose opposite vertices lie on the same side (inverted), or the third cell on a
 // facet (non-manifold).
@@ -207,7 +164,7 @@ void check_simplex_mesh(const SimplexMesh<dim>& mesh) {
   const auto side = [&mesh](std::size_t pos) {
     const auto& cell = mesh.cells[pos / (dim + 1)];
     const int k = static_cast<int>(pos % (dim + 1));
-    const std::array<int, dim> v = facet_vertices<dim>(cell, k);
+    const std::array<int, dim> v = sorted_facet<dim>(cell, k);
     std::array<Eigen::Matrix<double, dim, 1>, dim + 1> x;
     for (int i = 0; i < dim; ++i) x[i] = mesh.points[v[i]];
     x[dim] = mesh.points[cell[k]];
@@ -216,13 +173,16 @@ void check_simplex_mesh(const SimplexMesh<dim>& mesh) {
   const std::size_t none = std::numeric_limits<std::size_t>::max();
   std::size_t bad = none, bad_first = 0;
   bool bad_inverted = false;
-  match_facets<dim>(mesh, [&](const std::size_t* pos, std::size_t n) {
-    if (n >= 2 && side(pos[1]) == side(pos[0])) {
-      if (pos[1] < bad) bad = pos[1], bad_first = pos[0], bad_inverted = true;
-    } else if (n >= 3 && pos[2] < bad) {
-      bad = pos[2], bad_inverted = false;
+  const FacetIncidence<dim> facets = match_facets<dim>(mesh.points.size(), mesh.cells);
+  for (std::size_t g = 0; g < facets.n_facets(); ++g) {
+    const std::size_t n = facets.count(g);
+    const auto pos = [&](std::size_t i) { return facets.use(g, i).position; };
+    if (n >= 2 && side(pos(1)) == side(pos(0))) {
+      if (pos(1) < bad) bad = pos(1), bad_first = pos(0), bad_inverted = true;
+    } else if (n >= 3 && pos(2) < bad) {
+      bad = pos(2), bad_inverted = false;
     }
-  });
+  }
   if (bad == none) return;
   const std::size_t c = bad / (dim + 1);
   if (!bad_inverted)
@@ -242,9 +202,5 @@ template void check_rigid_modes_removed<3>(const ConstrainedDirections<3>&, cons
                                            const std::vector<DirichletBC<3>>&, MPI_Comm);
 template void check_simplex_mesh<2>(const SimplexMesh<2>&);
 template void check_simplex_mesh<3>(const SimplexMesh<3>&);
-template void match_facets<2>(const SimplexMesh<2>&,
-                              const std::function<void(const std::size_t*, std::size_t)>&);
-template void match_facets<3>(const SimplexMesh<3>&,
-                              const std::function<void(const std::size_t*, std::size_t)>&);
 
 }  // namespace vim::fem

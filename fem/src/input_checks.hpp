@@ -46,12 +46,4 @@ void check_rigid_modes_removed(const ConstrainedDirections<dim>& constrained,
                                const std::vector<Vec<dim>>& vertices,
                                const std::vector<DirichletBC<dim>>& bcs, MPI_Comm comm);
 
-// Facet matching: calls visit(positions, n) once per distinct facet (vertex set) of the mesh, where
-// positions[0..n) are the facets with that vertex set as cell·(dim+1) + k (the facet of the cell opposite
-// its local vertex k), in increasing order. Vertex ids must be valid. The one place in fem that matches
-// facets: the mesher's shared facet matching can take its place.
-template <int dim>
-void match_facets(const SimplexMesh<dim>& mesh,
-                  const std::function<void(const std::size_t*, std::size_t)>& visit);
-
 }  // namespace vim::fem
