@@ -78,8 +78,9 @@ struct ConstraintRow {
   std::vector<double> values;
   std::vector<dealii::types::global_dof_index> dirichlet_dofs;  // the part moved to g (for reactions)
   std::vector<double> dirichlet_values;
-  double g = 0.0;      // right-hand side after moving Dirichlet contributions over
-  bool active = true;  // false: the point sits on Dirichlet DoFs only (the row is void)
+  double g = 0.0;           // right-hand side after moving Dirichlet contributions over
+  bool active = true;       // false: the point sits on Dirichlet DoFs only (the row is void)
+  double compliance = 0.0;  // κ of the row: c·u − g = κ·μ (PointConstraint::compliance)
 };
 
 // The DoFs of a cell grouped by support point: groups[k][c] is the DoF of component c at the k-th
@@ -135,7 +136,8 @@ class UmfpackLU {
 
 template <int dim>
 struct ElasticModel<dim>::Impl {
-  using Key = std::pair<std::array<double, dim>, std::array<double, dim>>;  // (position, direction) of a row
+  // A row's position, direction, then its sample offsets and weights (averaged constraints).
+  using Key = std::vector<double>;
   using Cell = typename dealii::DoFHandler<dim>::active_cell_iterator;
   using Located = std::pair<typename dealii::Triangulation<dim>::active_cell_iterator, dealii::Point<dim>>;
 

@@ -185,18 +185,35 @@ void add_to_row(ConstraintRow& row, types::global_dof_index dof, double v) {
   }
 }
 
-// Row of C for direction a (a unit vector; e_c for component c) at the point x: a[k] times the
-// shape-function values of component k in the containing cell, Dirichlet DoFs moved to the
-// right-hand side. `c` only names the component in messages.
+// The sample points of a constraint and their weights summing to 1: the point itself, or its
+// averaging samples (PointConstraint::offsets).
 template <int dim>
-ConstraintRow constraint_row(const State<dim>& m, const Vec<dim>& x, const Vec<dim>& a, unsigned c, double g,
-                             std::size_t which) {
-  const auto found = m.locate(to_point<dim>(x));
-  if (found.first == m.tria.end()) {
-    std::ostringstream s;
-    s << "point constraint " << which << " at " << fmt_point(x.data(), dim) << " lies outside the mesh";
-    throw std::invalid_argument(s.str());
+std::vector<std::pair<Vec<dim>, double>> constraint_samples(const PointConstraint<dim>& p,
+                                                            std::size_t which) {
+  if (p.offsets.empty()) return {{p.position, 1.0}};
+  double sum = 0.0;
+  for (double w : p.weights) sum += w;
+  if (p.weights.size() != p.offsets.size() || !(sum > 0.0) || !std::isfinite(sum))
+    throw std::invalid_argument(
+        "point constraint " + std::to_string(which) +
+        ": an averaged constraint needs one weight ≥ 0 per offset, with a positive sum");
+  std::vector<std::pair<Vec<dim>, double>> samples;
+  for (std::size_t q = 0; q < p.offsets.size(); ++q) {
+    if (!(p.weights[q] >= 0.0) || !p.offsets[q].allFinite())
+      throw std::invalid_argument("point constraint " + std::to_string(which) +
+                                  ": averaging samples need finite offsets and weights ≥ 0");
+    if (p.weights[q] > 0.0) samples.emplace_back(p.position + p.offsets[q], p.weights[q] / sum);
   }
+  return samples;
+}
+
+// Adds w·a·N(x) (the shape-function values of the cell containing x, along a) to `row`, Dirichlet DoFs
+// moved to the right-hand side. Returns false when x lies outside the mesh.
+template <int dim>
+bool add_sample_to_row(const State<dim>& m, const Vec<dim>& x, const Vec<dim>& a, double w,
+                       ConstraintRow& row, double& scale) {
+  const auto found = m.locate(to_point<dim>(x));
+  if (found.first == m.tria.end()) return false;
   const typename DoFHandler<dim>::active_cell_iterator cell(&m.tria, found.first->level(),
                                                             found.first->index(), &m.dof);
   Quadrature<dim> q(std::vector<Point<dim>>{found.second});
@@ -204,11 +221,8 @@ ConstraintRow constraint_row(const State<dim>& m, const Vec<dim>& x, const Vec<d
   fv.reinit(cell);
   std::vector<types::global_dof_index> idx(m.fe->n_dofs_per_cell());
   cell->get_dof_indices(idx);
-  ConstraintRow row;
-  row.g = g;
-  double scale = 0.0;
   for (unsigned i = 0; i < idx.size(); ++i) {
-    const double v = a[m.fe->system_to_component_index(i).first] * fv.shape_value(i, 0);
+    const double v = w * a[m.fe->system_to_component_index(i).first] * fv.shape_value(i, 0);
     scale = std::max(scale, std::abs(v));
     if (v == 0.0) continue;
     if (m.dof_bc[idx[i]] >= 0) {  // for the reactions: the row's own coefficients on held DoFs
@@ -223,12 +237,40 @@ ConstraintRow constraint_row(const State<dim>& m, const Vec<dim>& x, const Vec<d
       add_to_row(row, idx[i], v);
     }
   }
+  return true;
+}
+
+// Row of C for direction a (a unit vector; e_c for component c = axes.col(c)) of point constraint p:
+// a·N at the point, or the weighted mean of a·N over its samples (those inside the mesh, renormalised),
+// Dirichlet DoFs moved to the right-hand side. `c` only names the component in messages.
+template <int dim>
+ConstraintRow constraint_row(const State<dim>& m, const PointConstraint<dim>& p, unsigned c, double g,
+                             std::size_t which) {
+  const Vec<dim> a = p.axes.col(c);
+  auto samples = constraint_samples(p, which);
+  double inside = 0.0;
+  std::vector<bool> in(samples.size());
+  for (std::size_t q = 0; q < samples.size(); ++q)
+    if ((in[q] = m.locate(to_point<dim>(samples[q].first)).first != m.tria.end()))
+      inside += samples[q].second;
+  if (!(inside > 0.0)) {
+    std::ostringstream s;
+    s << "point constraint " << which << " at " << fmt_point(p.position.data(), dim)
+      << (p.offsets.empty() ? " lies outside the mesh" : ": all its averaging samples lie outside the mesh");
+    throw std::invalid_argument(s.str());
+  }
+  ConstraintRow row;
+  row.g = g;
+  row.compliance = p.compliance[c];
+  double scale = 0.0;
+  for (std::size_t q = 0; q < samples.size(); ++q)
+    if (in[q]) add_sample_to_row<dim>(m, samples[q].first, a, samples[q].second / inside, row, scale);
   double free_scale = 0.0;
   for (double v : row.values) free_scale = std::max(free_scale, std::abs(v));
   if (!(free_scale > 1e-12 * scale)) {
     if (std::abs(row.g) > 1e-12 * (1.0 + std::abs(g))) {
       std::ostringstream s;
-      s << "point constraint " << which << " at " << fmt_point(x.data(), dim) << " (component " << c
+      s << "point constraint " << which << " at " << fmt_point(p.position.data(), dim) << " (component " << c
         << ") lies on Dirichlet-constrained nodes and asks for a different displacement";
       throw std::invalid_argument(s.str());
     }
@@ -245,6 +287,10 @@ std::vector<bool> independent_rows(const std::vector<const ConstraintRow*>& rows
   std::vector<Eigen::VectorXd> basis;
   std::vector<bool> keep(rows.size(), false);
   for (std::size_t a = 0; a < rows.size(); ++a) {
+    if (rows[a]->compliance > 0.0) {  // [C −κ] rows are independent whatever C
+      keep[a] = true;
+      continue;
+    }
     Eigen::VectorXd v = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(col.size()));
     for (std::size_t i = 0; i < rows[a]->dofs.size(); ++i) v[col[rows[a]->dofs[i]]] += rows[a]->values[i];
     const double n0 = v.norm();
@@ -298,6 +344,9 @@ void check_points(const std::vector<PointConstraint<dim>>& points) {
     if (!points[k].position.allFinite() || !points[k].displacement.allFinite())
       throw std::invalid_argument("point constraint " + std::to_string(k) +
                                   " has a non-finite position or displacement");
+    if (!(points[k].compliance.minCoeff() >= 0.0) || !points[k].compliance.allFinite())
+      throw std::invalid_argument("point constraint " + std::to_string(k) +
+                                  " has a compliance that is negative or not finite");
     if (!is_orthonormal<dim>(points[k].axes))
       throw std::invalid_argument(
           "point constraint " + std::to_string(k) +
@@ -342,6 +391,7 @@ struct SchurRow {
   const ConstraintRow* row;
   const Vector<double>* col;
   double g;
+  double compliance;  // added to the row's diagonal of the Schur complement
   std::size_t point;
   unsigned comp;
 };
@@ -351,9 +401,14 @@ struct SchurRow {
 template <int dim>
 std::vector<SchurRow> schur_rows(State<dim>& m, const std::vector<PointConstraint<dim>>& points,
                                  const SolverOptions& opt, unsigned& iterations) {
-  const auto key_of = [](const Vec<dim>& x) {
-    std::array<double, dim> k;
-    for (int d = 0; d < dim; ++d) k[d] = x[d];
+  const auto key_of = [](const PointConstraint<dim>& p, const Vec<dim>& dir) {
+    std::vector<double> k(p.position.data(), p.position.data() + dim);
+    k.insert(k.end(), dir.data(), dir.data() + dim);
+    for (std::size_t q = 0; q < p.offsets.size(); ++q) {
+      k.insert(k.end(), p.offsets[q].data(), p.offsets[q].data() + dim);
+      k.push_back(q < p.weights.size() ? p.weights[q] : 0.0);
+    }
+    k.push_back(static_cast<double>(p.offsets.size()));
     return k;
   };
   std::vector<SchurRow> rows;
@@ -361,10 +416,10 @@ std::vector<SchurRow> schur_rows(State<dim>& m, const std::vector<PointConstrain
     for (unsigned c = 0; c < unsigned(dim); ++c) {
       if (!points[k].components[c]) continue;
       const Vec<dim> dir = points[k].axes.col(c);
-      const typename State<dim>::Key key{key_of(points[k].position), key_of(dir)};
+      const typename State<dim>::Key key = key_of(points[k], dir);
       auto it = m.columns.find(key);
       if (it == m.columns.end()) {
-        ConstraintRow row = constraint_row<dim>(m, points[k].position, dir, c, 0.0, k);
+        ConstraintRow row = constraint_row<dim>(m, points[k], c, 0.0, k);
         Vector<double> col;
         if (row.active) {
           Vector<double> e(m.dof.n_dofs());
@@ -384,12 +439,12 @@ std::vector<SchurRow> schur_rows(State<dim>& m, const std::vector<PointConstrain
         }
         continue;
       }
-      rows.push_back({&it->second.first, &it->second.second, g, k, c});
+      rows.push_back({&it->second.first, &it->second.second, g, points[k].compliance[c], k, c});
     }
   return rows;
 }
 
-// S = C K⁻¹ Cᵀ (symmetrised) and r = C u0 − g over all rows.
+// S = C K⁻¹ Cᵀ + diag(κ) (symmetrised) and r = C u0 − g over all rows.
 void schur_complement(const std::vector<SchurRow>& rows, const Vector<double>& u0, Eigen::MatrixXd& S,
                       Eigen::VectorXd& r) {
   const std::size_t n = rows.size();
@@ -407,6 +462,7 @@ void schur_complement(const std::vector<SchurRow>& rows, const Vector<double>& u
     }
   }
   S = 0.5 * (S + S.transpose()).eval();
+  for (std::size_t a = 0; a < n; ++a) S(a, a) += rows[a].compliance;
 }
 
 // A row is dropped (in order) when its pivot in an ordered Cholesky of S vanishes: it is then a
@@ -529,7 +585,7 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
 }
 
 // ================================================================================================
-// solve_monolithic(): [K Cᵀ; C 0] [u; μ] = [f; g] by UMFPACK
+// solve_monolithic(): [K Cᵀ; C −diag(κ)] [u; μ] = [f; g] by UMFPACK
 
 namespace {
 
@@ -542,8 +598,10 @@ void saddle_point_system(const State<dim>& m, const std::vector<const Constraint
   DynamicSparsityPattern dsp(n + nr, n + nr);
   for (unsigned i = 0; i < n; ++i)
     for (auto it = m.sparsity.begin(i); it != m.sparsity.end(i); ++it) dsp.add(i, it->column());
-  for (unsigned a = 0; a < nr; ++a)
+  for (unsigned a = 0; a < nr; ++a) {
     for (auto d : rows[a]->dofs) dsp.add(n + a, d), dsp.add(d, n + a);
+    dsp.add(n + a, n + a);  // −κ of a compliant row
+  }
   sp.copy_from(dsp);
   A.reinit(sp);
   for (unsigned i = 0; i < n; ++i)
@@ -556,6 +614,7 @@ void saddle_point_system(const State<dim>& m, const std::vector<const Constraint
       A.set(rows[a]->dofs[i], n + a, rows[a]->values[i]);
     }
     x[n + a] = rows[a]->g;
+    if (rows[a]->compliance > 0.0) A.set(n + a, n + a, -rows[a]->compliance);
   }
 }
 
@@ -575,8 +634,7 @@ Solution<dim> ElasticModel<dim>::solve_monolithic(const std::vector<PointConstra
   for (std::size_t k = 0; k < points.size(); ++k)
     for (unsigned c = 0; c < unsigned(dim); ++c)
       if (points[k].components[c]) {
-        ConstraintRow row = constraint_row<dim>(m, points[k].position, Vec<dim>(points[k].axes.col(c)), c,
-                                                points[k].displacement[c], k);
+        ConstraintRow row = constraint_row<dim>(m, points[k], c, points[k].displacement[c], k);
         if (row.active) rows.push_back(std::move(row)), all.which.emplace_back(k, c);
       }
   for (const auto& r : rows) all.rows.push_back(&r), all.g.push_back(r.g);

@@ -1,5 +1,8 @@
 // Embedded point constraints: a point anywhere inside the mesh (e.g. a needle's shaft point) moved
-// by a given displacement, through the shape functions of the cell containing it. deal.II-free.
+// by a given displacement, through the shape functions of the cell containing it; or a weighted
+// average of the displacement over sample points (a band of a needle's surface), optionally held
+// through a compliance in series (the analytic near field of a needle, docs/needle-model.md).
+// deal.II-free.
 #pragma once
 
 #include <Eigen/Core>
@@ -21,6 +24,16 @@ struct PointConstraint {
   Vec<dim> displacement = Vec<dim>::Zero();
   std::array<bool, dim> components = DirichletBC<dim>::filled(true);
   Eigen::Matrix<double, dim, dim> axes = Eigen::Matrix<double, dim, dim>::Identity();
+  // Averaged constraint (empty offsets: the point itself): the held value is
+  // ū = Σ_q weights[q]·u(position + offsets[q]), sizes equal, weights ≥ 0 with a positive sum (they are
+  // normalised to sum 1). Samples outside the mesh are left out and the remaining weights renormalised;
+  // all outside → std::invalid_argument.
+  std::vector<Vec<dim>> offsets;
+  std::vector<double> weights;
+  // Per component c, a compliance κ_c ≥ 0 (displacement per unit force) in series with the row: the
+  // force on the body along axes.col(c) is (displacement_c − axes.col(c)·ū)/κ_c; 0 = rigid (exact).
+  // A positive κ keeps the rows' Schur complement positive definite: such rows are never dropped.
+  Vec<dim> compliance = Vec<dim>::Zero();
 };
 
 // Point constraints (embedded needle points) that are linear combinations of earlier ones, numerically,
