@@ -61,10 +61,10 @@ RegionSpec parse_region(const Reader& r, const YAML::Node& n, const std::string&
 }
 
 NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string& path, int dim) {
-  const Fields f =
-      r.check_keys(n, path,
-                   {"name", "entry", "direction", "depth", "steps", "diameter", "model", "friction",
-                    "sample_spacing", "cutting_distance", "tip_force", "friction_per_length"});
+  const Fields f = r.check_keys(
+      n, path,
+      {"name", "entry", "direction", "depth", "steps", "diameter", "model", "friction", "sample_spacing",
+       "cutting_distance", "cutting_force", "coupling_radius", "tip_force", "friction_per_length"});
   NeedleSpec s;
   s.line = Reader::line(n);
   if (f["name"]) {
@@ -130,6 +130,21 @@ NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string&
       r.fail(c, path + ".cutting_distance must be >= 0, got " + fmt(s.cutting_distance));
     if (s.cutting_distance >= s.depth)
       r.fail(c, path + ".cutting_distance must be less than the depth (" + fmt(s.depth) + ")");
+  }
+  if (const YAML::Node& c = f["cutting_force"]) {
+    if (s.model == NeedleSpec::Model::force)
+      r.fail(
+          c,
+          path + ".cutting_force applies only to needle model 'kinematic'; the force model takes tip_force");
+    s.cutting_force = r.number(c, path + ".cutting_force");
+    if (!(s.cutting_force >= 0.0) || !std::isfinite(s.cutting_force))
+      r.fail(c, path + ".cutting_force must be a finite force >= 0, got " + fmt(s.cutting_force));
+  }
+  if (const YAML::Node& c = f["coupling_radius"]) {
+    s.coupling_radius = r.positive(c, path + ".coupling_radius");
+    if (s.coupling_radius < 0.5 * s.diameter)
+      r.fail(c, path + ".coupling_radius = " + fmt(s.coupling_radius) +
+                    " must be at least the needle radius " + fmt(0.5 * s.diameter) + " (diameter / 2)");
   }
   const bool force = s.model == NeedleSpec::Model::force;
   for (const char* k : {"tip_force", "friction_per_length"}) {

@@ -67,6 +67,13 @@ struct NeedleSpec {
   // the needle). 0 = as soon as the tip reaches it. A length of the needle (e.g. its bevel), the same
   // for every mesh.
   double cutting_distance = 0.0;
+  // Kinematic model: the tissue at the tip is pushed until its force reaches this cutting force, then
+  // it is cut and joins the shaft (force units: mN in 3D, mN/mm in 2D); 0 = the tip cuts without
+  // resistance.
+  double cutting_force = 0.0;
+  // 3D: radius of the cylinder whose band means the shaft stations hold (docs/needle-model.md);
+  // 0 = automatic (from the diameter and the element size near the path).
+  double coupling_radius = 0.0;
   double tip_force = 0.0;  // force model: cutting force at the tip (modulus × length²: kPa·mm² = mN in
                            // 3D; per unit thickness, mN/mm, in 2D)
   double friction_per_length = 0.0;  // force model: friction force per unit shaft length
