@@ -28,8 +28,8 @@ struct PointConstraint {
   // ū = Σ_q weights[q]·u(position + offsets[q]), sizes equal, weights ≥ 0 with a positive sum (they are
   // normalised to sum 1). Samples outside the mesh are left out and the remaining weights renormalised;
   // all outside → std::invalid_argument.
-  std::vector<Vec<dim>> offsets;
-  std::vector<double> weights;
+  std::vector<Vec<dim>> offsets{};
+  std::vector<double> weights{};
   // Per component c, a compliance κ_c ≥ 0 (displacement per unit force) in series with the row: the
   // force on the body along axes.col(c) is (displacement_c − axes.col(c)·ū)/κ_c; 0 = rigid (exact).
   // A positive κ keeps the rows' Schur complement positive definite: such rows are never dropped.
