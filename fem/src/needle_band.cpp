@@ -1,4 +1,5 @@
 // Finite-radius needle coupling rows (vim/fem/needle_band.hpp).
+#include <Eigen/Geometry>  // Vec::cross (needle_frame)
 #include <cmath>
 #include <stdexcept>
 #include <string>

@@ -367,7 +367,7 @@ output: {every: 2}
   std::ifstream csv(dir / "first/needle.csv");
   std::string header, line;
   std::getline(csv, header);
-  EXPECT_EQ(header, "step,depth,tip_x,tip_y,tip_z,axial_force,lateral_force,t_dx,t_dy,t_dz,t_norm");
+  EXPECT_EQ(header, "step,depth,tip_x,tip_y,tip_z,axial_force,lateral_force,friction_force,tip_force,t_dx,t_dy,t_dz,t_norm");
   int rows = 0;
   std::string last;
   while (std::getline(csv, line)) {

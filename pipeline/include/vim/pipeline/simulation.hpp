@@ -72,11 +72,14 @@ template <int dim>
 struct NeedleRun {
   using Vec = Eigen::Matrix<double, dim, 1>;
   std::string name;
-  Vec axis;                                           // world, unit
-  std::vector<double> depth;                          // per step (step 0 = rest)
-  std::vector<Vec> tip;                               // world
-  std::vector<Vec> force;                             // world: force of the tissue on the needle
-  std::vector<double> axial_force, lateral_force;     // see the header comment
+  Vec axis;                                        // world, unit
+  std::vector<double> depth;                       // per step (step 0 = rest)
+  std::vector<Vec> tip;                            // world
+  std::vector<Vec> force;                          // world: force of the tissue on the needle
+  std::vector<double> axial_force, lateral_force;  // see the header comment
+  // The axial force's parts: the shaft's friction (Σ over the shaft stations) and the tip's force (the
+  // tissue the tip pushes until it is cut; the force model: the tip point); they sum to axial_force.
+  std::vector<double> friction_force, tip_force;
   std::vector<std::vector<Vec>> target_displacement;  // [step][target], world axes
   std::vector<std::vector<Vec>>
       vertex_displacement;         // world axes: every step if keep_step_fields, else the last
