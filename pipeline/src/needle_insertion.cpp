@@ -59,6 +59,10 @@ template <int dim>
 void NeedleInsertion<dim>::make_coupling(const NeedlePath<dim>& path, bool snap_to_vertices) {
   axis_ = path.axis;
   if constexpr (dim == 3) {
+    const auto with_spacing = [&](BandCoupling::Geometry geometry) {
+      geometry.spacing = spec_.sample_spacing > 0.0 ? spec_.sample_spacing : geometry.coupling_radius;
+      return geometry;
+    };
     BandCoupling::Geometry g;
     g.entry = path.entry;
     g.axis = path.axis;
@@ -68,10 +72,16 @@ void NeedleInsertion<dim>::make_coupling(const NeedlePath<dim>& path, bool snap_
         spec_.coupling_radius > 0.0
             ? spec_.coupling_radius
             : default_coupling_radius(g.radius, path_element_size(ctx_.locator, g.entry, g.axis, g.depth));
-    g.spacing = spec_.sample_spacing > 0.0 ? spec_.sample_spacing : g.coupling_radius;
-    auto band = std::make_unique<BandCoupling>(g, ctx_.locator, ctx_.E, ctx_.sc.poisson_ratio, ctx_.blocked);
+    auto band = std::make_unique<BandCoupling>(with_spacing(g), ctx_.locator, ctx_.E, ctx_.sc.poisson_ratio,
+                                               ctx_.blocked);
+    // A mesh so coarse that no band of the default radius fits in it (every sample outside): halve R.
+    while (band->stations().empty() && spec_.coupling_radius <= 0.0 && g.coupling_radius > g.radius) {
+      g.coupling_radius = std::max(g.radius, 0.5 * g.coupling_radius);
+      band = std::make_unique<BandCoupling>(with_spacing(g), ctx_.locator, ctx_.E, ctx_.sc.poisson_ratio,
+                                            ctx_.blocked);
+    }
     shaft_ = band->stations();
-    pitch_ = shaft_.empty() ? g.spacing : shaft_.front().length;
+    pitch_ = shaft_.empty() ? with_spacing(g).spacing : shaft_.front().length;
     coupling_radius_ = g.coupling_radius;
     coupling_ = std::move(band);
   } else {
