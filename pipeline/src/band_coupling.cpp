@@ -26,14 +26,18 @@ double cell_size(const fem::CellLocator<3>& locator, const std::vector<int>& sup
 
 double path_element_size(const fem::CellLocator<3>& locator, const Eigen::Vector3d& entry,
                          const Eigen::Vector3d& axis, double depth) {
-  // Points every quarter of the mean edge: every cell the path crosses over more than that is seen.
+  // Points every quarter of the mean edge: every cell the path crosses over more than that is seen. They
+  // lie a thousandth of an edge off the path, so that a path along mesh edges or faces still finds
+  // points inside cells (whose support is the whole cell).
   const double step = std::max(0.25 * locator.mean_edge_length(), 1e-6 * depth);
+  const Eigen::Matrix3d frame = fem::needle_frame(axis);
+  const Eigen::Vector3d off = 1e-3 * locator.mean_edge_length() * (0.54 * frame.col(0) + 0.84 * frame.col(1));
   std::set<long> seen;
   std::vector<int> support;
   double sum = 0.0;
   for (double s = 0.5 * step; s < depth; s += step) {
-    const long c = locator.locate(entry + s * axis, &support);
-    if (c < 0 || !seen.insert(c).second) continue;
+    const long c = locator.locate(entry + s * axis + off, &support);
+    if (c < 0 || support.size() < 4 || !seen.insert(c).second) continue;
     sum += cell_size(locator, support);
   }
   return seen.empty() ? locator.mean_edge_length() : sum / static_cast<double>(seen.size());
@@ -60,8 +64,11 @@ BandCoupling::BandCoupling(const Geometry& g, const fem::CellLocator<3>& locator
     const Vec centre = g.entry + s * g.axis;
     // The modulus of the cells the band's samples fall in; the station is kept if one of them has a
     // vertex that is not held.
+    // Built around the world axis, then brought into the frame (offsets and axes rotate).
     fem::PointConstraint<3> p =
-        fem::needle_band_constraint(centre, g.axis, band, Vec::Zero(), 1.0, poisson_ratio);
+        fem::needle_band_constraint(centre, g.to_world * g.axis, band, Vec::Zero(), 1.0, poisson_ratio);
+    p.axes = g.to_world.transpose() * p.axes;
+    for (Vec& o : p.offsets) o = g.to_world.transpose() * o;
     double e_sum = 0.0;
     int inside = 0;
     bool free = false;

@@ -52,26 +52,27 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim>& context, const Nee
   }
 }
 
-// 3D: band stations, uniform along the path (needle.sample_spacing, else the coupling radius), coupling
+// 3D: band stations, uniform along the path (needle.sample_spacing, else the element size h near the
+// path: the mesh resolves the field along the shaft on that scale), coupling
 // radius needle.coupling_radius or the default rule from the element size near the path. 2D: points on
 // the axis (sample_shaft; a plane-strain needle is a blade, and a line converges in 2D).
 template <int dim>
 void NeedleInsertion<dim>::make_coupling(const NeedlePath<dim>& path, bool snap_to_vertices) {
   axis_ = path.axis;
   if constexpr (dim == 3) {
+    const double h = path_element_size(ctx_.locator, path.entry, path.axis, spec_.depth);
     const auto with_spacing = [&](BandCoupling::Geometry geometry) {
-      geometry.spacing = spec_.sample_spacing > 0.0 ? spec_.sample_spacing : geometry.coupling_radius;
+      geometry.spacing = spec_.sample_spacing > 0.0 ? spec_.sample_spacing : h;
       return geometry;
     };
     BandCoupling::Geometry g;
     g.entry = path.entry;
     g.axis = path.axis;
+    g.to_world = ctx_.tf.direction;
     g.depth = spec_.depth;
     g.radius = 0.5 * spec_.diameter;
     g.coupling_radius =
-        spec_.coupling_radius > 0.0
-            ? spec_.coupling_radius
-            : default_coupling_radius(g.radius, path_element_size(ctx_.locator, g.entry, g.axis, g.depth));
+        spec_.coupling_radius > 0.0 ? spec_.coupling_radius : default_coupling_radius(g.radius, h);
     auto band = std::make_unique<BandCoupling>(with_spacing(g), ctx_.locator, ctx_.E, ctx_.sc.poisson_ratio,
                                                ctx_.blocked);
     // A mesh so coarse that no band of the default radius fits in it (every sample outside): halve R.

@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <vector>
@@ -27,9 +28,9 @@ struct ShaftState {
   std::size_t tip = 0;              // the last active point (the one nearest the tip)
   // The active point the tip pushes until it is cut (kinematic model with a cutting force): it moves
   // with the needle until its axial force reaches the cutting force, then it is held at that force
-  // (the law's limit for it). The number of points when there is none (cutting force 0: the tissue at
-  // the tip is cut without resistance and not held).
-  std::size_t cutting = 0;
+  // (the law's limit for it). None (any index ≥ the number of points) when the cutting force is 0: the
+  // tissue at the tip is then cut without resistance and not held.
+  std::size_t cutting = std::numeric_limits<std::size_t>::max();
   std::vector<bool> joined;     // picked up at this step
   std::vector<double> axial;    // axial constraint value: kept between steps, set by the law
   std::vector<double> stick;    // the value that moves the point with the needle at this step
@@ -142,6 +143,9 @@ class BandCoupling final : public NeedleCoupling<3> {
     double radius = 0.0;           // a = diameter / 2
     double coupling_radius = 0.0;  // R ≥ a
     double spacing = 0.0;          // station spacing along the path (made uniform: depth / stations)
+    // The frame-to-world rotation: the bands' samples are placed around the needle in world axes, so
+    // that a model in frame coordinates and the same body in world coordinates sample alike.
+    Eigen::Matrix3d to_world = Eigen::Matrix3d::Identity();
   };
   // `cell_modulus`: Young's modulus per cell of the locator (the band's compliance takes the mean over
   // the cells its samples fall in); `blocked`: vertices held in every direction.
