@@ -149,7 +149,8 @@ TEST(NeedleBand, CuttingForceBoundsTheTipAndSplitsTheAxialForce) {
 }
 
 // The voxel reference and a simplex model of the same uniform block use the same coupling (the same
-// coupling radius and stations): their final forces agree within discretisation, where a line
+// coupling radius and stations): their final forces agree within discretisation (measured 1.1% apart:
+// 2073 and 2050 mN), where a line
 // of points gives each mesh its own value (the force falls like 1/ln(1/h) with the element size h).
 TEST(NeedleBand, VoxelReferenceAndSimplexModelAgree) {
   const Image<3> img = block_image({{20, 20, 24}}, 20.0);  // uniform: the inclusion has the same modulus
@@ -161,5 +162,5 @@ TEST(NeedleBand, VoxelReferenceAndSimplexModelAgree) {
   const auto simplex = NeedleSimulation<3>(image_mesh(img, grid), sc, o).run();
   const double fv = voxel.needles.at(0).axial_force.back(), fs = simplex.needles.at(0).axial_force.back();
   std::printf("voxel %.2f mN, simplex P2 %.2f mN\n", fv, fs);
-  EXPECT_NEAR(fs, fv, 0.08 * fv);
+  EXPECT_NEAR(fs, fv, 0.05 * fv);
 }
