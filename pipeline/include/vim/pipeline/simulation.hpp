@@ -3,7 +3,11 @@
 // needle advanced in steps. Each step is one ElasticModel::solve with embedded-point constraints on
 // the fast condensed path (K factorised once, K⁻¹Cᵀ columns cached as shaft points are picked up).
 //
-// Needle models (all in the reference configuration, small strain):
+// Needle models (all in the reference configuration, small strain). In 3D the "shaft points" below are
+// band stations of the needle of radius diameter/2 (BandCoupling, needle_coupling.hpp): the mean
+// displacement of a band of a cylinder around the shaft, held through the analytic annulus compliance,
+// joining when the tip has passed its band; the tip pushes the station it is in until the cutting force
+// (docs/architecture.md, the needle model). In 2D they are points on the axis line.
 //  * kinematic / stick: shaft points s_j = entry + s·a are sampled along the path (about one per cell
 //    crossed). A point is picked up when the tip reaches its current position (s_j + u_j·a < d, with u
 //    from the previous step: tissue ahead of the tip is pushed before it is pierced); from then on it
