@@ -36,7 +36,7 @@ Timing time_run(const MeshModel<3>& model, int steps, bool monolithic) {
   const std::string y = "material: {poisson_ratio: 0.45}\n"
                         "boundary_conditions: [{type: fixed, region: {box_face: z_max}}]\n"
                         "needle: {entry: [0.3, -0.2, 0], direction: [0, 0, 1], depth: 40, steps: " +
-                        std::to_string(steps) + ", diameter: 1.27}\n"
+                        std::to_string(steps) + ", diameter: 1.27, friction: {model: stick}}\n"
                         "targets: [{name: t, position: [0, 0, 45]}]\noutput: {every: 0}\n";
   SimulationOptions o;
   o.progress = false;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <sstream>
 
+#include "largest_strain.hpp"
 #include "simulation_output.hpp"
 
 namespace vim::pipeline {
@@ -221,6 +222,7 @@ void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim>* s, int
   if (s) pa = coupling_->axial_forces(state_.active, *s);
   run_.point_axial_force.push_back(std::move(pa));
   run_.active_points.push_back(static_cast<int>(state_.active.size()));
+  run_.max_strain.push_back(s ? largest_principal_strain<dim>(s->cell_strain) : 0.0);
   run_.solves.push_back(solves);
 }
 

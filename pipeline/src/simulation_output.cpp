@@ -78,7 +78,7 @@ void write_needle_csv(const std::filesystem::path& path, const NeedleRun<dim>& r
     const char* axes = "xyz";
     o << "step,depth";
     for (int d = 0; d < dim; ++d) o << ",tip_" << axes[d];
-    o << ",axial_force,lateral_force";
+    o << ",axial_force,lateral_force,max_strain";
     for (const auto& t : sc.targets) {
       for (int d = 0; d < dim; ++d) o << "," << t.name << "_d" << axes[d];
       o << "," << t.name << "_norm";
@@ -87,7 +87,7 @@ void write_needle_csv(const std::filesystem::path& path, const NeedleRun<dim>& r
     for (std::size_t k = 0; k < run.depth.size(); ++k) {
       o << k << "," << run.depth[k];
       for (int d = 0; d < dim; ++d) o << "," << run.tip[k][d];
-      o << "," << run.axial_force[k] << "," << run.lateral_force[k];
+      o << "," << run.axial_force[k] << "," << run.lateral_force[k] << "," << run.max_strain[k];
       for (const auto& u : run.target_displacement[k]) {
         for (int d = 0; d < dim; ++d) o << "," << u[d];
         o << "," << u.norm();
@@ -132,6 +132,7 @@ json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const Fric
   per["depth"] = run.depth;
   per["axial_force"] = run.axial_force;
   per["lateral_force"] = run.lateral_force;
+  per["max_strain"] = run.max_strain;
   per["active_points"] = run.active_points;
   per["solves"] = run.solves;
   if (law.has_active_set()) {
@@ -157,6 +158,7 @@ json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const Fric
   rep["final"] = {{"axial_force", run.axial_force.back()},
                   {"lateral_force", run.lateral_force.back()},
                   {"force", to_json<dim>(run.force.back())},
+                  {"max_strain", run.max_strain.back()},
                   {"targets", final_targets}};
   rep["max_displacement"] = run.max_displacement;
   rep["solver"] = {{"method", run.stats.method},

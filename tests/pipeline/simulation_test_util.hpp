@@ -68,7 +68,7 @@ inline std::string yaml(const std::string& needle, const std::string& targets = 
 }
 
 inline const std::string kStick =
-    "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1}";
+    "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, friction: {model: stick}}";
 
 inline SimulationOptions quiet() {
   SimulationOptions o;

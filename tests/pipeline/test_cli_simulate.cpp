@@ -341,7 +341,7 @@ TEST(CliSimulate, NeedleRefinementRefinesTheMeshAlongThePath) {
     f << "material: {youngs_modulus: image, scale: 10.0, poisson_ratio: 0.3}\n" << mesh_line
       << "boundary_conditions:\n  - {type: fixed, region: {box_face: x_max}}\n"
          "needle: {entry: " << yaml_vec(entry) << ", direction: " << yaml_vec(dir_w) << ", depth: " << depth
-      << ", steps: 1, diameter: 1.27}\noutput: {every: 0}\n";
+      << ", steps: 1, diameter: 1.27, friction: {model: stick}}\noutput: {every: 0}\n";
     return f.str();
   };
   auto near_far_volume = [&](const fs::path& out) {  // mean tet volume within `radius` of the path / elsewhere
@@ -396,7 +396,7 @@ TEST(CliSimulate, LinearElementsWarnAboutLockingForNearlyIncompressibleTissue) {
   auto scenario = [&](const std::string& name, double nu) {
     std::ofstream(dir / name) << "material: {youngs_modulus: image, poisson_ratio: " << nu
                               << "}\nboundary_conditions:\n  - {type: fixed, region: {box_face: z_max}}\n"
-                                 "needle: {entry: [1.5, 1.5, 0], direction: [0, 0, 1], depth: 1.0, steps: 1, diameter: 0.1}\n"
+                                 "needle: {entry: [1.5, 1.5, 0], direction: [0, 0, 1], depth: 1.0, steps: 1, diameter: 0.1, friction: {model: stick}}\n"
                                  "output: {every: 0}\n";
     return quote(dir / name);
   };
@@ -435,7 +435,7 @@ TEST(CliSimulate, LinearElementsWarnAboutLockingForNearlyIncompressibleTissue) {
   write_image(phantoms::two_inclusions(30), dir / "in2.mha");
   std::ofstream(dir / "nu045_2d.yaml") << "material: {youngs_modulus: image, poisson_ratio: 0.45}\n"
                                           "boundary_conditions:\n  - {type: fixed, region: {box_face: x_max}}\n"
-                                          "needle: {entry: [-30, 3], direction: [1, 0], depth: 10, steps: 1, diameter: 1}\n"
+                                          "needle: {entry: [-30, 3], direction: [1, 0], depth: 10, steps: 1, diameter: 1, friction: {model: stick}}\n"
                                           "output: {every: 0}\n";
   const auto two = run_pipeline(quote(dir / "in2.mha") + " --nodes 64 --max-iterations 2 --export none --simulate " +
                                 quote(dir / "nu045_2d.yaml") + " --out " + quote(dir / "p1_2d"));
@@ -453,7 +453,7 @@ TEST(CliSimulate, ScenarioMeshKeysApplyUnlessGivenOnTheCommandLine) {
   std::ofstream(dir / "s.yaml") << "material: {youngs_modulus: image, poisson_ratio: 0.3}\n"
                                    "mesh: {nodes: 343, lambda: 0.6, min_dihedral: 20}\n"
                                    "boundary_conditions:\n  - {type: fixed, region: {box_face: z_max}}\n"
-                                   "needle: {entry: [1.5, 1.5, 0], direction: [0, 0, 1], depth: 1.0, steps: 1, diameter: 0.1}\n"
+                                   "needle: {entry: [1.5, 1.5, 0], direction: [0, 0, 1], depth: 1.0, steps: 1, diameter: 0.1, friction: {model: stick}}\n"
                                    "output: {every: 0}\n";
   const std::string common = quote(dir / "in.mha") + " --max-iterations 4 --export none -q --simulate " + quote(dir / "s.yaml");
   const auto a = run_pipeline(common + " --out " + quote(dir / "scenario"));

@@ -201,8 +201,8 @@ TEST(Simulation, WorldResultsDoNotDependOnTheImageDirection) {
   MeshModel<3> a = axis_block();
   MeshModel<3> b = axis_block();
   b.transform.direction << 0, -1, 0, 1, 0, 0, 0, 0, 1;
-  const std::string na = "{entry: [1, 2, 0], direction: [0.1, 0, 1], depth: 10, steps: 2, diameter: 1}";
-  const std::string nb = "{entry: [-2, 1, 0], direction: [0, 0.1, 1], depth: 10, steps: 2, diameter: 1}";
+  const std::string na = "{entry: [1, 2, 0], direction: [0.1, 0, 1], depth: 10, steps: 2, diameter: 1, friction: {model: stick}}";
+  const std::string nb = "{entry: [-2, 1, 0], direction: [0, 0.1, 1], depth: 10, steps: 2, diameter: 1, friction: {model: stick}}";
   const std::string bc = "[{type: fixed, region: {box_face: z_max}}, {type: fixed, region: {cylinder: {center: C, axis: [0, 0, 1], radius: 2.5}}}]";
   auto with = [&](const std::string& c) { std::string s = bc; s.replace(s.find("C"), 1, c); return s; };
   const Scenario sa = parse_scenario_text(yaml(na, "[{name: t, position: [3, 1, 15]}]", "{}", with("[5, 5, 0]")), 3);
@@ -340,7 +340,7 @@ TEST(Simulation, TwoDimensionalNeedle) {
   m.values.assign(m.mesh.n_cells(), ElementValue{1, 10.0, 0.0});
   const Scenario sc = parse_scenario_text(
       "boundary_conditions: [{type: fixed, region: {box_face: y_max}}]\n"
-      "needle: {entry: [0, 0], direction: [0, 1], depth: 8, steps: 4, diameter: 1}\n"
+      "needle: {entry: [0, 0], direction: [0, 1], depth: 8, steps: 4, diameter: 1, friction: {model: stick}}\n"
       "targets: [{name: ahead, position: [0, 13]}]\n",
       2);
   const auto r = run_simulation<2>(m, sc, quiet()).needles[0];
@@ -353,8 +353,8 @@ TEST(Simulation, WritesStepsCsvAndSummary) {
   const SimulationOptions o = writing_into(dir);
   const std::string y = R"(boundary_conditions: [{type: fixed, region: {box_face: z_max}}]
 needles:
-  - {name: first, entry: [0, 0, 0], direction: [0, 0, 1], depth: 8, steps: 4, diameter: 1}
-  - {name: second, entry: [2, 0, 0], direction: [0, 0, 1], depth: 6, steps: 3, diameter: 1}
+  - {name: first, entry: [0, 0, 0], direction: [0, 0, 1], depth: 8, steps: 4, diameter: 1, friction: {model: stick}}
+  - {name: second, entry: [2, 0, 0], direction: [0, 0, 1], depth: 6, steps: 3, diameter: 1, friction: {model: stick}}
 targets: [{name: t, position: [0, 0, 12]}]
 output: {every: 2}
 )";
@@ -451,7 +451,7 @@ TEST(Simulation, NeedleInRigidlyPreloadedTissueMatchesTheUnloadedRun) {
   MeshModel<2> m;
   m.mesh = regular_grid_mesh<2>(Eigen::Vector2d(0, 0), Eigen::Vector2d(20, 10), {{21, 11}});
   m.values.assign(m.mesh.n_cells(), ElementValue{1, 10.0, 0.0});
-  const std::string rest = "needle: {entry: [0, 5.2], direction: [1, 0], depth: 10, steps: 4, diameter: 1}\n"
+  const std::string rest = "needle: {entry: [0, 5.2], direction: [1, 0], depth: 10, steps: 4, diameter: 1, friction: {model: stick}}\n"
                            "targets: [{name: t, position: [15, 3]}]\n";
   SimulationOptions o = quiet();
   o.keep_step_fields = true;
@@ -482,7 +482,7 @@ TEST(Simulation, TwoDimensionalStressHasThePlaneStrainZz) {
   run_simulation<2>(m,
                     parse_scenario_text("material: {poisson_ratio: 0.3}\n"
                                         "boundary_conditions: [{type: fixed, region: {box_face: y_max}}]\n"
-                                        "needle: {entry: [0, 0], direction: [0.2, 1], depth: 8, steps: 2, diameter: 1}\n"
+                                        "needle: {entry: [0, 0], direction: [0.2, 1], depth: 8, steps: 2, diameter: 1, friction: {model: stick}}\n"
                                         "output: {every: 1, fields: [stress, von_mises]}\n",
                                         2),
                     o);
@@ -527,7 +527,7 @@ TEST(Simulation, NeedleAlongAGridLineIsResampledAtTheVertices) {
   std::ostringstream sc;
   sc << "material: {youngs_modulus: image, poisson_ratio: 0.3}\n"
         "boundary_conditions: [{type: fixed, region: {box_face: x_max}}]\n"
-        "needle: {entry: [-30, " << y << "], direction: [1, 0], depth: " << depth << ", steps: 10, diameter: 1}\n";
+        "needle: {entry: [-30, " << y << "], direction: [1, 0], depth: " << depth << ", steps: 10, diameter: 1, friction: {model: stick}}\n";
   const auto res = run_simulation<2>(m, parse_scenario_text(sc.str(), 2), quiet());
   ASSERT_FALSE(res.warnings.empty());
   EXPECT_NE(res.warnings.front().find("sampled at the mesh vertices"), std::string::npos) << res.warnings.front();
@@ -557,7 +557,8 @@ TEST(Simulation, SampleSpacingBelowHalfTheElementSizeIsWarnedAbout) {
   auto scenario = [](const std::string& spacing) {
     return parse_scenario_text("material: {youngs_modulus: image, poisson_ratio: 0.3}\n"
                                "boundary_conditions: [{type: fixed, region: {box_face: x_max}}]\n"
-                               "needle: {entry: [-30, 1.3], direction: [1, 0], depth: 3, steps: 1, diameter: 1" +
+                               "needle: {entry: [-30, 1.3], direction: [1, 0], depth: 3, steps: 1, diameter: 1, "
+                                   "friction: {model: stick}" +
                                    spacing + "}\n",
                                2);
   };
@@ -606,7 +607,7 @@ TEST(Simulation, NegativeOrFallingStickForceIsWarnedAbout) {
   sc << "material: {youngs_modulus: image, poisson_ratio: 0.3}\n"
         "boundary_conditions: [{type: fixed, region: {box_face: x_max}}, {type: fixed, region: {box_face: y_max}}]\n"
         "needle: {entry: [" << -30 + 2 * h << ", " << -30 + 2 * h + 0.05 << "], direction: [1, 0], depth: 40, "
-        "steps: 6, diameter: 1}\n";
+        "steps: 6, diameter: 1, friction: {model: stick}}\n";
   const Scenario scenario = parse_scenario_text(sc.str(), 2);
   const auto p1 = run_simulation<2>(m, scenario, quiet());
   const auto& f = p1.needles[0].axial_force;
@@ -649,7 +650,7 @@ TEST(Simulation, DiagonalNeedleBetweenGridDiagonalsIsResampledAtTheElementSize) 
     sc << "material: {youngs_modulus: image, poisson_ratio: 0.3}\n"
           "boundary_conditions: [{type: fixed, region: {box_face: y_max}}, {type: fixed, region: {box_face: x_max}}]\n"
           "needle: {entry: [" << -30 + 3 * h + 0.7 << ", " << -30 + 3 * h << "], direction: [1, 1], depth: 30, steps: 6, "
-          "diameter: 1.27" << spacing << "}\n";
+          "diameter: 1.27, friction: {model: stick}" << spacing << "}\n";
     return parse_scenario_text(sc.str(), 2);
   };
   const auto res = run_simulation<2>(m, scenario(""), quiet());
@@ -687,7 +688,7 @@ TEST(Simulation, SampleSpacingBelowTheElementSizeIsNamedWhenItFails) {
   const auto sc = parse_scenario_text("material: {poisson_ratio: 0.3}\n"
                                       "boundary_conditions: [{type: fixed, region: {box_face: y_max}}]\n"
                                       "needle: {entry: [0.37, -30], direction: [0, 1], depth: 20, steps: 5, diameter: 1,\n"
-                                      "         sample_spacing: 0.05}\n",
+                                      "         friction: {model: stick}, sample_spacing: 0.05}\n",
                                       2);
   try {
     run_simulation<2>(m, sc, quiet());

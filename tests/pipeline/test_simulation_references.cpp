@@ -24,7 +24,7 @@ using V3 = Eigen::Vector3d;
 
 TEST(Simulation, FastPathMatchesMonolithicSolveAtEveryStep) {
   // Stick-slip too, so that the condensed path is exercised with changing constraint values.
-  for (const std::string friction : {"", ", friction: {model: stick-slip, max_shear_per_length: 3}"}) {
+  for (const std::string friction : {", friction: {model: stick}", ", friction: {model: stick-slip, max_shear_per_length: 3}"}) {
     const std::string needle =
         "{entry: [0.5, -0.3, 0], direction: [0.1, 0.05, 1], depth: 12, steps: 5, diameter: 1" + friction +
         "}";
@@ -125,7 +125,7 @@ TEST(Simulation, VoxelAndGridModelsReproduceTheLayeredColumnUnderPressure) {
     img.data[v] = static_cast<float>(layer_modulus(img.index_of(v)[2] / 2));
   const double scale = 2.0, p = 1.5;
   const Scenario sc = parse_scenario_text(
-      yaml("{entry: [0.3, -0.2, 6], direction: [0, 0, 1], depth: 2, steps: 1, diameter: 1}", "[]",
+      yaml("{entry: [0.3, -0.2, 6], direction: [0, 0, 1], depth: 2, steps: 1, diameter: 1, friction: {model: stick}}", "[]",
            "{youngs_modulus: image, scale: 2, poisson_ratio: 0}",
            "[{type: fixed, region: {box_face: x_min}, components: [x]}, {type: fixed, region: {box_face: "
            "y_min}, "
