@@ -33,8 +33,8 @@ double largest_principal_strain(const std::vector<Eigen::Matrix<double, dim, dim
 // names the run ("needle 'a'", "the static load case"), max_strain has one value per step.
 inline std::string small_strain_warning(const std::string& where, const std::string& who,
                                         const std::vector<double>& max_strain) {
-  const auto first = std::find_if(max_strain.begin(), max_strain.end(),
-                                  [](double e) { return e > kSmallStrainLimit; });
+  const auto first =
+      std::find_if(max_strain.begin(), max_strain.end(), [](double e) { return e > kSmallStrainLimit; });
   if (first == max_strain.end()) return "";
   const double peak = *std::max_element(max_strain.begin(), max_strain.end());
   std::ostringstream w;

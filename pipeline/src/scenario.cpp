@@ -74,10 +74,11 @@ void parse_friction(const Reader& r, const Fields& f, const YAML::Node& needle, 
       r.fail(fn, fp + " applies only to needle model 'kinematic'; the force model takes friction_per_length");
     return;
   }
-  const std::string required = fp +
-                               ".max_shear_per_length' (the stick-slip limit, force per unit length of shaft, "
-                               "> 0, e.g. mN/mm; it has no default); stick-slip is the default friction; "
-                               "use friction: {model: stick} for the no-slip limit";
+  const std::string required =
+      fp +
+      ".max_shear_per_length' (the stick-slip limit, force per unit length of shaft, "
+      "> 0, e.g. mN/mm; it has no default); stick-slip is the default friction; "
+      "use friction: {model: stick} for the no-slip limit";
   if (!fn) r.fail(needle, "missing key '" + required);
   const Fields fr = r.check_keys(fn, fp, {"model", "max_shear_per_length"});
   if (fr["model"])

@@ -101,9 +101,10 @@ void check_scenario_geometry(const Scenario& s, const Eigen::Matrix<double, dim,
                           "; the largest depth from this entry along this direction is " + fmt(tmax));
     const double width = width_across<dim>(dir, box_max - box_min);
     if (n.diameter > width)
-      throw ScenarioError(s.where(n.line) + p + ".diameter = " + fmt(n.diameter) + " is larger than " + box +
-                          " across the needle (its narrowest width perpendicular to the needle's direction is " +
-                          fmt(width) + "); the needle must fit inside the image");
+      throw ScenarioError(
+          s.where(n.line) + p + ".diameter = " + fmt(n.diameter) + " is larger than " + box +
+          " across the needle (its narrowest width perpendicular to the needle's direction is " + fmt(width) +
+          "); the needle must fit inside the image");
   }
   for (const auto& t : s.targets) {
     const V position = tf.to_frame(vec(t.position));

@@ -435,7 +435,8 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
       res.warnings.push_back(w.str());
     }
     res.needles.push_back(m.insert_needle(spec, prefix, nr, res.warnings));
-    const std::string strain = small_strain_warning(m.sc.where(spec.line), who, res.needles.back().max_strain);
+    const std::string strain =
+        small_strain_warning(m.sc.where(spec.line), who, res.needles.back().max_strain);
     if (!strain.empty()) res.warnings.push_back(strain);
     if (make_friction_law(spec, 1)->axial_force_never_falls())
       m.check_axial_force(spec, res.needles.back(), nr, res.warnings);

@@ -33,7 +33,8 @@ StaticLoadRun<dim> run_static_load(SimulationContext<dim>& ctx, json& report,
   std::vector<Vec> targets;
   for (const auto& t : ctx.sc.targets) targets.push_back(ctx.tf.to_frame(vec<dim>(t.position)));
   if (!targets.empty())
-    for (const Vec& u : ctx.model->sample(targets)) run.target_displacement.push_back(ctx.tf.vector_to_world(u));
+    for (const Vec& u : ctx.model->sample(targets))
+      run.target_displacement.push_back(ctx.tf.vector_to_world(u));
 
   const bool write = static_cast<bool>(ctx.opt.output_file) && ctx.sc.output_every > 0;
   if (write) {

@@ -459,7 +459,7 @@ TEST(Scenario, ElasticRegionSupportAndCuttingDistance) {
   const std::string base = R"(boundary_conditions:
   - {type: fixed, region: {box_face: z_max}}
   - {type: fixed, region: {cylinder: {center: [0, -20, 0], axis: [0, 0, 1], radius: 6}}, support: SUPPORT}
-needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 1, cutting_distance: 0.5}
+needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 1, friction: {model: stick}, cutting_distance: 0.5}
 )";
   const Scenario s = parse_scenario_text(replace(base, "SUPPORT", "{elastic: {stiffness: 15, spacing: 0.5}}"), 3);
   EXPECT_EQ(s.boundary_conditions[0].support, BoundaryConditionSpec::Support::nodes);  // the default
@@ -489,7 +489,7 @@ needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 
             std::string::npos);
   // The force model loads the newest point with the tip force: a cutting distance would leave the first
   // millimetres without any force (a probe saw 0 N up to the first point, then 150), so it is refused.
-  EXPECT_NE(error_of(replace(plain, "diameter: 1,", "diameter: 1, model: force, tip_force: 1,"))
+  EXPECT_NE(error_of(replace(plain, "diameter: 1, friction: {model: stick},", "diameter: 1, model: force, tip_force: 1,"))
                 .find("needle.cutting_distance applies only to needle model 'kinematic'"),
             std::string::npos);
 }

@@ -311,7 +311,7 @@ TEST(Simulation, ElasticRegionSupportHoldsTheTissueWhereNoNodeIs) {
 // depth − z, StickFieldIsSymmetricAboutTheNeedleAxis).
 TEST(Simulation, CuttingDistanceLeavesTheShaftTissueThatFarBehindTheTip) {
   const MeshModel<3> model = axis_block();
-  const std::string needle = "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, cutting_distance: 1}";
+  const std::string needle = "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, friction: {model: stick}, cutting_distance: 1}";
   const auto res = run_simulation<3>(model, parse_scenario_text(yaml(needle), 3), quiet());
   const auto& u = res.needles[0].vertex_displacement.back();
   EXPECT_NEAR(max_norm(u), 11.0, 1e-6);  // the entry node, dragged to 1 behind the tip
@@ -395,7 +395,7 @@ output: {every: 2}
 // needle force. The tip then picks the tissue up and the needle force appears.
 TEST(Simulation, ExternalLoadsActBeforeTheNeedleTouches) {
   const MeshModel<3> model = block(V3(-6, -6, 0), V3(6, 6, 24), {{5, 5, 9}}, [](const V3&) { return 10.0; });
-  const std::string needle = "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, cutting_distance: 5}";
+  const std::string needle = "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, friction: {model: stick}, cutting_distance: 5}";
   const Scenario sc = parse_scenario_text(
       yaml(needle, "[{name: t, position: [2, 1, 12]}]", "{poisson_ratio: 0.0}",
            "[{type: fixed, region: {box_face: z_max}}, {type: displacement, region: {box_face: z_min}, value: [0, 0, 0.6]}]"),

@@ -3,13 +3,7 @@
 // prescribed displacement δ: ε_zz = −δ/L, ε_xx = ε_yy = νδ/L, u linear; under a pressure p:
 // ε_zz = −p/E), which P1 and Q1 reproduce exactly; and, for a needle run, the largest principal strain
 // recomputed here from the strain tensors of the step files.
-#include <vim/pipeline/image_io.hpp>
-
-#include "run_cli.hpp"
-
-#include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 #include <vtkCellData.h>
 #include <vtkDataArray.h>
 #include <vtkNew.h>
@@ -18,13 +12,18 @@
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLUnstructuredGridReader.h>
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
+#include <vim/pipeline/image_io.hpp>
+
+#include "run_cli.hpp"
 
 using namespace vim;
 using namespace vim::pipeline;
@@ -126,7 +125,8 @@ TEST(StaticLoad, PrescribedCompressionMatchesTheUniaxialSolution) {
       }
       EXPECT_LT(worst, 1e-8) << name;
       const std::string warnings = report.contains("warnings") ? report["warnings"].dump() : "";
-      const bool warned = warnings.find("the static load case: the largest strain in the model is") != std::string::npos;
+      const bool warned =
+          warnings.find("the static load case: the largest strain in the model is") != std::string::npos;
       EXPECT_EQ(warned, delta > 2) << name << ": " << warnings;
       if (warned) {
         EXPECT_NE(warnings.find("at step 0"), std::string::npos) << warnings;
@@ -141,7 +141,8 @@ TEST(StaticLoad, PressureGivesTheUniaxialStrain) {
   vim::test::TempDir dir("static_p");
   write_block(dir.path / "block.mha");
   const double p = 0.4;
-  const auto report = run(dir, static_scenario("{type: pressure, region: {box_face: z_max}, value: 0.4}"), "vim", "p");
+  const auto report =
+      run(dir, static_scenario("{type: pressure, region: {box_face: z_max}, value: 0.4}"), "vim", "p");
   ASSERT_TRUE(report.contains("simulation"));
   EXPECT_NEAR(report["simulation"]["max_strain"].get<double>(), p / kE, 1e-8);
   const auto& u = report["simulation"]["static_load"]["targets"]["top"]["displacement"];
@@ -159,7 +160,8 @@ TEST(StaticLoad, NeedleRunsReportTheLargestStrainOfEveryStep) {
   const std::string yaml =
       "material: {youngs_modulus: image, poisson_ratio: 0.3}\n"
       "boundary_conditions: [{type: fixed, region: {box_face: z_max}}]\n"
-      "needle: {entry: [5.2, 4.9, 0], direction: [0, 0, 1], depth: 12, steps: 4, diameter: 1, friction: {model: "
+      "needle: {entry: [5.2, 4.9, 0], direction: [0, 0, 1], depth: 12, steps: 4, diameter: 1, friction: "
+      "{model: "
       "stick}}\n";
   const auto report = run(dir, yaml, "grid", "n");
   ASSERT_TRUE(report.contains("simulation"));
@@ -185,12 +187,14 @@ TEST(StaticLoad, NeedleRunsReportTheLargestStrainOfEveryStep) {
     vtkDataArray* strain = step->GetCellData()->GetArray("strain");
     ASSERT_NE(strain, nullptr);
     double largest = 0.0;
-    for (vtkIdType c = 0; c < step->GetNumberOfCells(); ++c) largest = std::max(largest, largest_principal(strain, c));
+    for (vtkIdType c = 0; c < step->GetNumberOfCells(); ++c)
+      largest = std::max(largest, largest_principal(strain, c));
     EXPECT_NEAR(reported, largest, 1e-6 * (1 + largest)) << "step " << k;
     if (first_large < 0 && reported > 0.1) first_large = k;
   }
   ASSERT_GT(first_large, 0) << "a 12 mm insertion into a 20 mm block strains it beyond 10%";
   const std::string warnings = report.contains("warnings") ? report["warnings"].dump() : "";
-  EXPECT_NE(warnings.find("at step " + std::to_string(first_large) + " (the first step above 0.1"), std::string::npos)
+  EXPECT_NE(warnings.find("at step " + std::to_string(first_large) + " (the first step above 0.1"),
+            std::string::npos)
       << warnings;
 }

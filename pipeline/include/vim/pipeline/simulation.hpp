@@ -93,7 +93,7 @@ struct NeedleRun {
   // Per step: the largest principal strain magnitude over the cells (max |eigenvalue| of each cell's
   // centroid strain); small-strain elasticity is valid only while it stays below ~10%.
   std::vector<double> max_strain;
-  double solve_seconds = 0.0;     // total time in solves
+  double solve_seconds = 0.0;  // total time in solves
   std::vector<double>
       step_seconds;  // wall time per step (step 0 = 0; step 1 includes assembly + factorisation)
   double steps_per_second = 0.0;
