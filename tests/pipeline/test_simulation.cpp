@@ -158,7 +158,7 @@ TEST(Simulation, UnsettledStickSlipStepsAreReported) {
   const auto full = run_simulation<3>(axis_block(), sc, quiet());
   const auto& r = full.needles[0];
   EXPECT_TRUE(r.unsettled_steps.empty());
-  EXPECT_TRUE(full.warnings.empty());
+  EXPECT_TRUE(other_warnings(full).empty());
   EXPECT_FALSE(full.report.contains("warnings"));
   ASSERT_EQ(r.active_set_sweeps.size(), r.depth.size());
   const int most = *std::max_element(r.active_set_sweeps.begin(), r.active_set_sweeps.end());
@@ -176,9 +176,13 @@ TEST(Simulation, UnsettledStickSlipStepsAreReported) {
   const auto& c = cut.needles[0];
   ASSERT_FALSE(c.unsettled_steps.empty());
   for (int k : c.unsettled_steps) EXPECT_EQ(c.active_set_sweeps[static_cast<std::size_t>(k)], 1) << "step " << k;
-  ASSERT_EQ(cut.warnings.size(), 1u);
-  EXPECT_NE(cut.warnings[0].find("active set still changed after 1 sweep;"), std::string::npos) << cut.warnings[0];
-  EXPECT_EQ(cut.report["warnings"].size(), 1u);
+  // The unsettled iterate may also strain the tissue beyond 10% (the small-strain warning): count the
+  // active-set warning alone.
+  const auto unsettled = std::count_if(cut.warnings.begin(), cut.warnings.end(), [](const std::string& w) {
+    return w.find("active set still changed after 1 sweep;") != std::string::npos;
+  });
+  EXPECT_EQ(unsettled, 1) << ::testing::PrintToString(cut.warnings);
+  EXPECT_EQ(cut.report["warnings"].size(), cut.warnings.size());
   EXPECT_EQ(cut.report["needles"][0]["unsettled_steps"].size(), c.unsettled_steps.size());
 }
 
@@ -367,7 +371,7 @@ output: {every: 2}
   std::ifstream csv(dir / "first/needle.csv");
   std::string header, line;
   std::getline(csv, header);
-  EXPECT_EQ(header, "step,depth,tip_x,tip_y,tip_z,axial_force,lateral_force,t_dx,t_dy,t_dz,t_norm");
+  EXPECT_EQ(header, "step,depth,tip_x,tip_y,tip_z,axial_force,lateral_force,max_strain,t_dx,t_dy,t_dz,t_norm");
   int rows = 0;
   std::string last;
   while (std::getline(csv, line)) {
@@ -378,9 +382,10 @@ output: {every: 2}
   std::stringstream ss(last);
   std::vector<double> v;
   for (std::string cell; std::getline(ss, cell, ',');) v.push_back(std::stod(cell));
-  ASSERT_EQ(v.size(), 11u);
+  ASSERT_EQ(v.size(), 12u);
   EXPECT_NEAR(v[5], res.needles[0].axial_force.back(), 1e-8 * std::abs(v[5]));
-  EXPECT_NEAR(v[10], res.needles[0].target_displacement.back()[0].norm(), 1e-8);
+  EXPECT_NEAR(v[7], res.needles[0].max_strain.back(), 1e-8 * v[7]);
+  EXPECT_NEAR(v[11], res.needles[0].target_displacement.back()[0].norm(), 1e-8);
   std::ifstream sum(dir / "summary.csv");
   std::getline(sum, header);
   EXPECT_EQ(header, "name,depth,steps,axial_force,lateral_force,max_displacement,steps_per_second,t_norm");
@@ -430,16 +435,16 @@ TEST(Simulation, NeedlePathThroughHeldTissueIsWarnedAbout) {
                                "{type: fixed, region: {cylinder: {center: [0, 0, 6], axis: [1, 0, 0], radius: 1}}}]"),
                           3),
       quiet());
-  ASSERT_EQ(held.warnings.size(), 1u);
-  EXPECT_NE(held.warnings[0].find("runs through the held region"), std::string::npos) << held.warnings[0];
-  EXPECT_NE(held.warnings[0].find("boundary_conditions[1] over about 2 mm of its 12 mm path"), std::string::npos) << held.warnings[0];
+  ASSERT_EQ(other_warnings(held).size(), 1u);
+  EXPECT_NE(other_warnings(held)[0].find("runs through the held region"), std::string::npos) << other_warnings(held)[0];
+  EXPECT_NE(other_warnings(held)[0].find("boundary_conditions[1] over about 2 mm of its 12 mm path"), std::string::npos) << other_warnings(held)[0];
   const auto face = run_simulation<3>(
       model, parse_scenario_text(yaml(kStick, "[]", "{}", "[{type: fixed, region: {box_face: z_min}}]"), 3), quiet());
-  ASSERT_EQ(face.warnings.size(), 1u);
-  EXPECT_NE(face.warnings[0].find("touches the held face"), std::string::npos) << face.warnings[0];
-  EXPECT_NE(face.warnings[0].find("at its entry"), std::string::npos) << face.warnings[0];
+  ASSERT_EQ(other_warnings(face).size(), 1u);
+  EXPECT_NE(other_warnings(face)[0].find("touches the held face"), std::string::npos) << other_warnings(face)[0];
+  EXPECT_NE(other_warnings(face)[0].find("at its entry"), std::string::npos) << other_warnings(face)[0];
   const auto clear = run_simulation<3>(model, parse_scenario_text(yaml(kStick), 3), quiet());
-  EXPECT_TRUE(clear.warnings.empty()) << clear.warnings.front();
+  EXPECT_TRUE(other_warnings(clear).empty()) << other_warnings(clear).front();
 }
 
 // A load that moves the body rigidly (x_max displaced by (0, -2), nothing else held) changes nothing
@@ -529,8 +534,8 @@ TEST(Simulation, NeedleAlongAGridLineIsResampledAtTheVertices) {
         "boundary_conditions: [{type: fixed, region: {box_face: x_max}}]\n"
         "needle: {entry: [-30, " << y << "], direction: [1, 0], depth: " << depth << ", steps: 10, diameter: 1, friction: {model: stick}}\n";
   const auto res = run_simulation<2>(m, parse_scenario_text(sc.str(), 2), quiet());
-  ASSERT_FALSE(res.warnings.empty());
-  EXPECT_NE(res.warnings.front().find("sampled at the mesh vertices"), std::string::npos) << res.warnings.front();
+  ASSERT_FALSE(other_warnings(res).empty());
+  EXPECT_NE(other_warnings(res).front().find("sampled at the mesh vertices"), std::string::npos) << other_warnings(res).front();
   const auto& r = res.needles[0];
   const auto& u = r.vertex_displacement.back();
   int checked = 0;
@@ -578,18 +583,18 @@ TEST(Simulation, SampleSpacingBelowHalfTheElementSizeIsWarnedAbout) {
   };
   const auto fine = run_simulation<2>(m, scenario(", sample_spacing: 0.5"), quiet());
   // ... and, since the tissue is pulled back, the force at the one step is negative (the second warning).
-  ASSERT_EQ(fine.warnings.size(), 2u);
-  EXPECT_NE(fine.warnings[0].find("needle.sample_spacing = 0.5 is below half the mean element edge"), std::string::npos)
-      << fine.warnings[0];
+  ASSERT_EQ(other_warnings(fine).size(), 2u);
+  EXPECT_NE(other_warnings(fine)[0].find("needle.sample_spacing = 0.5 is below half the mean element edge"), std::string::npos)
+      << other_warnings(fine)[0];
   EXPECT_LT(fine.needles[0].axial_force[1], 0.0);
-  EXPECT_NE(fine.warnings[1].find("the axial force is negative or falls at 1 of 1 steps"), std::string::npos) << fine.warnings[1];
+  EXPECT_NE(other_warnings(fine)[1].find("the axial force is negative or falls at 1 of 1 steps"), std::string::npos) << other_warnings(fine)[1];
   const auto plain = run_simulation<2>(m, scenario(""), quiet());
-  EXPECT_TRUE(plain.warnings.empty());
+  EXPECT_TRUE(other_warnings(plain).empty());
   EXPECT_LT(ahead(fine), 0.0) << ahead(fine) << " " << ahead(plain);
   EXPECT_GT(ahead(plain), 0.0);
   SimulationOptions p2 = quiet();
   p2.degree = 2;
-  EXPECT_TRUE(run_simulation<2>(m, scenario(", sample_spacing: 0.5"), p2).warnings.empty());
+  EXPECT_TRUE(other_warnings(run_simulation<2>(m, scenario(", sample_spacing: 0.5"), p2)).empty());
 }
 
 // A stuck needle advancing into linear elastic tissue pushes it, so its axial force should neither be
@@ -619,18 +624,18 @@ TEST(Simulation, NegativeOrFallingStickForceIsWarnedAbout) {
   }
   ASSERT_FALSE(expected.empty()) << "P1 forces rose monotonically here; the test no longer exercises the warning";
   EXPECT_LT(f[1], 0.0);
-  ASSERT_EQ(p1.warnings.size(), 1u);
-  EXPECT_NE(p1.warnings[0].find("the axial force is negative or falls at " + std::to_string(expected.size()) + " of 6 steps (first: step 1"),
+  ASSERT_EQ(other_warnings(p1).size(), 1u);
+  EXPECT_NE(other_warnings(p1)[0].find("the axial force is negative or falls at " + std::to_string(expected.size()) + " of 6 steps (first: step 1"),
             std::string::npos)
-      << p1.warnings[0];
-  EXPECT_NE(p1.warnings[0].find("mesh.degree: 2"), std::string::npos) << p1.warnings[0];
+      << other_warnings(p1)[0];
+  EXPECT_NE(other_warnings(p1)[0].find("mesh.degree: 2"), std::string::npos) << other_warnings(p1)[0];
   EXPECT_EQ(p1.report["needles"][0]["axial_force_dips"].get<std::vector<int>>(), expected);
   SimulationOptions o2 = quiet();
   o2.degree = 2;
   const auto p2 = run_simulation<2>(m, scenario, o2);
   for (std::size_t k = 1; k < p2.needles[0].axial_force.size(); ++k)
     EXPECT_GT(p2.needles[0].axial_force[k], p2.needles[0].axial_force[k - 1]) << "step " << k;
-  EXPECT_TRUE(p2.warnings.empty()) << p2.warnings.front();
+  EXPECT_TRUE(other_warnings(p2).empty()) << other_warnings(p2).front();
 }
 
 // A needle parallel to the diagonals of a 2D grid, about halfway between two of them, crosses cells
@@ -654,8 +659,8 @@ TEST(Simulation, DiagonalNeedleBetweenGridDiagonalsIsResampledAtTheElementSize) 
     return parse_scenario_text(sc.str(), 2);
   };
   const auto res = run_simulation<2>(m, scenario(""), quiet());
-  ASSERT_EQ(res.warnings.size(), 1u);
-  EXPECT_NE(res.warnings.front().find("ran it again with sample_spacing = "), std::string::npos) << res.warnings.front();
+  ASSERT_EQ(other_warnings(res).size(), 1u);
+  EXPECT_NE(other_warnings(res).front().find("ran it again with sample_spacing = "), std::string::npos) << other_warnings(res).front();
   const auto& needle = res.report["needles"][0];
   const double edge = needle["shaft_pitch"].get<double>();
   EXPECT_NEAR(needle["shaft_pitch_increased_from"].get<double>(), 0.5 * edge, 1e-12 * edge);
