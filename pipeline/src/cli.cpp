@@ -13,6 +13,7 @@
 #include <vim/pipeline/memory_limit.hpp>
 #include <vim/pipeline/meshing_run.hpp>
 #include <vim/pipeline/report.hpp>
+#include <vim/pipeline/study.hpp>
 #include <vim/version.hpp>
 
 #include "run_support.hpp"
@@ -242,9 +243,17 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
                  "(avoids locking for ν near 0.5) (default 1; range {1, 2})")
       ->type_name("1|2")
       ->check(CLI::Range(1, 2));
-  app.add_option("--simulate", o.simulate,
-                 "Needle-insertion scenario (YAML) to simulate on the mesh (default: mesh only)")
-      ->type_name("SCENARIO.yaml");
+  auto* simulate =
+      app.add_option("--simulate", o.simulate,
+                     "Needle-insertion scenario (YAML) to simulate on the mesh (default: mesh only)")
+          ->type_name("SCENARIO.yaml");
+  app.add_option("--study", o.study,
+                 "A study (YAML): a base scenario run once per case of a list and/or grid of varied values; "
+                 "DIR/cases/NAME/ per case and DIR/study.csv; resumes an earlier run in DIR; under mpirun "
+                 "case i runs on rank i mod N (README, Studies)")
+      ->type_name("STUDY.yaml")
+      ->excludes(simulate)
+      ->excludes("--sizing");
   app.add_option("--export", o.exports,
                  "Extra mesh formats, comma-separated: vtk (legacy, deal.II GridIn), feb (FEBio), msh "
                  "(Gmsh 4.1), inp (Abaqus), all, or none alone (default: all = vtk,feb,msh,inp; mesh.vtu is "
@@ -302,18 +311,19 @@ int run_info(const RunOptions& o) {
   return 0;
 }
 
+}  // namespace
+
 void print_error(std::string msg) {
   for (char& c : msg)
     if (c == '\n' || c == '\r') c = ' ';
   std::cerr << "vim-pipeline: error: " << msg << "\n";
 }
 
-}  // namespace
-
 int run(const RunOptions& o) {
   Log::set_verbosity(o.verbosity);
   try {
     if (o.info) return run_info(o);
+    if (!o.study.empty()) return run_study(o);  // prints its errors itself (once under mpirun)
     ImageFile image(o.image);
     if (image.dimension() == 2)
       MeshingRun<2>(o, std::move(image)).run();
