@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <stdexcept>
+#include <vector>
 #include <vim/fem/conditions.hpp>
 
 namespace vim::fem {
@@ -20,7 +21,13 @@ namespace vim::fem {
 // along its own axes leaves those directions to the condition when it uses the same axes.
 template <int dim>
 struct PointConstraint {
-  Vec<dim> position;
+  PointConstraint() = default;
+  PointConstraint(const Vec<dim>& position_, const Vec<dim>& displacement_ = Vec<dim>::Zero(),
+                  const std::array<bool, dim>& components_ = DirichletBC<dim>::filled(true),
+                  const Eigen::Matrix<double, dim, dim>& axes_ = Eigen::Matrix<double, dim, dim>::Identity())
+      : position(position_), displacement(displacement_), components(components_), axes(axes_) {}
+
+  Vec<dim> position = Vec<dim>::Zero();
   Vec<dim> displacement = Vec<dim>::Zero();
   std::array<bool, dim> components = DirichletBC<dim>::filled(true);
   Eigen::Matrix<double, dim, dim> axes = Eigen::Matrix<double, dim, dim>::Identity();
@@ -28,8 +35,8 @@ struct PointConstraint {
   // ū = Σ_q weights[q]·u(position + offsets[q]), sizes equal, weights ≥ 0 with a positive sum (they are
   // normalised to sum 1). Samples outside the mesh are left out and the remaining weights renormalised;
   // all outside → std::invalid_argument.
-  std::vector<Vec<dim>> offsets{};
-  std::vector<double> weights{};
+  std::vector<Vec<dim>> offsets;
+  std::vector<double> weights;
   // Per component c, a compliance κ_c ≥ 0 (displacement per unit force) in series with the row: the
   // force on the body along axes.col(c) is (displacement_c − axes.col(c)·ū)/κ_c; 0 = rigid (exact).
   // A positive κ keeps the rows' Schur complement positive definite: such rows are never dropped.
