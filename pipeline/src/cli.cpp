@@ -322,6 +322,7 @@ void print_error(std::string msg) {
 int run(const RunOptions& o) {
   Log::set_verbosity(o.verbosity);
   try {
+    if (refused_on_many_ranks(o)) return 1;
     if (o.info) return run_info(o);
     if (!o.study.empty()) return run_study(o);  // prints its errors itself (once under mpirun)
     ImageFile image(o.image);

@@ -258,6 +258,16 @@ int run_study_in(const RunOptions& given, const StudyRanks& ranks, const ImageFi
 
 }  // namespace
 
+bool refused_on_many_ranks(const RunOptions& options) {
+  const LauncherRanks launched = launcher_ranks();
+  if (!options.study.empty() || launched.size == 1) return false;
+  if (launched.rank == 0)
+    print_error("started by mpirun on " + std::to_string(launched.size) +
+                " processes: only a study (--study) runs on several ranks (case i on rank i mod N); run a "
+                "single image or scenario without mpirun");
+  return true;
+}
+
 int run_study(const RunOptions& options) {
   std::optional<StudyRanks> ranks;
   std::optional<ImageFile> image;

@@ -3,24 +3,37 @@
 
 #include <mpi.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <stdexcept>
+#include <utility>
 
 namespace vim::pipeline {
 
 namespace {
 
-// Open MPI, MPICH/Hydra and PMIx launchers set one of these in every process they start.
-bool started_by_mpi_launcher() {
-  for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"})
-    if (std::getenv(v)) return true;
-  return false;
+int environment_number(const char* name) {
+  const char* v = std::getenv(name);
+  return v ? std::atoi(v) : -1;
 }
 
 }  // namespace
 
+LauncherRanks launcher_ranks() {
+  LauncherRanks r;
+  // Open MPI's and MPICH's (Hydra) launchers set these in every process they start.
+  for (const auto& [size, rank] :
+       {std::pair{"OMPI_COMM_WORLD_SIZE", "OMPI_COMM_WORLD_RANK"}, std::pair{"PMI_SIZE", "PMI_RANK"}})
+    if (environment_number(size) > 0) {
+      r.size = environment_number(size);
+      r.rank = std::max(0, environment_number(rank));
+      break;
+    }
+  return r;
+}
+
 StudyRanks::StudyRanks() {
-  if (!started_by_mpi_launcher()) return;
+  if (launcher_ranks().size == 1) return;
   int initialized = 0;
   MPI_Initialized(&initialized);
   if (!initialized) {

@@ -1,5 +1,6 @@
 // Private to study.cpp: the MPI ranks of a study (<mpi.h> stays in study_ranks.cpp). Started by an MPI
-// launcher (mpirun), the process joins MPI_COMM_WORLD; otherwise it is rank 0 of 1 and calls no MPI.
+// launcher (Open MPI's or MPICH's mpirun) with several processes, the process joins MPI_COMM_WORLD;
+// otherwise it is rank 0 of 1 and calls no MPI.
 #pragma once
 
 #include <string>
@@ -7,10 +8,17 @@
 
 namespace vim::pipeline {
 
+// The rank and number of processes an MPI launcher started (from its environment, without MPI calls);
+// 0 and 1 when the process was not started by one.
+struct LauncherRanks {
+  int rank = 0, size = 1;
+};
+LauncherRanks launcher_ranks();
+
 class StudyRanks {
  public:
-  // Initialises MPI when started by an MPI launcher and MPI is not yet initialised; the destructor
-  // then finalises it.
+  // Initialises MPI when started by an MPI launcher with several processes and MPI is not yet
+  // initialised; the destructor then finalises it.
   StudyRanks();
   ~StudyRanks();
   StudyRanks(const StudyRanks&) = delete;

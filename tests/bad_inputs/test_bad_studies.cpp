@@ -13,7 +13,8 @@ TEST(BadStudies, OneLineErrorNamingFileLineAndKey) {
   vim::test::TempDir dir("bad_study");
   vim::test::write_study_inputs(dir.path);
   std::ofstream(dir.path / "needles.yaml")
-      << "needles:\n  - {name: a, entry: [0, 1, 1], direction: [1, 0, 0], "
+      << "boundary_conditions: [{type: fixed, region: {box_face: x_max}}]\n"
+         "needles:\n  - {name: a, entry: [0, 1, 1], direction: [1, 0, 0], "
          "depth: 1, steps: 2, diameter: 0.2}\n";
   struct Bad {
     std::string yaml, expected;

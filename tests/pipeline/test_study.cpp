@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <vim/pipeline/study.hpp>
 
 #include "run_cli.hpp"
 #include "study_inputs.hpp"
@@ -128,4 +129,30 @@ TEST(StudyCli, AFailedCaseIsRecordedAndTheOthersGoOn) {
   EXPECT_FALSE(fs::exists(out / "cases" / "too-deep" / "report.json"));
   EXPECT_EQ(rows[1].at("status"), "done");
   EXPECT_GT(number(rows[1], "axial_force"), 0.0);  // the tissue resists the needle
+}
+
+// The README's study and examples/prostate_study.yaml are valid studies of the shipped prostate
+// scenario. Truth: the case counts and names the README's rules give (list × grid, g1… per point).
+TEST(StudyCli, ReadmeStudyAndExampleParse) {
+  const fs::path examples = fs::path(VIM_SOURCE_DIR) / "examples";
+  const auto example = vim::pipeline::read_study((examples / "prostate_study.yaml").string(), 3);
+  ASSERT_EQ(example.cases.size(), 6u);
+  EXPECT_EQ(example.cases[0].name, "lesion-g1");
+  EXPECT_EQ(example.cases[5].name, "above-g3");
+  EXPECT_EQ(example.cases[5].scenario.needles[0].depth, 30.0);
+  EXPECT_EQ(example.cases[5].scenario.scale, 2.0);
+  EXPECT_NE(example.cases[0].mesh_key, example.cases[3].mesh_key);  // needle_refinement: a mesh per path
+  EXPECT_EQ(example.cases[0].mesh_key, example.cases[2].mesh_key);
+
+  const std::string readme = slurp(fs::path(VIM_SOURCE_DIR) / "README.md");
+  const auto b = readme.find("```yaml\n", readme.find("## Studies (`--study`)"));
+  ASSERT_NE(b, std::string::npos);
+  const auto e = readme.find("```", b + 8);
+  // Read as if it were a file in examples/, where its base scenario is.
+  const auto study = vim::pipeline::parse_study_text(readme.substr(b + 8, e - b - 8),
+                                                     (examples / "readme_study.yaml").string(), 3);
+  EXPECT_EQ(study.cases.size(), 12u);
+  EXPECT_EQ(study.cases[1].name, "lesion-g2");
+  EXPECT_EQ(study.cases[1].scenario.poisson_ratio, 0.49);
+  EXPECT_EQ((std::vector<std::string>{"entry", "depth", "scale", "poisson_ratio"}), study.varied);
 }

@@ -62,4 +62,8 @@ Study parse_study_text(const std::string& yaml_text, const std::string& source, 
 // case); errors are printed as one `vim-pipeline: error:` line by one rank.
 int run_study(const RunOptions& options);
 
+// True (after printing the error on rank 0 alone) when an MPI launcher started several processes for a
+// run that is not a study: each would run the whole command into the same folder.
+bool refused_on_many_ranks(const RunOptions& options);
+
 }  // namespace vim::pipeline
