@@ -121,12 +121,12 @@ class CaseRunner {
     o.verbosity = Verbosity::quiet;  // no summary per case on stdout
     Scenario scenario = c.scenario;
     scenario.source = o.simulate;  // its line numbers are case.yaml's
-    MeshingRun<dim> run(o, inputs(std::move(scenario)));
+    MeshingRun<dim> run(o, inputs(scenario));
     run.read_inputs();
     if (o.mesher == MesherKind::voxel)
       run.make_mesh();
     else
-      run.reuse_mesh(mesh(c));
+      run.reuse_mesh(mesh(c, scenario));
     run.build_model();
     run.simulate();
     run.write_outputs();
@@ -141,24 +141,25 @@ class CaseRunner {
     return in;
   }
 
-  // The mesh of c's mesh setting: made by a run without output folder on the base scenario (or, when
-  // mesh.needle_refinement follows the needle, on the case's), kept while the group's cases run.
-  const MeshingRun<dim>& mesh(const StudyCase& c) {
+  // The mesh of c's mesh setting, kept while the group's cases run: made by a run without output
+  // folder on c's scenario (checked against the image as the case's own run checks it, so that a case
+  // whose needle leaves the image fails alone and the next case makes the mesh). Its Poisson ratio is
+  // set to 0: only the simulation reads it, and the meshing run's warnings, which reuse_mesh passes on,
+  // are then about the mesh alone (not the locking warning of another case's ratio).
+  const MeshingRun<dim>& mesh(const StudyCase& c, const Scenario& scenario) {
     const std::string key = options_.mesher == MesherKind::vim ? c.mesh_key : "";
-    if (!mesh_ || key != mesh_key_) {
-      mesh_.reset();
-      mesh_key_ = key;
-      mesh_error_ = error_of([&] {
-        RunOptions o = options_;
-        o.out.clear();
-        o.verbosity = Verbosity::quiet;
-        auto run = std::make_unique<MeshingRun<dim>>(o, inputs(key.empty() ? study_.base : c.scenario));
-        run->read_inputs();
-        run->make_mesh();
-        mesh_ = std::move(run);
-      });
-    }
-    if (!mesh_) throw InputError("the mesh of this case could not be made: " + mesh_error_);
+    if (mesh_ && key == mesh_key_) return *mesh_;
+    mesh_.reset();
+    RunOptions o = options_;
+    o.out.clear();
+    o.verbosity = Verbosity::quiet;
+    Scenario for_mesh = scenario;
+    for_mesh.poisson_ratio = 0.0;
+    auto run = std::make_unique<MeshingRun<dim>>(o, inputs(std::move(for_mesh)));
+    run->read_inputs();
+    run->make_mesh();
+    mesh_ = std::move(run);
+    mesh_key_ = key;
     return *mesh_;
   }
 
@@ -166,7 +167,7 @@ class CaseRunner {
   const Study& study_;
   const OrientedImage<dim> image_;
   std::unique_ptr<MeshingRun<dim>> mesh_;
-  std::string mesh_key_, mesh_error_;
+  std::string mesh_key_;
 };
 
 // This rank's cases (i mod N = rank), grouped by mesh setting in order of first appearance.
