@@ -97,6 +97,7 @@ const char* kFooter =
                force and target displacement vs depth and the deformed mesh at the last step
   simulation.pvd, steps/step_NNNN.vtu, needle.csv   with --simulate (open the .pvd in ParaView)
   report.json  input, options, mesh counts and quality, energy history, simulation, timings (README)
+  with --study: cases/NAME/ (a --simulate run per case, and its case.yaml) and study.csv (a row per case)
   A non-empty DIR is refused unless --overwrite; a failed run removes the files it wrote.
 
 Exit status: 0 success, 1 bad input or failure (one 'vim-pipeline: error:' line), 2 usage error.
@@ -109,6 +110,8 @@ Examples:
   vim-make-phantom prostate prostate.mha
   vim-pipeline prostate.mha --nodes 1000 --lambda 0.3 --out out/prostate
   vim-pipeline prostate.mha --nodes 1000 --simulate examples/prostate_needle.yaml --out out/needle
+  vim-pipeline prostate.mha --study examples/prostate_study.yaml --out out/study
+  mpirun -np 4 vim-pipeline prostate.mha --study examples/prostate_study.yaml --out out/study
 )";
 
 // The options of the VIM mesher (--nodes ... --threshold), with their defaults and ranges.
