@@ -1,4 +1,6 @@
 // Finite-radius needle coupling rows (vim/fem/needle_band.hpp).
+#include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -9,6 +11,10 @@ namespace vim::fem {
 namespace {
 
 constexpr double pi = 3.14159265358979323846;
+// Measured (docs/needle-model.md): the smallest R/h that keeps the analytic shafts within 2–3%.
+constexpr double kCouplingFactorP1 = 1.0;
+constexpr double kCouplingFactorP2 = 1.0;
+constexpr double kSampleSpacing = 0.5;  // samples per element size h: spacing ≤ 0.5 h
 
 void check_band(double radius, double coupling_radius, double length) {
   if (!(radius > 0.0) || !std::isfinite(radius))
@@ -43,6 +49,32 @@ double lateral_band_compliance(double radius, double coupling_radius, double len
          (8.0 * pi * g * (1.0 - poisson_ratio) * length);
 }
 
+double default_coupling_radius(double radius, double element_size, unsigned degree) {
+  if (!(radius > 0.0) || !std::isfinite(radius))
+    throw std::invalid_argument("needle band: the radius must be finite and > 0, got " +
+                                std::to_string(radius));
+  if (!(element_size > 0.0) || !std::isfinite(element_size))
+    throw std::invalid_argument("needle band: the element size must be finite and > 0, got " +
+                                std::to_string(element_size));
+  if (degree != 1 && degree != 2)
+    throw std::invalid_argument("needle band: the element degree must be 1 or 2, got " +
+                                std::to_string(degree));
+  const double c = degree == 1 ? kCouplingFactorP1 : kCouplingFactorP2;
+  return std::max(radius, c * element_size);
+}
+
+NeedleBand default_needle_band(double radius, double element_size, double length, unsigned degree) {
+  NeedleBand band;
+  band.radius = radius;
+  band.coupling_radius = default_coupling_radius(radius, element_size, degree);
+  band.length = length;
+  check_band(band.radius, band.coupling_radius, band.length);
+  const double spacing = kSampleSpacing * element_size;
+  band.n_theta = std::max(8, static_cast<int>(std::ceil(2.0 * pi * band.coupling_radius / spacing)));
+  band.n_axial = std::max(2, static_cast<int>(std::ceil(length / spacing)));
+  return band;
+}
+
 Eigen::Matrix3d needle_frame(const Vec<3>& axis) {
   const Vec<3> z = axis.normalized();
   // The world axis least aligned with the needle, made orthogonal to it.
@@ -67,10 +99,10 @@ PointConstraint<3> needle_band_constraint(const Vec<3>& centre, const Vec<3>& ax
   p.position = centre;
   p.axes = needle_frame(axis);
   p.displacement = displacement;
-  // Gauss–Legendre along the band (1 or 2 points), equal weights around the circle.
-  const double g2 = 0.5 / std::sqrt(3.0);
+  // Rings at the midpoints of n_axial equal parts of the band (stations tiling a path then sample it
+  // evenly), each rotated by half a sample against the previous one; equal weights.
   for (int k = 0; k < band.n_axial; ++k) {
-    const double t = band.n_axial == 1 ? 0.0 : -g2 + 2.0 * g2 * k / std::max(1, band.n_axial - 1);
+    const double t = (k + 0.5) / band.n_axial - 0.5;
     for (int i = 0; i < band.n_theta; ++i) {
       const double th = 2.0 * pi * (i + 0.5 * k) / band.n_theta;
       p.offsets.push_back(band.coupling_radius *

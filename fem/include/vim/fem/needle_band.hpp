@@ -18,8 +18,17 @@ struct NeedleBand {
   double coupling_radius = 0.0;  // R ≥ a: the cylinder whose band mean the station holds
   double length = 0.0;           // ℓ > 0: the band's extent along the axis
   int n_theta = 8;               // samples around the circle
-  int n_axial = 2;               // Gauss points along the band
+  int n_axial = 2;  // rings along the band (midpoint rule: ring k at (k + ½)/n_axial − ½ of ℓ)
 };
+
+// The coupling radius for a needle of radius a whose path runs through elements of size h (the edge
+// length near the path) of degree 1 or 2: R = max(a, c·h), c measured on the analytic antiplane and
+// lateral shafts (docs/needle-model.md). Throws std::invalid_argument for a ≤ 0, h ≤ 0 or another degree.
+double default_coupling_radius(double radius, double element_size, unsigned degree);
+
+// The default band of a station of length ℓ: default_coupling_radius, and samples spaced at most about
+// h/2 around the circle and along the band (the mean of the field then resolves the elements it crosses).
+NeedleBand default_needle_band(double radius, double element_size, double length, unsigned degree);
 
 // Compliances (displacement per unit force) of the annulus a ≤ r ≤ R over a band of length ℓ.
 double axial_band_compliance(double radius, double coupling_radius, double length, double youngs_modulus,

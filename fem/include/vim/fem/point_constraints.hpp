@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <stdexcept>
+#include <vector>
 #include <vim/fem/conditions.hpp>
 
 namespace vim::fem {
@@ -20,6 +21,12 @@ namespace vim::fem {
 // along its own axes leaves those directions to the condition when it uses the same axes.
 template <int dim>
 struct PointConstraint {
+  // Not an aggregate: {position} and {position, displacement} initialise the rest to their defaults
+  // (GCC 12 crashes on default member initialisers of the sample lists in nested braced lists, and
+  // without them warns of missing initialisers).
+  PointConstraint() = default;
+  PointConstraint(const Vec<dim>& at, const Vec<dim>& moved_by = Vec<dim>::Zero())
+      : position(at), displacement(moved_by) {}
   Vec<dim> position;
   Vec<dim> displacement = Vec<dim>::Zero();
   std::array<bool, dim> components = DirichletBC<dim>::filled(true);
@@ -28,8 +35,8 @@ struct PointConstraint {
   // ū = Σ_q weights[q]·u(position + offsets[q]), sizes equal, weights ≥ 0 with a positive sum (they are
   // normalised to sum 1). Samples outside the mesh are left out and the remaining weights renormalised;
   // all outside → std::invalid_argument.
-  std::vector<Vec<dim>> offsets{};
-  std::vector<double> weights{};
+  std::vector<Vec<dim>> offsets;
+  std::vector<double> weights;
   // Per component c, a compliance κ_c ≥ 0 (displacement per unit force) in series with the row: the
   // force on the body along axes.col(c) is (displacement_c − axes.col(c)·ū)/κ_c; 0 = rigid (exact).
   // A positive κ keeps the rows' Schur complement positive definite: such rows are never dropped.
