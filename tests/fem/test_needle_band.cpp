@@ -237,3 +237,27 @@ TEST(NeedleBand, SamplesLieOnTheCouplingCylinder) {
   EXPECT_THROW(needle_band_constraint(Vec<3>::Zero(), axis, band, Vec<3>::Zero(), 10.0, 0.4),
                std::invalid_argument);
 }
+
+// The effective radius against its continuum integrals: one ring R; a solid cylinder of radius R
+// (ln R_e = E[ln max(r, s)] for r, s uniform over the disk) R·e^(−1/4); a thin shell around a about a.
+TEST(NeedleBand, EffectiveRadiusOfRingsAndCylinders) {
+  NeedleBand band;
+  band.radius = 0.1;
+  band.coupling_radius = 2.0;
+  band.length = 1.0;
+  EXPECT_DOUBLE_EQ(effective_coupling_radius(band), 2.0);
+  band.inner_fraction = 0.0;
+  band.n_radial = 400;
+  EXPECT_NEAR(effective_coupling_radius(band), 2.0 * std::exp(-0.25), 1e-5);
+  const auto fine = needle_band_for(1.0, 0.05, 0.2, 1.0);
+  EXPECT_NEAR(effective_coupling_radius(fine), 1.0, 1e-9);
+  EXPECT_LT(fine.coupling_radius, 1.06);
+  EXPECT_GT(fine.inner_fraction, 0.9);
+  const auto coarse = needle_band_for(0.3, 4.0, 8.0, 1.0);
+  EXPECT_DOUBLE_EQ(coarse.coupling_radius, 4.0);
+  EXPECT_EQ(coarse.inner_fraction, 0.0);
+  EXPECT_GT(effective_coupling_radius(coarse), 0.3);
+  band.coupling_radius = 0.11;  // a solid cylinder whose effective radius is below the needle's
+  EXPECT_THROW(needle_band_constraint(Vec<3>::Zero(), Vec<3>::UnitZ(), band, Vec<3>::Zero(), 1.0, 0.3),
+               std::invalid_argument);
+}

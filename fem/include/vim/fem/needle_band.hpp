@@ -15,20 +15,34 @@ namespace vim::fem {
 
 struct NeedleBand {
   double radius = 0.0;           // a: the needle's radius
-  double coupling_radius = 0.0;  // R ≥ a: the cylinder whose band mean the station holds
+  double coupling_radius = 0.0;  // R ≥ a: the outer radius of the region whose mean the station holds
   double length = 0.0;           // ℓ > 0: the band's extent along the axis
-  int n_theta = 8;               // samples around the circle
+  int n_theta = 8;               // samples around each ring
   int n_axial = 2;  // rings along the band (midpoint rule: ring k at (k + ½)/n_axial − ½ of ℓ)
+  // The averaging region across the axis: n_radial rings at the midpoints of equal radial parts of
+  // [inner_fraction·R, R], weighted by their radius (a uniform mean over the shell's cross-section).
+  // inner_fraction = 1 (n_radial = 1) is the cylinder surface of radius R; 0 a solid cylinder.
+  double inner_fraction = 1.0;
+  int n_radial = 1;
 };
 
-// The coupling radius for a needle of radius a whose path runs through elements of size h (the edge
-// length near the path) of degree 1 or 2: R = max(a, c·h), c measured on the analytic antiplane and
-// lateral shafts (docs/needle-model.md). Throws std::invalid_argument for a ≤ 0, h ≤ 0 or another degree.
-double default_coupling_radius(double radius, double element_size, unsigned degree);
+// The effective radius R_e of the band's cross-section: ln R_e = Σ_j Σ_k w_j w_k ln max(r_j, r_k) over its
+// rings (radius r_j, weight w_j). A load spread over the rings like the mean's weights has that mean equal
+// to a ring load's at R_e; the compliances use R_e in place of R (R_e = R for one ring, 0.7788 R for a
+// solid cylinder). Throws std::invalid_argument for a bad band.
+double effective_coupling_radius(const NeedleBand& band);
 
-// The default band of a station of length ℓ: default_coupling_radius, and samples spaced at most about
-// h/2 around the circle and along the band (the mean of the field then resolves the elements it crosses).
+// The band of a station of length ℓ for a needle of radius a whose path runs through elements of size h
+// (the edge length near the path): a shell of thickness t = min(R, c·h) whose outer radius R is the
+// smallest ≥ c·h with an effective radius ≥ a (h ≫ a: a solid cylinder of radius c·h; h ≪ a: a thin
+// shell around the needle's surface), samples spaced at most h/2 around, across and along.
+// Throws std::invalid_argument for a ≤ 0, h ≤ 0, ℓ ≤ 0 or c ≤ 0.
+NeedleBand needle_band_for(double radius, double element_size, double length, double c);
+
+// needle_band_for with the c measured for elements of degree 1 or 2 on the analytic antiplane and lateral
+// shafts (docs/needle-model.md); default_coupling_radius is its R. Throws for another degree.
 NeedleBand default_needle_band(double radius, double element_size, double length, unsigned degree);
+double default_coupling_radius(double radius, double element_size, unsigned degree);
 
 // Compliances (displacement per unit force) of the annulus a ≤ r ≤ R over a band of length ℓ.
 double axial_band_compliance(double radius, double coupling_radius, double length, double youngs_modulus,
