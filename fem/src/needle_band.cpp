@@ -156,7 +156,9 @@ PointConstraint<3> needle_band_constraint(const Vec<3>& centre, const Vec<3>& ax
     throw std::invalid_argument("needle band: the effective radius " + std::to_string(re) +
                                 " of the averaging shell is below the needle's radius " +
                                 std::to_string(band.radius) + " (move the shell outwards)");
-  const double r_eff = std::max(re, band.radius);
+  // A shell whose effective radius is the needle's (needle_band_for when h ≪ a) is held rigidly: κ = 0
+  // exactly, not a round-off compliance, so the fast and monolithic solves treat its rows alike.
+  const double r_eff = re <= band.radius * (1.0 + 1e-9) ? band.radius : re;
   const double kl = lateral_band_compliance(band.radius, r_eff, band.length, youngs_modulus, poisson_ratio);
   p.compliance =
       Vec<3>(kl, kl, axial_band_compliance(band.radius, r_eff, band.length, youngs_modulus, poisson_ratio));

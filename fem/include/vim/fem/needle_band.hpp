@@ -1,11 +1,13 @@
-// The coupling of a rigid needle of finite radius to a 3D model (docs/needle-model.md): one shaft
-// station holds the mean displacement of a band of the cylinder of coupling radius R ≥ a around the
-// needle axis (a surface average, which carries force in the continuum where a line does not), through
-// the analytic compliance of the tissue annulus a ≤ r ≤ R in series:
-//   axial    κ_z = ln(R/a) / (2πG ℓ)                     (antiplane shear of a rigid shaft)
-//   lateral  κ_x = (3 − 4ν) ln(R/a) / (8πG(1 − ν) ℓ)     (plane strain, Kelvin line force)
-// with ℓ the band's length and G = E / (2(1 + ν)). R = a is the bare surface average (mesh fine near
-// the path); R > a lets meshes much coarser than the needle carry the needle's force. deal.II-free.
+// The coupling of a rigid needle of finite radius a to a 3D model (docs/needle-model.md): one shaft
+// station holds the mean displacement over a band of length ℓ of a cylindrical shell around the needle
+// axis (outer radius R; a surface or volume mean, which carries force in the continuum where a line does
+// not), through the analytic compliance of the tissue between the needle and the shell in series:
+//   axial    κ_z = ln(R_e/a) / (2πG ℓ)                     (antiplane shear of a rigid shaft)
+//   lateral  κ_x = (3 − 4ν) ln(R_e/a) / (8πG(1 − ν) ℓ)     (plane strain: Kelvin line force + dipole)
+// with G = E / (2(1 + ν)) and R_e the shell's effective radius (R for a single ring). A ring at R = a is
+// the bare surface mean (meshes fine near the path); larger shells let meshes much coarser than the
+// needle carry the needle's force. default_needle_band chooses the shell from the element size.
+// deal.II-free.
 #pragma once
 
 #include <Eigen/Core>
