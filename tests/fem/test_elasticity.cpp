@@ -357,6 +357,54 @@ void fast_vs_monolithic(unsigned degree) {
 TEST(PointConstraints, FastPathMatchesMonolithicP1_3D) { fast_vs_monolithic<3>(1); }
 TEST(PointConstraints, FastPathMatchesMonolithicP2_2D) { fast_vs_monolithic<2>(2); }
 
+// Truth: the monolithic saddle-point solve of each subset. Every row a path can use is precomputed in
+// one batch (averaged rows with a series compliance, as a finite-radius needle's stations, and point
+// rows); a second precomputation finds them all cached, and the solves of growing subsets (a needle
+// advancing, its stations joining) agree with the monolithic solve of the same rows.
+namespace {
+template <int dim>
+void precomputed_vs_monolithic(unsigned degree) {
+  auto model = needle_block<dim>(degree);
+  std::vector<PointConstraint<dim>> path;
+  for (int j = 0; j < 5; ++j) {
+    PointConstraint<dim> p;
+    p.position = Vec<dim>::Constant(0.5);
+    p.position[dim - 1] = 0.9 - 0.15 * j;
+    if (j % 2 == 1) {  // a band: the mean over four samples around the axis, held through a compliance
+      for (int q = 0; q < 4; ++q) {
+        Vec<dim> o = Vec<dim>::Zero();
+        o[q % (dim - 1)] = (q < 2 ? 0.04 : -0.04);
+        p.offsets.push_back(o);
+        p.weights.push_back(1.0 + 0.1 * q);
+      }
+      p.compliance = Vec<dim>::Constant(0.02);
+    }
+    path.push_back(p);
+  }
+  EXPECT_EQ(model.precompute(path), static_cast<unsigned>(dim * path.size()));
+  EXPECT_EQ(model.precompute(path), 0u);  // all cached
+  std::vector<PointConstraint<dim>> active;
+  for (std::size_t j = 0; j < path.size(); ++j) {
+    active.push_back(path[j]);
+    for (auto& q : active) q.displacement[dim - 1] -= 0.01;
+    const auto fast = model.solve(active);
+    const auto ref = model.solve_monolithic(active);
+    double umax = 0, fmax = 0;
+    for (const auto& u : ref.vertex_displacement) umax = std::max(umax, u.norm());
+    for (const auto& f : ref.point_force) fmax = std::max(fmax, f.norm());
+    ASSERT_GT(fmax, 0);
+    for (std::size_t i = 0; i < ref.vertex_displacement.size(); ++i)
+      ASSERT_LT((fast.vertex_displacement[i] - ref.vertex_displacement[i]).norm(), 1e-8 * umax) << "step " << j;
+    for (std::size_t k = 0; k < active.size(); ++k)
+      ASSERT_LT((fast.point_force[k] - ref.point_force[k]).norm(), 1e-8 * fmax) << "step " << j << " point " << k;
+  }
+  EXPECT_EQ(model.precompute(path), 0u);  // the solves added nothing
+}
+}  // namespace
+
+TEST(PointConstraints, PrecomputedRowsMatchMonolithicP2_3D) { precomputed_vs_monolithic<3>(2); }
+TEST(PointConstraints, PrecomputedRowsMatchMonolithicP1_2D) { precomputed_vs_monolithic<2>(1); }
+
 // The sign convention: pulling a point in +z needs a force on the body in +z.
 TEST(PointConstraints, ForceSignAndLinearity) {
   auto model = needle_block<3>(1);
