@@ -28,10 +28,11 @@ struct SolverOptions {
   double tolerance = 1e-10;  // relative residual for CG
   unsigned max_iterations = 10000;
   // `automatic` uses the direct solver (CHOLMOD's sparse Cholesky) up to this many DoFs; 0 = the default
-  // for the dimension, default_direct_limit(dim). 3D direct solves fill in (docs/performance.md); on
-  // the AMG path each new point constraint costs one CG solve instead of one back-substitution.
+  // for the dimension, default_direct_limit(dim). 3D direct solves fill in, but CHOLMOD's factorisation
+  // stays cheaper than one AMG solve up to ~120k DoFs (docs/performance.md), and on the AMG path each
+  // new point constraint costs one CG solve instead of one back-substitution.
   unsigned direct_limit = 0;
-  static constexpr unsigned default_direct_limit(int dim) { return dim == 2 ? 200000u : 30000u; }
+  static constexpr unsigned default_direct_limit(int dim) { return dim == 2 ? 200000u : 150000u; }
   unsigned direct_limit_for(int dim) const { return direct_limit ? direct_limit : default_direct_limit(dim); }
 };
 
