@@ -168,6 +168,8 @@ json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const Fric
                    {"monolithic", monolithic}};
   rep["timing"] = {{"run_seconds", run_seconds},
                    {"solve_seconds", run.solve_seconds},
+                   {"precompute_seconds", run.precompute_seconds},
+                   {"stepping_seconds", run.stepping_seconds},
                    {"steps_per_second", run.steps_per_second}};
   return rep;
 }

@@ -314,7 +314,7 @@ TEST(CliSimulate, AmgSolverRunsWithoutAnMpiLauncher) {
     ASSERT_TRUE(amg.contains("simulation")) << mesher;
     ASSERT_TRUE(direct.contains("simulation")) << mesher;
     EXPECT_EQ(amg["simulation"]["needles"][0]["solver"]["method"], "cg+amg") << mesher;
-    EXPECT_EQ(direct["simulation"]["needles"][0]["solver"]["method"], "umfpack") << mesher;
+    EXPECT_EQ(direct["simulation"]["needles"][0]["solver"]["method"], "cholmod") << mesher;
     const double ua = amg["simulation"]["final_displacement_lesion"].get<double>();
     const double ud = direct["simulation"]["final_displacement_lesion"].get<double>();
     EXPECT_GT(ud, 0.0) << mesher;

@@ -105,13 +105,14 @@ TEST(Simulation, DoublingTheModulusDoublesTheForceNotTheDisplacement) {
   const auto a = run_simulation<3>(axis_block(10.0), sc, o);
   const auto b = run_simulation<3>(axis_block(20.0), sc, o);
   const auto &ra = a.needles[0], &rb = b.needles[0];
+  // To round-off of the solves (the Cholesky factor of 2K is √2 L, not exact in floating point).
   for (std::size_t k = 1; k < ra.depth.size(); ++k) {
-    EXPECT_NEAR(rb.axial_force[k], 2.0 * ra.axial_force[k], 1e-9 * ra.axial_force[k]);
-    EXPECT_NEAR((rb.target_displacement[k][0] - ra.target_displacement[k][0]).norm(), 0.0, 1e-9);
+    EXPECT_NEAR(rb.axial_force[k], 2.0 * ra.axial_force[k], 1e-8 * ra.axial_force[k]);
+    EXPECT_NEAR((rb.target_displacement[k][0] - ra.target_displacement[k][0]).norm(), 0.0, 1e-8);
     double d = 0.0;
     for (std::size_t v = 0; v < ra.vertex_displacement[k].size(); ++v)
       d = std::max(d, (ra.vertex_displacement[k][v] - rb.vertex_displacement[k][v]).norm());
-    EXPECT_LT(d, 1e-9);
+    EXPECT_LT(d, 1e-8);
   }
 }
 
