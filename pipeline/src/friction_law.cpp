@@ -1,5 +1,8 @@
 // The needle-coupling pieces shared by every law (needle_coupling.hpp): the shaft state's compact
-// views, the line coupling of a thin needle, and the choice of the friction law of a needle.
+// views, the line coupling of a thin needle, the active set of the kinematic laws and the choice of the
+// friction law of a needle.
+#include <algorithm>
+#include <cmath>
 #include <vim/pipeline/needle_coupling.hpp>
 
 #include "friction_laws.hpp"
@@ -16,11 +19,68 @@ void ShaftState::expand(const Eigen::VectorXd& c, std::vector<double>& v) const 
   for (std::size_t i = 0; i < active.size(); ++i) v[active[i]] = c[static_cast<Eigen::Index>(i)];
 }
 
+// The active-set problem of the kinematic laws on the axial map: a point sticks (moves with the needle)
+// unless its axial load exceeds its limit; then it slides, its value solved so that its load equals
+// ±limit. A sliding point whose limit would need it to move ahead of the needle sticks again. One
+// solve when every point can stick; the map (m + 1 solves when m changes) otherwise.
+FrictionStep settle_active_set(ShaftState& state, TissueResponse& tissue, const std::vector<double>& limit,
+                               std::vector<bool>& sliding, std::vector<double>& sign, int max_sweeps) {
+  const auto exceeds = [](double force, double lim) { return std::abs(force) > lim * (1.0 + 1e-9); };
+  // Try sticking first (sliding points keep their slipped value; an unlimited point never slides).
+  for (std::size_t j : state.active) {
+    if (!std::isfinite(limit[j])) sliding[j] = false;
+    if (!sliding[j]) state.stick_to_needle(j);
+  }
+  bool need = false;
+  for (std::size_t j : state.active) need = need || sliding[j];
+  if (!need) {
+    const std::vector<double> fa = tissue.solve(state.axial);
+    for (std::size_t j : state.active) need = need || exceeds(fa[j], limit[j]);
+  }
+  if (!need) return {};
+  const AxialMap& map = tissue.axial_map();
+  const std::size_t m = state.active.size();
+  Eigen::VectorXd wc = state.compact(state.axial), ws = state.compact(state.stick),
+                  lim = state.compact(limit);
+  std::vector<bool> sl(m);
+  Eigen::VectorXd sg(m);
+  for (std::size_t i = 0; i < m; ++i) {
+    sl[i] = sliding[state.active[i]];
+    sg[i] = sign[state.active[i]];
+  }
+  FrictionStep step;
+  step.settled = false;
+  for (; step.sweeps < std::max(1, max_sweeps) && !step.settled; ++step.sweeps) {
+    map.solve_free(wc, sl, sg.cwiseProduct(lim));
+    const Eigen::VectorXd f = map(wc);
+    bool changed = false;
+    for (std::size_t i = 0; i < m; ++i) {
+      if (!sl[i] && exceeds(f[i], lim[i])) {
+        sl[i] = true;
+        sg[i] = f[i] > 0.0 ? 1.0 : -1.0;
+        changed = true;
+      } else if (sl[i] && (wc[i] - ws[i]) * sg[i] > 1e-12 * std::max(1.0, std::abs(ws[i]))) {
+        sl[i] = false;
+        wc[i] = ws[i];
+        changed = true;
+      }
+    }
+    step.settled = !changed;
+  }
+  state.expand(wc, state.axial);
+  for (std::size_t i = 0; i < m; ++i) {
+    sliding[state.active[i]] = sl[i];
+    sign[state.active[i]] = sg[i];
+  }
+  tissue.solve(state.axial);
+  return step;
+}
+
 std::unique_ptr<FrictionLaw> make_friction_law(const NeedleSpec& spec, int max_active_set_iterations) {
   if (spec.model == NeedleSpec::Model::force) return make_force_law(spec);
   if (spec.friction == NeedleSpec::Friction::stick_slip)
     return make_stick_slip_law(spec, max_active_set_iterations);
-  return make_stick_law(spec);
+  return make_stick_law(spec, max_active_set_iterations);
 }
 
 template <int dim>
@@ -55,6 +115,15 @@ std::vector<double> LineCoupling<dim>::axial_forces(const std::vector<std::size_
 // displacement rather than being pulled back to its rest line, which would load the needle with the
 // loads' deformation (a rigid motion of the body would then change the needle forces). The
 // displacement the needle itself causes ahead of the tip is not kept: the point joins on its line.
+template <int dim>
+std::vector<typename LineCoupling<dim>::Vec> LineCoupling<dim>::displacements(
+    const std::vector<std::size_t>& points, const fem::ElasticModel<dim>& model) const {
+  std::vector<Vec> at;
+  at.reserve(points.size());
+  for (std::size_t j : points) at.push_back(positions_[j]);
+  return model.sample(at);
+}
+
 template <int dim>
 void LineCoupling<dim>::keep_offsets(const std::vector<Vec>& u) {
   for (std::size_t j = 0; j < positions_.size() && j < u.size(); ++j)

@@ -16,23 +16,21 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim>& context, const Nee
     : ctx_(context), spec_(spec), prefix_(std::move(prefix)) {
   axis_world_ = vec<dim>(spec.direction).normalized();
   entry_world_ = vec<dim>(spec.entry);
-  const NeedlePath<dim> path = needle_path<dim>(spec, ctx_.tf);
-  axis_ = path.axis;
-  pitch_ = spec.sample_spacing > 0.0 ? spec.sample_spacing : 0.5 * ctx_.locator.mean_edge_length();
-  shaft_ =
-      sample_shaft<dim>(ctx_.locator, path.entry, axis_, spec.depth, pitch_, ctx_.blocked, snap_to_vertices);
+  make_coupling(needle_path<dim>(spec, ctx_.tf), snap_to_vertices);
   if (shaft_.empty())
     throw ScenarioError(
         ctx_.sc.where(spec.line) + "needle '" + spec.name +
         "': no point of its path lies in the free part of the mesh (is it inside a fixed region?)");
   const std::size_t np = shaft_.size();
-  std::vector<Vec> positions;
   start_.assign(np, 0.0);
+  end_.assign(np, 0.0);
   for (std::size_t j = 0; j < np; ++j) {
-    positions.push_back(shaft_[j].position);
-    if (j > 0) start_[j] = start_[j - 1] + shaft_[j - 1].length;
+    start_[j] = dim == 3 ? shaft_[j].s - 0.5 * shaft_[j].length
+                : j > 0  ? start_[j - 1] + shaft_[j - 1].length
+                         : 0.0;
+    end_[j] = dim == 3 ? shaft_[j].s + 0.5 * shaft_[j].length : shaft_[j].s;
   }
-  coupling_ = std::make_unique<LineCoupling<dim>>(std::move(positions), axis_, ctx_.point_axes);
+  cuts_ = spec.model == NeedleSpec::Model::kinematic && spec.cutting_force > 0.0;
   law_ = make_friction_law(spec, ctx_.opt.max_active_set_iterations);
   law_->start(np);
   for (const auto& t : ctx_.sc.targets) targets_.push_back(ctx_.tf.to_frame(vec<dim>(t.position)));
@@ -47,11 +45,56 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim>& context, const Nee
   state_.stick.assign(np, 0.0);
   state_.carried.assign(np, 0.0);
   picked_.assign(np, false);
+  state_.cutting = np;
   run_.name = spec.name;
   run_.axis = axis_world_;
   for (const auto& p : shaft_) {
     run_.point_s.push_back(p.s);
     run_.point_length.push_back(p.length);
+  }
+}
+
+// 3D: band stations, uniform along the path (needle.sample_spacing, else the element size h near the
+// path: the mesh resolves the field along the shaft on that scale), coupling
+// radius needle.coupling_radius or the default rule from the element size near the path. 2D: points on
+// the axis (sample_shaft; a plane-strain needle is a blade, and a line converges in 2D).
+template <int dim>
+void NeedleInsertion<dim>::make_coupling(const NeedlePath<dim>& path, bool snap_to_vertices) {
+  axis_ = path.axis;
+  if constexpr (dim == 3) {
+    const double h = path_element_size(ctx_.locator, path.entry, path.axis, spec_.depth);
+    const auto with_spacing = [&](BandCoupling::Geometry geometry) {
+      geometry.spacing = spec_.sample_spacing > 0.0 ? spec_.sample_spacing : h;
+      return geometry;
+    };
+    BandCoupling::Geometry g;
+    g.entry = path.entry;
+    g.axis = path.axis;
+    g.to_world = ctx_.tf.direction;
+    g.depth = spec_.depth;
+    g.radius = 0.5 * spec_.diameter;
+    g.coupling_radius = spec_.coupling_radius;
+    g.element_size = h;
+    g.degree = ctx_.degree;
+    auto band = std::make_unique<BandCoupling>(with_spacing(g), ctx_.locator, ctx_.E, ctx_.sc.poisson_ratio,
+                                               ctx_.blocked);
+    // A mesh so coarse that no band of the default size fits in it (every sample outside): halve h.
+    for (int k = 0; k < 8 && band->stations().empty() && spec_.coupling_radius <= 0.0; ++k) {
+      g.element_size *= 0.5;
+      band = std::make_unique<BandCoupling>(with_spacing(g), ctx_.locator, ctx_.E, ctx_.sc.poisson_ratio,
+                                            ctx_.blocked);
+    }
+    shaft_ = band->stations();
+    pitch_ = shaft_.empty() ? with_spacing(g).spacing : shaft_.front().length;
+    coupling_radius_ = band->coupling_radius();
+    coupling_ = std::move(band);
+  } else {
+    pitch_ = spec_.sample_spacing > 0.0 ? spec_.sample_spacing : 0.5 * ctx_.locator.mean_edge_length();
+    shaft_ = sample_shaft<dim>(ctx_.locator, path.entry, axis_, spec_.depth, pitch_, ctx_.blocked,
+                               snap_to_vertices);
+    std::vector<Vec> positions;
+    for (const auto& p : shaft_) positions.push_back(p.position);
+    coupling_ = std::make_unique<LineCoupling<dim>>(std::move(positions), axis_, ctx_.point_axes);
   }
 }
 
@@ -109,6 +152,7 @@ NeedleRun<dim> NeedleInsertion<dim>::run(nlohmann::json& report) {
   }
   report = needle_report<dim>(spec_, run_, *law_, pitch_, prefix_, run_seconds, solves_, ctx_.opt.monolithic,
                               ctx_.sc);
+  if (dim == 3) report["coupling_radius"] = coupling_radius_;
   return std::move(run_);
 }
 
@@ -130,9 +174,9 @@ template <int dim>
 void NeedleInsertion<dim>::rest() {
   if (loaded_) {
     solve(state_.axial);
-    std::vector<Vec> at;
-    for (const auto& p : shaft_) at.push_back(p.position);
-    coupling_->keep_offsets(ctx_.model->sample(at));
+    std::vector<std::size_t> all(shaft_.size());
+    for (std::size_t j = 0; j < all.size(); ++j) all[j] = j;
+    coupling_->keep_offsets(coupling_->displacements(all, *ctx_.model));
   }
   have_solution_ = loaded_;
   record(0.0, loaded_ ? &solution_ : nullptr, loaded_ ? 1 : 0);
@@ -169,9 +213,14 @@ void NeedleInsertion<dim>::advance_one_step(int k) {
     output_step(k, state_.active.empty() && !loaded_ ? nullptr : &solution_);
 }
 
-// The active set of the step at needle travel `depth` (`travel` since the last step): the points picked
-// up before and those the tip reaches now, with the value that moves each with the needle and the
-// shaft length each carries.
+template <int dim>
+double NeedleInsertion<dim>::axial_displacement(std::size_t j) const {
+  return have_solution_ ? coupling_->displacements({j}, *ctx_.model)[0].dot(axis_) : 0.0;
+}
+
+// The active set of the step at needle travel `depth` (`travel` since the last step): the stations
+// joined before, the cutting station the tip pushes (if any) and those the tip reaches now, with the
+// value that moves each with the needle and the shaft length each carries (see needle_insertion.hpp).
 template <int dim>
 void NeedleInsertion<dim>::pick_up(double depth, double travel) {
   const std::size_t np = shaft_.size();
@@ -179,20 +228,25 @@ void NeedleInsertion<dim>::pick_up(double depth, double travel) {
   const double eps = 1e-9 * spec_.depth;
   std::fill(state_.stick.begin(), state_.stick.end(), 0.0);
   std::fill(state_.joined.begin(), state_.joined.end(), false);
-  for (std::size_t j = 0; j < np && shaft_[j].s < cut - eps; ++j) {
+  for (std::size_t j : state_.active) state_.stick[j] = state_.axial[j] + travel;
+  // The station the tip pushed is cut once the tip has passed its band.
+  if (state_.cutting < np && end_[state_.cutting] + axial_displacement(state_.cutting) < cut - eps)
+    state_.cutting = np;
+  for (std::size_t j = 0; j < np && state_.cutting == np && start_[j] < cut - eps; ++j) {
     if (picked_[j]) continue;
-    double ua = 0.0;
-    if (have_solution_) ua = ctx_.model->sample({shaft_[j].position})[0].dot(axis_);
-    if (shaft_[j].s + ua >= cut - eps) break;
+    const double ua = axial_displacement(j);
+    if (start_[j] + ua >= cut - eps) break;  // the tip has not reached its band
+    const bool passed = end_[j] + ua < cut - eps;
+    if (!passed && !cuts_) break;  // tissue at the tip, cut without resistance: free
     state_.joined[j] = true;
+    picked_[j] = true;
+    state_.stick[j] = state_.axial[j] = cut - (passed ? end_[j] : start_[j]);
+    if (!passed) state_.cutting = j;
   }
   state_.active.clear();
   state_.tip = np;
   for (std::size_t j = 0; j < np; ++j) {
-    if (!picked_[j] && !state_.joined[j]) continue;
-    state_.stick[j] = picked_[j] ? state_.axial[j] + travel : cut - shaft_[j].s;
-    if (!picked_[j]) state_.axial[j] = state_.stick[j];
-    picked_[j] = true;
+    if (!picked_[j]) continue;
     state_.active.push_back(j);
     state_.tip = j;
   }
@@ -236,6 +290,14 @@ void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim>* s, int
     run_.vertex_displacement.back() = std::move(vd);
   std::vector<double> pa(shaft_.size(), 0.0);
   if (s) pa = coupling_->axial_forces(state_.active, *s);
+  // The axial force splits into the shaft's friction and the force on the tissue the tip pushes (the
+  // cutting station; the force model: the tip point, which carries tip_force).
+  const std::size_t pushed = spec_.model == NeedleSpec::Model::force ? state_.tip : state_.cutting;
+  double friction = 0.0;
+  for (std::size_t j : state_.active)
+    if (j != pushed) friction += pa[j];
+  run_.friction_force.push_back(s ? friction : 0.0);
+  run_.tip_force.push_back(s && pushed < pa.size() ? pa[pushed] : 0.0);
   run_.point_axial_force.push_back(std::move(pa));
   run_.active_points.push_back(static_cast<int>(state_.active.size()));
   run_.max_strain.push_back(s ? largest_principal_strain<dim>(s->cell_strain) : 0.0);

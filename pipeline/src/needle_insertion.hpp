@@ -1,14 +1,22 @@
 // Private to the simulation sources: one needle pushed into the tissue step by step, shaped like
-// deal.II's step-18 — set-up (the constructor: shaft points, coupling, law), advance_one_step (pick-up
+// deal.II's step-18 — set-up (the constructor: shaft stations, coupling, law), advance_one_step (pick-up
 // and the law's solve), record (forces, target displacements), output (simulation_output.hpp). The
 // loop talks to the needle-tissue physics only through FrictionLaw and NeedleCoupling
-// (needle_coupling.hpp).
+// (needle_coupling.hpp). 3D: band stations (BandCoupling); 2D: points on the axis (LineCoupling).
 //
-// Pick-up: the tip reaches a shaft point s_j when it reaches the point's current position s_j + u_j·a
-// (u from the previous step: tissue ahead of the tip is pushed before it is pierced); with the needle's
-// cutting_distance δ it must pass that position by δ, and the point joins δ behind the tip. The most
-// recently picked-up point is the one the tip pushes; each point carries its segment of the shaft as far
-// as the tip has passed (the pushed point everything up to the tip).
+// Each station stands for its band [b_j, e_j] of the path (3D: its segment; 2D: from its segment's
+// start to the point). Positions are current ones, b_j + ū_j (ū_j the axial displacement the station's
+// rows hold in the previous step's solution: tissue ahead of the tip is pushed before it is pierced),
+// and the tip is the needle's cutting_distance δ behind its end (cut = depth − δ).
+//  * A station joins the shaft when the tip has passed its band (e_j + ū_j < cut), at its current
+//    displacement plus the needle's travel since (cut − e_j): no jump, so the force does not drop.
+//  * With a cutting force F_c > 0 (kinematic model) the station whose band the tip has entered
+//    (b_j + ū_j < cut) is the tissue the tip pushes (ShaftState::cutting): it joins the active set
+//    (at cut − b_j) and moves with the needle until its load reaches F_c, then is held at F_c by the
+//    law; it becomes a shaft station once the tip has passed its band. With F_c = 0 that tissue is
+//    free (cut without resistance).
+// Each station carries its segment of the shaft as far as the tip has passed (the last one everything
+// up to the tip).
 #pragma once
 
 #include <memory>
@@ -42,6 +50,8 @@ class NeedleInsertion final : public TissueResponse {
   void rest();
   void advance_one_step(int k);
   void pick_up(double depth, double travel);
+  double axial_displacement(std::size_t j) const;  // ū_j of the last solution (0 before any)
+  void make_coupling(const NeedlePath<dim>& path, bool snap_to_vertices);
   void record(double depth, const fem::Solution<dim>* solution, int solves);
   void output_step(int k, const fem::Solution<dim>* solution);
 
@@ -49,9 +59,11 @@ class NeedleInsertion final : public TissueResponse {
   const NeedleSpec& spec_;
   std::string prefix_;
   Vec axis_world_, entry_world_, axis_;  // axis_: frame
-  double pitch_ = 0.0;
+  double pitch_ = 0.0;                   // spacing of the shaft points (3D: the stations' band length)
+  double coupling_radius_ = 0.0;         // 3D: R of the bands
   std::vector<ShaftPoint<dim>> shaft_;
-  std::vector<double> start_;  // arc length where each point's shaft segment starts
+  std::vector<double> start_;  // arc length where each point's shaft segment (and band) starts
+  std::vector<double> end_;    // arc length where its band ends: the tip has passed it there
   std::unique_ptr<NeedleCoupling<dim>> coupling_;
   std::unique_ptr<FrictionLaw> law_;
   std::vector<Vec> targets_;  // frame
@@ -60,6 +72,7 @@ class NeedleInsertion final : public TissueResponse {
 
   ShaftState state_;
   std::vector<bool> picked_;
+  bool cuts_ = false;  // the kinematic model with a cutting force: the tip pushes a station
   bool have_solution_ = false;
   fem::Solution<dim> solution_;
   AxialMap map_;

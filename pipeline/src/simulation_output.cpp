@@ -78,7 +78,7 @@ void write_needle_csv(const std::filesystem::path& path, const NeedleRun<dim>& r
     const char* axes = "xyz";
     o << "step,depth";
     for (int d = 0; d < dim; ++d) o << ",tip_" << axes[d];
-    o << ",axial_force,lateral_force,max_strain";
+    o << ",axial_force,lateral_force,friction_force,tip_force,max_strain";
     for (const auto& t : sc.targets) {
       for (int d = 0; d < dim; ++d) o << "," << t.name << "_d" << axes[d];
       o << "," << t.name << "_norm";
@@ -87,7 +87,8 @@ void write_needle_csv(const std::filesystem::path& path, const NeedleRun<dim>& r
     for (std::size_t k = 0; k < run.depth.size(); ++k) {
       o << k << "," << run.depth[k];
       for (int d = 0; d < dim; ++d) o << "," << run.tip[k][d];
-      o << "," << run.axial_force[k] << "," << run.lateral_force[k] << "," << run.max_strain[k];
+      o << "," << run.axial_force[k] << "," << run.lateral_force[k] << "," << run.friction_force[k] << ","
+        << run.tip_force[k] << "," << run.max_strain[k];
       for (const auto& u : run.target_displacement[k]) {
         for (int d = 0; d < dim; ++d) o << "," << u[d];
         o << "," << u.norm();
@@ -132,6 +133,8 @@ json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const Fric
   per["depth"] = run.depth;
   per["axial_force"] = run.axial_force;
   per["lateral_force"] = run.lateral_force;
+  per["friction_force"] = run.friction_force;
+  per["tip_force"] = run.tip_force;
   per["max_strain"] = run.max_strain;
   per["active_points"] = run.active_points;
   per["solves"] = run.solves;
@@ -157,6 +160,8 @@ json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const Fric
   }
   rep["final"] = {{"axial_force", run.axial_force.back()},
                   {"lateral_force", run.lateral_force.back()},
+                  {"friction_force", run.friction_force.back()},
+                  {"tip_force", run.tip_force.back()},
                   {"force", to_json<dim>(run.force.back())},
                   {"max_strain", run.max_strain.back()},
                   {"targets", final_targets}};

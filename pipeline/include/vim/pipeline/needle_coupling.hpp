@@ -3,13 +3,15 @@
 //  * a FrictionLaw chooses the axial value of every active shaft point (how far along the needle axis
 //    the tissue there is moved): stuck to the needle, sliding at a friction limit, or loaded by a
 //    prescribed friction and tip force; it asks the tissue for its response through TissueResponse;
-//  * a NeedleCoupling turns those values into the point-constraint rows of the model solve.
+//  * a NeedleCoupling turns those values into the point-constraint rows of the model solve: a line of
+//    points in 2D (LineCoupling), bands of a cylinder around the shaft in 3D (BandCoupling).
 // The laws and couplings are dimension-free or templated on dim alone and never see the loop: a new
 // law is one class in its own file and one line in make_friction_law (friction_law.cpp).
 #pragma once
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <vector>
@@ -23,11 +25,16 @@ namespace vim::pipeline {
 // entry per shaft point (in shaft order); only those of `active` points mean anything at this step.
 struct ShaftState {
   std::vector<std::size_t> active;  // points on the needle at this step, in shaft order
-  std::size_t tip = 0;              // the active point the tip pushes (the last picked up)
-  std::vector<bool> joined;         // picked up at this step
-  std::vector<double> axial;        // axial constraint value: kept between steps, set by the law
-  std::vector<double> stick;        // the value that moves the point with the needle at this step
-  std::vector<double> carried;      // shaft length the point carries (its segment up to the tip)
+  std::size_t tip = 0;              // the last active point (the one nearest the tip)
+  // The active point the tip pushes until it is cut (kinematic model with a cutting force): it moves
+  // with the needle until its axial force reaches the cutting force, then it is held at that force
+  // (the law's limit for it). None (any index ≥ the number of points) when the cutting force is 0: the
+  // tissue at the tip is then cut without resistance and not held.
+  std::size_t cutting = std::numeric_limits<std::size_t>::max();
+  std::vector<bool> joined;     // picked up at this step
+  std::vector<double> axial;    // axial constraint value: kept between steps, set by the law
+  std::vector<double> stick;    // the value that moves the point with the needle at this step
+  std::vector<double> carried;  // shaft length the point carries (its segment up to the tip)
 
   // Moves a point with the needle (it sticks).
   void stick_to_needle(std::size_t j) { axial[j] = stick[j]; }
@@ -88,6 +95,10 @@ class NeedleCoupling {
   // Per shaft point: the axial force on the body of its rows in a solution of rows(active, ·).
   virtual std::vector<double> axial_forces(const std::vector<std::size_t>& active,
                                            const fem::Solution<dim>& solution) const = 0;
+  // The tissue displacement the rows of `points` hold (the point's, or its band's mean) in the model's
+  // last solution: where the tissue of a shaft point is before the needle takes it.
+  virtual std::vector<Vec> displacements(const std::vector<std::size_t>& points,
+                                         const fem::ElasticModel<dim>& model) const = 0;
   // The tissue displacement at each shaft point before the needle touches it (the external loads):
   // the rows keep its part across the axis rather than pulling the tissue back to the rest line.
   virtual void keep_offsets(const std::vector<Vec>& displacement) = 0;
@@ -107,6 +118,8 @@ class LineCoupling final : public NeedleCoupling<dim> {
                                               const std::vector<double>& axial) const override;
   std::vector<double> axial_forces(const std::vector<std::size_t>& active,
                                    const fem::Solution<dim>& solution) const override;
+  std::vector<Vec> displacements(const std::vector<std::size_t>& points,
+                                 const fem::ElasticModel<dim>& model) const override;
   void keep_offsets(const std::vector<Vec>& displacement) override;
 
  private:
@@ -114,5 +127,58 @@ class LineCoupling final : public NeedleCoupling<dim> {
   Vec axis_;
   Mat axes_;
 };
+
+// A straight needle of radius a in 3D (docs/needle-model.md): shaft stations uniform along the path,
+// each holding the mean displacement of its band of the cylinder of coupling radius R ≥ a around the
+// axis (its segment of the shaft) through the analytic compliance of the annulus a ≤ r ≤ R in series
+// (fem::needle_band_constraint): three rows per station (two lateral, one axial). A line carries no
+// force in a 3D continuum; a band does, and the radius enters through the compliance, so the forces
+// converge under mesh refinement. Stations whose band lies wholly outside the mesh or in held cells
+// (every vertex of every cell its samples fall in held) are left out.
+class BandCoupling final : public NeedleCoupling<3> {
+ public:
+  struct Geometry {
+    Vec entry, axis;      // frame; axis of unit length
+    double depth = 0.0;   // the path's length
+    double radius = 0.0;  // a = diameter / 2
+    // R ≥ a: each station holds the mean over the surface of radius R; 0 = fem::default_needle_band
+    // from the element size h near the path and the element degree (docs/needle-model.md).
+    double coupling_radius = 0.0;
+    double element_size = 0.0;  // h
+    unsigned degree = 1;
+    double spacing = 0.0;  // station spacing along the path (made uniform: depth / stations)
+    // The frame-to-world rotation: the bands' samples are placed around the needle in world axes, so
+    // that a model in frame coordinates and the same body in world coordinates sample alike.
+    Eigen::Matrix3d to_world = Eigen::Matrix3d::Identity();
+  };
+  // `cell_modulus`: Young's modulus per cell of the locator (the band's compliance takes the mean over
+  // the cells its samples fall in); `blocked`: vertices held in every direction.
+  BandCoupling(const Geometry& geometry, const fem::CellLocator<3>& locator,
+               const std::vector<double>& cell_modulus, double poisson_ratio,
+               const std::vector<bool>& blocked);
+  // The stations: centre, arc length of the centre, band length.
+  const std::vector<ShaftPoint<3>>& stations() const { return stations_; }
+  // The outer radius of the region whose mean a station holds.
+  double coupling_radius() const { return coupling_radius_; }
+  std::vector<fem::PointConstraint<3>> rows(const std::vector<std::size_t>& active,
+                                            const std::vector<double>& axial) const override;
+  std::vector<double> axial_forces(const std::vector<std::size_t>& active,
+                                   const fem::Solution<3>& solution) const override;
+  std::vector<Vec> displacements(const std::vector<std::size_t>& points,
+                                 const fem::ElasticModel<3>& model) const override;
+  void keep_offsets(const std::vector<Vec>& displacement) override;
+
+ private:
+  std::vector<ShaftPoint<3>> stations_;
+  std::vector<fem::PointConstraint<3>> bands_;  // per station, displacement 0
+  std::vector<Vec> lateral_;
+  Vec axis_;
+  double coupling_radius_ = 0.0;
+};
+
+// The element size near a 3D needle path: the mean over the cells the path crosses of the edge of
+// the cube of equal volume ((6V)^(1/3) for a tetrahedron, V^(1/3) for a grid cell).
+double path_element_size(const fem::CellLocator<3>& locator, const Eigen::Vector3d& entry,
+                         const Eigen::Vector3d& axis, double depth);
 
 }  // namespace vim::pipeline

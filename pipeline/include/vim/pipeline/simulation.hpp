@@ -4,7 +4,11 @@
 // the fast condensed path: before stepping, K is factorised and the column K⁻¹cᵀ of every shaft
 // point's rows computed in one batch (ElasticModel::precompute), so a step does dense work only.
 //
-// Needle models (all in the reference configuration, small strain):
+// Needle models (all in the reference configuration, small strain). In 3D the "shaft points" below are
+// band stations of the needle of radius diameter/2 (BandCoupling, needle_coupling.hpp): the mean
+// displacement of a band of a cylinder around the shaft, held through the analytic annulus compliance,
+// joining when the tip has passed its band; the tip pushes the station it is in until the cutting force
+// (docs/architecture.md, the needle model). In 2D they are points on the axis line.
 //  * kinematic / stick: shaft points s_j = entry + s·a are sampled along the path (about one per cell
 //    crossed). A point is picked up when the tip reaches its current position (s_j + u_j·a < d, with u
 //    from the previous step: tissue ahead of the tip is pushed before it is pierced); from then on it
@@ -73,11 +77,14 @@ template <int dim>
 struct NeedleRun {
   using Vec = Eigen::Matrix<double, dim, 1>;
   std::string name;
-  Vec axis;                                           // world, unit
-  std::vector<double> depth;                          // per step (step 0 = rest)
-  std::vector<Vec> tip;                               // world
-  std::vector<Vec> force;                             // world: force of the tissue on the needle
-  std::vector<double> axial_force, lateral_force;     // see the header comment
+  Vec axis;                                        // world, unit
+  std::vector<double> depth;                       // per step (step 0 = rest)
+  std::vector<Vec> tip;                            // world
+  std::vector<Vec> force;                          // world: force of the tissue on the needle
+  std::vector<double> axial_force, lateral_force;  // see the header comment
+  // The axial force's parts: the shaft's friction (Σ over the shaft stations) and the tip's force (the
+  // tissue the tip pushes until it is cut; the force model: the tip point); they sum to axial_force.
+  std::vector<double> friction_force, tip_force;
   std::vector<std::vector<Vec>> target_displacement;  // [step][target], world axes
   std::vector<std::vector<Vec>>
       vertex_displacement;         // world axes: every step if keep_step_fields, else the last

@@ -1,0 +1,166 @@
+// The 3D needle of finite radius through the whole simulation (BandCoupling in NeedleInsertion). Truths:
+// antiplane shear theory (a rigid shaft of radius a in a prism of square section s with held long faces
+// carries 2πG·U/ln(ρ/a) per length, ρ = 0.5394·s, so the force ratio of two diameters is
+// ln(ρ/a₁)/ln(ρ/a₂)); monotonicity of a stuck needle pushing into linear elastic tissue (every station
+// moves forward or stays, so the force on it never falls); the invariants friction + tip = total and
+// tip ≤ cutting force; and the voxel reference against a simplex model of the same uniform block
+// (both discretise the same continuum problem, so they agree to discretisation error).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vim/image.hpp>
+#include <vim/initial_mesh.hpp>
+#include <vim/pipeline/scenario.hpp>
+#include <vim/pipeline/simulation.hpp>
+#include <vim/vim.hpp>
+#include <vim/voxel_statistics.hpp>
+
+#include "simulation_test_util.hpp"
+
+using namespace vim;
+using namespace vim::pipeline;
+using namespace vim::pipeline::simulation_test;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// The prism 20 × 20 × 60 mm, E = 30 kPa, ν = 0.3, the four long faces held, a needle along its axis.
+Scenario prism_scenario(const std::string& needle) {
+  return parse_scenario_text(
+      yaml(needle, "[]", "{youngs_modulus: 30, poisson_ratio: 0.3}",
+           "[{type: fixed, region: {box_face: x_min}}, {type: fixed, region: {box_face: x_max}}, "
+           "{type: fixed, region: {box_face: y_min}}, {type: fixed, region: {box_face: y_max}}]"),
+      3);
+}
+
+double final_axial_force(const MeshModel<3>& mesh, const Scenario& sc, unsigned degree) {
+  SimulationOptions o = quiet();
+  o.degree = degree;
+  return NeedleSimulation<3>(mesh, sc, o).run().needles.at(0).axial_force.back();
+}
+
+// A block image of `n` voxels of 1 mm, a stiffer sphere at its centre (or uniform).
+Image<3> block_image(const std::array<long, 3>& n, double inclusion_modulus) {
+  Image<3> img(n, {{1, 1, 1}}, {{0.5, 0.5, 0.5}});
+  const V3 c(0.5 * n[0], 0.5 * n[1], 0.5 * n[2]);
+  for (std::size_t v = 0; v < img.voxel_count(); ++v) {
+    const auto i = img.index_of(v);
+    const V3 x(i[0] + 1.0, i[1] + 1.0, i[2] + 1.0);
+    img.data[v] = static_cast<float>((x - c).norm() < 4.0 ? inclusion_modulus : 20.0);
+  }
+  return img;
+}
+
+MeshModel<3> image_mesh(const Image<3>& img, const SimplexMesh<3>& mesh) {
+  MeshModel<3> m;
+  m.mesh = mesh;
+  const VoxelStatistics<3> stats(img);
+  for (std::size_t c = 0; c < m.mesh.n_cells(); ++c) m.values.push_back(stats.value(cell_points(m.mesh, c)));
+  return m;
+}
+
+// The block image's needle scenario: the path along z off the mesh vertices, the bottom face held.
+Scenario block_scenario(const std::string& needle_extra) {
+  return parse_scenario_text(
+      yaml("{entry: [9.37, 10.29, 0], direction: [0, 0, 1], depth: 18, steps: 12, diameter: 1.27" +
+               needle_extra + "}",
+           "[]", "{youngs_modulus: image, poisson_ratio: 0.45}",
+           "[{type: fixed, region: {box_face: z_max}}, {type: fixed, region: {box_face: x_min}}]"),
+      3);
+}
+
+}  // namespace
+
+// Antiplane theory: F ∝ 1/ln(ρ/a), so doubling the diameter from 1 to 2 mm in the 20 mm section raises
+// the stuck needle's force by ln(ρ/0.5)/ln(ρ/1) = 1.291 (within 3%: measured 1.292 on the P2 mesh and
+// 1.299 on the P1 one). A line of points gives the same force for every diameter. The absolute force is
+// checked loosely against the antiplane integral 2πG ∫ U dz / ln(ρ/a) with U = d − z along the stuck
+// shaft: the free entry face, the tissue the shaft drags ahead of the tip and the lateral coupling make
+// the 3D force differ from it (7% below and 2% below it here).
+TEST(NeedleBand, StuckNeedleForceFollowsAntiplaneTheoryInTheDiameter) {
+  const std::string needle = "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 50, steps: 5, diameter: ";
+  const double rho = 0.5394 * 20.0;
+  const double ratio = std::log(rho / 0.5) / std::log(rho / 1.0);
+  const double g = 30.0 / (2.0 * 1.3);
+  const double antiplane = 2.0 * kPi * g * 0.5 * 50.0 * 50.0 / std::log(rho / 0.5);
+  for (const auto& [n, degree] :
+       {std::pair{std::array<int, 3>{{7, 7, 16}}, 2u}, std::pair{std::array<int, 3>{{11, 11, 31}}, 1u}}) {
+    const MeshModel<3> prism = block(V3(-10, -10, 0), V3(10, 10, 60), n, [](const V3&) { return 30.0; });
+    const double f1 = final_axial_force(prism, prism_scenario(needle + "1}"), degree);
+    const double f2 = final_axial_force(prism, prism_scenario(needle + "2}"), degree);
+    std::printf("%d nodes per side, P%u: forces %.1f / %.1f mN, ratio %.4f (antiplane %.4f)\n", n[0], degree,
+                f1, f2, f2 / f1, ratio);
+    EXPECT_NEAR(f2 / f1, ratio, 0.03 * ratio) << "P" << degree;
+    EXPECT_NEAR(f1, antiplane, 0.15 * antiplane) << "P" << degree;
+  }
+}
+
+// A stuck needle with cutting force 0 pushing into linear elastic tissue: the axial force never falls,
+// on VIM and grid meshes, P1 and P2, the path off the mesh vertices.
+TEST(NeedleBand, StuckNeedleForceNeverFalls) {
+  const Image<3> img = block_image({{20, 20, 24}}, 60.0);
+  const SimplexMesh<3> grid = regular_grid_mesh<3>(img.box_min(), img.box_max(), {{7, 7, 8}});
+  VimOptions vo;
+  vo.max_iterations = 6;
+  const SimplexMesh<3> vim_mesh = optimize<3>(img, grid, vo).mesh;
+  const Scenario sc = block_scenario("");
+  for (const auto* which : {"grid", "vim"})
+    for (unsigned degree : {1u, 2u}) {
+      SimulationOptions o = quiet();
+      o.degree = degree;
+      const auto res = NeedleSimulation<3>(image_mesh(img, which[0] == 'g' ? grid : vim_mesh), sc, o).run();
+      const auto& f = res.needles.at(0).axial_force;
+      ASSERT_GT(f.back(), 0.0) << which << " P" << degree;
+      for (std::size_t k = 1; k < f.size(); ++k)
+        EXPECT_GE(f[k], f[k - 1] - 1e-9 * f.back()) << which << " P" << degree << " step " << k;
+      for (const auto& w : res.warnings) EXPECT_EQ(w.find("falls"), std::string::npos) << w;
+    }
+}
+
+// With a cutting force the tissue at the tip is pushed until its force reaches F_c: the tip force never
+// exceeds F_c (and reaches it), friction + tip = the total axial force at every step, and under stick
+// the friction part never falls; the same invariants under stick-slip.
+TEST(NeedleBand, CuttingForceBoundsTheTipAndSplitsTheAxialForce) {
+  const Image<3> img = block_image({{20, 20, 24}}, 20.0);
+  const SimplexMesh<3> grid = regular_grid_mesh<3>(img.box_min(), img.box_max(), {{7, 7, 8}});
+  const double fc = 40.0;
+  for (const std::string friction : {"{model: stick}", "{model: stick-slip, max_shear_per_length: 20}"})
+    for (unsigned degree : {1u, 2u}) {
+      SimulationOptions o = quiet();
+      o.degree = degree;
+      const Scenario sc = block_scenario(", cutting_force: 40, friction: " + friction);
+      const auto r = NeedleSimulation<3>(image_mesh(img, grid), sc, o).run().needles.at(0);
+      const std::string at = friction + " P" + std::to_string(degree);
+      double largest_tip = 0.0;
+      for (std::size_t k = 0; k < r.axial_force.size(); ++k) {
+        EXPECT_NEAR(r.friction_force[k] + r.tip_force[k], r.axial_force[k],
+                    1e-9 * (1.0 + r.axial_force.back()))
+            << at << " step " << k;
+        EXPECT_LE(r.tip_force[k], fc * (1.0 + 1e-6)) << at << " step " << k;
+        largest_tip = std::max(largest_tip, r.tip_force[k]);
+        if (k > 0 && friction == "{model: stick}") {
+          EXPECT_GE(r.friction_force[k], r.friction_force[k - 1] - 1e-9 * r.axial_force.back()) << at << k;
+        }
+      }
+      EXPECT_GT(largest_tip, 0.99 * fc) << at;       // the cutting limit is reached
+      EXPECT_GT(r.friction_force.back(), fc) << at;  // and the shaft carries force once cut
+    }
+}
+
+// The voxel reference and a simplex model of the same uniform block use the same coupling (the same
+// coupling radius and stations): their final forces agree within discretisation (measured 1.1% apart:
+// 2073 and 2050 mN), where a line
+// of points gives each mesh its own value (the force falls like 1/ln(1/h) with the element size h).
+TEST(NeedleBand, VoxelReferenceAndSimplexModelAgree) {
+  const Image<3> img = block_image({{20, 20, 24}}, 20.0);  // uniform: the inclusion has the same modulus
+  const Scenario sc = block_scenario(", coupling_radius: 3, sample_spacing: 2");
+  const auto voxel = NeedleSimulation<3>::voxel(img, WorldTransform<3>{}, sc, quiet()).run();
+  const SimplexMesh<3> grid = regular_grid_mesh<3>(img.box_min(), img.box_max(), {{11, 11, 13}});
+  SimulationOptions o = quiet();
+  o.degree = 2;
+  const auto simplex = NeedleSimulation<3>(image_mesh(img, grid), sc, o).run();
+  const double fv = voxel.needles.at(0).axial_force.back(), fs = simplex.needles.at(0).axial_force.back();
+  std::printf("voxel %.2f mN, simplex P2 %.2f mN\n", fv, fs);
+  EXPECT_NEAR(fs, fv, 0.05 * fv);
+}
