@@ -1,19 +1,24 @@
-// Needle steps per second: the condensed fast path (K factorised once, cached K⁻¹Cᵀ columns) vs a
-// monolithic saddle-point solve per step, on P1 Kuhn-grid blocks of ~1k and ~10k nodes
-// (target: >= 500 steps/s at ~1k nodes). Prints the ratio; asserts nothing.
-//   bench_needle [steps] [cached]   ("cached": skip the monolithic baseline, e.g. for profiling)
+// Needle steps per second on the condensed fast path (ElasticModel::precompute before stepping: K
+// factorised once, every shaft row's column K⁻¹cᵀ in one batch; each step is dense work on the active
+// rows) against the monolithic saddle-point solve per step (ElasticModel::solve_monolithic) in the same
+// run, on Kuhn-grid blocks of ~1k and ~10k nodes, P1 and P2, stick friction (or the law given).
+// Prints the precomputation time, steps/s (mean, median, p99 of the steps alone) and the ratio; asserts
+// nothing.
+//   bench_needle [--steps N] [--mono-steps N] [--mono-max-dofs N] [--friction stick|stick-slip]
+//                [--sizes 1k,10k] [--degrees 1,2] [--solver auto|direct|amg]
+// The monolithic solve of a ~10k-node P2 block factorises a ~280k-DoF saddle-point matrix per step
+// (minutes and many GB): it runs only up to --mono-max-dofs DoFs (default 100000).
+#include <mpi.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
 #include <vim/initial_mesh.hpp>
 #include <vim/pipeline/progress.hpp>
 #include <vim/pipeline/simulation.hpp>
-
-#include <mpi.h>
-
-#include <chrono>
-#include <cstdio>
-#include <algorithm>
-#include <cstdlib>
-#include <vector>
-#include <string>
 
 using namespace vim;
 using namespace vim::pipeline;
@@ -22,42 +27,61 @@ namespace {
 
 MeshModel<3> block(int n_xy, int n_z) {
   MeshModel<3> m;
-  m.mesh = regular_grid_mesh<3>(Eigen::Vector3d(-20, -20, 0), Eigen::Vector3d(20, 20, 60), {{n_xy, n_xy, n_z}});
+  m.mesh =
+      regular_grid_mesh<3>(Eigen::Vector3d(-20, -20, 0), Eigen::Vector3d(20, 20, 60), {{n_xy, n_xy, n_z}});
   m.values.assign(m.mesh.n_cells(), ElementValue{1, 15.0, 0.0});
   return m;
 }
 
 struct Timing {
-  double steps_per_second = 0.0, steady = 0.0, solve_fraction = 0.0, force = 0.0, median_step = 0.0;
+  double precompute = 0.0, mean = 0.0, median = 0.0, p99 = 0.0;  // seconds per step for the last three
   int points = 0;
+  unsigned dofs = 0;
+  double force = 0.0;
 };
 
-Timing time_run(const MeshModel<3>& model, int steps, bool monolithic) {
-  const std::string y = "material: {poisson_ratio: 0.45}\n"
-                        "boundary_conditions: [{type: fixed, region: {box_face: z_max}}]\n"
-                        "needle: {entry: [0.3, -0.2, 0], direction: [0, 0, 1], depth: 40, steps: " +
-                        std::to_string(steps) + ", diameter: 1.27}\n"
-                        "targets: [{name: t, position: [0, 0, 45]}]\noutput: {every: 0}\n";
+Timing time_run(const MeshModel<3>& model, unsigned degree, int steps, const std::string& friction,
+                const std::string& solver, bool monolithic) {
+  const std::string law = friction == "stick-slip"
+                              ? ", friction: {model: stick-slip, max_shear_per_length: 0.5}"
+                              : ", friction: {model: stick}";
+  const std::string y =
+      "material: {poisson_ratio: 0.45}\n"
+      "boundary_conditions: [{type: fixed, region: {box_face: z_max}}]\n"
+      "needle: {entry: [0.3, -0.2, 0], direction: [0, 0, 1], depth: 40, steps: " +
+      std::to_string(steps) + ", diameter: 1.27" + law +
+      "}\n"
+      "targets: [{name: t, position: [0, 0, 45]}]\noutput: {every: 0}\nsolver: {type: " +
+      solver + "}\n";
   SimulationOptions o;
   o.progress = false;
   o.monolithic = monolithic;
+  o.degree = degree;
   NeedleSimulation<3> sim(model, parse_scenario_text(y, 3, "bench"), o);
-  const auto t0 = std::chrono::steady_clock::now();
   const auto res = sim.run();
-  const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  Timing t;
   const auto& r = res.needles[0];
-  t.steps_per_second = steps / total;
-  t.force = r.axial_force.back();
-  t.points = r.active_points.back();
-  double later = 0.0;  // steps 2..n: the factorisation is reused
-  for (std::size_t k = 2; k < r.step_seconds.size(); ++k) later += r.step_seconds[k];
-  t.steady = later > 0.0 ? (r.step_seconds.size() - 2) / later : 0.0;
-  t.solve_fraction = r.solve_seconds / total;
+  Timing t;
+  t.precompute = r.precompute_seconds;
   std::vector<double> st(r.step_seconds.begin() + 1, r.step_seconds.end());
+  t.mean = r.stepping_seconds / steps;
   std::sort(st.begin(), st.end());
-  t.median_step = st.empty() ? 0.0 : st[st.size() / 2];
+  t.median = st[st.size() / 2];
+  t.p99 = st[std::min(st.size() - 1, static_cast<std::size_t>(0.99 * static_cast<double>(st.size())))];
+  t.points = r.active_points.back();
+  t.dofs = r.stats.n_dofs;
+  t.force = r.axial_force.back();
   return t;
+}
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::size_t a = 0;
+  while (a <= s.size()) {
+    const std::size_t b = std::min(s.find(',', a), s.size());
+    out.push_back(s.substr(a, b - a));
+    a = b + 1;
+  }
+  return out;
 }
 
 }  // namespace
@@ -65,19 +89,50 @@ Timing time_run(const MeshModel<3>& model, int steps, bool monolithic) {
 int main(int argc, char** argv) {
   MPI_Init(&argc, &argv);  // Trilinos (AMG) needs MPI even on one rank
   Log::set_verbosity(Verbosity::quiet);
-  const int steps = argc > 1 ? std::atoi(argv[1]) : 100;
-  const bool baseline = !(argc > 2 && std::string(argv[2]) == "cached");
-  std::printf("needle steps/s, P1, stick, %d steps over 40 mm (includes assembly + factorisation)\n", steps);
-  std::printf("%8s %8s %12s %12s %12s %12s %8s %8s %12s %12s\n", "nodes", "points", "cached", "cached(2..)", "monolithic",
-              "mono(2..)", "ratio", "solve%", "median_ms", "force");
-  for (const auto& [nxy, nz] : {std::pair{8, 16}, std::pair{17, 35}}) {
-    const MeshModel<3> m = block(nxy, nz);
-    const Timing fast = time_run(m, steps, false);
-    const int mono_steps = m.mesh.n_points() > 5000 ? std::max(4, steps / 10) : steps;
-    const Timing mono = baseline ? time_run(m, mono_steps, true) : Timing{1, 1, 0, 0, 0, 0};
-    std::printf("%8zu %8d %12.1f %12.1f %12.2f %12.2f %8.1f %8.0f %12.3f %12.5g\n", m.mesh.n_points(), fast.points,
-                fast.steps_per_second, fast.steady, mono.steps_per_second, mono.steady, fast.steady / mono.steady,
-                100.0 * fast.solve_fraction, 1e3 * fast.median_step, fast.force);
+  int steps = 200, mono_steps = 5;
+  unsigned mono_max_dofs = 100000;
+  std::string friction = "stick", sizes = "1k,10k", degrees = "1,2", solver = "auto";
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string k = argv[i], v = argv[i + 1];
+    if (k == "--steps")
+      steps = std::atoi(v.c_str());
+    else if (k == "--mono-steps")
+      mono_steps = std::atoi(v.c_str());
+    else if (k == "--mono-max-dofs")
+      mono_max_dofs = static_cast<unsigned>(std::atol(v.c_str()));
+    else if (k == "--friction")
+      friction = v;
+    else if (k == "--sizes")
+      sizes = v;
+    else if (k == "--degrees")
+      degrees = v;
+    else {
+      std::fprintf(stderr, "bench_needle: unknown option %s\n", k.c_str());
+      return 2;
+    }
+  }
+  std::printf("needle steps, %s friction, %d steps over 40 mm (monolithic: %d steps)\n", friction.c_str(),
+              steps, mono_steps);
+  std::printf("%6s %3s %8s %7s %11s %10s %10s %10s %11s %8s %10s\n", "nodes", "P", "DoFs", "points",
+              "precomp_s", "mean_st/s", "median_ms", "p99_ms", "mono_st/s", "ratio", "force");
+  for (const std::string& size : split(sizes)) {
+    const MeshModel<3> m = size == "10k" ? block(17, 35) : block(8, 16);
+    for (const std::string& deg : split(degrees)) {
+      const auto degree = static_cast<unsigned>(std::atoi(deg.c_str()));
+      const Timing fast = time_run(m, degree, steps, friction, solver, false);
+      Timing mono;
+      const bool run_mono = fast.dofs <= mono_max_dofs && mono_steps > 0;
+      if (run_mono) mono = time_run(m, degree, mono_steps, friction, solver, true);
+      char mono_rate[32] = "-", ratio[32] = "-";
+      if (run_mono) {
+        std::snprintf(mono_rate, sizeof mono_rate, "%.2f", 1.0 / mono.mean);
+        std::snprintf(ratio, sizeof ratio, "%.0f", mono.mean / fast.mean);
+      }
+      std::printf("%6zu %3u %8u %7d %11.2f %10.0f %10.3f %10.3f %11s %8s %10.5g\n", m.mesh.n_points(), degree,
+                  fast.dofs, fast.points, fast.precompute, 1.0 / fast.mean, 1e3 * fast.median, 1e3 * fast.p99,
+                  mono_rate, ratio, fast.force);
+      std::fflush(stdout);
+    }
   }
   MPI_Finalize();
   return 0;

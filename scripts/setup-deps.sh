@@ -7,6 +7,7 @@ set -euo pipefail
 PACKAGES=(
   build-essential cmake pkg-config binutils
   libdeal.ii-dev
+  libsuitesparse-dev   # CHOLMOD (the direct solver); deal.II pulls it in, named here because fem links it
   libinsighttoolkit5-dev
   libvtk9-dev
   libeigen3-dev

@@ -19,7 +19,6 @@
 #include <deal.II/lac/trilinos_precondition.h>
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/vector.h>
-#include <suitesparse/umfpack.h>
 
 #include <array>
 #include <cmath>
@@ -32,6 +31,7 @@
 #include <vector>
 #include <vim/fem/model.hpp>
 
+#include "cholmod_llt.hpp"
 #include "input_checks.hpp"
 
 namespace vim::fem {
@@ -113,31 +113,34 @@ double barycentric_gradients(const CellIterator& cell, std::array<dealii::Tensor
   return std::abs(dealii::determinant(J)) / (dim == 2 ? 2.0 : 6.0);
 }
 
-// UMFPACK LU of the symmetric K, factorised once; solves without iterative refinement and with
-// preallocated workspace (deal.II's SparseDirectUMFPACK refines twice per solve and solves the
-// transposed system, about 3× the work per back-substitution the needle fast path needs).
-class UmfpackLU {
- public:
-  explicit UmfpackLU(const dealii::SparseMatrix<double>& K);
-  ~UmfpackLU();
-  UmfpackLU(const UmfpackLU&) = delete;
-  UmfpackLU& operator=(const UmfpackLU&) = delete;
-  void solve(dealii::Vector<double>& x) const;  // in place: x ← K⁻¹ x
+// The constraint rows whose columns K⁻¹cᵀ have been computed, by key (a row's position, direction, then
+// its sample offsets and weights), with c·u0 and the symmetrised products c_a·K⁻¹c_bᵀ of pairs as
+// solves need them: after a precomputation a solve with cached rows does only dense work on these.
+struct ColumnCache {
+  using Key = std::vector<double>;
+  struct Entry {
+    ConstraintRow row;
+    dealii::Vector<double> col;  // K⁻¹cᵀ (empty for an inactive row)
+    double cu0 = 0.0;            // c·u0, u0 = K⁻¹f
+    std::size_t id = 0;          // index into the Gram matrix
+  };
+  std::map<Key, Entry> entries;
+  // Symmetrised c_a·K⁻¹c_bᵀ by id; NaN: not computed yet. Grown by doubling.
+  Eigen::MatrixXd gram;
 
- private:
-  std::vector<SuiteSparse_long> Ap, Ai;
-  std::vector<double> Ax;
-  void* symbolic = nullptr;
-  void* numeric = nullptr;
-  double control[UMFPACK_CONTROL];
-  mutable std::vector<SuiteSparse_long> Wi;
-  mutable std::vector<double> W, b;
+  void clear() {
+    entries.clear();
+    gram.resize(0, 0);
+  }
+  // Adds a row with its column; `u0` gives its c·u0.
+  Entry& add(Key key, ConstraintRow row, dealii::Vector<double> col, const dealii::Vector<double>& u0);
+  // ½(c_a·K⁻¹c_bᵀ + c_b·K⁻¹c_aᵀ), computed on first use.
+  double product(const Entry& a, const Entry& b);
 };
 
 template <int dim>
 struct ElasticModel<dim>::Impl {
-  // A row's position, direction, then its sample offsets and weights (averaged constraints).
-  using Key = std::vector<double>;
+  using Key = ColumnCache::Key;
   using Cell = typename dealii::DoFHandler<dim>::active_cell_iterator;
   using Located = std::pair<typename dealii::Triangulation<dim>::active_cell_iterator, dealii::Point<dim>>;
 
@@ -200,15 +203,15 @@ struct ElasticModel<dim>::Impl {
   double assemble_seconds = 0.0;
 
   // ---- solvers (cached across solve() calls) -----------------------------------------------
-  std::string method;  // "umfpack" | "cg+amg" once prepared
-  std::unique_ptr<UmfpackLU> direct;
+  std::string method;  // "cholmod" | "cg+amg" once prepared
+  std::unique_ptr<CholmodLLT> direct;
   std::unique_ptr<dealii::TrilinosWrappers::SparseMatrix> K_trilinos;
   std::unique_ptr<dealii::TrilinosWrappers::PreconditionAMG> amg;
   double prepare_seconds = 0.0;
   bool have_u0 = false;
   dealii::Vector<double> u0;  // K⁻¹ f
   unsigned u0_iterations = 0;
-  std::map<Key, std::pair<ConstraintRow, dealii::Vector<double>>> columns;  // row and K⁻¹cᵀ
+  ColumnCache columns;
 
   // ---- last solution -----------------------------------------------------------------------
   bool have_solution = false;
@@ -246,6 +249,8 @@ struct ElasticModel<dim>::Impl {
   // x = K⁻¹ b with the prepared solver; returns CG iterations (0 for the direct solver).
   unsigned apply_inverse(const dealii::Vector<double>& b, dealii::Vector<double>& x, const SolverOptions& opt,
                          double* residual = nullptr) const;
+  // Computes u0 = K⁻¹f once per prepared solver (its CG iterations are kept in u0_iterations).
+  void ensure_u0(const SolverOptions& opt, double* residual = nullptr);
 
   // ---- post-processing and point location (postprocess.cpp) ---------------------------------
   const CellLocator<dim>& cell_locator() const;

@@ -1,8 +1,11 @@
 // Finite-radius needle coupling rows (vim/fem/needle_band.hpp).
-#include <Eigen/Geometry>  // Vec::cross (needle_frame)
+#include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 #include <vim/fem/needle_band.hpp>
 
 namespace vim::fem {
@@ -10,6 +13,10 @@ namespace vim::fem {
 namespace {
 
 constexpr double pi = 3.14159265358979323846;
+// Measured (docs/needle-model.md): the smallest R/h that keeps the analytic shafts within 2–3%.
+constexpr double kCouplingFactorP1 = 3.0;
+constexpr double kCouplingFactorP2 = 1.0;
+constexpr double kSampleSpacing = 0.5;  // samples per element size h: spacing ≤ 0.5 h
 
 void check_band(double radius, double coupling_radius, double length) {
   if (!(radius > 0.0) || !std::isfinite(radius))
@@ -27,6 +34,26 @@ double shear_modulus(double youngs_modulus, double poisson_ratio) {
   return youngs_modulus / (2.0 * (1.0 + poisson_ratio));
 }
 
+// The rings of the band's cross-section: radius and weight (summing to 1).
+std::vector<std::pair<double, double>> band_rings(const NeedleBand& band) {
+  check_band(band.radius, band.coupling_radius, band.length);
+  if (band.n_radial < 1 || !(band.inner_fraction >= 0.0 && band.inner_fraction <= 1.0))
+    throw std::invalid_argument("needle band: at least 1 ring across, and an inner fraction in [0, 1], got " +
+                                std::to_string(band.n_radial) + " and " +
+                                std::to_string(band.inner_fraction));
+  const double r0 = band.inner_fraction * band.coupling_radius,
+               dr = (band.coupling_radius - r0) / band.n_radial;
+  std::vector<std::pair<double, double>> rings;
+  double sum = 0.0;
+  for (int j = 0; j < band.n_radial; ++j) {
+    const double r = r0 + (j + 0.5) * dr;
+    rings.emplace_back(r, r);
+    sum += r;
+  }
+  for (auto& ring : rings) ring.second /= sum;
+  return rings;
+}
+
 }  // namespace
 
 double axial_band_compliance(double radius, double coupling_radius, double length, double youngs_modulus,
@@ -42,6 +69,49 @@ double lateral_band_compliance(double radius, double coupling_radius, double len
   const double g = shear_modulus(youngs_modulus, poisson_ratio);
   return (3.0 - 4.0 * poisson_ratio) * std::log(coupling_radius / radius) /
          (8.0 * pi * g * (1.0 - poisson_ratio) * length);
+}
+
+double effective_coupling_radius(const NeedleBand& band) {
+  double log_r = 0.0;
+  for (const auto& [r, w] : band_rings(band))
+    for (const auto& [s, v] : band_rings(band)) log_r += w * v * std::log(std::max(r, s));
+  return std::exp(log_r);
+}
+
+NeedleBand needle_band_for(double radius, double element_size, double length, double c) {
+  if (!(element_size > 0.0) || !std::isfinite(element_size) || !(c > 0.0) || !std::isfinite(c))
+    throw std::invalid_argument("needle band: the element size and its factor must be finite and > 0, got " +
+                                std::to_string(element_size) + " and " + std::to_string(c));
+  NeedleBand band;
+  band.radius = radius;
+  band.length = length;
+  band.coupling_radius = std::max(radius, c * element_size);
+  check_band(band.radius, band.coupling_radius, band.length);
+  const double spacing = kSampleSpacing * element_size, thickness = c * element_size;
+  // The smallest R ≥ c·h whose shell of thickness min(R, c·h) has an effective radius ≥ a (R_e/R only
+  // grows with R here, so the fixed point is reached from below).
+  for (int it = 0; it < 50; ++it) {
+    const double R = band.coupling_radius;
+    band.inner_fraction = std::max(0.0, R - thickness) / R;
+    band.n_radial = std::max(1, static_cast<int>(std::ceil((R - band.inner_fraction * R) / spacing)));
+    const double grown = std::max(c * element_size, radius * R / effective_coupling_radius(band));
+    if (std::abs(grown - R) <= 1e-12 * R) break;
+    band.coupling_radius = grown;
+  }
+  band.n_theta = std::max(8, static_cast<int>(std::ceil(2.0 * pi * band.coupling_radius / spacing)));
+  band.n_axial = std::max(2, static_cast<int>(std::ceil(length / spacing)));
+  return band;
+}
+
+NeedleBand default_needle_band(double radius, double element_size, double length, unsigned degree) {
+  if (degree != 1 && degree != 2)
+    throw std::invalid_argument("needle band: the element degree must be 1 or 2, got " +
+                                std::to_string(degree));
+  return needle_band_for(radius, element_size, length, degree == 1 ? kCouplingFactorP1 : kCouplingFactorP2);
+}
+
+double default_coupling_radius(double radius, double element_size, unsigned degree) {
+  return default_needle_band(radius, element_size, element_size, degree).coupling_radius;
 }
 
 Eigen::Matrix3d needle_frame(const Vec<3>& axis) {
@@ -68,23 +138,30 @@ PointConstraint<3> needle_band_constraint(const Vec<3>& centre, const Vec<3>& ax
   p.position = centre;
   p.axes = needle_frame(axis);
   p.displacement = displacement;
-  // Gauss–Legendre along the band (1 or 2 points), equal weights around the circle.
-  const double g2 = 0.5 / std::sqrt(3.0);
+  // Rings at the midpoints of n_axial equal parts of the band (stations tiling a path then sample it
+  // evenly) and at the band's radii, each rotated by half a sample against the previous one.
+  const auto rings = band_rings(band);
   for (int k = 0; k < band.n_axial; ++k) {
-    const double t = band.n_axial == 1 ? 0.0 : -g2 + 2.0 * g2 * k / std::max(1, band.n_axial - 1);
-    for (int i = 0; i < band.n_theta; ++i) {
-      const double th = 2.0 * pi * (i + 0.5 * k) / band.n_theta;
-      p.offsets.push_back(band.coupling_radius *
-                              (std::cos(th) * p.axes.col(0) + std::sin(th) * p.axes.col(1)) +
-                          t * band.length * p.axes.col(2));
-      p.weights.push_back(1.0);
-    }
+    const double t = (k + 0.5) / band.n_axial - 0.5;
+    for (std::size_t j = 0; j < rings.size(); ++j)
+      for (int i = 0; i < band.n_theta; ++i) {
+        const double th = 2.0 * pi * (i + 0.5 * static_cast<double>(k + j)) / band.n_theta;
+        p.offsets.push_back(rings[j].first * (std::cos(th) * p.axes.col(0) + std::sin(th) * p.axes.col(1)) +
+                            t * band.length * p.axes.col(2));
+        p.weights.push_back(rings[j].second);
+      }
   }
-  const double kl =
-      lateral_band_compliance(band.radius, band.coupling_radius, band.length, youngs_modulus, poisson_ratio);
-  p.compliance = Vec<3>(
-      kl, kl,
-      axial_band_compliance(band.radius, band.coupling_radius, band.length, youngs_modulus, poisson_ratio));
+  const double re = effective_coupling_radius(band);
+  if (!(re >= band.radius * (1.0 - 1e-12)))
+    throw std::invalid_argument("needle band: the effective radius " + std::to_string(re) +
+                                " of the averaging shell is below the needle's radius " +
+                                std::to_string(band.radius) + " (move the shell outwards)");
+  // A shell whose effective radius is the needle's (needle_band_for when h ≪ a) is held rigidly: κ = 0
+  // exactly, not a round-off compliance, so the fast and monolithic solves treat its rows alike.
+  const double r_eff = re <= band.radius * (1.0 + 1e-9) ? band.radius : re;
+  const double kl = lateral_band_compliance(band.radius, r_eff, band.length, youngs_modulus, poisson_ratio);
+  p.compliance =
+      Vec<3>(kl, kl, axial_band_compliance(band.radius, r_eff, band.length, youngs_modulus, poisson_ratio));
   return p;
 }
 

@@ -43,11 +43,6 @@ double path_element_size(const fem::CellLocator<3>& locator, const Eigen::Vector
   return seen.empty() ? locator.mean_edge_length() : sum / static_cast<double>(seen.size());
 }
 
-double default_coupling_radius(double radius, double element_size) {
-  constexpr double elements_per_radius = 2.0;  // c: the one place this rule's constant lives
-  return std::max(radius, elements_per_radius * element_size);
-}
-
 BandCoupling::BandCoupling(const Geometry& g, const fem::CellLocator<3>& locator,
                            const std::vector<double>& cell_modulus, double poisson_ratio,
                            const std::vector<bool>& blocked)
@@ -55,9 +50,14 @@ BandCoupling::BandCoupling(const Geometry& g, const fem::CellLocator<3>& locator
   const long n = std::max(1L, static_cast<long>(std::ceil(g.depth / g.spacing - 1e-9)));
   const double length = g.depth / static_cast<double>(n);
   fem::NeedleBand band;
-  band.radius = g.radius;
-  band.coupling_radius = g.coupling_radius;
-  band.length = length;
+  if (g.coupling_radius > 0.0) {
+    band.radius = g.radius;
+    band.coupling_radius = g.coupling_radius;
+    band.length = length;
+  } else {
+    band = fem::default_needle_band(g.radius, g.element_size, length, g.degree);
+  }
+  coupling_radius_ = band.coupling_radius;
   std::vector<int> support;
   for (long i = 0; i < n; ++i) {
     const double s = (static_cast<double>(i) + 0.5) * length;

@@ -13,6 +13,7 @@
 #include <vim/pipeline/memory_limit.hpp>
 #include <vim/pipeline/meshing_run.hpp>
 #include <vim/pipeline/report.hpp>
+#include <vim/pipeline/study.hpp>
 #include <vim/version.hpp>
 
 #include "run_support.hpp"
@@ -96,6 +97,7 @@ const char* kFooter =
                force and target displacement vs depth and the deformed mesh at the last step
   simulation.pvd, steps/step_NNNN.vtu, needle.csv   with --simulate (open the .pvd in ParaView)
   report.json  input, options, mesh counts and quality, energy history, simulation, timings (README)
+  with --study: cases/NAME/ (a --simulate run per case, and its case.yaml) and study.csv (a row per case)
   A non-empty DIR is refused unless --overwrite; a failed run removes the files it wrote.
 
 Exit status: 0 success, 1 bad input or failure (one 'vim-pipeline: error:' line), 2 usage error.
@@ -108,6 +110,8 @@ Examples:
   vim-make-phantom prostate prostate.mha
   vim-pipeline prostate.mha --nodes 1000 --lambda 0.3 --out out/prostate
   vim-pipeline prostate.mha --nodes 1000 --simulate examples/prostate_needle.yaml --out out/needle
+  vim-pipeline prostate.mha --study examples/prostate_study.yaml --out out/study
+  mpirun -np 4 vim-pipeline prostate.mha --study examples/prostate_study.yaml --out out/study
 )";
 
 // The options of the VIM mesher (--nodes ... --threshold), with their defaults and ranges.
@@ -242,9 +246,17 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
                  "(avoids locking for ν near 0.5) (default 1; range {1, 2})")
       ->type_name("1|2")
       ->check(CLI::Range(1, 2));
-  app.add_option("--simulate", o.simulate,
-                 "Needle-insertion scenario (YAML) to simulate on the mesh (default: mesh only)")
-      ->type_name("SCENARIO.yaml");
+  auto* simulate =
+      app.add_option("--simulate", o.simulate,
+                     "Needle-insertion scenario (YAML) to simulate on the mesh (default: mesh only)")
+          ->type_name("SCENARIO.yaml");
+  app.add_option("--study", o.study,
+                 "A study (YAML): a base scenario run once per case of a list and/or grid of varied values; "
+                 "DIR/cases/NAME/ per case and DIR/study.csv; resumes an earlier run in DIR; under mpirun "
+                 "case i runs on rank i mod N (README, Studies)")
+      ->type_name("STUDY.yaml")
+      ->excludes(simulate)
+      ->excludes("--sizing");
   app.add_option("--export", o.exports,
                  "Extra mesh formats, comma-separated: vtk (legacy, deal.II GridIn), feb (FEBio), msh "
                  "(Gmsh 4.1), inp (Abaqus), all, or none alone (default: all = vtk,feb,msh,inp; mesh.vtu is "
@@ -302,18 +314,20 @@ int run_info(const RunOptions& o) {
   return 0;
 }
 
+}  // namespace
+
 void print_error(std::string msg) {
   for (char& c : msg)
     if (c == '\n' || c == '\r') c = ' ';
   std::cerr << "vim-pipeline: error: " << msg << "\n";
 }
 
-}  // namespace
-
 int run(const RunOptions& o) {
   Log::set_verbosity(o.verbosity);
   try {
+    if (refused_on_many_ranks(o)) return 1;
     if (o.info) return run_info(o);
+    if (!o.study.empty()) return run_study(o);  // prints its errors itself (once under mpirun)
     ImageFile image(o.image);
     if (image.dimension() == 2)
       MeshingRun<2>(o, std::move(image)).run();

@@ -46,6 +46,7 @@ class NeedleInsertion final : public TissueResponse {
   const AxialMap& axial_map() override;
 
  private:
+  void precompute();
   void rest();
   void advance_one_step(int k);
   void pick_up(double depth, double travel);

@@ -52,7 +52,8 @@ void MeshingRun<dim>::simulate() {
 }
 
 // Figures of a needle run: axial/lateral force against depth for every needle and, on a simplex
-// model, the deformed mesh at the last step cut through the final tip position.
+// model, the deformed mesh at the last step cut through the final tip position; of a static load case
+// the deformed mesh cut through the model's centre (3D: normal to the first axis).
 template <int dim>
 void MeshingRun<dim>::write_simulation_figures(const SimulationResult<dim>& result) {
   const MeshModel<dim>* model = options_.mesher == MesherKind::voxel ? nullptr : &model_;
@@ -64,6 +65,18 @@ void MeshingRun<dim>::write_simulation_figures(const SimulationResult<dim>& resu
     modulus = result.report["units"].value("modulus", modulus);
   }
   const std::string force = length == "mm" && modulus == "kPa" ? "mN" : modulus + "·" + length + "²";
+  if (model && result.static_load) {
+    // A static load case: the deformed mesh, cut through the centre of the model normal to its first axis.
+    std::vector<Eigen::Matrix<double, dim, 1>> u;
+    for (const auto& w : result.static_load->vertex_displacement)
+      u.push_back(model->transform.vector_to_frame(w));
+    Eigen::Matrix<double, dim, 1> lo = model->mesh.points.front(), hi = lo;
+    for (const auto& p : model->mesh.points) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    json& fig = report_["figures"]["simulation"]["static_load"];
+    fig = write_deformed_slice<dim>(*model, u, out().file("figures/deformed.png"), 0.5 * (lo + hi), 0,
+                                    "|u| [" + length + "]");
+    fig["file"] = "figures/deformed.png";
+  }
   for (const auto& run : result.needles) {
     if (run.depth.empty()) continue;
     const std::string prefix = result.needles.size() > 1 ? run.name + "_" : "";

@@ -60,6 +60,41 @@ RegionSpec parse_region(const Reader& r, const YAML::Node& n, const std::string&
   return reg;
 }
 
+// needle.friction of the kinematic model. Stick-slip is the default model (also when the key is
+// absent); its limit max_shear_per_length has no default and is then required: the friction per unit
+// length of shaft depends on the tissue, the needle and its surface, and published insertion
+// measurements do not give one value to stand for them all (README, "Friction"). Pure stick is the
+// no-slip limit, chosen with {model: stick}.
+void parse_friction(const Reader& r, const Fields& f, const YAML::Node& needle, const std::string& path,
+                    NeedleSpec& s) {
+  const std::string fp = path + ".friction";
+  const YAML::Node& fn = f["friction"];
+  if (s.model == NeedleSpec::Model::force) {
+    if (fn)
+      r.fail(fn, fp + " applies only to needle model 'kinematic'; the force model takes friction_per_length");
+    return;
+  }
+  const std::string required =
+      fp +
+      ".max_shear_per_length' (the stick-slip limit, force per unit length of shaft, "
+      "> 0, e.g. mN/mm; it has no default); stick-slip is the default friction; "
+      "use friction: {model: stick} for the no-slip limit";
+  if (!fn) r.fail(needle, "missing key '" + required);
+  const Fields fr = r.check_keys(fn, fp, {"model", "max_shear_per_length"});
+  if (fr["model"])
+    s.friction = r.choice(fr["model"], fp + ".model", {"stick", "stick-slip"}) == "stick"
+                     ? NeedleSpec::Friction::stick
+                     : NeedleSpec::Friction::stick_slip;
+  else
+    s.friction = NeedleSpec::Friction::stick_slip;
+  if (s.friction == NeedleSpec::Friction::stick_slip) {
+    if (!fr["max_shear_per_length"]) r.fail(fn, "missing key '" + required);
+    s.max_shear_per_length = r.positive(fr["max_shear_per_length"], fp + ".max_shear_per_length");
+  } else if (fr["max_shear_per_length"]) {
+    r.fail(fr["max_shear_per_length"], fp + ".max_shear_per_length applies only to model stick-slip");
+  }
+}
+
 NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string& path, int dim) {
   const Fields f = r.check_keys(
       n, path,
@@ -88,25 +123,7 @@ NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string&
     s.model = r.choice(f["model"], path + ".model", {"kinematic", "force"}) == "force"
                   ? NeedleSpec::Model::force
                   : NeedleSpec::Model::kinematic;
-  if (f["friction"]) {
-    const YAML::Node& fn = f["friction"];
-    const std::string fp = path + ".friction";
-    if (s.model == NeedleSpec::Model::force)
-      r.fail(fn, fp + " applies only to needle model 'kinematic'; the force model takes friction_per_length");
-    const Fields fr = r.check_keys(fn, fp, {"model", "max_shear_per_length"});
-    const std::string m =
-        r.choice(r.require(fr, "model", fp + ".model"), fp + ".model", {"stick", "stick-slip"});
-    s.friction = m == "stick" ? NeedleSpec::Friction::stick : NeedleSpec::Friction::stick_slip;
-    if (s.friction == NeedleSpec::Friction::stick_slip) {
-      if (!fr["max_shear_per_length"])
-        r.fail(fn, "missing key '" + fp +
-                       ".max_shear_per_length' (required for friction model stick-slip; force per unit "
-                       "length, > 0)");
-      s.max_shear_per_length = r.positive(fr["max_shear_per_length"], fp + ".max_shear_per_length");
-    } else if (fr["max_shear_per_length"]) {
-      r.fail(fr["max_shear_per_length"], fp + ".max_shear_per_length applies only to model stick-slip");
-    }
-  }
+  parse_friction(r, f, n, path, s);
   if (f["sample_spacing"]) {
     s.sample_spacing = r.positive(f["sample_spacing"], path + ".sample_spacing");
     // One embedded point (one constraint of the FEM solve) per sample_spacing of travel.
@@ -371,11 +388,11 @@ void parse_boundary_conditions(const Reader& r, const Fields& top, Scenario& s, 
 }
 
 // needle, or needles (a list with unique names).
-void parse_needles(const Reader& r, const Fields& top, Scenario& s, const YAML::Node& root, int dim) {
+void parse_needles(const Reader& r, const Fields& top, Scenario& s, int dim) {
   {
     const YAML::Node &one = top["needle"], &many = top["needles"];
     if (one && many) r.fail(many, "give either 'needle' or 'needles', not both");
-    if (!one && !many) r.fail(root, "missing key 'needle' (or 'needles' with a list of needles)");
+    if (!one && !many) return;  // a static load case (check_static_load)
     if (one) {
       s.needles.push_back(parse_needle(r, one, "needle", dim));
     } else {
@@ -393,6 +410,32 @@ void parse_needles(const Reader& r, const Fields& top, Scenario& s, const YAML::
       }
     }
   }
+}
+
+// Whether a condition moves the tissue: a prescribed displacement with a non-zero held component, or a
+// non-zero pressure or traction.
+bool is_load(const BoundaryConditionSpec& bc) {
+  if (bc.type == BoundaryConditionSpec::Type::fixed) return false;
+  for (std::size_t c = 0; c < bc.value.size(); ++c)
+    if (bc.value[c] != 0.0 && (bc.type != BoundaryConditionSpec::Type::displacement || bc.components[c]))
+      return true;
+  return false;
+}
+
+// A scenario without a needle is a static load case (solved once, step 0): it needs a load, and
+// mesh.needle_refinement has no path to refine along.
+void check_static_load(const Reader& r, const Fields& top, const Scenario& s) {
+  if (!s.needles.empty()) return;
+  if (std::none_of(s.boundary_conditions.begin(), s.boundary_conditions.end(), is_load))
+    r.fail(top["boundary_conditions"],
+           "boundary_conditions: a scenario without 'needle' or 'needles' is a static load case, but no "
+           "condition loads the model (only fixed supports or zero values: nothing would move); add a "
+           "displacement with a non-zero value, a pressure or a traction, or a needle");
+  if (const YAML::Node& m = top["mesh"])
+    if (m["needle_refinement"])
+      r.fail(m["needle_refinement"],
+             "mesh.needle_refinement refines the mesh along the needle paths, but the scenario has no "
+             "'needle' or 'needles'; remove it");
 }
 
 // targets: named points whose displacement is recorded.
@@ -474,7 +517,8 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
   parse_material(r, top, s);
   parse_mesh(r, top, s);
   parse_boundary_conditions(r, top, s, dim);
-  parse_needles(r, top, s, root, dim);
+  parse_needles(r, top, s, dim);
+  check_static_load(r, top, s);
   parse_targets(r, top, s, dim);
   parse_output_and_solver(r, top, s);
   return s;

@@ -1,6 +1,7 @@
 // The scenario against the image (scenario.hpp): needle entries, directions, depths and targets inside
 // the image box (in the frame of an oblique image), and the needle paths in that frame.
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <sstream>
 #include <vim/pipeline/scenario.hpp>
@@ -13,6 +14,24 @@ std::string fmt(double x) {
   std::ostringstream s;
   s << x;
   return s.str();
+}
+
+// The narrowest width of a box of the given extents perpendicular to the unit direction `axis`: the
+// width along a unit p is sum_d |p_d| extent_d, and over the unit vectors p perpendicular to the axis it
+// is smallest where some p_d = 0 (between those points it is a positive multiple of a cosine, which has
+// no interior minimum), i.e. at p along axis x e_d in 3D; in 2D p is the one perpendicular.
+template <int dim>
+double width_across(const Eigen::Matrix<double, dim, 1>& axis, const Eigen::Matrix<double, dim, 1>& extent) {
+  double width = std::numeric_limits<double>::infinity();
+  if constexpr (dim == 2) {
+    width = std::abs(axis[1]) * extent[0] + std::abs(axis[0]) * extent[1];
+  } else {
+    for (int d = 0; d < 3; ++d) {
+      const Eigen::Vector3d p = axis.cross(Eigen::Vector3d::Unit(d));
+      if (p.norm() > 1e-12) width = std::min(width, p.normalized().cwiseAbs().dot(extent));
+    }
+  }
+  return width;
 }
 
 }  // namespace
@@ -80,6 +99,12 @@ void check_scenario_geometry(const Scenario& s, const Eigen::Matrix<double, dim,
     if (n.depth > tmax + tol)
       throw ScenarioError(s.where(n.line) + p + ".depth = " + fmt(n.depth) + " takes the tip out of " + box +
                           "; the largest depth from this entry along this direction is " + fmt(tmax));
+    const double width = width_across<dim>(dir, box_max - box_min);
+    if (n.diameter > width)
+      throw ScenarioError(
+          s.where(n.line) + p + ".diameter = " + fmt(n.diameter) + " is larger than " + box +
+          " across the needle (its narrowest width perpendicular to the needle's direction is " + fmt(width) +
+          "); the needle must fit inside the image");
   }
   for (const auto& t : s.targets) {
     const V position = tf.to_frame(vec(t.position));

@@ -1,6 +1,6 @@
-// Private to scenario.cpp: the checked accessors of the scenario parser. yaml-cpp gives no position for
-// missing keys or bad conversions, so every access goes through Reader, whose failures name the key
-// path, the YAML line and the valid values.
+// Private to scenario.cpp and study_reader.cpp: the checked accessors of the scenario parser. yaml-cpp gives
+// no position for missing keys or bad conversions, so every access goes through Reader, whose failures name
+// the key path, the YAML line and the valid values.
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -50,7 +50,7 @@ bool is_folder_name(const std::string& t) {
   return true;
 }
 // [A-Za-z_][A-Za-z0-9_]*
-bool is_identifier(const std::string& t) {
+inline bool is_identifier(const std::string& t) {
   if (t.empty() || !(is_alpha(t[0]) || t[0] == '_')) return false;
   for (char c : t)
     if (!is_alpha(c) && !is_digit(c) && c != '_') return false;

@@ -13,9 +13,11 @@
 #include <vim/pipeline/simulation.hpp>
 #include <vim/pipeline/vtk_output.hpp>
 
+#include "largest_strain.hpp"
 #include "needle_insertion.hpp"
 #include "simulation_context.hpp"
 #include "simulation_output.hpp"
+#include "static_load.hpp"
 
 namespace vim::pipeline {
 
@@ -433,11 +435,23 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
       res.warnings.push_back(w.str());
     }
     res.needles.push_back(m.insert_needle(spec, prefix, nr, res.warnings));
+    const std::string strain =
+        small_strain_warning(m.sc.where(spec.line), who, res.needles.back().max_strain);
+    if (!strain.empty()) res.warnings.push_back(strain);
     if (make_friction_law(spec, 1)->axial_force_never_falls())
       m.check_axial_force(spec, res.needles.back(), nr, res.warnings);
     needles.push_back(nr);
   }
   rep["needles"] = needles;
+  if (m.sc.needles.empty()) {  // a static load case: step 0 only
+    json load;
+    res.static_load = run_static_load<dim>(m, load, res.warnings);
+    rep["static_load"] = load;
+    rep["max_displacement"] = res.static_load->max_displacement;
+    rep["max_strain"] = res.static_load->max_strain;
+    for (std::size_t t = 0; t < m.sc.targets.size(); ++t)
+      rep["final_displacement_" + m.sc.targets[t].name] = res.static_load->target_displacement[t].norm();
+  }
   for (const auto& r : res.needles) {
     if (r.unsettled_steps.empty()) continue;
     std::ostringstream w;
@@ -460,6 +474,7 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
     for (std::size_t t = 0; t < m.sc.targets.size(); ++t)
       rep["final_displacement_" + m.sc.targets[t].name] = r.target_displacement.back()[t].norm();
     rep["max_displacement"] = r.max_displacement;
+    rep["max_strain"] = *std::max_element(r.max_strain.begin(), r.max_strain.end());
     rep["steps_per_second"] = r.steps_per_second;
   }
   rep["timing"] = {{"build_seconds", m.build_seconds}};

@@ -78,7 +78,7 @@ void write_needle_csv(const std::filesystem::path& path, const NeedleRun<dim>& r
     const char* axes = "xyz";
     o << "step,depth";
     for (int d = 0; d < dim; ++d) o << ",tip_" << axes[d];
-    o << ",axial_force,lateral_force,friction_force,tip_force";
+    o << ",axial_force,lateral_force,friction_force,tip_force,max_strain";
     for (const auto& t : sc.targets) {
       for (int d = 0; d < dim; ++d) o << "," << t.name << "_d" << axes[d];
       o << "," << t.name << "_norm";
@@ -88,7 +88,7 @@ void write_needle_csv(const std::filesystem::path& path, const NeedleRun<dim>& r
       o << k << "," << run.depth[k];
       for (int d = 0; d < dim; ++d) o << "," << run.tip[k][d];
       o << "," << run.axial_force[k] << "," << run.lateral_force[k] << "," << run.friction_force[k] << ","
-        << run.tip_force[k];
+        << run.tip_force[k] << "," << run.max_strain[k];
       for (const auto& u : run.target_displacement[k]) {
         for (int d = 0; d < dim; ++d) o << "," << u[d];
         o << "," << u.norm();
@@ -135,6 +135,7 @@ json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const Fric
   per["lateral_force"] = run.lateral_force;
   per["friction_force"] = run.friction_force;
   per["tip_force"] = run.tip_force;
+  per["max_strain"] = run.max_strain;
   per["active_points"] = run.active_points;
   per["solves"] = run.solves;
   if (law.has_active_set()) {
@@ -157,9 +158,13 @@ json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const Fric
     const auto u = run.target_displacement.back()[t];
     final_targets[sc.targets[t].name] = {{"displacement", to_json<dim>(u)}, {"norm", u.norm()}};
   }
-  rep["final"] = {{"axial_force", run.axial_force.back()},       {"lateral_force", run.lateral_force.back()},
-                  {"friction_force", run.friction_force.back()}, {"tip_force", run.tip_force.back()},
-                  {"force", to_json<dim>(run.force.back())},     {"targets", final_targets}};
+  rep["final"] = {{"axial_force", run.axial_force.back()},
+                  {"lateral_force", run.lateral_force.back()},
+                  {"friction_force", run.friction_force.back()},
+                  {"tip_force", run.tip_force.back()},
+                  {"force", to_json<dim>(run.force.back())},
+                  {"max_strain", run.max_strain.back()},
+                  {"targets", final_targets}};
   rep["max_displacement"] = run.max_displacement;
   rep["solver"] = {{"method", run.stats.method},
                    {"n_dofs", run.stats.n_dofs},
@@ -168,6 +173,8 @@ json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const Fric
                    {"monolithic", monolithic}};
   rep["timing"] = {{"run_seconds", run_seconds},
                    {"solve_seconds", run.solve_seconds},
+                   {"precompute_seconds", run.precompute_seconds},
+                   {"stepping_seconds", run.stepping_seconds},
                    {"steps_per_second", run.steps_per_second}};
   return rep;
 }

@@ -20,8 +20,8 @@ template <int dim>
 void write_step_vtu(const SimulationContext<dim>& ctx, const std::filesystem::path& path,
                     const fem::Solution<dim>* solution);
 
-// Per step: depth, tip, axial and lateral force, the axial force's friction and tip parts, each
-// target's displacement and its norm.
+// Per step: depth, tip, axial and lateral force, the axial force's friction and tip parts, the largest
+// strain (max_strain), each target's displacement and its norm.
 template <int dim>
 void write_needle_csv(const std::filesystem::path& path, const NeedleRun<dim>& run, const Scenario& sc);
 

@@ -130,7 +130,8 @@ SCENARIO_2D = {
     "material": {"youngs_modulus": "image", "poisson_ratio": 0.3},
     "mesh": {"nodes": 200},
     "boundary_conditions": [{"type": "fixed", "region": {"box_face": "y_min"}}],
-    "needle": {"entry": [14.5, 23.0], "direction": [0, -1], "depth": 8.0, "steps": 4, "diameter": 1.0},
+    "needle": {"entry": [14.5, 23.0], "direction": [0, -1], "depth": 8.0, "steps": 4, "diameter": 1.0,
+               "friction": {"model": "stick"}},
     "targets": [{"name": "below", "position": [14.5, 10.0]}],
 }
 

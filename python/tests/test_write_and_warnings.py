@@ -13,7 +13,8 @@ from conftest import run_cli, write_nrrd
 SCENARIO = {
     "material": {"youngs_modulus": 10.0, "poisson_ratio": 0.45},
     "boundary_conditions": [{"type": "fixed", "region": {"box_face": "z_min"}}],
-    "needle": {"entry": [4.5, 4.5, 9.0], "direction": [0, 0, -1], "depth": 3.0, "steps": 2, "diameter": 1.0},
+    "needle": {"entry": [4.5, 4.5, 9.0], "direction": [0, 0, -1], "depth": 3.0, "steps": 2, "diameter": 1.0,
+               "friction": {"model": "stick"}},
 }
 
 

@@ -30,6 +30,7 @@ needle:
   depth: 8
   steps: 2
   diameter: 1
+  friction: {model: stick}
 targets:
   - {name: lesion, position: [2, 0, 1]}
 output: {every: 1}
@@ -124,6 +125,24 @@ TEST_F(BadScenario, ZeroDirection) { expect_error(with("direction: [1, 0, 0]", "
 TEST_F(BadScenario, NonPositiveDepth) { expect_error(with("depth: 8", "depth: 0"), {"needle.depth must be > 0, got 0"}); }
 TEST_F(BadScenario, NonPositiveSteps) { expect_error(with("steps: 2", "steps: -3"), {"needle.steps must be > 0, got -3"}); }
 TEST_F(BadScenario, NonPositiveDiameter) { expect_error(with("diameter: 1", "diameter: 0"), {"needle.diameter must be > 0, got 0"}); }
+TEST_F(BadScenario, DiameterLargerThanTheImageBox) {
+  // The needle runs along x through a 16 x 12 x 12 mm box: 12 mm across it.
+  expect_error(with("diameter: 1", "diameter: 13"),
+               {"s.yaml:6:", "needle.diameter = 13 is larger than the image box", "narrowest width perpendicular to the needle's direction is 12"});
+}
+TEST_F(BadScenario, NegativeCuttingForce) {
+  expect_error(with("  diameter: 1\n", "  diameter: 1\n  cutting_force: -2\n"), {"s.yaml:11:", "needle.cutting_force must be a finite force >= 0, got -2"});
+}
+TEST_F(BadScenario, StickSlipLimitMissing) {
+  // Stick-slip is the default friction and its limit has no default.
+  expect_error(with("  friction: {model: stick}\n", ""), {"s.yaml:6:", "missing key 'needle.friction.max_shear_per_length'", "stick-slip is the default"});
+}
+TEST_F(BadScenario, NeedleFreeScenarioWithoutLoad) {
+  // Without its needle the base scenario only holds the model: a static load case in which nothing moves.
+  std::string yaml = kBase;
+  yaml.erase(yaml.find("needle:"), yaml.find("targets:") - yaml.find("needle:"));
+  expect_error(yaml, {"s.yaml:3:", "boundary_conditions: a scenario without 'needle' or 'needles' is a static load case", "pressure"});
+}
 TEST_F(BadScenario, BoxFaceThatDoesNotExist) {
   expect_error(with("box_face: x_max", "box_face: top"), {"s.yaml:3:", "box_face = 'top'", "x_min, x_max, y_min, y_max, z_min, z_max"});
 }
@@ -164,11 +183,11 @@ TEST_F(BadScenario, MissingScenarioFile) {
   EXPECT_TRUE(out_is_empty());
 }
 TEST_F(BadScenario, DuplicateKey) {
-  expect_error(std::string(kBase) + "material: {youngs_modulus: 99}\n", {"s.yaml:14:", "duplicate key 'material' (first given on line 1)"});
+  expect_error(std::string(kBase) + "material: {youngs_modulus: 99}\n", {"s.yaml:15:", "duplicate key 'material' (first given on line 1)"});
   expect_error(with("  depth: 8\n", "  depth: 8\n  depth: 5\n"), {"s.yaml:9:", "duplicate key 'needle.depth' (first given on line 8)"});
 }
 TEST_F(BadScenario, FrictionWithTheForceModel) {
-  expect_error(with("  diameter: 1\n", "  diameter: 1\n  model: force\n  tip_force: 5\n  friction: {model: stick}\n"),
+  expect_error(with("  diameter: 1\n", "  diameter: 1\n  model: force\n  tip_force: 5\n"),
                {"needle.friction applies only to needle model 'kinematic'"});
 }
 TEST_F(BadScenario, SampleSpacingTooSmall) {

@@ -41,8 +41,8 @@ MultiNeedleCase make_case(const fs::path& dir) {
 boundary_conditions:
   - {type: fixed, region: {box_face: y_max}}
 needles:
-  - {name: left, entry: [-10, -30], direction: [0, 1], depth: 25, steps: 6, diameter: 1}
-  - {name: right, entry: [10, -30], direction: [0, 1], depth: 20, steps: 5, diameter: 1}
+  - {name: left, entry: [-10, -30], direction: [0, 1], depth: 25, steps: 6, diameter: 1, friction: {model: stick}}
+  - {name: right, entry: [10, -30], direction: [0, 1], depth: 20, steps: 5, diameter: 1, friction: {model: stick}}
 output: {every: 1}
 )";
   return c;

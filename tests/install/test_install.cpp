@@ -45,7 +45,7 @@ void write_inputs(const fs::path& dir, const fs::path& phantom_exe) {
   std::ofstream(dir / "needle.yaml") << "material: {youngs_modulus: image, poisson_ratio: 0.45}\n"
                                         "boundary_conditions:\n  - {type: fixed, region: {box_face: z_min}}\n"
                                         "needle: {entry: [0.1, 0.2, 1.5], direction: [0, 0, -1], depth: 1.2, "
-                                        "steps: 3, diameter: 0.1}\n";
+                                        "steps: 3, diameter: 0.1, friction: {model: stick}}\n";
 }
 
 }  // namespace

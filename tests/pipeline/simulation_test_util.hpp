@@ -68,12 +68,22 @@ inline std::string yaml(const std::string& needle, const std::string& targets = 
 }
 
 inline const std::string kStick =
-    "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1}";
+    "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, friction: {model: stick}}";
 
 inline SimulationOptions quiet() {
   SimulationOptions o;
   o.progress = false;
   return o;
+}
+
+// The warnings of a run other than the small-strain one (the largest strain in the model above 10%,
+// which stuck needles reach on these coarse test meshes): the tests of the other warnings count these.
+template <int dim>
+std::vector<std::string> other_warnings(const SimulationResult<dim>& result) {
+  std::vector<std::string> out;
+  for (const auto& w : result.warnings)
+    if (w.find("the limit of small-strain elasticity") == std::string::npos) out.push_back(w);
+  return out;
 }
 
 // quiet(), writing the output files below `dir` (emptied first).

@@ -4,8 +4,11 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 
 using namespace vim;
 using namespace vim::pipeline;
@@ -71,7 +74,7 @@ void expect_errors(const std::string& base, const std::string& placeholder,
 
 const char* kMinimal = R"(boundary_conditions:
   - {type: fixed, region: {box_face: z_max}}
-needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 1}
+needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 1, friction: {model: stick}}
 )";
 
 }  // namespace
@@ -169,15 +172,58 @@ TEST(Scenario, DefaultsAndNumberModulus) {
   EXPECT_EQ(s.output_every, 1);
   EXPECT_EQ(s.solver_type, "auto");
   EXPECT_EQ(s.needles[0].model, NeedleSpec::Model::kinematic);
-  EXPECT_EQ(s.needles[0].friction, NeedleSpec::Friction::stick);
+  EXPECT_EQ(s.needles[0].friction, NeedleSpec::Friction::stick);  // as kMinimal says
   const auto e = scenario_modulus(s, {1.0, 2.0});
   EXPECT_EQ(e, (std::vector<double>{12.5, 12.5}));
+}
+
+// Stick-slip is the default friction: without a model the friction is stick-slip, and its limit has no
+// default, so a needle without friction (or with stick-slip and no limit) is an error naming the key;
+// {model: stick} is the no-slip limit.
+TEST(Scenario, StickSlipIsTheDefaultFrictionAndItsLimitIsRequired) {
+  const std::string plain = replace(kMinimal, ", friction: {model: stick}}", "}");
+  const std::string missing = error_of(plain);
+  EXPECT_NE(missing.find("s.yaml:3: missing key 'needle.friction.max_shear_per_length'"), std::string::npos) << missing;
+  EXPECT_NE(missing.find("stick-slip is the default"), std::string::npos) << missing;
+  EXPECT_NE(missing.find("{model: stick}"), std::string::npos) << missing;
+  const std::string no_limit = error_of(replace(kMinimal, "{model: stick}", "{model: stick-slip}"));
+  EXPECT_NE(no_limit.find("missing key 'needle.friction.max_shear_per_length'"), std::string::npos) << no_limit;
+  const Scenario limit_only =
+      parse_scenario_text(replace(kMinimal, "{model: stick}", "{max_shear_per_length: 12}"), 3);
+  EXPECT_EQ(limit_only.needles[0].friction, NeedleSpec::Friction::stick_slip);
+  EXPECT_DOUBLE_EQ(limit_only.needles[0].max_shear_per_length, 12.0);
+  // The force model takes friction_per_length and needs no friction key.
+  EXPECT_NO_THROW(parse_scenario_text(replace(plain, "diameter: 1}", "diameter: 1, model: force, tip_force: 2}"), 3));
+}
+
+// A scenario without a needle is a static load case: it parses when a condition loads the model (a
+// non-zero displacement, pressure or traction) and is refused, naming the file, line and key, when
+// nothing would move or when it asks for a needle refinement.
+TEST(Scenario, NeedleFreeScenariosAreStaticLoadCases) {
+  const std::string held = "boundary_conditions:\n  - {type: fixed, region: {box_face: z_min}}\n";
+  for (const char* load : {"  - {type: displacement, region: {box_face: z_max}, value: [0, 0, -1]}\n",
+                           "  - {type: pressure, region: {box_face: z_max}, value: 2}\n",
+                           "  - {type: traction, region: {box_face: z_max}, value: [0, 1, 0]}\n"}) {
+    const Scenario s = parse_scenario_text(held + load, 3, "s.yaml");
+    EXPECT_TRUE(s.needles.empty()) << load;
+  }
+  for (const char* none : {"", "  - {type: displacement, region: {box_face: z_max}, value: [0, 0, 0]}\n",
+                           "  - {type: pressure, region: {box_face: z_max}, value: 0}\n",
+                           "  - {type: displacement, region: {box_face: z_max}, value: [0, 0, -1], components: [x]}\n"}) {
+    const std::string m = error_of(held + none);
+    EXPECT_NE(m.find("s.yaml:2: boundary_conditions: a scenario without 'needle' or 'needles' is a static load case"),
+              std::string::npos)
+        << none << ": " << m;
+  }
+  const std::string refined = error_of(held + "  - {type: pressure, region: {box_face: z_max}, value: 2}\n" +
+                                       "mesh: {needle_refinement: {size_ratio: 0.5, radius: 2}}\n");
+  EXPECT_NE(refined.find("s.yaml:4: mesh.needle_refinement"), std::string::npos) << refined;
 }
 
 TEST(Scenario, NeedlesList) {
   const std::string y = R"(boundary_conditions: [{type: fixed, region: {box_face: x_min}}]
 needles:
-  - {name: a, entry: [0, 0], direction: [1, 0], depth: 5, steps: 2, diameter: 1}
+  - {name: a, entry: [0, 0], direction: [1, 0], depth: 5, steps: 2, diameter: 1, friction: {model: stick}}
   - {entry: [0, 1], direction: [1, 1], depth: 5, steps: 2, diameter: 1, model: force, tip_force: 3}
 )";
   const Scenario s = parse_scenario_text(y, 2);
@@ -257,8 +303,12 @@ TEST(Scenario, BadInputsNameKeyValueAndLine) {
 }
 
 TEST(Scenario, MissingTopLevelKeysAndSyntax) {
-  EXPECT_NE(error_of("boundary_conditions: [{type: fixed, region: {box_face: x_min}}]\n").find("missing key 'needle'"), std::string::npos);
-  EXPECT_NE(error_of("needle: {entry: [0,0,0], direction: [0,0,1], depth: 1, steps: 1, diameter: 1}\n").find("missing key 'boundary_conditions'"),
+  // No needle and nothing that loads the model: a static load case in which nothing would move.
+  const std::string no_load = error_of("boundary_conditions: [{type: fixed, region: {box_face: x_min}}]\n");
+  EXPECT_NE(no_load.find("s.yaml:1: boundary_conditions: a scenario without 'needle' or 'needles' is a static load case"),
+            std::string::npos)
+      << no_load;
+  EXPECT_NE(error_of("needle: {entry: [0,0,0], direction: [0,0,1], depth: 1, steps: 1, diameter: 1, friction: {model: stick}}\n").find("missing key 'boundary_conditions'"),
             std::string::npos);
   EXPECT_NE(error_of("").find("empty"), std::string::npos);
   EXPECT_NE(error_of("needle: [1, 2\n").find("YAML syntax error"), std::string::npos);
@@ -266,19 +316,19 @@ TEST(Scenario, MissingTopLevelKeysAndSyntax) {
   EXPECT_NE(error_of(both).find("either 'needle' or 'needles'"), std::string::npos);
   // 2D: only x/y faces and 2-vectors.
   const std::string y2 = R"(boundary_conditions: [{type: fixed, region: {box_face: z_min}}]
-needle: {entry: [0, 0], direction: [0, 1], depth: 1, steps: 1, diameter: 1}
+needle: {entry: [0, 0], direction: [0, 1], depth: 1, steps: 1, diameter: 1, friction: {model: stick}}
 )";
   EXPECT_NE(error_of(y2, 2).find("box_face = 'z_min' is not a face of the 2D image box; use one of: x_min, x_max, y_min, y_max"),
             std::string::npos);
   const std::string y3 = R"(boundary_conditions: [{type: fixed, region: {box_face: y_max}}]
-needle: {entry: [0, 0, 0], direction: [0, 1], depth: 1, steps: 1, diameter: 1}
+needle: {entry: [0, 0, 0], direction: [0, 1], depth: 1, steps: 1, diameter: 1, friction: {model: stick}}
 )";
   EXPECT_NE(error_of(y3, 2).find("needle.entry must be a list of 2 numbers ([x, y]) for a 2D image, got a list of 3"), std::string::npos);
   EXPECT_THROW(read_scenario("/nonexistent/dir/s.yaml", 3), ScenarioError);
   // Only loads, no fixed or displacement condition: singular.
   const std::string loads = R"(boundary_conditions:
   - {type: pressure, region: {box_face: z_max}, value: 1.5}
-needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 1}
+needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 1, friction: {model: stick}}
 )";
   const std::string m = error_of(loads);
   EXPECT_NE(m.find("boundary_conditions has no 'fixed' or 'displacement' condition"), std::string::npos) << m;
@@ -294,7 +344,7 @@ TEST(Scenario, GeometryAgainstTheImageBox) {
                                    "\ntargets: [{name: t, position: " + target + "}]\n",
                                3, "g.yaml");
   };
-  const std::string ok = "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 40, steps: 4, diameter: 1}";
+  const std::string ok = "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 40, steps: 4, diameter: 1, friction: {model: stick}}";
   EXPECT_NO_THROW(check_scenario_geometry<3>(scen(ok, "[0, 0, 39]"), lo, hi, id));  // entry on the surface, tip at the far face
   auto msg = [&](const std::string& needle, const std::string& target, const WorldTransform<3>& t) {
     try {
@@ -304,21 +354,43 @@ TEST(Scenario, GeometryAgainstTheImageBox) {
     }
     return std::string("no error");
   };
-  EXPECT_NE(msg("{entry: [0, 0, -1], direction: [0, 0, 1], depth: 5, steps: 4, diameter: 1}", "[0, 0, 1]", id)
+  EXPECT_NE(msg("{entry: [0, 0, -1], direction: [0, 0, 1], depth: 5, steps: 4, diameter: 1, friction: {model: stick}}", "[0, 0, 1]", id)
                 .find("needle.entry [0, 0, -1] is outside the image box (world [-10, -10, 0] .. [10, 10, 40])"),
             std::string::npos);
-  EXPECT_NE(msg("{entry: [0, 0, 0], direction: [0, 0, 1], depth: 41, steps: 4, diameter: 1}", "[0, 0, 1]", id)
+  EXPECT_NE(msg("{entry: [0, 0, 0], direction: [0, 0, 1], depth: 41, steps: 4, diameter: 1, friction: {model: stick}}", "[0, 0, 1]", id)
                 .find("needle.depth = 41 takes the tip out of the image box"),
             std::string::npos);
-  EXPECT_NE(msg("{entry: [0, 0, 0], direction: [0, 0, -1], depth: 1, steps: 4, diameter: 1}", "[0, 0, 1]", id)
+  EXPECT_NE(msg("{entry: [0, 0, 0], direction: [0, 0, -1], depth: 1, steps: 4, diameter: 1, friction: {model: stick}}", "[0, 0, 1]", id)
                 .find("points out of the image box"),
             std::string::npos);
   EXPECT_NE(msg(ok, "[0, 11, 5]", id).find("target 't' position [0, 11, 5] is outside the image box"), std::string::npos);
+  // The diameter must fit in the box across the needle. Truth: the box's width perpendicular to the needle,
+  // found here by brute force as the smallest of sum_d |p_d| extent_d over 36,000 unit vectors p
+  // perpendicular to the needle: 20 along z, 20 along x (the y extent), and 20·√2 = 28.28 along the
+  // xy-diagonal (the widths along z are 40).
+  auto brute_width = [&](const V& axis) {
+    const V u = axis.unitOrthogonal(), w = axis.cross(u);
+    double best = 1e300;
+    for (int k = 0; k < 36000; ++k) {
+      const double t = 2.0 * M_PI * k / 36000.0;
+      best = std::min(best, (std::cos(t) * u + std::sin(t) * w).cwiseAbs().dot(hi - lo));
+    }
+    return best;
+  };
+  const std::string along_z = "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 5, steps: 1, diameter: D, friction: {model: stick}}";
+  const std::string diagonal = "{entry: [-5, -5, 20], direction: [1, 1, 0], depth: 5, steps: 1, diameter: D, friction: {model: stick}}";
+  for (const auto& [needle, axis] : {std::pair{along_z, V(0, 0, 1)}, std::pair{diagonal, V(1, 1, 0).normalized()}}) {
+    const double width = brute_width(axis);
+    EXPECT_EQ(msg(replace(needle, "D", std::to_string(0.999 * width)), "[0, 0, 1]", id), "no error") << needle;
+    const std::string big = msg(replace(needle, "D", std::to_string(1.001 * width)), "[0, 0, 1]", id);
+    EXPECT_NE(big.find("g.yaml:2: needle.diameter = "), std::string::npos) << big;
+    EXPECT_NE(big.find("is larger than the image box"), std::string::npos) << big;
+  }
   // A rotated image: world = origin + D (p - origin); frame box [-10,10]x[-10,10]x[0,40] about origin 0, D = Rz(90°).
   WorldTransform<3> rot;
   rot.direction << 0, -1, 0, 1, 0, 0, 0, 0, 1;
-  EXPECT_EQ(msg("{entry: [-10, 5, 20], direction: [1, 0, 0], depth: 20, steps: 2, diameter: 1}", "[5, 0, 1]", rot), "no error");
-  EXPECT_NE(msg("{entry: [-10, 5, 20], direction: [1, 0, 0], depth: 21, steps: 2, diameter: 1}", "[5, 0, 1]", rot).find("largest depth"),
+  EXPECT_EQ(msg("{entry: [-10, 5, 20], direction: [1, 0, 0], depth: 20, steps: 2, diameter: 1, friction: {model: stick}}", "[5, 0, 1]", rot), "no error");
+  EXPECT_NE(msg("{entry: [-10, 5, 20], direction: [1, 0, 0], depth: 21, steps: 2, diameter: 1, friction: {model: stick}}", "[5, 0, 1]", rot).find("largest depth"),
             std::string::npos);
   // An oblique image (Rz(45°)): the world point (13, 3, 5) lies inside the bounding box of the box's
   // corners (|x|, |y| <= 14.14) but outside the image; the message says where it is along the image's
@@ -347,7 +419,7 @@ TEST(Scenario, ComponentsAreAcceptedOnAnyImageAndMapToImageAxesWhenAligned) {
   const Scenario with = parse_scenario_text(
       "boundary_conditions:\n  - {type: fixed, region: {box_face: z_max}}\n"
       "  - {type: fixed, region: {box_face: z_min}, components: [z]}\n"
-      "needle: {entry: [0, 0, 1], direction: [0, 0, 1], depth: 5, steps: 2, diameter: 1}\n",
+      "needle: {entry: [0, 0, 1], direction: [0, 0, 1], depth: 5, steps: 2, diameter: 1, friction: {model: stick}}\n",
       3, "c.yaml");
   WorldTransform<3> id, perm, obl;
   perm.direction << 0, -1, 0, 1, 0, 0, 0, 0, 1;  // Rz(90°): image axes are world axes
@@ -387,7 +459,7 @@ TEST(Scenario, ElasticRegionSupportAndCuttingDistance) {
   const std::string base = R"(boundary_conditions:
   - {type: fixed, region: {box_face: z_max}}
   - {type: fixed, region: {cylinder: {center: [0, -20, 0], axis: [0, 0, 1], radius: 6}}, support: SUPPORT}
-needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 1, cutting_distance: 0.5}
+needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 1, friction: {model: stick}, cutting_distance: 0.5}
 )";
   const Scenario s = parse_scenario_text(replace(base, "SUPPORT", "{elastic: {stiffness: 15, spacing: 0.5}}"), 3);
   EXPECT_EQ(s.boundary_conditions[0].support, BoundaryConditionSpec::Support::nodes);  // the default
@@ -417,7 +489,7 @@ needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 
             std::string::npos);
   // The force model loads the newest point with the tip force: a cutting distance would leave the first
   // millimetres without any force (a probe saw 0 N up to the first point, then 150), so it is refused.
-  EXPECT_NE(error_of(replace(plain, "diameter: 1,", "diameter: 1, model: force, tip_force: 1,"))
+  EXPECT_NE(error_of(replace(plain, "diameter: 1, friction: {model: stick},", "diameter: 1, model: force, tip_force: 1,"))
                 .find("needle.cutting_distance applies only to needle model 'kinematic'"),
             std::string::npos);
 }
@@ -448,8 +520,8 @@ TEST(Scenario, NeedleRefinementAndPaths) {
   Scenario two = parse_scenario_text(R"(boundary_conditions:
   - {type: fixed, region: {box_face: z_max}}
 needles:
-  - {entry: [1, 2, 3], direction: [0, 2, 0], depth: 10, steps: 5, diameter: 1}
-  - {entry: [0, 0, 0], direction: [0, 0, 1], depth: 4, steps: 5, diameter: 1}
+  - {entry: [1, 2, 3], direction: [0, 2, 0], depth: 10, steps: 5, diameter: 1, friction: {model: stick}}
+  - {entry: [0, 0, 0], direction: [0, 0, 1], depth: 4, steps: 5, diameter: 1, friction: {model: stick}}
 )", 3);
   const auto paths = needle_paths<3>(two, tf);
   ASSERT_EQ(paths.size(), 2u);
@@ -488,13 +560,13 @@ TEST(Scenario, DirectionsOfAnyMagnitudeAreNormalised) {
 // Keys that the chosen model would ignore are refused, as tip_force is with the kinematic model.
 TEST(Scenario, KeysTheModelWouldIgnoreAreErrors) {
   const std::string friction = error_of(
-      replace(kMinimal, "diameter: 1}", "diameter: 1, model: force, tip_force: 5, friction: {model: stick}}"));
+      replace(kMinimal, "diameter: 1,", "diameter: 1, model: force, tip_force: 5,"));
   EXPECT_NE(friction.find("needle.friction applies only to needle model 'kinematic'"), std::string::npos) << friction;
   const std::string scale = error_of(std::string(kMinimal) + "material: {youngs_modulus: 20, scale: 3}\n");
   EXPECT_NE(scale.find("material.scale applies only to youngs_modulus: image"), std::string::npos) << scale;
   // scale 1 with a constant modulus changes nothing and is accepted.
   EXPECT_NO_THROW(parse_scenario_text(std::string(kMinimal) + "material: {youngs_modulus: 20, scale: 1}\n", 3));
-  const std::string spacing = error_of(replace(kMinimal, "diameter: 1}", "diameter: 1, sample_spacing: 1.0e-8}"));
+  const std::string spacing = error_of(replace(kMinimal, "diameter: 1, friction: {model: stick}}", "diameter: 1, friction: {model: stick}, sample_spacing: 1.0e-8}"));
   EXPECT_NE(spacing.find("more than 100000 shaft points"), std::string::npos) << spacing;
   const std::string clamp = error_of(std::string(kMinimal) + "material: {youngs_modulus: image, clamp: [1, 2, 3]}\n");
   EXPECT_NE(clamp.find("got a list of 3"), std::string::npos) << clamp;

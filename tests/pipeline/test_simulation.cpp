@@ -113,13 +113,14 @@ TEST(Simulation, DoublingTheModulusDoublesTheForceNotTheDisplacement) {
   const auto a = run_simulation<3>(axis_block(10.0), sc, o);
   const auto b = run_simulation<3>(axis_block(20.0), sc, o);
   const auto &ra = a.needles[0], &rb = b.needles[0];
+  // To round-off of the solves (the Cholesky factor of 2K is √2 L, not exact in floating point).
   for (std::size_t k = 1; k < ra.depth.size(); ++k) {
-    EXPECT_NEAR(rb.axial_force[k], 2.0 * ra.axial_force[k], 1e-9 * ra.axial_force[k]);
-    EXPECT_NEAR((rb.target_displacement[k][0] - ra.target_displacement[k][0]).norm(), 0.0, 1e-9);
+    EXPECT_NEAR(rb.axial_force[k], 2.0 * ra.axial_force[k], 1e-8 * ra.axial_force[k]);
+    EXPECT_NEAR((rb.target_displacement[k][0] - ra.target_displacement[k][0]).norm(), 0.0, 1e-8);
     double d = 0.0;
     for (std::size_t v = 0; v < ra.vertex_displacement[k].size(); ++v)
       d = std::max(d, (ra.vertex_displacement[k][v] - rb.vertex_displacement[k][v]).norm());
-    EXPECT_LT(d, 1e-9);
+    EXPECT_LT(d, 1e-8);
   }
 }
 
@@ -171,7 +172,7 @@ TEST(Simulation, UnsettledStickSlipStepsAreReported) {
   const auto full = run_simulation<3>(axis_block(), sc, quiet());
   const auto& r = full.needles[0];
   EXPECT_TRUE(r.unsettled_steps.empty());
-  EXPECT_TRUE(full.warnings.empty());
+  EXPECT_TRUE(other_warnings(full).empty());
   EXPECT_FALSE(full.report.contains("warnings"));
   ASSERT_EQ(r.active_set_sweeps.size(), r.depth.size());
   const int most = *std::max_element(r.active_set_sweeps.begin(), r.active_set_sweeps.end());
@@ -190,10 +191,13 @@ TEST(Simulation, UnsettledStickSlipStepsAreReported) {
   ASSERT_FALSE(c.unsettled_steps.empty());
   for (int k : c.unsettled_steps)
     EXPECT_EQ(c.active_set_sweeps[static_cast<std::size_t>(k)], 1) << "step " << k;
-  ASSERT_EQ(cut.warnings.size(), 1u);
-  EXPECT_NE(cut.warnings[0].find("active set still changed after 1 sweep;"), std::string::npos)
-      << cut.warnings[0];
-  EXPECT_EQ(cut.report["warnings"].size(), 1u);
+  // The unsettled iterate may also strain the tissue beyond 10% (the small-strain warning): count the
+  // active-set warning alone.
+  const auto unsettled = std::count_if(cut.warnings.begin(), cut.warnings.end(), [](const std::string& w) {
+    return w.find("active set still changed after 1 sweep;") != std::string::npos;
+  });
+  EXPECT_EQ(unsettled, 1) << ::testing::PrintToString(cut.warnings);
+  EXPECT_EQ(cut.report["warnings"].size(), cut.warnings.size());
   EXPECT_EQ(cut.report["needles"][0]["unsettled_steps"].size(), c.unsettled_steps.size());
 }
 
@@ -216,8 +220,12 @@ TEST(Simulation, WorldResultsDoNotDependOnTheImageDirection) {
   MeshModel<3> a = axis_block();
   MeshModel<3> b = axis_block();
   b.transform.direction << 0, -1, 0, 1, 0, 0, 0, 0, 1;
-  const std::string na = "{entry: [1, 2, 0], direction: [0.1, 0, 1], depth: 10, steps: 2, diameter: 1}";
-  const std::string nb = "{entry: [-2, 1, 0], direction: [0, 0.1, 1], depth: 10, steps: 2, diameter: 1}";
+  const std::string na =
+      "{entry: [1, 2, 0], direction: [0.1, 0, 1], depth: 10, steps: 2, diameter: 1, friction: {model: "
+      "stick}}";
+  const std::string nb =
+      "{entry: [-2, 1, 0], direction: [0, 0.1, 1], depth: 10, steps: 2, diameter: 1, friction: {model: "
+      "stick}}";
   const std::string bc =
       "[{type: fixed, region: {box_face: z_max}}, {type: fixed, region: {cylinder: {center: C, axis: [0, 0, "
       "1], radius: 2.5}}}]";
@@ -344,7 +352,8 @@ TEST(Simulation, ElasticRegionSupportHoldsTheTissueWhereNoNodeIs) {
 TEST(Simulation, CuttingDistanceLeavesTheShaftTissueThatFarBehindTheTip) {
   const MeshModel<3> model = axis_block();
   const std::string needle =
-      "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, cutting_distance: 1}";
+      "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, friction: {model: stick}, "
+      "cutting_distance: 1}";
   const auto res = run_simulation<3>(model, parse_scenario_text(yaml(needle), 3), quiet());
   EXPECT_GT(res.needles[0].axial_force.back(), 0.0);
   // No station whose band ends within δ of the final tip is held.
@@ -362,7 +371,8 @@ TEST(Simulation, TwoDimensionalNeedle) {
   m.values.assign(m.mesh.n_cells(), ElementValue{1, 10.0, 0.0});
   const Scenario sc = parse_scenario_text(
       "boundary_conditions: [{type: fixed, region: {box_face: y_max}}]\n"
-      "needle: {entry: [0, 0], direction: [0, 1], depth: 8, steps: 4, diameter: 1}\n"
+      "needle: {entry: [0, 0], direction: [0, 1], depth: 8, steps: 4, diameter: 1, friction: {model: "
+      "stick}}\n"
       "targets: [{name: ahead, position: [0, 13]}]\n",
       2);
   const auto r = run_simulation<2>(m, sc, quiet()).needles[0];
@@ -375,8 +385,8 @@ TEST(Simulation, WritesStepsCsvAndSummary) {
   const SimulationOptions o = writing_into(dir);
   const std::string y = R"(boundary_conditions: [{type: fixed, region: {box_face: z_max}}]
 needles:
-  - {name: first, entry: [0, 0, 0], direction: [0, 0, 1], depth: 8, steps: 4, diameter: 1}
-  - {name: second, entry: [2, 0, 0], direction: [0, 0, 1], depth: 6, steps: 3, diameter: 1}
+  - {name: first, entry: [0, 0, 0], direction: [0, 0, 1], depth: 8, steps: 4, diameter: 1, friction: {model: stick}}
+  - {name: second, entry: [2, 0, 0], direction: [0, 0, 1], depth: 6, steps: 3, diameter: 1, friction: {model: stick}}
 targets: [{name: t, position: [0, 0, 12]}]
 output: {every: 2}
 )";
@@ -391,8 +401,8 @@ output: {every: 2}
   std::string header, line;
   std::getline(csv, header);
   EXPECT_EQ(header,
-            "step,depth,tip_x,tip_y,tip_z,axial_force,lateral_force,friction_force,tip_force,t_dx,t_dy,t_dz,"
-            "t_norm");
+            "step,depth,tip_x,tip_y,tip_z,axial_force,lateral_force,friction_force,tip_force,max_strain,t_dx,"
+            "t_dy,t_dz,t_norm");
   int rows = 0;
   std::string last;
   while (std::getline(csv, line)) {
@@ -403,10 +413,11 @@ output: {every: 2}
   std::stringstream ss(last);
   std::vector<double> v;
   for (std::string cell; std::getline(ss, cell, ',');) v.push_back(std::stod(cell));
-  ASSERT_EQ(v.size(), 13u);
+  ASSERT_EQ(v.size(), 14u);
   EXPECT_NEAR(v[5], res.needles[0].axial_force.back(), 1e-8 * std::abs(v[5]));
   EXPECT_NEAR(v[7] + v[8], v[5], 1e-8 * std::abs(v[5]));  // friction + tip = axial
-  EXPECT_NEAR(v[12], res.needles[0].target_displacement.back()[0].norm(), 1e-8);
+  EXPECT_NEAR(v[9], res.needles[0].max_strain.back(), 1e-8 * v[9]);
+  EXPECT_NEAR(v[13], res.needles[0].target_displacement.back()[0].norm(), 1e-8);
   std::ifstream sum(dir / "summary.csv");
   std::getline(sum, header);
   EXPECT_EQ(header, "name,depth,steps,axial_force,lateral_force,max_displacement,steps_per_second,t_norm");
@@ -422,7 +433,8 @@ output: {every: 2}
 TEST(Simulation, ExternalLoadsActBeforeTheNeedleTouches) {
   const MeshModel<3> model = block(V3(-6, -6, 0), V3(6, 6, 24), {{5, 5, 9}}, [](const V3&) { return 10.0; });
   const std::string needle =
-      "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, cutting_distance: 5}";
+      "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, friction: {model: stick}, "
+      "cutting_distance: 5}";
   const Scenario sc =
       parse_scenario_text(yaml(needle, "[{name: t, position: [2, 1, 12]}]", "{poisson_ratio: 0.0}",
                                "[{type: fixed, region: {box_face: z_max}}, {type: displacement, region: "
@@ -461,19 +473,21 @@ TEST(Simulation, NeedlePathThroughHeldTissueIsWarnedAbout) {
                "{type: fixed, region: {cylinder: {center: [0, 0, 6], axis: [1, 0, 0], radius: 1}}}]"),
           3),
       quiet());
-  ASSERT_EQ(held.warnings.size(), 1u);
-  EXPECT_NE(held.warnings[0].find("runs through the held region"), std::string::npos) << held.warnings[0];
-  EXPECT_NE(held.warnings[0].find("boundary_conditions[1] over about 2 mm of its 12 mm path"),
+  ASSERT_EQ(other_warnings(held).size(), 1u);
+  EXPECT_NE(other_warnings(held)[0].find("runs through the held region"), std::string::npos)
+      << other_warnings(held)[0];
+  EXPECT_NE(other_warnings(held)[0].find("boundary_conditions[1] over about 2 mm of its 12 mm path"),
             std::string::npos)
-      << held.warnings[0];
+      << other_warnings(held)[0];
   const auto face = run_simulation<3>(
       model, parse_scenario_text(yaml(kStick, "[]", "{}", "[{type: fixed, region: {box_face: z_min}}]"), 3),
       quiet());
-  ASSERT_EQ(face.warnings.size(), 1u);
-  EXPECT_NE(face.warnings[0].find("touches the held face"), std::string::npos) << face.warnings[0];
-  EXPECT_NE(face.warnings[0].find("at its entry"), std::string::npos) << face.warnings[0];
+  ASSERT_EQ(other_warnings(face).size(), 1u);
+  EXPECT_NE(other_warnings(face)[0].find("touches the held face"), std::string::npos)
+      << other_warnings(face)[0];
+  EXPECT_NE(other_warnings(face)[0].find("at its entry"), std::string::npos) << other_warnings(face)[0];
   const auto clear = run_simulation<3>(model, parse_scenario_text(yaml(kStick), 3), quiet());
-  EXPECT_TRUE(clear.warnings.empty()) << clear.warnings.front();
+  EXPECT_TRUE(other_warnings(clear).empty()) << other_warnings(clear).front();
 }
 
 // A load that moves the body rigidly (x_max displaced by (0, -2), nothing else held) changes nothing
@@ -486,7 +500,8 @@ TEST(Simulation, NeedleInRigidlyPreloadedTissueMatchesTheUnloadedRun) {
   m.mesh = regular_grid_mesh<2>(Eigen::Vector2d(0, 0), Eigen::Vector2d(20, 10), {{21, 11}});
   m.values.assign(m.mesh.n_cells(), ElementValue{1, 10.0, 0.0});
   const std::string rest =
-      "needle: {entry: [0, 5.2], direction: [1, 0], depth: 10, steps: 4, diameter: 1}\n"
+      "needle: {entry: [0, 5.2], direction: [1, 0], depth: 10, steps: 4, diameter: 1, friction: {model: "
+      "stick}}\n"
       "targets: [{name: t, position: [15, 3]}]\n";
   SimulationOptions o = quiet();
   o.keep_step_fields = true;
@@ -525,14 +540,14 @@ TEST(Simulation, TwoDimensionalStressHasThePlaneStrainZz) {
   m.mesh = regular_grid_mesh<2>(Eigen::Vector2d(-5, 0), Eigen::Vector2d(5, 20), {{11, 21}});
   m.values.assign(m.mesh.n_cells(), ElementValue{1, 10.0, 0.0});
   const double nu = 0.3;
-  run_simulation<2>(
-      m,
-      parse_scenario_text("material: {poisson_ratio: 0.3}\n"
-                          "boundary_conditions: [{type: fixed, region: {box_face: y_max}}]\n"
-                          "needle: {entry: [0, 0], direction: [0.2, 1], depth: 8, steps: 2, diameter: 1}\n"
-                          "output: {every: 1, fields: [stress, von_mises]}\n",
-                          2),
-      o);
+  run_simulation<2>(m,
+                    parse_scenario_text("material: {poisson_ratio: 0.3}\n"
+                                        "boundary_conditions: [{type: fixed, region: {box_face: y_max}}]\n"
+                                        "needle: {entry: [0, 0], direction: [0.2, 1], depth: 8, steps: 2, "
+                                        "diameter: 1, friction: {model: stick}}\n"
+                                        "output: {every: 1, fields: [stress, von_mises]}\n",
+                                        2),
+                    o);
   vtkNew<vtkXMLUnstructuredGridReader> r;
   r->SetFileName((dir / "steps" / "step_0002.vtu").c_str());
   r->Update();
@@ -575,11 +590,12 @@ TEST(Simulation, NeedleAlongAGridLineIsResampledAtTheVertices) {
   sc << "material: {youngs_modulus: image, poisson_ratio: 0.3}\n"
         "boundary_conditions: [{type: fixed, region: {box_face: x_max}}]\n"
         "needle: {entry: [-30, "
-     << y << "], direction: [1, 0], depth: " << depth << ", steps: 10, diameter: 1}\n";
+     << y << "], direction: [1, 0], depth: " << depth
+     << ", steps: 10, diameter: 1, friction: {model: stick}}\n";
   const auto res = run_simulation<2>(m, parse_scenario_text(sc.str(), 2), quiet());
-  ASSERT_FALSE(res.warnings.empty());
-  EXPECT_NE(res.warnings.front().find("sampled at the mesh vertices"), std::string::npos)
-      << res.warnings.front();
+  ASSERT_FALSE(other_warnings(res).empty());
+  EXPECT_NE(other_warnings(res).front().find("sampled at the mesh vertices"), std::string::npos)
+      << other_warnings(res).front();
   const auto& r = res.needles[0];
   const auto& u = r.vertex_displacement.back();
   int checked = 0;
@@ -608,7 +624,8 @@ TEST(Simulation, SampleSpacingBelowHalfTheElementSizeIsWarnedAbout) {
     return parse_scenario_text(
         "material: {youngs_modulus: image, poisson_ratio: 0.3}\n"
         "boundary_conditions: [{type: fixed, region: {box_face: x_max}}]\n"
-        "needle: {entry: [-30, 1.3], direction: [1, 0], depth: 3, steps: 1, diameter: 1" +
+        "needle: {entry: [-30, 1.3], direction: [1, 0], depth: 3, steps: 1, diameter: 1, "
+        "friction: {model: stick}" +
             spacing + "}\n",
         2);
   };
@@ -628,20 +645,21 @@ TEST(Simulation, SampleSpacingBelowHalfTheElementSizeIsWarnedAbout) {
   };
   const auto fine = run_simulation<2>(m, scenario(", sample_spacing: 0.5"), quiet());
   // ... and, since the tissue is pulled back, the force at the one step is negative (the second warning).
-  ASSERT_EQ(fine.warnings.size(), 2u);
-  EXPECT_NE(fine.warnings[0].find("needle.sample_spacing = 0.5 is below half the mean element edge"),
+  ASSERT_EQ(other_warnings(fine).size(), 2u);
+  EXPECT_NE(other_warnings(fine)[0].find("needle.sample_spacing = 0.5 is below half the mean element edge"),
             std::string::npos)
-      << fine.warnings[0];
+      << other_warnings(fine)[0];
   EXPECT_LT(fine.needles[0].axial_force[1], 0.0);
-  EXPECT_NE(fine.warnings[1].find("the axial force is negative or falls at 1 of 1 steps"), std::string::npos)
-      << fine.warnings[1];
+  EXPECT_NE(other_warnings(fine)[1].find("the axial force is negative or falls at 1 of 1 steps"),
+            std::string::npos)
+      << other_warnings(fine)[1];
   const auto plain = run_simulation<2>(m, scenario(""), quiet());
-  EXPECT_TRUE(plain.warnings.empty());
+  EXPECT_TRUE(other_warnings(plain).empty());
   EXPECT_LT(ahead(fine), 0.0) << ahead(fine) << " " << ahead(plain);
   EXPECT_GT(ahead(plain), 0.0);
   SimulationOptions p2 = quiet();
   p2.degree = 2;
-  EXPECT_TRUE(run_simulation<2>(m, scenario(", sample_spacing: 0.5"), p2).warnings.empty());
+  EXPECT_TRUE(other_warnings(run_simulation<2>(m, scenario(", sample_spacing: 0.5"), p2)).empty());
 }
 
 // A stuck needle advancing into linear elastic tissue pushes it, so its axial force should neither be
@@ -662,7 +680,7 @@ TEST(Simulation, NegativeOrFallingStickForceIsWarnedAbout) {
         "needle: {entry: ["
      << -30 + 2 * h << ", " << -30 + 2 * h + 0.05
      << "], direction: [1, 0], depth: 40, "
-        "steps: 6, diameter: 1}\n";
+        "steps: 6, diameter: 1, friction: {model: stick}}\n";
   const Scenario scenario = parse_scenario_text(sc.str(), 2);
   const auto p1 = run_simulation<2>(m, scenario, quiet());
   const auto& f = p1.needles[0].axial_force;
@@ -675,19 +693,19 @@ TEST(Simulation, NegativeOrFallingStickForceIsWarnedAbout) {
   ASSERT_FALSE(expected.empty())
       << "P1 forces rose monotonically here; the test no longer exercises the warning";
   EXPECT_LT(f[1], 0.0);
-  ASSERT_EQ(p1.warnings.size(), 1u);
-  EXPECT_NE(p1.warnings[0].find("the axial force is negative or falls at " + std::to_string(expected.size()) +
-                                " of 6 steps (first: step 1"),
+  ASSERT_EQ(other_warnings(p1).size(), 1u);
+  EXPECT_NE(other_warnings(p1)[0].find("the axial force is negative or falls at " +
+                                       std::to_string(expected.size()) + " of 6 steps (first: step 1"),
             std::string::npos)
-      << p1.warnings[0];
-  EXPECT_NE(p1.warnings[0].find("mesh.degree: 2"), std::string::npos) << p1.warnings[0];
+      << other_warnings(p1)[0];
+  EXPECT_NE(other_warnings(p1)[0].find("mesh.degree: 2"), std::string::npos) << other_warnings(p1)[0];
   EXPECT_EQ(p1.report["needles"][0]["axial_force_dips"].get<std::vector<int>>(), expected);
   SimulationOptions o2 = quiet();
   o2.degree = 2;
   const auto p2 = run_simulation<2>(m, scenario, o2);
   for (std::size_t k = 1; k < p2.needles[0].axial_force.size(); ++k)
     EXPECT_GT(p2.needles[0].axial_force[k], p2.needles[0].axial_force[k - 1]) << "step " << k;
-  EXPECT_TRUE(p2.warnings.empty()) << p2.warnings.front();
+  EXPECT_TRUE(other_warnings(p2).empty()) << other_warnings(p2).front();
 }
 
 // A needle parallel to the diagonals of a 2D grid, about halfway between two of them, crosses cells
@@ -710,14 +728,14 @@ TEST(Simulation, DiagonalNeedleBetweenGridDiagonalsIsResampledAtTheElementSize) 
           "needle: {entry: ["
        << -30 + 3 * h + 0.7 << ", " << -30 + 3 * h
        << "], direction: [1, 1], depth: 30, steps: 6, "
-          "diameter: 1.27"
+          "diameter: 1.27, friction: {model: stick}"
        << spacing << "}\n";
     return parse_scenario_text(sc.str(), 2);
   };
   const auto res = run_simulation<2>(m, scenario(""), quiet());
-  ASSERT_EQ(res.warnings.size(), 1u);
-  EXPECT_NE(res.warnings.front().find("ran it again with sample_spacing = "), std::string::npos)
-      << res.warnings.front();
+  ASSERT_EQ(other_warnings(res).size(), 1u);
+  EXPECT_NE(other_warnings(res).front().find("ran it again with sample_spacing = "), std::string::npos)
+      << other_warnings(res).front();
   const auto& needle = res.report["needles"][0];
   const double edge = needle["shaft_pitch"].get<double>();
   EXPECT_NEAR(needle["shaft_pitch_increased_from"].get<double>(), 0.5 * edge, 1e-12 * edge);
@@ -751,7 +769,7 @@ TEST(Simulation, SampleSpacingBelowTheElementSizeIsNamedWhenItFails) {
       "material: {poisson_ratio: 0.3}\n"
       "boundary_conditions: [{type: fixed, region: {box_face: y_max}}]\n"
       "needle: {entry: [0.37, -30], direction: [0, 1], depth: 20, steps: 5, diameter: 1,\n"
-      "         sample_spacing: 0.05}\n",
+      "         friction: {model: stick}, sample_spacing: 0.05}\n",
       2);
   try {
     run_simulation<2>(m, sc, quiet());

@@ -23,30 +23,82 @@ namespace {
 using V3 = Eigen::Vector3d;
 }  // namespace
 
-TEST(Simulation, FastPathMatchesMonolithicSolveAtEveryStep) {
-  // Stick-slip too, so that the condensed path is exercised with changing constraint values.
-  for (const std::string friction : {"", ", friction: {model: stick-slip, max_shear_per_length: 3}"}) {
-    const std::string needle =
-        "{entry: [0.5, -0.3, 0], direction: [0.1, 0.05, 1], depth: 12, steps: 5, diameter: 1" + friction +
-        "}";
-    const Scenario sc = parse_scenario_text(yaml(needle, "[{name: t, position: [1, 1, 18]}]"), 3);
-    auto o = quiet();
-    o.keep_step_fields = true;
-    const auto fast = run_simulation<3>(axis_block(), sc, o);
-    o.monolithic = true;
-    const auto mono = run_simulation<3>(axis_block(), sc, o);
-    const auto &f = fast.needles[0], &m = mono.needles[0];
-    ASSERT_EQ(f.vertex_displacement.size(), m.vertex_displacement.size());
-    for (std::size_t k = 1; k < f.vertex_displacement.size(); ++k) {
-      const double scale = max_norm(m.vertex_displacement[k]);
-      ASSERT_GT(scale, 0.0);
-      double d = 0.0;
-      for (std::size_t v = 0; v < f.vertex_displacement[k].size(); ++v)
-        d = std::max(d, (f.vertex_displacement[k][v] - m.vertex_displacement[k][v]).norm());
-      EXPECT_LT(d / scale, 1e-8) << "step " << k << friction;
-      EXPECT_NEAR(f.axial_force[k], m.axial_force[k], 1e-8 * std::abs(m.axial_force[k])) << "step " << k;
-    }
+namespace {
+
+// The largest vertex displacement difference of two runs at step k, relative to the second's largest.
+template <int dim>
+double step_difference(const NeedleRun<dim>& f, const NeedleRun<dim>& m, std::size_t k) {
+  double d = 0.0, scale = 0.0;
+  for (std::size_t v = 0; v < f.vertex_displacement[k].size(); ++v) {
+    d = std::max(d, (f.vertex_displacement[k][v] - m.vertex_displacement[k][v]).norm());
+    scale = std::max(scale, m.vertex_displacement[k][v].norm());
   }
+  return scale > 0.0 ? d / scale : d;
+}
+
+// Runs the scenario on the fast path (rows precomputed before stepping, dense work per step) and with
+// the monolithic saddle-point solve at every step; every step's field and forces must agree.
+template <int dim>
+void expect_fast_path_matches_monolithic(const MeshModel<dim>& model, const Scenario& sc, unsigned degree,
+                                         const std::string& label) {
+  auto o = quiet();
+  o.keep_step_fields = true;
+  o.degree = degree;
+  const auto fast = run_simulation<dim>(model, sc, o);
+  o.monolithic = true;
+  const auto mono = run_simulation<dim>(model, sc, o);
+  const auto &f = fast.needles[0], &m = mono.needles[0];
+  ASSERT_EQ(f.vertex_displacement.size(), m.vertex_displacement.size()) << label;
+  EXPECT_EQ(f.active_points, m.active_points) << label;
+  EXPECT_GT(f.active_points.back(), 1) << label;
+  for (std::size_t k = 1; k < f.vertex_displacement.size(); ++k) {
+    EXPECT_LT(step_difference<dim>(f, m, k), 1e-8) << label << ", step " << k;
+    EXPECT_LE(std::abs(f.axial_force[k] - m.axial_force[k]), 1e-8 * std::abs(m.axial_force[k]))
+        << label << ", step " << k;
+    EXPECT_LE((f.force[k] - m.force[k]).norm(), 1e-8 * m.force[k].norm()) << label << ", step " << k;
+  }
+  if (!f.active_set_sweeps.empty()) {
+    EXPECT_EQ(f.active_set_sweeps, m.active_set_sweeps) << label;
+  }
+}
+
+const std::vector<std::pair<std::string, std::string>> kLaws = {
+    {"stick", ", friction: {model: stick}"},
+    {"stick-slip", ", friction: {model: stick-slip, max_shear_per_length: 3}"},
+    {"force", ", model: force, tip_force: 5, friction_per_length: 0.4"}};
+
+}  // namespace
+
+// Truth: the monolithic saddle-point solve [K Cᵀ; C −κ] of every step (ElasticModel::solve_monolithic,
+// UMFPACK), against the fast path (every shaft row's column precomputed before stepping, each step a
+// dense Schur solve on the cached columns), for stick, stick-slip (the active set too) and the force
+// model, P1 and P2, 3D.
+TEST(Simulation, FastPathMatchesMonolithicSolveAtEveryStep) {
+  for (const unsigned degree : {1u, 2u})
+    for (const auto& [law, keys] : kLaws) {
+      // P2: a shorter path (each monolithic solve of the P2 block costs ~50 P1 ones)
+      const std::string needle = "{entry: [0.5, -0.3, 0], direction: [0.1, 0.05, 1], depth: " +
+                                 std::string(degree == 1 ? "12, steps: 5" : "5, steps: 2") + ", diameter: 1" +
+                                 keys + "}";
+      const Scenario sc = parse_scenario_text(yaml(needle, "[{name: t, position: [1, 1, 18]}]"), 3);
+      expect_fast_path_matches_monolithic<3>(axis_block(), sc, degree, law + " P" + std::to_string(degree));
+    }
+}
+
+// Truth: as above, in 2D (plane strain).
+TEST(Simulation, FastPathMatchesMonolithicSolveAtEveryStep2D) {
+  MeshModel<2> m;
+  m.mesh = regular_grid_mesh<2>(Eigen::Vector2d(-5, 0), Eigen::Vector2d(5, 20), {{11, 21}});
+  m.values.assign(m.mesh.n_cells(), ElementValue{1, 10.0, 0.0});
+  for (const unsigned degree : {1u, 2u})
+    for (const auto& [law, keys] : kLaws) {
+      const std::string needle =
+          "{entry: [0.3, 0], direction: [0.05, 1], depth: 12, steps: 5, diameter: 1" + keys + "}";
+      const Scenario sc = parse_scenario_text(
+          yaml(needle, "[{name: t, position: [1, 15]}]", "{}", "[{type: fixed, region: {box_face: y_max}}]"),
+          2);
+      expect_fast_path_matches_monolithic<2>(m, sc, degree, law + " 2D P" + std::to_string(degree));
+    }
 }
 
 // Truth: the force model's problem solved by the test itself — the condensed axial stiffness of the
@@ -136,7 +188,7 @@ TEST(Simulation, VoxelAndGridModelsReproduceTheLayeredColumnUnderPressure) {
     img.data[v] = static_cast<float>(layer_modulus(img.index_of(v)[2] / 2));
   const double scale = 2.0, p = 1.5;
   const Scenario sc = parse_scenario_text(
-      yaml("{entry: [0.3, -0.2, 6], direction: [0, 0, 1], depth: 2, steps: 1, diameter: 1}", "[]",
+      yaml("{entry: [0.3, -0.2, 6], direction: [0, 0, 1], depth: 2, steps: 1, diameter: 1, friction: {model: stick}}", "[]",
            "{youngs_modulus: image, scale: 2, poisson_ratio: 0}",
            "[{type: fixed, region: {box_face: x_min}, components: [x]}, {type: fixed, region: {box_face: "
            "y_min}, "

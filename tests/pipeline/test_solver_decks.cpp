@@ -99,7 +99,7 @@ Scenario scenario_for(const MeshModel<dim>& m) {
   y += std::string("  - {type: traction, region: {box_face: ") + (dim == 3 ? "y_max" : "x_min") +
        "}, value: " + (dim == 3 ? std::string("[0.05, 0.1, 0.2]") : std::string("[0.05, 0.1]")) + "}\n";
   y += "needle: {entry: " + vec_yaml<dim>(tf.to_world(entry_frame)) + ", direction: " + vec_yaml<dim>(axis) +
-       ", depth: 1.0, steps: 2, diameter: 0.1}\n";
+       ", depth: 1.0, steps: 2, diameter: 0.1, friction: {model: stick}}\n";
   return parse_scenario_text(y, dim, "deck_scenario.yaml");
 }
 

@@ -74,7 +74,7 @@ std::string needle_text(const Image<dim>& img) {  // a short needle from the box
     entry += (a ? ", " : "") + std::to_string(c[a]);
     dir += a == dim - 1 ? "1" : "0, ";
   }
-  return "needle: {entry: " + entry + "], direction: " + dir + "], depth: 0.5, steps: 1, diameter: 0.2}\n";
+  return "needle: {entry: " + entry + "], direction: " + dir + "], depth: 0.5, steps: 1, diameter: 0.2, friction: {model: stick}}\n";
 }
 
 struct EnergyErrors {

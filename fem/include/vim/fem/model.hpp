@@ -27,17 +27,17 @@ struct SolverOptions {
   enum class Type { automatic, direct, amg } type = Type::automatic;
   double tolerance = 1e-10;  // relative residual for CG
   unsigned max_iterations = 10000;
-  // `automatic` uses UMFPACK up to this many DoFs; 0 = the default for the dimension,
-  // default_direct_limit(dim). 3D direct solves fill in badly (P1, one factorisation: 32k DoFs 8.6 s,
-  // 53k DoFs 26 s, 98k DoFs 123 s and 4.2 GB, against 0.9 / 1.5 / 6 s for CG+AMG; docs/performance.md).
-  // On the AMG path each new point constraint costs one CG solve instead of one back-substitution.
+  // `automatic` uses the direct solver (CHOLMOD's sparse Cholesky) up to this many DoFs; 0 = the default
+  // for the dimension, default_direct_limit(dim). 3D direct solves fill in, but CHOLMOD's factorisation
+  // stays cheaper than one AMG solve up to ~120k DoFs (docs/performance.md), and on the AMG path each
+  // new point constraint costs one CG solve instead of one back-substitution.
   unsigned direct_limit = 0;
-  static constexpr unsigned default_direct_limit(int dim) { return dim == 2 ? 200000u : 30000u; }
+  static constexpr unsigned default_direct_limit(int dim) { return dim == 2 ? 200000u : 150000u; }
   unsigned direct_limit_for(int dim) const { return direct_limit ? direct_limit : default_direct_limit(dim); }
 };
 
 struct SolverStats {
-  std::string method;  // "umfpack" | "cg+amg"
+  std::string method;  // "cholmod" | "cg+amg" (solve), "umfpack-monolithic" (solve_monolithic)
   unsigned iterations = 0;
   double residual = 0.0;
   unsigned n_dofs = 0;
@@ -116,6 +116,13 @@ class ElasticModel {
   // (position, component) until a condition is added.
   Solution<dim> solve(const std::vector<PointConstraint<dim>>& points = {},
                       const SolverOptions& options = {});
+  // Computes and caches the rows and columns K⁻¹cᵀ of every selected component of `points` (their
+  // displacements and compliances do not matter) in one batch — blocks of right-hand sides through the
+  // Cholesky factor, or one CG solve per row on the AMG path — and their products c_a·K⁻¹c_bᵀ, after
+  // factorising K if needed: later solve() calls whose rows are all cached do no sparse solve, only
+  // dense work on the rows. Returns the number of rows computed (not cached before). Same errors as
+  // solve() for points outside the mesh or bad values.
+  unsigned precompute(const std::vector<PointConstraint<dim>>& points, const SolverOptions& options = {});
   // The same, as one monolithic saddle-point solve [K Cᵀ; C 0] (reference for the fast path).
   Solution<dim> solve_monolithic(const std::vector<PointConstraint<dim>>& points,
                                  const SolverOptions& options = {});

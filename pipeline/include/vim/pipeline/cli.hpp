@@ -16,6 +16,9 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
 // returns 1 on InputError / std::invalid_argument / other failures, leaving DIR without partial files.
 int run(const RunOptions& options);
 
+// Prints `vim-pipeline: error: MESSAGE` as one line on stderr.
+void print_error(std::string message);
+
 // parse_command_line + run: the whole program (main.cpp calls this).
 int main_cli(int argc, char** argv);
 

@@ -138,11 +138,15 @@ class LineCoupling final : public NeedleCoupling<dim> {
 class BandCoupling final : public NeedleCoupling<3> {
  public:
   struct Geometry {
-    Vec entry, axis;               // frame; axis of unit length
-    double depth = 0.0;            // the path's length
-    double radius = 0.0;           // a = diameter / 2
-    double coupling_radius = 0.0;  // R ≥ a
-    double spacing = 0.0;          // station spacing along the path (made uniform: depth / stations)
+    Vec entry, axis;      // frame; axis of unit length
+    double depth = 0.0;   // the path's length
+    double radius = 0.0;  // a = diameter / 2
+    // R ≥ a: each station holds the mean over the surface of radius R; 0 = fem::default_needle_band
+    // from the element size h near the path and the element degree (docs/needle-model.md).
+    double coupling_radius = 0.0;
+    double element_size = 0.0;  // h
+    unsigned degree = 1;
+    double spacing = 0.0;  // station spacing along the path (made uniform: depth / stations)
     // The frame-to-world rotation: the bands' samples are placed around the needle in world axes, so
     // that a model in frame coordinates and the same body in world coordinates sample alike.
     Eigen::Matrix3d to_world = Eigen::Matrix3d::Identity();
@@ -154,6 +158,8 @@ class BandCoupling final : public NeedleCoupling<3> {
                const std::vector<bool>& blocked);
   // The stations: centre, arc length of the centre, band length.
   const std::vector<ShaftPoint<3>>& stations() const { return stations_; }
+  // The outer radius of the region whose mean a station holds.
+  double coupling_radius() const { return coupling_radius_; }
   std::vector<fem::PointConstraint<3>> rows(const std::vector<std::size_t>& active,
                                             const std::vector<double>& axial) const override;
   std::vector<double> axial_forces(const std::vector<std::size_t>& active,
@@ -167,15 +173,12 @@ class BandCoupling final : public NeedleCoupling<3> {
   std::vector<fem::PointConstraint<3>> bands_;  // per station, displacement 0
   std::vector<Vec> lateral_;
   Vec axis_;
+  double coupling_radius_ = 0.0;
 };
 
 // The element size near a 3D needle path: the mean over the cells the path crosses of the edge of
 // the cube of equal volume ((6V)^(1/3) for a tetrahedron, V^(1/3) for a grid cell).
 double path_element_size(const fem::CellLocator<3>& locator, const Eigen::Vector3d& entry,
                          const Eigen::Vector3d& axis, double depth);
-// The coupling radius when the scenario gives none: R = max(a, c·h), h the element size near the path
-// (the band must span a few elements to carry the needle's force on a coarse mesh; R = a once the mesh
-// resolves the needle).
-double default_coupling_radius(double radius, double element_size);
 
 }  // namespace vim::pipeline

@@ -45,6 +45,7 @@ struct RunOptions {
   // Simulation and outputs
   int degree = 1;        // --degree: FEM polynomial degree (1 = P1, the paper's model; 2 = P2)
   std::string simulate;  // --simulate SCENARIO.yaml ("" = mesh only)
+  std::string study;     // --study STUDY.yaml: many scenarios (study.hpp) instead of --simulate
   std::vector<std::string> exports = {"vtk", "feb", "msh", "inp"};  // --export (mesh.vtu is always written)
   bool overwrite = false;
   Verbosity verbosity = Verbosity::normal;

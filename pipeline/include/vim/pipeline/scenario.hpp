@@ -59,6 +59,8 @@ struct NeedleSpec {
   int steps = 0;
   double diameter = 0.0;
   enum class Model { kinematic, force } model = Model::kinematic;
+  // The parser's default is stick-slip, whose limit has no default (the key is then required); stick is
+  // the no-slip limit.
   enum class Friction { stick, stick_slip } friction = Friction::stick;
   double max_shear_per_length = 0.0;  // stick-slip limit (force per unit length of shaft, e.g. mN/mm)
   double sample_spacing = 0.0;        // distance between embedded shaft points; 0 = automatic
@@ -114,8 +116,8 @@ struct Scenario {
   std::optional<NeedleRefinement> needle_refinement;
 
   std::vector<BoundaryConditionSpec> boundary_conditions;
-  std::vector<NeedleSpec> needles;
-  bool needle_list = false;  // `needles:` given: one sub-folder per needle + summary.csv
+  std::vector<NeedleSpec> needles;  // empty: a static load case (the boundary conditions alone, step 0)
+  bool needle_list = false;         // `needles:` given: one sub-folder per needle + summary.csv
 
   std::vector<TargetSpec> targets;
 

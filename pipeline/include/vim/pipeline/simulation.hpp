@@ -1,7 +1,8 @@
 // Needle-insertion simulation on the meshed model (docs/architecture.md): per-cell modulus (Eq. 15),
 // boundary conditions from the scenario (world regions mapped to the image frame), and a rigid straight
 // needle advanced in steps. Each step is one ElasticModel::solve with embedded-point constraints on
-// the fast condensed path (K factorised once, K⁻¹Cᵀ columns cached as shaft points are picked up).
+// the fast condensed path: before stepping, K is factorised and the column K⁻¹cᵀ of every shaft
+// point's rows computed in one batch (ElasticModel::precompute), so a step does dense work only.
 //
 // Needle models (all in the reference configuration, small strain). In 3D the "shaft points" below are
 // band stations of the needle of radius diameter/2 (BandCoupling, needle_coupling.hpp): the mean
@@ -97,16 +98,34 @@ struct NeedleRun {
   std::vector<std::vector<double>>
       point_axial_force;          // [step][point]: axial force on the body (0 if not active)
   double max_displacement = 0.0;  // largest vertex displacement norm over all steps
-  double solve_seconds = 0.0;     // total time in solves
-  std::vector<double>
-      step_seconds;  // wall time per step (step 0 = 0; step 1 includes assembly + factorisation)
+  // Per step: the largest principal strain magnitude over the cells (max |eigenvalue| of each cell's
+  // centroid strain); small-strain elasticity is valid only while it stays below ~10%.
+  std::vector<double> max_strain;
+  double solve_seconds = 0.0;  // total time in solves
+  // Before stepping: the model's factorisation (if not done yet) and every shaft row's column
+  // (ElasticModel::precompute); 0 with the monolithic reference.
+  double precompute_seconds = 0.0;
+  double stepping_seconds = 0.0;     // the stepping loop alone (steps 1..n, outputs included)
+  std::vector<double> step_seconds;  // wall time per step (step 0 = 0)
   double steps_per_second = 0.0;
   fem::SolverStats stats;  // of the last solve
+};
+
+// A scenario without a needle: the model under its boundary conditions alone (step 0), solved once.
+template <int dim>
+struct StaticLoadRun {
+  using Vec = Eigen::Matrix<double, dim, 1>;
+  std::vector<Vec> target_displacement;  // per target, world axes
+  std::vector<Vec> vertex_displacement;  // per model vertex, world axes
+  double max_displacement = 0.0;         // largest vertex displacement norm
+  double max_strain = 0.0;               // largest principal strain magnitude over the cells
+  fem::SolverStats stats;
 };
 
 template <int dim>
 struct SimulationResult {
   std::vector<NeedleRun<dim>> needles;
+  std::optional<StaticLoadRun<dim>> static_load;  // the scenario has no needle
   std::vector<std::string> target_names;  // the scenario's targets, in the order of target_displacement
   std::vector<std::string> warnings;      // results the user should not take at face value (also in report)
   nlohmann::json report;                  // for report.json["simulation"]
@@ -126,7 +145,8 @@ class NeedleSimulation {
   ~NeedleSimulation();
   NeedleSimulation(NeedleSimulation&&) noexcept;
 
-  // Runs every needle of the scenario from rest; writes the outputs when options.output_file is set.
+  // Runs every needle of the scenario from rest, or without a needle the static load case (step 0);
+  // writes the outputs when options.output_file is set.
   SimulationResult<dim> run();
 
   const std::vector<double>& youngs_modulus() const;  // per cell, as used

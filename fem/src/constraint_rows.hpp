@@ -1,0 +1,56 @@
+// Internal to vim_fem (deal.II inside): the rows C u = g of embedded point constraints, shared by the
+// two constrained solves — solve() (Schur complement over cached columns, solvers.cpp) and
+// solve_monolithic() (the saddle-point reference, constraint_rows.cpp).
+#pragma once
+
+#include <deal.II/base/timer.h>
+
+#include <cstddef>
+#include <utility>
+#include <vector>
+
+#include "model_state.hpp"
+
+namespace vim::fem {
+
+template <int dim>
+using State = ModelAccess::State<dim>;
+
+// Row of C for direction axes.col(c) of point constraint p (`which` its index, for messages): a·N at the
+// point, or the weighted mean of a·N over its samples inside the mesh, Dirichlet DoFs moved to the
+// right-hand side g (which starts at `g`). Throws std::invalid_argument for a point (or all its
+// samples) outside the mesh, or one on Dirichlet nodes asking for another displacement.
+template <int dim>
+ConstraintRow constraint_row(const State<dim>& m, const PointConstraint<dim>& p, unsigned c, double g,
+                             std::size_t which);
+
+// The rows of one constrained solve, in order, with the right-hand sides g and (point, component) of each.
+struct RowSet {
+  std::vector<const ConstraintRow*> rows;
+  std::vector<double> g;
+  std::vector<std::pair<std::size_t, unsigned>> which;
+  void add(const ConstraintRow* row, double gi, std::size_t point, unsigned comp) {
+    rows.push_back(row);
+    g.push_back(gi);
+    which.emplace_back(point, comp);
+  }
+};
+
+// Throws std::invalid_argument for non-finite positions/displacements, negative compliances or axes
+// that are not orthonormal.
+template <int dim>
+void check_points(const std::vector<PointConstraint<dim>>& points);
+
+// Adds the Dirichlet part of a row with multiplier mu to the support reactions of s.
+template <int dim>
+void add_constraint_reactions(const State<dim>& m, const ConstraintRow& row, double mu, Solution<dim>& s);
+
+// After a constrained solve of m.u (free DoFs): checks the dropped rows (DependentPointConstraints when
+// one does not hold), distributes the Dirichlet values and post-processes; the point forces are left
+// zero for the caller to fill in.
+template <int dim>
+Solution<dim> finish_constrained_solve(State<dim>& m, const RowSet& set, const std::vector<bool>& keep,
+                                       std::size_t n_points, const dealii::Timer& timer,
+                                       double* solve_seconds);
+
+}  // namespace vim::fem

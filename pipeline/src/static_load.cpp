@@ -1,0 +1,66 @@
+// The static load case of a scenario without a needle (static_load.hpp).
+#include "static_load.hpp"
+
+#include <vim/pipeline/vtk_output.hpp>
+
+#include "largest_strain.hpp"
+#include "simulation_output.hpp"
+
+namespace vim::pipeline {
+
+using json = nlohmann::json;
+
+template <int dim>
+StaticLoadRun<dim> run_static_load(SimulationContext<dim>& ctx, json& report,
+                                   std::vector<std::string>& warnings) {
+  using Vec = Eigen::Matrix<double, dim, 1>;
+  const auto start = Clock::now();
+  fem::Solution<dim> solution;
+  try {
+    solution = ctx.model->solve({}, ctx.solver);
+  } catch (const fem::SingularConstraints& e) {  // name the scenario's conditions, as a needle run does
+    const int line = ctx.sc.boundary_conditions.empty() ? 0 : ctx.sc.boundary_conditions.front().line;
+    throw ScenarioError(ctx.sc.where(line) + "boundary_conditions: " + e.what());
+  }
+  const double solve_seconds = seconds_since(start);
+  StaticLoadRun<dim> run;
+  run.stats = solution.stats;
+  for (const Vec& u : solution.vertex_displacement) {
+    run.vertex_displacement.push_back(ctx.tf.vector_to_world(u));
+    run.max_displacement = std::max(run.max_displacement, u.norm());
+  }
+  run.max_strain = largest_principal_strain<dim>(solution.cell_strain);
+  std::vector<Vec> targets;
+  for (const auto& t : ctx.sc.targets) targets.push_back(ctx.tf.to_frame(vec<dim>(t.position)));
+  if (!targets.empty())
+    for (const Vec& u : ctx.model->sample(targets))
+      run.target_displacement.push_back(ctx.tf.vector_to_world(u));
+
+  const bool write = static_cast<bool>(ctx.opt.output_file) && ctx.sc.output_every > 0;
+  if (write) {
+    write_step_vtu<dim>(ctx, ctx.opt.output_file("steps/" + step_file(0)), &solution);
+    write_pvd(ctx.opt.output_file("simulation.pvd"), {{0.0, "steps/" + step_file(0)}});
+  }
+  json final_targets = json::object();
+  for (std::size_t t = 0; t < run.target_displacement.size(); ++t) {
+    const Vec& u = run.target_displacement[t];
+    json d = json::array();
+    for (int c = 0; c < dim; ++c) d.push_back(u[c]);
+    final_targets[ctx.sc.targets[t].name] = {{"displacement", d}, {"norm", u.norm()}};
+  }
+  report = {{"steps", 1},
+            {"files", write ? json::array({"steps/" + step_file(0)}) : json::array()},
+            {"max_displacement", run.max_displacement},
+            {"max_strain", run.max_strain},
+            {"targets", final_targets},
+            {"solver", {{"method", run.stats.method}, {"n_dofs", run.stats.n_dofs}, {"solves", 1}}},
+            {"timing", {{"solve_seconds", solve_seconds}}}};
+  const std::string w = small_strain_warning(ctx.sc.where(0), "the static load case", {run.max_strain});
+  if (!w.empty()) warnings.push_back(w);
+  return run;
+}
+
+template StaticLoadRun<2> run_static_load<2>(SimulationContext<2>&, json&, std::vector<std::string>&);
+template StaticLoadRun<3> run_static_load<3>(SimulationContext<3>&, json&, std::vector<std::string>&);
+
+}  // namespace vim::pipeline

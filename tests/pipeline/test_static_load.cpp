@@ -1,0 +1,200 @@
+// Needle-free scenarios (static load cases) and the largest strain per step, through the real CLI.
+// Truths: the analytic uniaxial state of a homogeneous block on sliding supports (compressed by a
+// prescribed displacement δ: ε_zz = −δ/L, ε_xx = ε_yy = νδ/L, u linear; under a pressure p:
+// ε_zz = −p/E), which P1 and Q1 reproduce exactly; and, for a needle run, the largest principal strain
+// recomputed here from the strain tensors of the step files.
+#include <gtest/gtest.h>
+#include <vtkCellData.h>
+#include <vtkDataArray.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkSmartPointer.h>
+#include <vtkUnstructuredGrid.h>
+#include <vtkXMLUnstructuredGridReader.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+#include <vim/pipeline/image_io.hpp>
+
+#include "run_cli.hpp"
+
+using namespace vim;
+using namespace vim::pipeline;
+using vim::test::quote;
+using vim::test::run_pipeline;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kE = 10.0, kNu = 0.3, kL = 20.0;  // modulus (kPa), Poisson ratio, block height (mm)
+
+// A homogeneous 10 x 10 x 20 mm block of 1 mm voxels, box [0,10] x [0,10] x [0,20].
+void write_block(const fs::path& path) {
+  OrientedImage<3> img;
+  img.image = Image<3>({{10, 10, 20}}, {{1, 1, 1}}, {{0.5, 0.5, 0.5}}, static_cast<float>(kE));
+  write_image<3>(img, path.string());
+}
+
+// Sliding supports on x_min, y_min, z_min (one component each) and `load` on z_max.
+std::string static_scenario(const std::string& load) {
+  return "material: {youngs_modulus: image, poisson_ratio: " + std::to_string(kNu) +
+         "}\n"
+         "boundary_conditions:\n"
+         "  - {type: fixed, region: {box_face: x_min}, components: [x]}\n"
+         "  - {type: fixed, region: {box_face: y_min}, components: [y]}\n"
+         "  - {type: fixed, region: {box_face: z_min}, components: [z]}\n"
+         "  - " +
+         load +
+         "\n"
+         "targets: [{name: top, position: [7, 3, 16]}]\n";
+}
+
+vtkSmartPointer<vtkUnstructuredGrid> read_vtu(const fs::path& path) {
+  vtkNew<vtkXMLUnstructuredGridReader> r;
+  r->SetFileName(path.string().c_str());
+  r->Update();
+  return r->GetOutput();
+}
+
+// Runs the CLI on the block; returns report.json (empty on failure).
+nlohmann::json run(const vim::test::TempDir& dir, const std::string& yaml, const std::string& mesher,
+                   const std::string& name) {
+  std::ofstream(dir / (name + ".yaml")) << yaml;
+  const auto r = run_pipeline(quote(dir / "block.mha") + " --mesher " + mesher +
+                              " --nodes 300 --export none -q --simulate " + quote(dir / (name + ".yaml")) +
+                              " --out " + quote(dir / name));
+  EXPECT_EQ(r.code, 0) << r.err;
+  std::ifstream f(dir.path / name / "report.json");
+  nlohmann::json report;
+  if (f) f >> report;
+  return report;
+}
+
+// The largest |eigenvalue| of the 3x3 tensors of a cell array (9 components, row-major).
+double largest_principal(vtkDataArray* strain, vtkIdType cell) {
+  Eigen::Matrix3d e;
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) e(a, b) = strain->GetComponent(cell, 3 * a + b);
+  return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(e).eigenvalues().cwiseAbs().maxCoeff();
+}
+
+}  // namespace
+
+// A prescribed compression δ of the top face: one solve, step 0 written like a needle step (same
+// fields), no needle.csv; displacements, the target and the largest strain δ/L are the analytic ones,
+// on the grid (P1) and the voxel reference (Q1). 15% compression is beyond small strain: warned, naming
+// step 0; 5% is not.
+TEST(StaticLoad, PrescribedCompressionMatchesTheUniaxialSolution) {
+  vim::test::TempDir dir("static");
+  write_block(dir.path / "block.mha");
+  for (const std::string mesher : {"grid", "voxel"}) {
+    for (const double delta : {1.0, 3.0}) {
+      const std::string name = mesher + (delta > 2 ? "_large" : "_small");
+      const std::string load = "{type: displacement, region: {box_face: z_max}, value: [0, 0, " +
+                               std::to_string(-delta) + "], components: [z]}";
+      const auto report = run(dir, static_scenario(load), mesher, name);
+      ASSERT_TRUE(report.contains("simulation")) << name;
+      const auto& sim = report["simulation"];
+      const double strain = delta / kL;
+      EXPECT_NEAR(sim["max_strain"].get<double>(), strain, 1e-8) << name;
+      EXPECT_NEAR(sim["static_load"]["max_strain"].get<double>(), strain, 1e-8) << name;
+      // The target at (7, 3, 16): u = (ν ε x, ν ε y, −ε z) with ε = δ/L.
+      const Eigen::Vector3d expected(kNu * strain * 7, kNu * strain * 3, -strain * 16);
+      const auto& u = sim["static_load"]["targets"]["top"]["displacement"];
+      for (int a = 0; a < 3; ++a) EXPECT_NEAR(u[a].get<double>(), expected[a], 1e-8) << name << " axis " << a;
+      EXPECT_FALSE(fs::exists(dir.path / name / "needle.csv")) << name;
+      EXPECT_TRUE(fs::exists(dir.path / name / "simulation.pvd")) << name;
+      const auto step = read_vtu(dir.path / name / "steps" / "step_0000.vtu");
+      for (const char* field : {"strain", "stress", "von_mises", "youngs_modulus"})
+        EXPECT_NE(step->GetCellData()->GetArray(field), nullptr) << name << " " << field;
+      vtkDataArray* disp = step->GetPointData()->GetArray("displacement");
+      ASSERT_NE(disp, nullptr) << name;
+      double worst = 0.0;
+      for (vtkIdType i = 0; i < step->GetNumberOfPoints(); ++i) {
+        double p[3];
+        step->GetPoint(i, p);
+        const Eigen::Vector3d truth(kNu * strain * p[0], kNu * strain * p[1], -strain * p[2]);
+        for (int a = 0; a < 3; ++a) worst = std::max(worst, std::abs(disp->GetComponent(i, a) - truth[a]));
+      }
+      EXPECT_LT(worst, 1e-8) << name;
+      const std::string warnings = report.contains("warnings") ? report["warnings"].dump() : "";
+      const bool warned =
+          warnings.find("the static load case: the largest strain in the model is") != std::string::npos;
+      EXPECT_EQ(warned, delta > 2) << name << ": " << warnings;
+      if (warned) {
+        EXPECT_NE(warnings.find("at step 0"), std::string::npos) << warnings;
+      }
+    }
+  }
+}
+
+// A pressure p on the top face (a probe pressing on the tissue): ε_zz = −p/E everywhere, the largest
+// principal strain p/E, on the VIM mesh (any mesh of the block represents the uniform state exactly).
+TEST(StaticLoad, PressureGivesTheUniaxialStrain) {
+  vim::test::TempDir dir("static_p");
+  write_block(dir.path / "block.mha");
+  const double p = 0.4;
+  const auto report =
+      run(dir, static_scenario("{type: pressure, region: {box_face: z_max}, value: 0.4}"), "vim", "p");
+  ASSERT_TRUE(report.contains("simulation"));
+  EXPECT_NEAR(report["simulation"]["max_strain"].get<double>(), p / kE, 1e-8);
+  const auto& u = report["simulation"]["static_load"]["targets"]["top"]["displacement"];
+  EXPECT_NEAR(u[2].get<double>(), -p / kE * 16, 1e-8);
+  EXPECT_NEAR(u[0].get<double>(), kNu * p / kE * 7, 1e-8);
+  EXPECT_TRUE(fs::exists(dir.path / "p" / "figures" / "deformed.png"));
+}
+
+// A needle run reports the largest strain of every step in needle.csv and report.json: it equals the
+// largest principal strain recomputed from the strain tensors of the step files, and the warning names
+// the first step at which it exceeds 10%.
+TEST(StaticLoad, NeedleRunsReportTheLargestStrainOfEveryStep) {
+  vim::test::TempDir dir("strain");
+  write_block(dir.path / "block.mha");
+  const std::string yaml =
+      "material: {youngs_modulus: image, poisson_ratio: 0.3}\n"
+      "boundary_conditions: [{type: fixed, region: {box_face: z_max}}]\n"
+      "needle: {entry: [5.2, 4.9, 0], direction: [0, 0, 1], depth: 12, steps: 4, diameter: 1, friction: "
+      "{model: "
+      "stick}}\n";
+  const auto report = run(dir, yaml, "grid", "n");
+  ASSERT_TRUE(report.contains("simulation"));
+  std::ifstream csv(dir.path / "n" / "needle.csv");
+  std::string line;
+  std::getline(csv, line);
+  std::vector<std::string> head;
+  {
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) head.push_back(c);
+  }
+  const auto column = std::find(head.begin(), head.end(), "max_strain") - head.begin();
+  ASSERT_LT(static_cast<std::size_t>(column), head.size()) << line;
+  const auto& per_step = report["simulation"]["needles"][0]["per_step"]["max_strain"];
+  int first_large = -1;
+  for (int k = 0; std::getline(csv, line); ++k) {
+    std::vector<std::string> row;
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) row.push_back(c);
+    const double reported = std::stod(row[static_cast<std::size_t>(column)]);
+    EXPECT_NEAR(per_step[static_cast<std::size_t>(k)].get<double>(), reported, 1e-9 * (1 + reported));
+    const auto step = read_vtu(dir.path / "n" / "steps" / ("step_000" + std::to_string(k) + ".vtu"));
+    vtkDataArray* strain = step->GetCellData()->GetArray("strain");
+    ASSERT_NE(strain, nullptr);
+    double largest = 0.0;
+    for (vtkIdType c = 0; c < step->GetNumberOfCells(); ++c)
+      largest = std::max(largest, largest_principal(strain, c));
+    EXPECT_NEAR(reported, largest, 1e-6 * (1 + largest)) << "step " << k;
+    if (first_large < 0 && reported > 0.1) first_large = k;
+  }
+  ASSERT_GT(first_large, 0) << "a 12 mm insertion into a 20 mm block strains it beyond 10%";
+  const std::string warnings = report.contains("warnings") ? report["warnings"].dump() : "";
+  EXPECT_NE(warnings.find("at step " + std::to_string(first_large) + " (the first step above 0.1"),
+            std::string::npos)
+      << warnings;
+}
