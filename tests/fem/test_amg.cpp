@@ -1,11 +1,12 @@
 // CG + ML AMG with the rigid-body modes (pre-computed null space) vs the sparse direct solver on a
 // heterogeneous 3D problem with more than 50k DoFs; also the AMG path with point constraints.
+#include "box_mesh.hpp"
+
+#include <vim/fem/elasticity.hpp>
+
 #include <gtest/gtest.h>
 
 #include <random>
-#include <vim/fem/elasticity.hpp>
-
-#include "box_mesh.hpp"
 
 using namespace vim;
 using namespace vim::fem;
@@ -32,8 +33,7 @@ ElasticModel<3> heterogeneous_block(int n, unsigned degree) {
 
 double max_rel_diff(const std::vector<Vec<3>>& a, const std::vector<Vec<3>>& b) {
   double d = 0, s = 0;
-  for (std::size_t i = 0; i < a.size(); ++i)
-    d = std::max(d, (a[i] - b[i]).norm()), s = std::max(s, b[i].norm());
+  for (std::size_t i = 0; i < a.size(); ++i) d = std::max(d, (a[i] - b[i]).norm()), s = std::max(s, b[i].norm());
   return d / s;
 }
 }  // namespace
@@ -50,8 +50,8 @@ TEST(Amg, MatchesDirectOnFiftyThousandDofs) {
   amg.tolerance = 1e-12;
   const auto sol = model.solve({}, amg);
   EXPECT_EQ(sol.stats.method, "cg+amg");
-  std::printf("AMG: %u DoFs, %u CG iterations, relative residual %.2e\n", sol.stats.n_dofs,
-              sol.stats.iterations, sol.stats.residual);
+  std::printf("AMG: %u DoFs, %u CG iterations, relative residual %.2e\n", sol.stats.n_dofs, sol.stats.iterations,
+              sol.stats.residual);
   EXPECT_LT(max_rel_diff(sol.vertex_displacement, ref.vertex_displacement), 1e-8);
   EXPECT_NEAR(sol.strain_energy, ref.strain_energy, 1e-8 * ref.strain_energy);
   // with all six rigid-body modes the iteration count stays small (translations alone need ~3x more)
