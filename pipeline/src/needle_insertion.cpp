@@ -16,9 +16,9 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim>& context, const Nee
   entry_world_ = vec<dim>(spec.entry);
   const NeedlePath<dim> path = needle_path<dim>(spec, ctx_.tf);
   axis_ = path.axis;
-  pitch_ = spec.sample_spacing > 0.0 ? spec.sample_spacing : 0.5 * ctx_.locator.mean_edge_length();
-  shaft_ =
-      sample_shaft<dim>(ctx_.locator, path.entry, axis_, spec.depth, pitch_, ctx_.blocked, snap_to_vertices);
+  pitch_ = spec.sample_spacing > 0.0 ? spec.sample_spacing : 0.5 * ctx_.locator().mean_edge_length();
+  shaft_ = sample_shaft<dim>(ctx_.locator(), path.entry, axis_, spec.depth, pitch_, ctx_.blocked,
+                             snap_to_vertices);
   if (shaft_.empty())
     throw ScenarioError(
         ctx_.sc.where(spec.line) + "needle '" + spec.name +
