@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <vim/pipeline/input_error.hpp>
@@ -77,10 +78,14 @@ void check_nifti_header_numbers(const std::string& path) {
     for (int i = 0; i < field.count; ++i) {
       const double v = one ? value_at<float, std::uint32_t>(h, field.offset + 4 * i, swapped)
                            : value_at<double, std::uint64_t>(h, field.offset + 8 * i, swapped);
-      if (std::abs(v) < 1e15) continue;  // false for NaN
+      // Denormal values (below the smallest normal float or double) reach ITK's direction matrix as
+      // divisions by almost zero and abort it like NaN does (fuzz_nifti_header).
+      const double smallest = one ? std::numeric_limits<float>::min() : std::numeric_limits<double>::min();
+      if (std::abs(v) < 1e15 && (v == 0.0 || std::abs(v) >= smallest)) continue;  // false for NaN
       std::ostringstream m;
       m << path << ": NIfTI header field " << field.name << " (value " << i + 1 << ") = " << v
-        << " is not a usable number (valid: finite, magnitude below 1e15)";
+        << " is not a usable number (valid: 0, or finite with a magnitude from " << smallest
+        << " (no denormals) to below 1e15)";
       throw InputError(m.str());
     }
 }
