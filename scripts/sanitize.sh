@@ -2,9 +2,9 @@
 # Builds the test suites with -fsanitize=address,undefined (VIM_SANITIZE=ON: the project's own
 # code; deal.II, ITK and VTK are the uninstrumented system libraries) and the mesh-invariant checks
 # on (VIM_CHECKED=ON: every VIM stage of every test run is checked) in a separate build dir and runs
-# them, timing the build and the run of each suite. CI (scripts/test.sh) runs the mesher, pipeline
-# and bad-input suites this way; the fem suite and the validation smoke run from this script
-# (docs/reliability.md records the last run and its commit).
+# them, timing the build and the run of each suite. CI (scripts/test.sh) runs the mesher suite this
+# way (SANITIZE_TARGETS adds the pipeline and bad-input suites); the fem suite and the validation
+# smoke run from this script (docs/robustness.md records the last run and its commit).
 #   scripts/sanitize.sh [BUILD_DIR]            (default: ../build-sanitize next to the checkout)
 # Environment: JOBS (default 1), TARGETS (default: every suite below), CONFIGURE_ONLY=1 to stop after
 # cmake, GTEST_FILTER passed through, VALIDATION_FILTER (the validation smoke; default below),
