@@ -5,8 +5,9 @@
 #   scripts/fuzz.sh [SECONDS] [BUILD_DIR]      (defaults: 60, ../build-fuzz next to the checkout)
 # Environment: JOBS (build parallelism, default 1), FUZZ_TARGETS (default "scenario image_header
 # nifti_header command_line"), RUNS (stop each target after RUNS executions as well; the reference
-# run is RUNS=1000000 SECONDS=100000, docs/reliability.md), VIM_BUILD_DIR (a normal build whose
-# libraries fuzz_command_line links; default ./build of the checkout).
+# run is `RUNS=1000000 scripts/fuzz.sh 100000`, docs/robustness.md), VIM_BUILD_DIR (a normal build
+# whose libraries fuzz_command_line links; default ./build of the checkout). SECONDS is bash's own
+# clock, not a parameter: give the time limit as the first argument.
 # Crash reproducers are left in BUILD_DIR/artifacts/; exit status 1 if any target found one.
 # fuzz/lsan.supp suppresses leaks inside third-party libraries (recorded in docs/robustness.md).
 # max_malloc_fill_size=0 and a 16 MB quarantine roughly halve the time per input (ASan otherwise

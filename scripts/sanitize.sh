@@ -2,12 +2,13 @@
 # Builds the test suites with -fsanitize=address,undefined (VIM_SANITIZE=ON: the project's own
 # code; deal.II, ITK and VTK are the uninstrumented system libraries) and the mesh-invariant checks
 # on (VIM_CHECKED=ON: every VIM stage of every test run is checked) in a separate build dir and runs
-# them, timing the build and the run of each suite. CI (scripts/test.sh) runs the mesher, pipeline
-# and bad-input suites this way; the fem suite and the validation smoke run from this script
-# (docs/reliability.md records the last run and its commit).
+# them, timing the build and the run of each suite. CI (scripts/test.sh) runs the mesher suite this
+# way (SANITIZE_TARGETS adds the pipeline and bad-input suites); the fem suite and the validation
+# smoke run from this script (docs/robustness.md records the last run and its commit).
 #   scripts/sanitize.sh [BUILD_DIR]            (default: ../build-sanitize next to the checkout)
 # Environment: JOBS (default 1), TARGETS (default: every suite below), CONFIGURE_ONLY=1 to stop after
-# cmake, GTEST_FILTER passed through, VALIDATION_FILTER (the validation smoke; default below).
+# cmake, GTEST_FILTER passed through, VALIDATION_FILTER (the validation smoke; default below),
+# CMAKE_ARGS added to the configure line (e.g. -DCMAKE_CXX_COMPILER_LAUNCHER=ccache).
 # Leak detection is on; scripts/lsan.supp suppresses only the intentional allocations of MPI,
 # deal.II and the libraries below them.
 set -euo pipefail
@@ -20,7 +21,7 @@ validation_filter=${VALIDATION_FILTER:-"Eq15EndToEnd.*:Table1Metrics.*"}
 
 # Release, not RelWithDebInfo: deal_ii_setup_target only knows Debug/Release. -g for stacks.
 cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DVIM_SANITIZE=ON -DVIM_CHECKED=ON -DVIM_BUILD_BENCH=OFF \
-  -DCMAKE_CXX_FLAGS="-g" >/dev/null
+  -DCMAKE_CXX_FLAGS="-g" ${CMAKE_ARGS:-} >/dev/null
 echo "configured $build (VIM_SANITIZE=ON, VIM_CHECKED=ON)"
 [ "${CONFIGURE_ONLY:-0}" = 1 ] && exit 0
 declare -A build_seconds

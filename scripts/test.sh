@@ -18,12 +18,12 @@ ctest --output-on-failure --timeout 1800 "$@"
 # The full run also builds the mesher suite with ASan+UBSan (leak detection on, scripts/lsan.supp) and
 # every mesh invariant checked (scripts/sanitize.sh; SANITIZE=0 skips it; SANITIZE_TARGETS="test_mesher
 # test_pipeline test_bad_inputs" adds the deal.II-using suites, whose instrumented build is not yet
-# measured against the CI budget), then a 7-second smoke of each fuzz target (scripts/fuzz.sh; FUZZ=0
+# measured against the CI budget), then a 30-second smoke of each fuzz target (scripts/fuzz.sh; FUZZ=0
 # skips it).
 if [ $# -eq 0 ] && [ "${SANITIZE:-1}" != 0 ]; then
   TARGETS="${SANITIZE_TARGETS:-test_mesher}" JOBS="${JOBS:-2}" bash "$ROOT/scripts/sanitize.sh" "$BUILD_DIR-sanitize"
 fi
 if [ $# -eq 0 ] && [ "${FUZZ:-1}" != 0 ]; then
-  VIM_BUILD_DIR="$BUILD_DIR" JOBS="${JOBS:-2}" bash "$ROOT/scripts/fuzz.sh" 7 "$BUILD_DIR-fuzz"
+  VIM_BUILD_DIR="$BUILD_DIR" JOBS="${JOBS:-2}" bash "$ROOT/scripts/fuzz.sh" 30 "$BUILD_DIR-fuzz"
 fi
 echo "test.sh: all tests passed in $(( $(date +%s) - start )) s"

@@ -62,7 +62,7 @@ template <int dim>
 void NeedleInsertion<dim>::make_coupling(const NeedlePath<dim>& path, bool snap_to_vertices) {
   axis_ = path.axis;
   if constexpr (dim == 3) {
-    const double h = path_element_size(ctx_.locator, path.entry, path.axis, spec_.depth);
+    const double h = path_element_size(ctx_.locator(), path.entry, path.axis, spec_.depth);
     const auto with_spacing = [&](BandCoupling::Geometry geometry) {
       geometry.spacing = spec_.sample_spacing > 0.0 ? spec_.sample_spacing : h;
       return geometry;
@@ -76,12 +76,12 @@ void NeedleInsertion<dim>::make_coupling(const NeedlePath<dim>& path, bool snap_
     g.coupling_radius = spec_.coupling_radius;
     g.element_size = h;
     g.degree = ctx_.degree;
-    auto band = std::make_unique<BandCoupling>(with_spacing(g), ctx_.locator, ctx_.E, ctx_.sc.poisson_ratio,
+    auto band = std::make_unique<BandCoupling>(with_spacing(g), ctx_.locator(), ctx_.E, ctx_.sc.poisson_ratio,
                                                ctx_.blocked);
     // A mesh so coarse that no band of the default size fits in it (every sample outside): halve h.
     for (int k = 0; k < 8 && band->stations().empty() && spec_.coupling_radius <= 0.0; ++k) {
       g.element_size *= 0.5;
-      band = std::make_unique<BandCoupling>(with_spacing(g), ctx_.locator, ctx_.E, ctx_.sc.poisson_ratio,
+      band = std::make_unique<BandCoupling>(with_spacing(g), ctx_.locator(), ctx_.E, ctx_.sc.poisson_ratio,
                                             ctx_.blocked);
     }
     shaft_ = band->stations();
@@ -89,8 +89,8 @@ void NeedleInsertion<dim>::make_coupling(const NeedlePath<dim>& path, bool snap_
     coupling_radius_ = band->coupling_radius();
     coupling_ = std::move(band);
   } else {
-    pitch_ = spec_.sample_spacing > 0.0 ? spec_.sample_spacing : 0.5 * ctx_.locator.mean_edge_length();
-    shaft_ = sample_shaft<dim>(ctx_.locator, path.entry, axis_, spec_.depth, pitch_, ctx_.blocked,
+    pitch_ = spec_.sample_spacing > 0.0 ? spec_.sample_spacing : 0.5 * ctx_.locator().mean_edge_length();
+    shaft_ = sample_shaft<dim>(ctx_.locator(), path.entry, axis_, spec_.depth, pitch_, ctx_.blocked,
                                snap_to_vertices);
     std::vector<Vec> positions;
     for (const auto& p : shaft_) positions.push_back(p.position);

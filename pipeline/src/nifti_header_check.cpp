@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <vim/pipeline/input_error.hpp>
@@ -65,16 +66,26 @@ void check_nifti_header_numbers(const std::string& path) {
   if (got >= 4 && size != 348 && size != 540)
     throw InputError(path + ": NIfTI header starts with sizeof_hdr = " + std::to_string(raw) +
                      "; valid: 348 (NIfTI-1) or 540 (NIfTI-2), in either byte order");
-  const bool one = size == 348 && got >= 348, two = size == 540 && got >= 540;
-  if (!one && !two) return;  // not a header this check understands; ITK decides
+  if (got < 4) return;  // too short to be NIfTI; ITK decides
+  // A header cut short: ITK 5.2 reads the missing bytes as geometry (a 483-byte file declaring a
+  // 540-byte NIfTI-2 header aborted the process in vnl_svd; fuzz_nifti_header).
+  if (got < size)
+    throw InputError(path + ": NIfTI header is truncated: the file holds " + std::to_string(got) +
+                     " bytes, its sizeof_hdr declares a " + std::to_string(size) + "-byte NIfTI-" +
+                     (size == 348 ? "1" : "2") + " header");
+  const bool one = size == 348;
   for (const Field& field : one ? kNifti1 : kNifti2)
     for (int i = 0; i < field.count; ++i) {
       const double v = one ? value_at<float, std::uint32_t>(h, field.offset + 4 * i, swapped)
                            : value_at<double, std::uint64_t>(h, field.offset + 8 * i, swapped);
-      if (std::abs(v) < 1e15) continue;  // false for NaN
+      // Denormal values (below the smallest normal float or double) reach ITK's direction matrix as
+      // divisions by almost zero and abort it like NaN does (fuzz_nifti_header).
+      const double smallest = one ? std::numeric_limits<float>::min() : std::numeric_limits<double>::min();
+      if (std::abs(v) < 1e15 && (v == 0.0 || std::abs(v) >= smallest)) continue;  // false for NaN
       std::ostringstream m;
       m << path << ": NIfTI header field " << field.name << " (value " << i + 1 << ") = " << v
-        << " is not a usable number (valid: finite, magnitude below 1e15)";
+        << " is not a usable number (valid: 0, or finite with a magnitude from " << smallest
+        << " (no denormals) to below 1e15)";
       throw InputError(m.str());
     }
 }

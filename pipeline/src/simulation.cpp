@@ -169,7 +169,7 @@ void NeedleSimulation<dim>::Impl::setup(const std::vector<Vec>& vertices) {
     }
   }
   for (const auto& t : sc.targets)
-    if (locator.locate(tf.to_frame(vec<dim>(t.position))) < 0)
+    if (locator().locate(tf.to_frame(vec<dim>(t.position))) < 0)
       throw ScenarioError(sc.where(t.line) + "target '" + t.name + "' is outside the meshed domain");
 }
 
@@ -206,7 +206,6 @@ NeedleSimulation<dim>::NeedleSimulation(const MeshModel<dim>& mm, const Scenario
     m.box_min = m.box_min.cwiseMin(p);
     m.box_max = m.box_max.cwiseMax(p);
   }
-  m.locator = CellLocator<dim>::simplex(mm.mesh);
   m.model.emplace(mm.mesh, m.E, scenario.poisson_ratio, m.degree);
   m.grid = m.opt.world_grid ? m.opt.world_grid
                             : std::make_shared<const UnstructuredGrid>(simplex_grid(mm.mesh, mm.transform));
@@ -239,7 +238,6 @@ NeedleSimulation<dim> NeedleSimulation<dim>::voxel(const Image<dim>& image,
   m.model.emplace(
       fem::ElasticModel<dim>::voxel_grid(image.size, m.box_min, m.box_max, m.E, scenario.poisson_ratio));
   const auto& verts = m.model->vertices();
-  m.locator = CellLocator<dim>::grid(image.size, m.box_min, m.box_max, verts);
   // One hexahedron (quad) per voxel on the lattice of corners, which is the model's vertex numbering.
   m.grid = m.opt.world_grid ? m.opt.world_grid
                             : std::make_shared<const UnstructuredGrid>(voxel_grid(image, transform));
@@ -301,7 +299,7 @@ template <int dim>
 NeedleRun<dim> NeedleSimulation<dim>::Impl::insert_needle(const NeedleSpec& spec, const std::string& prefix,
                                                           json& nr, std::vector<std::string>& warnings) {
   const std::string who = spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'";
-  const double edge = locator.mean_edge_length();
+  const double edge = locator().mean_edge_length();
   try {
     try {
       return run_needle(spec, prefix, nr);
@@ -377,7 +375,7 @@ template <int dim>
 void NeedleSimulation<dim>::Impl::check_axial_force(const NeedleSpec& spec, const NeedleRun<dim>& run,
                                                     json& nr, std::vector<std::string>& warnings) const {
   const std::string who = spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'";
-  const double edge = locator.mean_edge_length();
+  const double edge = locator().mean_edge_length();
   const std::vector<double>& f = run.axial_force;
   double largest = 0.0;
   std::vector<int> dips;
@@ -419,7 +417,7 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
     json nr;
     const std::string prefix = m.sc.needle_list ? spec.name + "/" : "";
     const std::string who = spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'";
-    const double edge = m.locator.mean_edge_length();
+    const double edge = m.locator().mean_edge_length();
     if ((m.voxel || m.degree == 1) && spec.sample_spacing > 0.0 && spec.sample_spacing < 0.5 * edge) {
       // Several joined points per linear element impose the linear field of their displacements on
       // the whole element, also beyond the tip (a probe: 1 mm spacing on 6 mm tetrahedra moved the tissue

@@ -23,7 +23,6 @@ struct SimulationContext {
   SimulationOptions opt;
   WorldTransform<dim> tf;
   std::optional<fem::ElasticModel<dim>> model;
-  CellLocator<dim> locator;
   std::vector<double> E;                         // per cell, as used
   Vec box_min, box_max;                          // frame
   std::shared_ptr<const UnstructuredGrid> grid;  // world, no fields; its points are the model's vertices
@@ -38,6 +37,8 @@ struct SimulationContext {
   double build_seconds = 0.0;
   fem::SolverOptions solver;
 
+  // Point location in the model's cells (the model's own locator: its vertices are the supports' numbering).
+  const CellLocator<dim>& locator() const { return model->locator(); }
   int max_sweeps() const { return std::max(1, opt.max_active_set_iterations); }  // stick-slip cap per step
   // A scenario region in the frame (regions are given in world coordinates; box faces name the box).
   fem::Region<dim> region(const RegionSpec& r) const;

@@ -1,7 +1,7 @@
 // Limits of the CLI, each a clear one-line error before any meshing and nothing in --out. Truth:
 // arithmetic on the initial grid (cube [0, 3]^3 of the table1 phantom: spacing h gives (3/h + 1)^3
 // nodes; 3D VIM keys hold 2^21 = 2097152 nodes, node ids 2^31 - 1) and the documented memory model
-// (200 MB + 24 B per voxel + 1600 B per node: 751^3 nodes need about 677 GB, more than any test
+// (200 MB + 27 B per voxel + 1600 B per node: 751^3 nodes need about 677 GB, more than any test
 // machine has; 1M is far below the libraries alone).
 #include <gtest/gtest.h>
 

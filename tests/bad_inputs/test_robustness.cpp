@@ -370,6 +370,11 @@ TEST_F(Robustness, NiftiShorterThanItsHeaderDeclaresIsTruncated) {
   std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() - 100);
   expect_bad_image(cut, {"truncated", "1000 voxels, 4000 bytes", "holds only " + std::to_string(bytes.size() - 100)});
 
+  // Cut inside the 348-byte header itself (ITK would read the missing bytes as geometry).
+  const fs::path header_cut = dir_ / "header_cut.nii";
+  std::ofstream(header_cut, std::ios::binary) << bytes.substr(0, 300);
+  expect_bad_image(header_cut, {"header is truncated", "holds 300 bytes", "348-byte NIfTI-1"});
+
   const fs::path gz = dir_ / "cut.nii.gz";  // a valid gzip stream of the cut file
   gzFile f = gzopen(gz.c_str(), "wb");
   ASSERT_NE(f, nullptr);

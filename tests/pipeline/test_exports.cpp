@@ -1,16 +1,12 @@
 // Round trips of the mesh exports (exports.hpp) through independent readers: deal.II's GridIn for
 // mesh.vtk and mesh.msh, a tag parser for mesh.feb, a small keyword reader for mesh.inp; and the
 // oblique/anisotropic coordinates check (a voxel centre lands on the ITK world point in every file).
-#include <vim/initial_mesh.hpp>
-#include <vim/pipeline/exports.hpp>
-
 #include <deal.II/grid/grid_in.h>
 #include <deal.II/grid/tria.h>
-
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <Eigen/Geometry>
-
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -21,8 +17,10 @@
 #include <regex>
 #include <set>
 #include <sstream>
-#include <unistd.h>
+#include <vim/initial_mesh.hpp>
+#include <vim/pipeline/exports.hpp>
 
+#include "oblique_grid.hpp"
 #include "scratch_dir.hpp"
 
 namespace fs = std::filesystem;
@@ -44,17 +42,7 @@ std::string slurp(const fs::path& p) {
 // A Kuhn grid of the box with an oblique transform and one modulus per element.
 template <int dim>
 MeshModel<dim> grid_model(const std::array<int, dim>& nodes, bool distinct_moduli, bool mirror) {
-  using P = Eigen::Matrix<double, dim, 1>;
-  P lo, hi;
-  for (int a = 0; a < dim; ++a) lo[a] = -1.0 - 0.5 * a, hi[a] = 2.0 + 1.5 * a;
-  MeshModel<dim> m;
-  m.mesh = regular_grid_mesh<dim>(lo, hi, nodes);
-  for (int a = 0; a < dim; ++a) m.transform.origin[a] = 10.0 + 3.0 * a;
-  if constexpr (dim == 3) {
-    m.transform.direction = Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
-  } else {
-    m.transform.direction = Eigen::Rotation2Dd(0.6).toRotationMatrix();
-  }
+  MeshModel<dim> m = vim::test::oblique_grid<dim>(nodes);
   if (mirror) m.transform.direction.col(0) *= -1.0;
   for (std::size_t c = 0; c < m.mesh.n_cells(); ++c) {
     ElementValue v;
@@ -82,8 +70,10 @@ void read_with_dealii(const fs::path& path, dealii::Triangulation<dim>& tria) {
   in.attach_triangulation(tria);
   std::ifstream f(path);
   ASSERT_TRUE(f) << path;
-  if (path.extension() == ".vtk") in.read_vtk(f);
-  else in.read_msh(f);
+  if (path.extension() == ".vtk")
+    in.read_vtk(f);
+  else
+    in.read_msh(f);
 }
 
 template <int dim>
@@ -97,8 +87,8 @@ double signed_measure(const std::array<dealii::Point<dim>, dim + 1>& x) {
 // Checks a deal.II triangulation against the world mesh: same vertices (1e-9), every world cell
 // present exactly once (by vertex set), material_id == bin, positively oriented in deal.II order.
 template <int dim>
-void expect_same_mesh(const dealii::Triangulation<dim>& tria, const SimplexMesh<dim>& world, const MaterialBins& bins,
-                      bool same_cell_order) {
+void expect_same_mesh(const dealii::Triangulation<dim>& tria, const SimplexMesh<dim>& world,
+                      const MaterialBins& bins, bool same_cell_order) {
   const auto& v = tria.get_vertices();
   ASSERT_EQ(v.size(), world.n_points());
   for (std::size_t i = 0; i < v.size(); ++i)
@@ -138,7 +128,7 @@ struct InpModel {
   std::map<long, std::vector<double>> nodes;
   std::map<long, std::vector<long>> elements;
   std::map<long, std::string> element_set, element_type;
-  std::map<std::string, std::string> section_material;  // elset -> material
+  std::map<std::string, std::string> section_material;       // elset -> material
   std::map<std::string, std::pair<double, double>> elastic;  // material -> (E, nu)
   bool heading = false;
 };
@@ -186,7 +176,8 @@ InpModel read_inp(const fs::path& path) {
       mode = key;
       if (key == "HEADING") m.heading = true;
       if (key == "ELEMENT") elset = p.at("ELSET"), type = p.at("TYPE");
-      if (key == "SOLID SECTION") section_elset = p.at("ELSET"), m.section_material[section_elset] = p.at("MATERIAL");
+      if (key == "SOLID SECTION")
+        section_elset = p.at("ELSET"), m.section_material[section_elset] = p.at("MATERIAL");
       if (key == "MATERIAL") material = p.at("NAME");
       continue;
     }
@@ -218,7 +209,8 @@ void expect_well_formed_xml(const std::string& xml) {
     pos = end + 1;
     if (tag[0] == '?' || tag[0] == '!') continue;
     if (tag.back() == '/') continue;
-    const std::string name = tag.substr(tag[0] == '/' ? 1 : 0, tag.find_first_of(" /", 1) - (tag[0] == '/' ? 1 : 0));
+    const std::string name =
+        tag.substr(tag[0] == '/' ? 1 : 0, tag.find_first_of(" /", 1) - (tag[0] == '/' ? 1 : 0));
     if (tag[0] == '/') {
       ASSERT_FALSE(stack.empty()) << "closing </" << name << "> without opening";
       ASSERT_EQ(stack.back(), name);
@@ -230,7 +222,8 @@ void expect_well_formed_xml(const std::string& xml) {
   EXPECT_TRUE(stack.empty());
 }
 
-std::map<long, std::vector<double>> xml_values(const std::string& xml, const std::string& tag, const std::string& attr) {
+std::map<long, std::vector<double>> xml_values(const std::string& xml, const std::string& tag,
+                                               const std::string& attr) {
   std::map<long, std::vector<double>> out;
   const std::regex re("<" + tag + " " + attr + "=\"(\\d+)\">([^<]*)</" + tag + ">");
   for (std::sregex_iterator it(xml.begin(), xml.end(), re), end; it != end; ++it) {
@@ -265,7 +258,8 @@ TEST(MaterialBins, DistinctValuesAreExactBins) {
 // separate bins); values 1e-9 apart stay apart.
 TEST(MaterialBins, RoundOffDifferencesShareABin) {
   auto m = grid_model<3>({{3, 3, 3}}, false, false);
-  const std::vector<double> values = {1.2, 1.1999999999999997, 1.2000000000000002, 1.2 + 1e-9, 3.0, 3.0 * (1 + 4e-16)};
+  const std::vector<double> values = {1.2, 1.1999999999999997, 1.2000000000000002, 1.2 + 1e-9,
+                                      3.0, 3.0 * (1 + 4e-16)};
   for (std::size_t c = 0; c < m.mesh.n_cells(); ++c) m.youngs_modulus[c] = values[c % values.size()];
   const auto bins = material_bins(m, 255);
   ASSERT_EQ(bins.n_bins(), 3u);
@@ -339,7 +333,8 @@ TEST(Exports, RoundTrip3D) {
   SimplexMesh<3> world = m.mesh;
   for (auto& p : world.points) p = m.transform.origin + m.transform.direction * (p - m.transform.origin);
 
-  for (const char* f : {"vtk", "feb", "msh", "inp"}) EXPECT_TRUE(fs::exists(dir / (std::string("mesh.") + f))) << f;
+  for (const char* f : {"vtk", "feb", "msh", "inp"})
+    EXPECT_TRUE(fs::exists(dir / (std::string("mesh.") + f))) << f;
   for (const auto& e : fs::directory_iterator(dir))
     EXPECT_EQ(e.path().string().find(".partial"), std::string::npos) << e.path();
   const auto& table = report["exports"]["material_table"];
@@ -434,7 +429,7 @@ TEST(Exports, ObliqueAnisotropicVoxelCentreLandsOnWorldPoint) {
   const auto dir = fresh_dir("coords");
   const Eigen::Vector3d origin(-12.5, 40.0, 7.25), spacing(0.5, 1.25, 2.0);
   Eigen::Matrix3d D = Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, -1.0, 0.5).normalized()).toRotationMatrix();
-  D.col(2) *= -1.0;  // det(D) = -1: every cell must be re-oriented in world space
+  D.col(2) *= -1.0;                             // det(D) = -1: every cell must be re-oriented in world space
   const std::array<long, 3> idx = {{4, 2, 3}};  // the voxel centre that becomes a mesh node
   // Frame mesh: a Kuhn grid whose node (1,1,1) is that voxel centre.
   Eigen::Vector3d lo, hi;

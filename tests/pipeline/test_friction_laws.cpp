@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 #include <vim/pipeline/needle_coupling.hpp>
 
 using namespace vim;
@@ -58,6 +59,15 @@ NeedleSpec needle(NeedleSpec::Model model, NeedleSpec::Friction friction) {
   return n;
 }
 
+// The kinematic stick-slip law with a sliding limit of 1 per unit length, started on three points.
+std::unique_ptr<FrictionLaw> stick_slip_limit_one() {
+  NeedleSpec n = needle(NeedleSpec::Model::kinematic, NeedleSpec::Friction::stick_slip);
+  n.max_shear_per_length = 1.0;
+  auto law = make_friction_law(n, 100);
+  law->start(3);
+  return law;
+}
+
 }  // namespace
 
 TEST(FrictionLaw, StickMovesEveryPointWithTheNeedleInOneSolve) {
@@ -95,10 +105,7 @@ TEST(FrictionLaw, StickSlipSlidesOnlyWhereTheStuckForceExceedsTheLimit) {
   // the others stay on the needle. A second step (the needle 0.1 further) keeps point 0 at its limit.
   ShaftState s = three_points();
   Springs tissue({10.0, 1.0, 0.5}, s);
-  NeedleSpec n = needle(NeedleSpec::Model::kinematic, NeedleSpec::Friction::stick_slip);
-  n.max_shear_per_length = 1.0;
-  auto law = make_friction_law(n, 100);
-  law->start(3);
+  auto law = stick_slip_limit_one();
   const FrictionStep step = law->update(s, tissue);
   EXPECT_TRUE(step.settled);
   EXPECT_GE(step.sweeps, 1);
@@ -120,10 +127,7 @@ TEST(FrictionLaw, StickSlipPointSticksAgainWhenTheNeedleWouldOvertakeIt) {
   // sliding value) is put back on the needle.
   ShaftState s = three_points();
   Springs tissue({10.0, 1.0, 0.5}, s);
-  NeedleSpec n = needle(NeedleSpec::Model::kinematic, NeedleSpec::Friction::stick_slip);
-  n.max_shear_per_length = 1.0;
-  auto law = make_friction_law(n, 100);
-  law->start(3);
+  auto law = stick_slip_limit_one();
   law->update(s, tissue);  // point 0 slides at w = 0.1
   s.stick = {0.05, 0.5, 0.5};
   law->update(s, tissue);

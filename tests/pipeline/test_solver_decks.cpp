@@ -14,17 +14,16 @@
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLUnstructuredGridReader.h>
 
-#include <Eigen/Geometry>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
-#include <vim/initial_mesh.hpp>
 #include <vim/pipeline/exports.hpp>
 #include <vim/pipeline/simulation.hpp>
 
+#include "oblique_grid.hpp"
 #include "run_cli.hpp"
 #include "scratch_dir.hpp"
 
@@ -55,16 +54,7 @@ std::string vec_yaml(const Eigen::Matrix<double, dim, 1>& v) {
 // A Kuhn grid of an oblique image box with a heterogeneous element mean (the modulus, scale 1).
 template <int dim>
 MeshModel<dim> oblique_model(const std::array<int, dim>& nodes) {
-  using P = Eigen::Matrix<double, dim, 1>;
-  P lo, hi;
-  for (int a = 0; a < dim; ++a) lo[a] = -1.0 - 0.5 * a, hi[a] = 2.0 + 1.5 * a;
-  MeshModel<dim> m;
-  m.mesh = regular_grid_mesh<dim>(lo, hi, nodes);
-  for (int a = 0; a < dim; ++a) m.transform.origin[a] = 10.0 + 3.0 * a;
-  if constexpr (dim == 3)
-    m.transform.direction = Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
-  else
-    m.transform.direction = Eigen::Rotation2Dd(0.6).toRotationMatrix();
+  MeshModel<dim> m = vim::test::oblique_grid<dim>(nodes);
   for (std::size_t c = 0; c < m.mesh.n_cells(); ++c) {
     ElementValue v;
     v.mean = 20.0 + 15.0 * std::sin(0.7 * static_cast<double>(c)) + 1e-7 * static_cast<double>(c);
