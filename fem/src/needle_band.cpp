@@ -98,7 +98,10 @@ NeedleBand needle_band_for(double radius, double element_size, double length, do
     if (std::abs(grown - R) <= 1e-12 * R) break;
     band.coupling_radius = grown;
   }
-  band.n_theta = std::max(8, static_cast<int>(std::ceil(2.0 * pi * band.coupling_radius / spacing)));
+  // A multiple of 4: the samples keep the symmetries of a square grid around the needle (quarter turns
+  // and mirrors about the frame's axes and diagonals), so symmetric problems stay symmetric.
+  band.n_theta =
+      4 * std::max(2, static_cast<int>(std::ceil(2.0 * pi * band.coupling_radius / spacing / 4.0)));
   band.n_axial = std::max(2, static_cast<int>(std::ceil(length / spacing)));
   return band;
 }

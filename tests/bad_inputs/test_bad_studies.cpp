@@ -15,7 +15,7 @@ TEST(BadStudies, OneLineErrorNamingFileLineAndKey) {
   std::ofstream(dir.path / "needles.yaml")
       << "boundary_conditions: [{type: fixed, region: {box_face: x_max}}]\n"
          "needles:\n  - {name: a, entry: [0, 1, 1], direction: [1, 0, 0], "
-         "depth: 1, steps: 2, diameter: 0.2}\n";
+         "depth: 1, steps: 2, diameter: 0.2, friction: {model: stick}}\n";
   struct Bad {
     std::string yaml, expected;
   };

@@ -87,8 +87,8 @@ TEST(NeedleBand, StuckNeedleForceFollowsAntiplaneTheoryInTheDiameter) {
   for (const auto& [n, degree] :
        {std::pair{std::array<int, 3>{{7, 7, 16}}, 2u}, std::pair{std::array<int, 3>{{11, 11, 31}}, 1u}}) {
     const MeshModel<3> prism = block(V3(-10, -10, 0), V3(10, 10, 60), n, [](const V3&) { return 30.0; });
-    const double f1 = final_axial_force(prism, prism_scenario(needle + "1}"), degree);
-    const double f2 = final_axial_force(prism, prism_scenario(needle + "2}"), degree);
+    const double f1 = final_axial_force(prism, prism_scenario(needle + "1, friction: {model: stick}}"), degree);
+    const double f2 = final_axial_force(prism, prism_scenario(needle + "2, friction: {model: stick}}"), degree);
     std::printf("%d nodes per side, P%u: forces %.1f / %.1f mN, ratio %.4f (antiplane %.4f)\n", n[0], degree,
                 f1, f2, f2 / f1, ratio);
     EXPECT_NEAR(f2 / f1, ratio, 0.03 * ratio) << "P" << degree;
@@ -104,7 +104,7 @@ TEST(NeedleBand, StuckNeedleForceNeverFalls) {
   VimOptions vo;
   vo.max_iterations = 6;
   const SimplexMesh<3> vim_mesh = optimize<3>(img, grid, vo).mesh;
-  const Scenario sc = block_scenario("");
+  const Scenario sc = block_scenario(", friction: {model: stick}");
   for (const auto* which : {"grid", "vim"})
     for (unsigned degree : {1u, 2u}) {
       SimulationOptions o = quiet();
@@ -154,7 +154,7 @@ TEST(NeedleBand, CuttingForceBoundsTheTipAndSplitsTheAxialForce) {
 // of points gives each mesh its own value (the force falls like 1/ln(1/h) with the element size h).
 TEST(NeedleBand, VoxelReferenceAndSimplexModelAgree) {
   const Image<3> img = block_image({{20, 20, 24}}, 20.0);  // uniform: the inclusion has the same modulus
-  const Scenario sc = block_scenario(", coupling_radius: 3, sample_spacing: 2");
+  const Scenario sc = block_scenario(", coupling_radius: 3, sample_spacing: 2, friction: {model: stick}");
   const auto voxel = NeedleSimulation<3>::voxel(img, WorldTransform<3>{}, sc, quiet()).run();
   const SimplexMesh<3> grid = regular_grid_mesh<3>(img.box_min(), img.box_max(), {{11, 11, 13}});
   SimulationOptions o = quiet();

@@ -112,8 +112,7 @@ TEST(Simulation, ForceModelStepsMatchAMonolithicSolveOfThePrescribedForces) {
   // entry.
   const std::string needle =
       "{entry: [0.3, -0.2, 8], direction: [0, 0, 1], depth: 6, steps: 3, diameter: 1, model: force, "
-      "tip_force: 5, "
-      "friction_per_length: 0.1}";
+      "tip_force: 5, friction_per_length: 0.1, coupling_radius: 2}";  // a single ring of radius 2
   const Scenario sc = parse_scenario_text(
       yaml(needle, "[{name: ahead, position: [0.3, -0.2, 18]}, {name: behind, position: [0.3, -0.2, 4]}]",
            "{poisson_ratio: 0.3}",
