@@ -148,6 +148,9 @@ py::dict needle_dict(const NeedleData& n, int dim, std::size_t targets, std::siz
   d["depth"] = to_array<double>(n.depth, {steps});
   d["axial_force"] = to_array<double>(n.axial_force, {steps});
   d["lateral_force"] = to_array<double>(n.lateral_force, {steps});
+  d["friction_force"] = to_array<double>(n.friction_force, {steps});
+  d["tip_force"] = to_array<double>(n.tip_force, {steps});
+  d["max_strain"] = to_array<double>(n.max_strain, {steps});
   d["tip"] = to_array<double>(n.tip, {steps, dim});
   d["force"] = to_array<double>(n.force, {steps, dim});
   d["target_displacement"] = to_array<double>(n.target_displacement, {steps, t, dim});

@@ -219,6 +219,9 @@ NeedleData needle_data(const vp::NeedleRun<dim>& run) {
   n.depth = run.depth;
   n.axial_force = run.axial_force;
   n.lateral_force = run.lateral_force;
+  n.friction_force = run.friction_force;
+  n.tip_force = run.tip_force;
+  n.max_strain = run.max_strain;
   auto append = [](std::vector<double>& out, const Eigen::Matrix<double, dim, 1>& v) {
     for (int a = 0; a < dim; ++a) out.push_back(v[a]);
   };

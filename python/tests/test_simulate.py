@@ -67,6 +67,21 @@ def test_arrays_match_needle_csv(case):
     assert result.depths[-1] == pytest.approx(8.0)
 
 
+def test_force_parts_match_needle_csv_and_sum_to_the_axial_force(case):
+    # Truths: needle.csv's friction_force, tip_force and max_strain columns, and the decomposition
+    # axial = shaft friction + tip (each is summed separately in the simulation).
+    d, result = case
+    result.write(d / "parts")
+    rows = list(csv.DictReader(open(d / "parts" / "needle.csv")))
+    needle = result.needles[0]
+    for key in ("friction_force", "tip_force", "max_strain"):
+        assert needle[key].shape == (len(rows),), key
+        assert np.allclose([float(r[key]) for r in rows], needle[key], rtol=1e-5, atol=1e-9), key
+    assert np.allclose(needle["friction_force"] + needle["tip_force"], needle["axial_force"], rtol=1e-9, atol=1e-9)
+    assert needle["friction_force"][-1] > 0.0  # the stuck shaft carries force at the end
+    assert needle["max_strain"][0] == 0.0 and needle["max_strain"][-1] > 0.0
+
+
 def test_targets_are_the_p1_interpolation_of_the_displacements(case):
     # Truth: barycentric (P1) interpolation of the returned nodal displacements at each target.
     _, result = case

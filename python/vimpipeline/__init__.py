@@ -74,8 +74,8 @@ class Mesh:
 
 class Result:
     """A needle-insertion simulation: ``mesh`` (with youngs_modulus), ``needles`` (one dict per needle:
-    ``name``, per-step ``depth``, ``axial_force``, ``lateral_force``, ``tip`` and ``force`` (steps x dim,
-    world), ``target_displacement`` (steps x targets x dim), ``displacement`` (steps x nodes x dim)),
+    ``name``, per-step ``depth``, ``axial_force`` (= ``friction_force`` of the shaft + ``tip_force``),
+    ``lateral_force``, ``max_strain``, ``tip`` and ``force`` (steps x dim, world), ``target_displacement`` (steps x targets x dim), ``displacement`` (steps x nodes x dim)),
     ``target_names``, ``warnings``, ``report`` (report.json). ``write(out_dir)`` writes the CLI's files."""
 
     def __init__(self, data, staging):
