@@ -58,6 +58,8 @@ BandCoupling::BandCoupling(const Geometry& g, const fem::CellLocator<3>& locator
     band = fem::default_needle_band(g.radius, g.element_size, length, g.degree);
   }
   coupling_radius_ = band.coupling_radius;
+  radius_ = g.radius;
+  effective_radius_ = fem::effective_coupling_radius(band);
   std::vector<int> support;
   for (long i = 0; i < n; ++i) {
     const double s = (static_cast<double>(i) + 0.5) * length;
@@ -134,6 +136,47 @@ std::vector<BandCoupling::Vec> BandCoupling::displacements(const std::vector<std
 void BandCoupling::keep_offsets(const std::vector<Vec>& u) {
   for (std::size_t j = 0; j < stations_.size() && j < u.size(); ++j)
     lateral_[j] = u[j] - u[j].dot(axis_) * axis_;
+}
+
+std::vector<BandCoupling::StationState> BandCoupling::station_states(const std::vector<std::size_t>& active,
+                                                                     const std::vector<double>& axial,
+                                                                     const fem::Solution<3>& solution) const {
+  std::vector<StationState> st;
+  for (std::size_t i = 0; i < active.size() && i < solution.point_force.size(); ++i) {
+    const fem::PointConstraint<3>& b = bands_[active[i]];
+    const Vec g_axes(b.axes.col(0).dot(lateral_[active[i]]), b.axes.col(1).dot(lateral_[active[i]]),
+                     axial[active[i]]);
+    const Vec f_axes = b.axes.transpose() * solution.point_force[i];
+    st.push_back({stations_[active[i]].s, b.axes * g_axes, b.axes * b.compliance.cwiseProduct(f_axes)});
+  }
+  std::sort(st.begin(), st.end(), [](const StationState& x, const StationState& y) { return x.s < y.s; });
+  return st;
+}
+
+std::vector<BandCoupling::Vec> BandCoupling::tissue_displacements(const std::vector<Vec>& points,
+                                                                  std::vector<Vec> mesh_values,
+                                                                  const std::vector<std::size_t>& active,
+                                                                  const std::vector<double>& axial,
+                                                                  const fem::Solution<3>& solution) const {
+  const std::vector<StationState> st = station_states(active, axial, solution);
+  if (st.empty() || effective_radius_ <= radius_) return mesh_values;
+  const Vec entry = stations_.front().position - stations_.front().s * axis_;
+  const double half = 0.5 * stations_.front().length, log_ratio = std::log(effective_radius_ / radius_);
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const Vec d = points[k] - entry;
+    const double t = d.dot(axis_), r = (d - t * axis_).norm();
+    if (r >= effective_radius_ || t < st.front().s - half || t > st.back().s + half) continue;
+    // The two station centres around t (the nearest one beyond the ends), weights linear in t.
+    std::size_t hi = 0;
+    while (hi < st.size() && st[hi].s < t) ++hi;
+    const std::size_t lo = hi == 0 ? 0 : hi - 1;
+    hi = std::min(hi, st.size() - 1);
+    const double w = hi == lo ? 0.0 : (t - st[lo].s) / (st[hi].s - st[lo].s);
+    const Vec g = (1 - w) * st[lo].g + w * st[hi].g, jump = (1 - w) * st[lo].jump + w * st[hi].jump;
+    const double phi = std::log(effective_radius_ / std::max(r, radius_)) / log_ratio;
+    mesh_values[k] = g - (1.0 - phi) * jump;  // ū + φ (g − ū)
+  }
+  return mesh_values;
 }
 
 }  // namespace vim::pipeline

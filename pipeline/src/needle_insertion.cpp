@@ -270,7 +270,8 @@ void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim>* s, int
   run_.lateral_force.push_back((f - ax * axis_world_).norm());
   std::vector<Vec> td(targets_.size(), Vec::Zero());
   if (s && !targets_.empty()) {
-    const auto u = ctx_.model->sample(targets_);
+    const auto u = coupling_->tissue_displacements(targets_, ctx_.model->sample(targets_), state_.active,
+                                                   state_.axial, *s);
     for (std::size_t t = 0; t < u.size(); ++t) td[t] = ctx_.tf.vector_to_world(u[t]);
   }
   run_.target_displacement.push_back(td);

@@ -102,6 +102,16 @@ class NeedleCoupling {
   // The tissue displacement at each shaft point before the needle touches it (the external loads):
   // the rows keep its part across the axis rather than pulling the tissue back to the rest line.
   virtual void keep_offsets(const std::vector<Vec>& displacement) = 0;
+  // The tissue displacement at `points` (frame) given the model's values there, `mesh_values`, in a
+  // solution of rows(active, axial): a coupling whose rows stand for an analytic near field replaces
+  // the model's value where the near field holds (BandCoupling); the line leaves them as they are.
+  virtual std::vector<Vec> tissue_displacements(const std::vector<Vec>& points, std::vector<Vec> mesh_values,
+                                                const std::vector<std::size_t>& active,
+                                                const std::vector<double>& axial,
+                                                const fem::Solution<dim>& solution) const {
+    (void)points, (void)active, (void)axial, (void)solution;
+    return mesh_values;
+  }
 };
 
 // A thin straight needle: one point constraint per shaft point, holding it on the needle's axis line
@@ -167,13 +177,34 @@ class BandCoupling final : public NeedleCoupling<3> {
   std::vector<Vec> displacements(const std::vector<std::size_t>& points,
                                  const fem::ElasticModel<3>& model) const override;
   void keep_offsets(const std::vector<Vec>& displacement) override;
+  // Within the effective radius R_e of the active stations' bands (from the first one's start to the
+  // last one's end: the tissue the needle holds) the model holds only the band means ū; the tissue there
+  // follows the annulus solution between the needle's surface (r = a, where it sits at the rows' value
+  // g) and R_e (at ū):
+  //   u(r) = ū + φ(r)(g − ū),  φ(r) = ln(R_e / max(r, a)) / ln(R_e / a),  g − ū = κ f per row,
+  // linear in the arc length between station centres (docs/needle-model.md, target displacements).
+  // Tissue ahead of the tip and within the cutting distance behind it is free: the model's value.
+  std::vector<Vec> tissue_displacements(const std::vector<Vec>& points, std::vector<Vec> mesh_values,
+                                        const std::vector<std::size_t>& active,
+                                        const std::vector<double>& axial,
+                                        const fem::Solution<3>& solution) const override;
 
  private:
+  struct StationState {
+    double s;     // arc length of the centre
+    Vec g, jump;  // frame: the rows' value g and g − ū
+  };
+  std::vector<StationState> station_states(const std::vector<std::size_t>& active,
+                                           const std::vector<double>& axial,
+                                           const fem::Solution<3>& solution) const;
+
   std::vector<ShaftPoint<3>> stations_;
   std::vector<fem::PointConstraint<3>> bands_;  // per station, displacement 0
   std::vector<Vec> lateral_;
   Vec axis_;
   double coupling_radius_ = 0.0;
+  double radius_ = 0.0;            // a
+  double effective_radius_ = 0.0;  // R_e of the bands (fem::effective_coupling_radius)
 };
 
 // The element size near a 3D needle path: the mean over the cells the path crosses of the edge of
