@@ -12,14 +12,28 @@
 //                   [--plots DIR] [--skip-needle] [--skip-compression] [nodes ...]
 // Diagnostics (same options for the VIM and the grid model; the reference never changes with them
 // except through --nu): [--lambda L] [--min-dihedral D] [--min-rr R] [--max-dihedral D] [--no-swaps]
-// [--degree D] (default: the scenario's) [--nu 0.3] [--ref-cache FILE] (reuse the compression reference of an earlier run).
-// Needle diagnostics: [--near-radius R] (the "far" error leaves out voxel centres within R mm of the
-// needle path; default 4), [--shaft] (each shaft point's final axial force over its friction limit),
+// [--degree D] (default: the scenario's) [--nu 0.3] [--ref-cache FILE] (reuse the compression reference of an
+// earlier run). Needle diagnostics: [--near-radius R] (the "far" error leaves out voxel centres within R mm
+// of the needle path; default 4), [--shaft] (each shaft point's final axial force over its friction limit),
 // [--sample-spacing S] (the same shaft point pitch, in mm, for all three models).
 // Probe support: [--support-stiffness K] (every fixed volume region, e.g. the probe cylinder, becomes an
 // elastic support of stiffness K kPa/mm² for all three models; 0 clamps the nodes in it),
 // [--support-spacing H] (its sample lattice pitch in mm).
 // [--cutting-distance C] (the needle's cutting distance in mm, all three models; default: the scenario's).
+#include <deal.II/base/mpi.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <string>
+#include <vector>
 #include <vim/fem/elasticity.hpp>
 #include <vim/initial_mesh.hpp>
 #include <vim/pipeline/figures.hpp>
@@ -31,20 +45,6 @@
 #include <vim/vim.hpp>
 #include <vim/voxel_statistics.hpp>
 
-#include <algorithm>
-#include <chrono>
-#include <cmath>
-#include <deal.II/base/mpi.h>
-#include <cstdio>
-#include <cstdlib>
-#include <cstring>
-#include <exception>
-#include <filesystem>
-#include <fstream>
-#include <optional>
-#include <string>
-#include <vector>
-
 namespace {
 
 using namespace vim;
@@ -55,9 +55,9 @@ using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 struct Samples {
-  std::vector<V3> points;    // frame coordinates (voxel centres)
-  std::vector<bool> gland;   // inside the gland ellipsoid
-  std::vector<bool> far;     // farther than --near-radius from the needle path (segment entry..tip)
+  std::vector<V3> points;   // frame coordinates (voxel centres)
+  std::vector<bool> gland;  // inside the gland ellipsoid
+  std::vector<bool> far;    // farther than --near-radius from the needle path (segment entry..tip)
 };
 
 struct Err {
@@ -86,8 +86,42 @@ Err compare(const std::vector<V3>& u, const std::vector<V3>& ref, const Samples&
 struct Meshes {
   std::size_t nodes = 0, cells_grid = 0, cells_vim = 0;
   MeshModel<3> grid, vim;
+  std::optional<MeshModel<3>> graded;  // the grid graded by the needle density (needle experiment)
   double vim_seconds = 0;
 };
+
+// The regular grid graded across the needle by the scenario's needle density (pipeline's
+// needle_refinement_density: ρ(d) = 1 + (ρ_max − 1)·exp(−(d/radius)²), element size ∝ ρ^(−1/5)): along
+// each axis other than the needle's, the node coordinates follow that size as a function of the
+// distance to the path on that axis, so the nodes per axis (and the node count) stay those of the grid.
+// A needle not along a grid axis leaves the grid as it is.
+SimplexMesh<3> graded_grid(SimplexMesh<3> grid, const V3& lo, const V3& hi, const NeedlePath<3>& path,
+                           const Scenario::NeedleRefinement& nr) {
+  int along = 0;
+  if (path.axis.cwiseAbs().maxCoeff(&along) < 1.0 - 1e-9) return grid;
+  const double rho_max = std::pow(nr.size_ratio, -5.0);
+  constexpr int kTable = 4096;
+  for (int a = 0; a < 3; ++a) {
+    if (a == along) continue;
+    // ξ(y) = ∫ 1/size: uniform in ξ is graded in y; tabulated, normalised to [lo, hi], then inverted.
+    std::vector<double> y(kTable + 1), xi(kTable + 1, 0.0);
+    auto inverse_size = [&](double t) {
+      const double d = (t - path.entry[a]) / nr.radius;
+      return std::pow(1.0 + (rho_max - 1.0) * std::exp(-d * d), 0.2);
+    };
+    for (int k = 0; k <= kTable; ++k) {
+      y[k] = lo[a] + (hi[a] - lo[a]) * k / kTable;
+      if (k) xi[k] = xi[k - 1] + 0.5 * (inverse_size(y[k - 1]) + inverse_size(y[k])) * (y[k] - y[k - 1]);
+    }
+    for (double& v : xi) v = lo[a] + (hi[a] - lo[a]) * v / xi.back();
+    for (auto& p : grid.points) {
+      const auto k = std::clamp<long>(std::upper_bound(xi.begin(), xi.end(), p[a]) - xi.begin(), 1, kTable);
+      const double w = (p[a] - xi[k - 1]) / (xi[k] - xi[k - 1]);
+      p[a] = y[k - 1] + w * (y[k] - y[k - 1]);
+    }
+  }
+  return grid;
+}
 
 // Mesh diagnostics: quality and how many cells resolve the stiff structures.
 const Scenario* g_scenario = nullptr;  // for the region node counts in describe()
@@ -111,13 +145,15 @@ void describe(const char* name, const MeshModel<3>& m) {
     lesion += v.mean > 105.0;
     empty += v.voxels == 0;
   }
-  std::printf("  %s: %zu cells, dihedral %.1f..%.1f deg, min NRR %.3f, cells with mean > 37.5 kPa: %ld, "
-              "> 105 kPa: %ld, without a voxel centre: %ld%s\n",
-              name, m.mesh.n_cells(), q.min_dihedral_deg, q.max_dihedral_deg, q.min_nrr, gland, lesion, empty,
-              regions.c_str());
+  std::printf(
+      "  %s: %zu cells, dihedral %.1f..%.1f deg, min NRR %.3f, cells with mean > 37.5 kPa: %ld, "
+      "> 105 kPa: %ld, without a voxel centre: %ld%s\n",
+      name, m.mesh.n_cells(), q.min_dihedral_deg, q.max_dihedral_deg, q.min_nrr, gland, lesion, empty,
+      regions.c_str());
 }
 
-Meshes make_meshes(const OrientedImage<3>& img, long budget, const VimOptions& vo, const Image<3>* density) {
+Meshes make_meshes(const OrientedImage<3>& img, long budget, const VimOptions& vo, const Image<3>* density,
+                   const Scenario& sc, const WorldTransform<3>& tf) {
   Meshes m;
   const auto lo = img.image.box_min(), hi = img.image.box_max();
   const auto axis = nodes_per_axis_for_budget<3>(lo, hi, budget);
@@ -125,16 +161,25 @@ Meshes make_meshes(const OrientedImage<3>& img, long budget, const VimOptions& v
   const VoxelStatistics<3> stats(img.image);
   const auto t = Clock::now();
   // As the CLI: with a needle density, a density-weighted E_G initialisation, then VIM keeping it.
-  VimResult<3> r = density ? optimize_sized<3>(img.image, *density, initial, vo) : optimize<3>(img.image, initial, vo);
+  VimResult<3> r =
+      density ? optimize_sized<3>(img.image, *density, initial, vo) : optimize<3>(img.image, initial, vo);
   for (MeshModel<3>* mm : {&m.grid, &m.vim}) {
     mm->transform.origin = img.origin();
     mm->transform.direction = img.direction;
   }
   m.grid.mesh = initial;
-  for (std::size_t c = 0; c < initial.n_cells(); ++c) m.grid.values.push_back(stats.value(cell_points(initial, c)));
+  for (std::size_t c = 0; c < initial.n_cells(); ++c)
+    m.grid.values.push_back(stats.value(cell_points(initial, c)));
   m.vim_seconds = since(t);
   m.vim.mesh = std::move(r.mesh);
   m.vim.values = std::move(r.values);
+  if (density && sc.needle_refinement) {
+    m.graded = m.grid;
+    m.graded->mesh = graded_grid(initial, lo, hi, needle_paths<3>(sc, tf).at(0), *sc.needle_refinement);
+    m.graded->values.clear();
+    for (std::size_t c = 0; c < m.graded->mesh.n_cells(); ++c)
+      m.graded->values.push_back(stats.value(cell_points(m.graded->mesh, c)));
+  }
   m.nodes = initial.n_points();
   m.cells_grid = initial.n_cells();
   m.cells_vim = m.vim.mesh.n_cells();
@@ -194,15 +239,75 @@ NeedleOut finish(NeedleSimulation<3>& sim, const Samples& s) {
   return o;
 }
 
+// The voxel reference of the needle on the phantom at `n` voxels along x (its own refinement study),
+// sampled at the same world points and compared with `ref`.
+void reference_on_other_image(int n, const Scenario& sc, const SimulationOptions& opt, const Samples& s,
+                              const WorldTransform<3>& tf, const NeedleOut& ref) {
+  const OrientedImage<3> img = phantoms::prostate(n);
+  WorldTransform<3> other;
+  other.origin = img.origin();
+  other.direction = img.direction;
+  Samples at = s;
+  for (V3& p : at.points) p = other.to_frame(tf.to_world(p));
+  const auto t = Clock::now();
+  auto sim = NeedleSimulation<3>::voxel(img.image, other, sc, opt);
+  const NeedleOut o = finish(sim, at);
+  const Err e = compare(o.u, ref.u, s);
+  std::printf(
+      "reference on %d voxels (%.2f mm, %u DoFs, %.1f s): axial force %.2f mN, relL2 vs the reference %.4f "
+      "(far %.4f), targets |u|:",
+      n, img.image.spacing[0], sim.model().n_dofs(), since(t), o.axial_force, e.rel_all, e.rel_far);
+  for (std::size_t k = 0; k < sc.targets.size(); ++k)
+    std::printf(" %s %.4f", sc.targets[k].name.c_str(), o.targets[k].norm());
+  std::printf("\n");
+  std::fflush(stdout);
+}
+
+struct ModelRow {
+  double rel = NAN, far = NAN;  // relative L2 error, all voxel centres and those far from the path
+};
+double rows_vim = NAN;  // the last VIM row's relL2 (for the plot)
+
+// One row of the needle table: the model's run against the reference; `controls` (grid, graded grid)
+// give the VIM row its ratio columns.
+ModelRow needle_row(const char* name, std::size_t nodes, const MeshModel<3>& mm, const Scenario& sc,
+                    const SimulationOptions& opt, const Samples& s, const NeedleOut& ref,
+                    const std::vector<ModelRow>& controls) {
+  std::optional<NeedleSimulation<3>> sim;
+  try {
+    sim.emplace(mm, sc, opt);
+  } catch (const ScenarioError& e) {  // e.g. a region that selects no node of a coarse mesh
+    std::printf("| %zu | %s | rejected: %s |\n", nodes, name, e.what());
+    return {};
+  }
+  const NeedleOut o = finish(*sim, s);
+  const Err e = compare(o.u, ref.u, s);
+  std::printf("| %zu | %s | %d | %.4f | %.4f | %.4f | %.4f | %.2f |", nodes, name, o.shaft_points, e.rel_all,
+              e.rel_gland, e.rel_far, e.max_rel, o.axial_force);
+  for (std::size_t k = 0; k < sc.targets.size(); ++k)
+    std::printf(" %.4f |", (o.targets[k] - ref.targets[k]).norm());
+  for (const ModelRow& c : controls) std::printf(" **%.3f** | %.3f |", e.rel_all / c.rel, e.rel_far / c.far);
+  for (std::size_t k = controls.size(); k < 2; ++k) std::printf(" | |");
+  std::printf("\n");
+  std::fflush(stdout);
+  if (!controls.empty()) rows_vim = e.rel_all;
+  return {e.rel_all, e.rel_far};
+}
+
 void plot(const std::string& dir, const std::string& name, const std::vector<double>& nodes,
-          const std::vector<double>& vim, const std::vector<double>& grid) {
+          const std::vector<double>& vim, const std::vector<double>& grid,
+          const std::vector<double>& graded = {}) {
   if (dir.empty()) return;
   std::filesystem::create_directories(dir);
-  // series_color(0) (blue) = VIM, series_color(1) (red) = grid.
-  const auto info = write_line_plot(std::filesystem::path(dir) / name, nodes, {vim, grid}, {"VIM", "grid"}, "nodes",
+  // series_color(0) (blue) = VIM, series_color(1) (red) = grid, series_color(2) = the graded grid.
+  std::vector<std::vector<double>> series = {vim, grid};
+  std::vector<std::string> names = {"VIM", "grid"};
+  if (!graded.empty() && !std::isnan(graded.front()))
+    series.push_back(graded), names.push_back("graded grid");
+  const auto info = write_line_plot(std::filesystem::path(dir) / name, nodes, series, names, "nodes",
                                     "relative L2 displacement error vs the voxel reference");
-  std::printf("wrote %s/%s (blue = VIM, red = grid; x axis %s, y axis %s)\n", dir.c_str(), name.c_str(),
-              info["x_range"].dump().c_str(), info["y_range"].dump().c_str());
+  std::printf("wrote %s/%s (blue = VIM, red = grid, third: graded grid; x axis %s, y axis %s)\n", dir.c_str(),
+              name.c_str(), info["x_range"].dump().c_str(), info["y_range"].dump().c_str());
 }
 
 }  // namespace
@@ -216,41 +321,68 @@ int main(int argc, char** argv) try {
   VimOptions vo;
   std::optional<double> lambda_arg, nu_arg;
   std::string ref_cache;
-  unsigned degree = 0;  // --degree; 0 = the scenario's mesh.degree (1 if it has none)
+  unsigned degree = 0;          // --degree; 0 = the scenario's mesh.degree (1 if it has none)
   double sample_spacing = 0.0;  // --sample-spacing: shaft point pitch for every model (0: the scenario's)
-  double near_radius = 4.0;  // mm: the "far" error excludes voxel centres this close to the needle path
+  double near_radius = 4.0;     // mm: the "far" error excludes voxel centres this close to the needle path
   double support_stiffness = -1.0, support_spacing = 0.0;  // --support-stiffness / --support-spacing
   double cutting_distance = -1.0;  // --cutting-distance: the needle's cutting distance (mm), all models
   double refine_ratio = -1.0, refine_radius = -1.0;  // --needle-refine / --needle-radius (VIM only)
-  std::optional<double> min_dihedral_arg;  // --min-dihedral (0 = off); default: the scenario's mesh.min_dihedral
+  std::vector<int> ref_study;  // --ref-study N (repeatable): the needle reference on an N-voxel image too
+  std::optional<double>
+      min_dihedral_arg;  // --min-dihedral (0 = off); default: the scenario's mesh.min_dihedral
   for (int i = 1; i < argc; ++i) {
     auto value = [&] {
       if (i + 1 >= argc) throw std::invalid_argument(std::string(argv[i]) + " needs a value");
       return argv[++i];
     };
-    if (!std::strcmp(argv[i], "--n")) n = std::atoi(value());
-    else if (!std::strcmp(argv[i], "--steps")) steps = std::atoi(value());
-    else if (!std::strcmp(argv[i], "--scenario")) scenario_path = value();
-    else if (!std::strcmp(argv[i], "--plots")) plots = value();
-    else if (!std::strcmp(argv[i], "--skip-needle")) needle = false;
-    else if (!std::strcmp(argv[i], "--skip-compression")) compression = false;
-    else if (!std::strcmp(argv[i], "--lambda")) lambda_arg = std::atof(value());
-    else if (!std::strcmp(argv[i], "--nu")) nu_arg = std::atof(value());
-    else if (!std::strcmp(argv[i], "--degree")) degree = static_cast<unsigned>(std::atoi(value()));
-    else if (!std::strcmp(argv[i], "--min-dihedral")) min_dihedral_arg = std::atof(value());
-    else if (!std::strcmp(argv[i], "--min-rr")) vo.min_radius_ratio = std::atof(value());
-    else if (!std::strcmp(argv[i], "--max-dihedral")) vo.max_dihedral_deg = std::atof(value());
-    else if (!std::strcmp(argv[i], "--no-swaps")) vo.swaps = false;
-    else if (!std::strcmp(argv[i], "--ref-cache")) ref_cache = value();
-    else if (!std::strcmp(argv[i], "--near-radius")) near_radius = std::atof(value());
-    else if (!std::strcmp(argv[i], "--shaft")) g_shaft = true;
-    else if (!std::strcmp(argv[i], "--sample-spacing")) sample_spacing = std::atof(value());
-    else if (!std::strcmp(argv[i], "--support-stiffness")) support_stiffness = std::atof(value());
-    else if (!std::strcmp(argv[i], "--support-spacing")) support_spacing = std::atof(value());
-    else if (!std::strcmp(argv[i], "--cutting-distance")) cutting_distance = std::atof(value());
-    else if (!std::strcmp(argv[i], "--needle-refine")) refine_ratio = std::atof(value());
-    else if (!std::strcmp(argv[i], "--needle-radius")) refine_radius = std::atof(value());
-    else budgets.push_back(std::atol(argv[i]));
+    if (!std::strcmp(argv[i], "--n"))
+      n = std::atoi(value());
+    else if (!std::strcmp(argv[i], "--steps"))
+      steps = std::atoi(value());
+    else if (!std::strcmp(argv[i], "--scenario"))
+      scenario_path = value();
+    else if (!std::strcmp(argv[i], "--plots"))
+      plots = value();
+    else if (!std::strcmp(argv[i], "--skip-needle"))
+      needle = false;
+    else if (!std::strcmp(argv[i], "--skip-compression"))
+      compression = false;
+    else if (!std::strcmp(argv[i], "--lambda"))
+      lambda_arg = std::atof(value());
+    else if (!std::strcmp(argv[i], "--nu"))
+      nu_arg = std::atof(value());
+    else if (!std::strcmp(argv[i], "--degree"))
+      degree = static_cast<unsigned>(std::atoi(value()));
+    else if (!std::strcmp(argv[i], "--min-dihedral"))
+      min_dihedral_arg = std::atof(value());
+    else if (!std::strcmp(argv[i], "--min-rr"))
+      vo.min_radius_ratio = std::atof(value());
+    else if (!std::strcmp(argv[i], "--max-dihedral"))
+      vo.max_dihedral_deg = std::atof(value());
+    else if (!std::strcmp(argv[i], "--no-swaps"))
+      vo.swaps = false;
+    else if (!std::strcmp(argv[i], "--ref-cache"))
+      ref_cache = value();
+    else if (!std::strcmp(argv[i], "--near-radius"))
+      near_radius = std::atof(value());
+    else if (!std::strcmp(argv[i], "--shaft"))
+      g_shaft = true;
+    else if (!std::strcmp(argv[i], "--sample-spacing"))
+      sample_spacing = std::atof(value());
+    else if (!std::strcmp(argv[i], "--support-stiffness"))
+      support_stiffness = std::atof(value());
+    else if (!std::strcmp(argv[i], "--support-spacing"))
+      support_spacing = std::atof(value());
+    else if (!std::strcmp(argv[i], "--cutting-distance"))
+      cutting_distance = std::atof(value());
+    else if (!std::strcmp(argv[i], "--needle-refine"))
+      refine_ratio = std::atof(value());
+    else if (!std::strcmp(argv[i], "--needle-radius"))
+      refine_radius = std::atof(value());
+    else if (!std::strcmp(argv[i], "--ref-study"))
+      ref_study.push_back(std::atoi(value()));
+    else
+      budgets.push_back(std::atol(argv[i]));
   }
   if (budgets.empty()) budgets = {125, 343, 1000};
 
@@ -275,7 +407,8 @@ int main(int argc, char** argv) try {
   // --support-stiffness K (> 0): every fixed volume region becomes an elastic support of stiffness K
   // (with --support-spacing H); 0: back to clamping the nodes in the region.
   for (auto& bc : sc.boundary_conditions) {
-    if (bc.type != BoundaryConditionSpec::Type::fixed || bc.region.kind == RegionSpec::Kind::box_face) continue;
+    if (bc.type != BoundaryConditionSpec::Type::fixed || bc.region.kind == RegionSpec::Kind::box_face)
+      continue;
     if (support_stiffness > 0.0) {
       bc.support = BoundaryConditionSpec::Support::elastic;
       bc.support_stiffness = support_stiffness;
@@ -284,8 +417,8 @@ int main(int argc, char** argv) try {
     }
     if (support_spacing > 0.0) bc.support_spacing = support_spacing;
     if (bc.support == BoundaryConditionSpec::Support::elastic)
-      std::printf("# %s: elastic support, stiffness %g, spacing %g (0 = region size / 6)\n", bc.region.describe().c_str(),
-                  bc.support_stiffness, bc.support_spacing);
+      std::printf("# %s: elastic support, stiffness %g, spacing %g (0 = region size / 6)\n",
+                  bc.region.describe().c_str(), bc.support_stiffness, bc.support_spacing);
   }
   g_scenario = &sc;
   const std::string suffix = degree == 1 ? "" : "_p" + std::to_string(degree);  // plot file names
@@ -316,10 +449,11 @@ int main(int argc, char** argv) try {
   }
   long in_gland = 0;
   for (bool b : s.gland) in_gland += b;
-  std::printf("# Prostate phantom %ldx%ldx%ld voxels (%.2f mm), %zu sample points (%ld in the gland); nu=%.2f, "
-              "lambda=%.2f, VIM min dihedral %g deg (0 = no floor), needle steps=%d\n",
-              img.image.size[0], img.image.size[1], img.image.size[2], img.image.spacing[0], s.points.size(), in_gland,
-              sc.poisson_ratio, lambda, vo.min_dihedral_deg, sc.needles.empty() ? 0 : sc.needles[0].steps);
+  std::printf(
+      "# Prostate phantom %ldx%ldx%ld voxels (%.2f mm), %zu sample points (%ld in the gland); nu=%.2f, "
+      "lambda=%.2f, VIM min dihedral %g deg (0 = no floor), needle steps=%d\n",
+      img.image.size[0], img.image.size[1], img.image.size[2], img.image.spacing[0], s.points.size(),
+      in_gland, sc.poisson_ratio, lambda, vo.min_dihedral_deg, sc.needles.empty() ? 0 : sc.needles[0].steps);
   std::fflush(stdout);
 
   // The scenario's needle refinement (mesh.needle_refinement) shapes the VIM meshes of the needle
@@ -328,23 +462,27 @@ int main(int argc, char** argv) try {
   auto build = [&](const Image<3>* d, const char* purpose) {
     std::vector<Meshes> out;
     if (d)
-      std::printf("# VIM meshes for the %s, with the needle refinement: size ratio %.3g, radius %.3g mm\n", purpose,
-                  sc.needle_refinement->size_ratio, sc.needle_refinement->radius);
+      std::printf("# VIM meshes for the %s, with the needle refinement: size ratio %.3g, radius %.3g mm\n",
+                  purpose, sc.needle_refinement->size_ratio, sc.needle_refinement->radius);
     else
       std::printf("# VIM meshes for the %s, without a needle refinement\n", purpose);
     for (long b : budgets) {
-      out.push_back(make_meshes(img, b, vo, d));
+      out.push_back(make_meshes(img, b, vo, d, sc, tf));
       std::printf("mesh budget %ld: %zu nodes, grid %zu cells, VIM %zu cells (%.1f s)\n", b, out.back().nodes,
                   out.back().cells_grid, out.back().cells_vim, out.back().vim_seconds);
       describe("grid", out.back().grid);
       describe("VIM ", out.back().vim);
+      if (out.back().graded) describe("graded grid", *out.back().graded);
       std::fflush(stdout);
     }
     return out;
   };
   const bool needle_plain = needle && !density;  // the needle experiment on meshes without a refinement
-  const char* plain_purpose = !compression ? "needle" : needle_plain ? "compression and the needle" : "compression";
-  const std::vector<Meshes> plain = compression || needle_plain ? build(nullptr, plain_purpose) : std::vector<Meshes>{};
+  const char* plain_purpose = !compression   ? "needle"
+                              : needle_plain ? "compression and the needle"
+                                             : "compression";
+  const std::vector<Meshes> plain =
+      compression || needle_plain ? build(nullptr, plain_purpose) : std::vector<Meshes>{};
   const std::vector<Meshes> refined = needle && density ? build(&*density, "needle") : std::vector<Meshes>{};
   const std::vector<Meshes>& needle_meshes = density ? refined : plain;
   std::vector<double> xs;  // node counts (the same for both sets: one budget, one grid)
@@ -359,7 +497,8 @@ int main(int argc, char** argv) try {
     unsigned ref_dofs = 0;
     // --ref-cache FILE: reuse the reference displacement of an earlier run with the same image and ν.
     std::ifstream in(ref_cache, std::ios::binary);
-    const std::string key = std::to_string(n) + " " + std::to_string(sc.poisson_ratio) + " " + std::to_string(ref.size());
+    const std::string key =
+        std::to_string(n) + " " + std::to_string(sc.poisson_ratio) + " " + std::to_string(ref.size());
     std::string cached_key;
     if (!ref_cache.empty() && in && std::getline(in, cached_key) && cached_key == key) {
       in.read(reinterpret_cast<char*>(&w0), sizeof w0);
@@ -367,7 +506,8 @@ int main(int argc, char** argv) try {
       in.read(reinterpret_cast<char*>(ref.data()), static_cast<std::streamsize>(ref.size() * sizeof(V3)));
       std::printf("\n(reference read from %s)", ref_cache.c_str());
     } else {
-      auto ref_model = fem::ElasticModel<3>::voxel_grid(img.image.size, lo, hi, scenario_modulus(sc, e), sc.poisson_ratio);
+      auto ref_model =
+          fem::ElasticModel<3>::voxel_grid(img.image.size, lo, hi, scenario_modulus(sc, e), sc.poisson_ratio);
       add_compression(ref_model, lo, hi);
       w0 = ref_model.solve().strain_energy;
       ref = ref_model.sample(s.points);
@@ -377,22 +517,28 @@ int main(int argc, char** argv) try {
         out << key << "\n";
         out.write(reinterpret_cast<const char*>(&w0), sizeof w0);
         out.write(reinterpret_cast<const char*>(&ref_dofs), sizeof ref_dofs);
-        out.write(reinterpret_cast<const char*>(ref.data()), static_cast<std::streamsize>(ref.size() * sizeof(V3)));
+        out.write(reinterpret_cast<const char*>(ref.data()),
+                  static_cast<std::streamsize>(ref.size() * sizeof(V3)));
       }
     }
-    std::printf("\n## Prostate compression (x_max clamped, x_min pushed +%.0f%% along x): reference %u DoFs, %.1f s\n",
-                100 * kStrain, ref_dofs, since(t));
-    std::printf("| nodes | cells grid | cells VIM | relL2 grid | relL2 VIM | VIM/grid | relL2 gland grid | relL2 gland VIM | "
-                "max/|u|max grid | max/|u|max VIM | energy err grid | energy err VIM |\n"
-                "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    std::printf(
+        "\n## Prostate compression (x_max clamped, x_min pushed +%.0f%% along x): reference %u DoFs, %.1f "
+        "s\n",
+        100 * kStrain, ref_dofs, since(t));
+    std::printf(
+        "| nodes | cells grid | cells VIM | relL2 grid | relL2 VIM | VIM/grid | relL2 gland grid | relL2 "
+        "gland VIM | "
+        "max/|u|max grid | max/|u|max VIM | energy err grid | energy err VIM |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     std::vector<double> yv, yg;
     for (const auto& m : plain) {
       double wg = 0, wv = 0;
       const Err eg = compare(solve_compression(m.grid, sc, lo, hi, s, &wg, degree), ref, s);
       const Err ev = compare(solve_compression(m.vim, sc, lo, hi, s, &wv, degree), ref, s);
-      std::printf("| %zu | %zu | %zu | %.4f | %.4f | **%.3f** | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f |\n", m.nodes,
-                  m.cells_grid, m.cells_vim, eg.rel_all, ev.rel_all, ev.rel_all / eg.rel_all, eg.rel_gland,
-                  ev.rel_gland, eg.max_rel, ev.max_rel, std::abs(wg - w0) / w0, std::abs(wv - w0) / w0);
+      std::printf("| %zu | %zu | %zu | %.4f | %.4f | **%.3f** | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f |\n",
+                  m.nodes, m.cells_grid, m.cells_vim, eg.rel_all, ev.rel_all, ev.rel_all / eg.rel_all,
+                  eg.rel_gland, ev.rel_gland, eg.max_rel, ev.max_rel, std::abs(wg - w0) / w0,
+                  std::abs(wv - w0) / w0);
       std::fflush(stdout);
       yv.push_back(ev.rel_all), yg.push_back(eg.rel_all);
     }
@@ -405,47 +551,33 @@ int main(int argc, char** argv) try {
     auto t = Clock::now();
     auto ref_sim = NeedleSimulation<3>::voxel(img.image, tf, sc, opt);
     const NeedleOut ref = finish(ref_sim, s);
-    std::printf("\n## Prostate needle insertion (%s, %d steps, %.1f mm): reference %u DoFs, %d shaft points, "
-                "axial force %.2f mN, %.1f s\n",
-                scenario_path.c_str(), sc.needles[0].steps, sc.needles[0].depth, ref_sim.model().n_dofs(),
-                ref.shaft_points, ref.axial_force, since(t));
+    std::printf(
+        "\n## Prostate needle insertion (%s, %d steps, %.1f mm): reference %u DoFs, %d shaft points, "
+        "axial force %.2f mN, %.1f s\n",
+        scenario_path.c_str(), sc.needles[0].steps, sc.needles[0].depth, ref_sim.model().n_dofs(),
+        ref.shaft_points, ref.axial_force, since(t));
     std::printf("reference target displacement |u| (mm):");
     for (std::size_t k = 0; k < sc.targets.size(); ++k)
       std::printf(" %s %.4f", sc.targets[k].name.c_str(), ref.targets[k].norm());
     std::printf("(relL2 far: voxel centres more than %.1f mm from the needle path)\n", near_radius);
-    std::printf("\n| nodes | mesh | shaft pts | relL2 | relL2 gland | relL2 far | max/|u|max | axial force mN |");
+    for (int nr : ref_study) reference_on_other_image(nr, sc, opt, s, tf, ref);
+    std::printf(
+        "\n| nodes | mesh | shaft pts | relL2 | relL2 gland | relL2 far | max/|u|max | axial force mN |");
     for (const auto& tg : sc.targets) std::printf(" err %s mm |", tg.name.c_str());
-    std::printf(" VIM/grid relL2 | VIM/grid far |\n|---|---|---|---|---|---|---|---|");
+    std::printf(
+        " VIM/grid relL2 | VIM/grid far | VIM/graded relL2 | VIM/graded far "
+        "|\n|---|---|---|---|---|---|---|---|");
     for (std::size_t k = 0; k < sc.targets.size(); ++k) std::printf("---|");
-    std::printf("---|---|\n");
-    std::vector<double> yv, yg;
+    std::printf("---|---|---|---|\n");
+    std::vector<double> yv, yg, yd;
     for (const auto& m : needle_meshes) {
-      double rel[2] = {0, 0}, far[2] = {0, 0};
-      int i = 0;
-      for (const MeshModel<3>* mm : {&m.grid, &m.vim}) {
-        std::optional<NeedleSimulation<3>> sim;
-        try {
-          sim.emplace(*mm, sc, opt);
-        } catch (const ScenarioError& e) {  // e.g. a region that selects no node of a coarse mesh
-          std::printf("| %zu | %s | rejected: %s |\n", m.nodes, i ? "VIM" : "grid", e.what());
-          rel[i++] = NAN;
-          continue;
-        }
-        const NeedleOut o = finish(*sim, s);
-        const Err e = compare(o.u, ref.u, s);
-        rel[i] = e.rel_all;
-        far[i] = e.rel_far;
-        std::printf("| %zu | %s | %d | %.4f | %.4f | %.4f | %.4f | %.2f |", m.nodes, i ? "VIM" : "grid", o.shaft_points,
-                    e.rel_all, e.rel_gland, e.rel_far, e.max_rel, o.axial_force);
-        for (std::size_t k = 0; k < sc.targets.size(); ++k) std::printf(" %.4f |", (o.targets[k] - ref.targets[k]).norm());
-        if (i) std::printf(" **%.3f** | %.3f |\n", rel[1] / rel[0], far[1] / far[0]);
-        else std::printf(" | |\n");
-        std::fflush(stdout);
-        ++i;
-      }
-      yg.push_back(rel[0]), yv.push_back(rel[1]);
+      const ModelRow grid = needle_row("grid", m.nodes, m.grid, sc, opt, s, ref, {});
+      const ModelRow graded =
+          m.graded ? needle_row("graded grid", m.nodes, *m.graded, sc, opt, s, ref, {}) : ModelRow{};
+      needle_row("VIM", m.nodes, m.vim, sc, opt, s, ref, {grid, graded});
+      yg.push_back(grid.rel), yd.push_back(graded.rel), yv.push_back(rows_vim);
     }
-    plot(plots, "validation_prostate_needle" + suffix + ".png", xs, yv, yg);
+    plot(plots, "validation_prostate_needle" + suffix + ".png", xs, yv, yg, yd);
   }
   return 0;
 } catch (const std::exception& e) {
