@@ -20,6 +20,10 @@
 // elastic support of stiffness K kPa/mm² for all three models; 0 clamps the nodes in it),
 // [--support-spacing H] (its sample lattice pitch in mm).
 // [--cutting-distance C] (the needle's cutting distance in mm, all three models; default: the scenario's).
+// [--coupling-radius R] (the needle bands' radius in mm for every model and the reference; default: each
+// model's own from its element size near the path). [--ref-study N] (repeatable: the needle reference
+// on the phantom at N voxels too, compared with the main one: the reference's own refinement study).
+// Every needle experiment also runs the grid graded by the needle density (the "graded grid").
 #include <deal.II/base/mpi.h>
 
 #include <algorithm>
@@ -327,7 +331,8 @@ int main(int argc, char** argv) try {
   double support_stiffness = -1.0, support_spacing = 0.0;  // --support-stiffness / --support-spacing
   double cutting_distance = -1.0;  // --cutting-distance: the needle's cutting distance (mm), all models
   double refine_ratio = -1.0, refine_radius = -1.0;  // --needle-refine / --needle-radius (VIM only)
-  std::vector<int> ref_study;  // --ref-study N (repeatable): the needle reference on an N-voxel image too
+  double coupling_radius = 0.0;  // --coupling-radius R: the needle bands' radius for every model (0: default)
+  std::vector<int> ref_study;    // --ref-study N (repeatable): the needle reference on an N-voxel image too
   std::optional<double>
       min_dihedral_arg;  // --min-dihedral (0 = off); default: the scenario's mesh.min_dihedral
   for (int i = 1; i < argc; ++i) {
@@ -381,6 +386,8 @@ int main(int argc, char** argv) try {
       refine_radius = std::atof(value());
     else if (!std::strcmp(argv[i], "--ref-study"))
       ref_study.push_back(std::atoi(value()));
+    else if (!std::strcmp(argv[i], "--coupling-radius"))
+      coupling_radius = std::atof(value());
     else
       budgets.push_back(std::atol(argv[i]));
   }
@@ -395,6 +402,8 @@ int main(int argc, char** argv) try {
     for (auto& nd : sc.needles) nd.sample_spacing = sample_spacing;
   if (cutting_distance >= 0.0)
     for (auto& nd : sc.needles) nd.cutting_distance = cutting_distance;
+  if (coupling_radius > 0.0)
+    for (auto& nd : sc.needles) nd.coupling_radius = coupling_radius;
   if (degree == 0) degree = sc.degree.value_or(1);
   sc.degree = degree;
   if (refine_ratio > 0.0 || refine_radius > 0.0) {  // override (or add) the scenario's needle refinement
