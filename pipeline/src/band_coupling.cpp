@@ -88,17 +88,14 @@ BandCoupling::BandCoupling(const Geometry& g, const fem::CellLocator<3>& locator
   lateral_.assign(stations_.size(), Vec::Zero());
 }
 
-std::vector<fem::PointConstraint<3>> BandCoupling::rows(const std::vector<std::size_t>& active,
-                                                        const std::vector<double>& axial) const {
-  std::vector<fem::PointConstraint<3>> rows;
-  rows.reserve(active.size());
-  for (std::size_t j : active) {
-    fem::PointConstraint<3> p = bands_[j];
-    // axes = (lateral 1, lateral 2, axis): the loads' lateral offset and the axial value.
-    p.displacement = Vec(p.axes.col(0).dot(lateral_[j]), p.axes.col(1).dot(lateral_[j]), axial[j]);
-    rows.push_back(std::move(p));
+// axes = (lateral 1, lateral 2, axis): the loads' lateral offset and the axial value.
+void BandCoupling::held_values(const std::vector<std::size_t>& active, const std::vector<double>& axial,
+                               std::vector<Vec>& held) const {
+  held.resize(active.size());
+  for (std::size_t i = 0; i < active.size(); ++i) {
+    const std::size_t j = active[i];
+    held[i] = Vec(bands_[j].axes.col(0).dot(lateral_[j]), bands_[j].axes.col(1).dot(lateral_[j]), axial[j]);
   }
-  return rows;
 }
 
 std::vector<double> BandCoupling::axial_forces(const std::vector<std::size_t>& active,
