@@ -107,6 +107,8 @@ int main(int argc, char** argv) {
       sizes = v;
     else if (k == "--degrees")
       degrees = v;
+    else if (k == "--solver")
+      solver = v;
     else {
       std::fprintf(stderr, "bench_needle: unknown option %s\n", k.c_str());
       return 2;
