@@ -61,13 +61,12 @@ bool add_sample_to_row(const State<dim>& m, const Vec<dim>& x, const Vec<dim>& a
   if (found.first == m.tria.end()) return false;
   const typename DoFHandler<dim>::active_cell_iterator cell(&m.tria, found.first->level(),
                                                             found.first->index(), &m.dof);
-  Quadrature<dim> q(std::vector<Point<dim>>{found.second});
-  FEValues<dim> fv(*m.mapping, *m.fe, q, update_values);
-  fv.reinit(cell);
+  // The shape values are not mapped (P1/P2 simplices, Q1 boxes): those of the reference point, without
+  // an FEValues object per sample.
   std::vector<types::global_dof_index> idx(m.fe->n_dofs_per_cell());
   cell->get_dof_indices(idx);
   for (unsigned i = 0; i < idx.size(); ++i) {
-    const double v = w * a[m.fe->system_to_component_index(i).first] * fv.shape_value(i, 0);
+    const double v = w * a[m.fe->system_to_component_index(i).first] * m.fe->shape_value(i, found.second);
     scale = std::max(scale, std::abs(v));
     if (v == 0.0) continue;
     if (m.dof_bc[idx[i]] >= 0) {  // for the reactions: the row's own coefficients on held DoFs

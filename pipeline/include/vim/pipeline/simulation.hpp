@@ -53,6 +53,10 @@
 
 namespace vim::pipeline {
 
+// The automatic solver choice of a 3D scenario with a needle: the direct solver (CHOLMOD) up to this
+// many DoFs (fem::SolverOptions::direct_limit), CG + AMG above.
+inline constexpr unsigned kNeedleDirectLimit3D = 300000;
+
 struct SimulationOptions {
   // Where to write: returns the absolute path for a file relative to the output folder (creating
   // parent folders), e.g. OutputDirectory::file. Empty: write nothing (tests, benchmarks).
