@@ -63,7 +63,7 @@ template <int dim>
 void NeedleInsertion<dim>::make_coupling(const NeedlePath<dim>& path, bool snap_to_vertices) {
   axis_ = path.axis;
   if constexpr (dim == 3) {
-    const double h = path_element_size(ctx_.locator(), path.entry, path.axis, spec_.depth);
+    const double h = fem::path_element_size(ctx_.locator(), path.entry, path.axis, spec_.depth);
     const auto with_spacing = [&](BandCoupling::Geometry geometry) {
       geometry.spacing = spec_.sample_spacing > 0.0 ? spec_.sample_spacing : h;
       return geometry;

@@ -24,6 +24,7 @@
 #include <utility>
 #include <vector>
 #include <vim/fem/condensed_constraints.hpp>
+#include <vim/fem/needle_band.hpp>
 #include <vim/pipeline/needle_coupling.hpp>
 #include <vim/pipeline/progress.hpp>
 

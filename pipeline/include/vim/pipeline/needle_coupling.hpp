@@ -185,9 +185,4 @@ class BandCoupling final : public NeedleCoupling<3> {
   double coupling_radius_ = 0.0;
 };
 
-// The element size near a 3D needle path: the mean over the cells the path crosses of the edge of
-// the cube of equal volume ((6V)^(1/3) for a tetrahedron, V^(1/3) for a grid cell).
-double path_element_size(const fem::CellLocator<3>& locator, const Eigen::Vector3d& entry,
-                         const Eigen::Vector3d& axis, double depth);
-
 }  // namespace vim::pipeline
