@@ -5,17 +5,23 @@
 // Prints the precomputation time, steps/s (mean, median, p99 of the steps alone) and the ratio; asserts
 // nothing.
 //   bench_needle [--steps N] [--mono-steps N] [--mono-max-dofs N] [--friction stick|stick-slip]
-//                [--sizes 1k,10k] [--degrees 1,2] [--solver auto|direct|amg]
+//                [--sizes 1k,10k] [--degrees 1,2] [--solver auto|direct|amg] [--haptic 0|1]
+// --haptic 1 adds a table of fem::HapticNeedle (the real-time needle in a condensed region) on the same
+// blocks.
 // The monolithic solve of a ~10k-node P2 block factorises a ~280k-DoF saddle-point matrix per step
 // (minutes and many GB): it runs only up to --mono-max-dofs DoFs (default 100000).
 #include <mpi.h>
 
 #include <algorithm>
+#include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <string>
 #include <vector>
+#include <vim/fem/haptic_needle.hpp>
+#include <vim/fem/needle_band.hpp>
 #include <vim/initial_mesh.hpp>
 #include <vim/pipeline/progress.hpp>
 #include <vim/pipeline/simulation.hpp>
@@ -56,6 +62,7 @@ Timing time_run(const MeshModel<3>& model, unsigned degree, int steps, const std
   SimulationOptions o;
   o.progress = false;
   o.monolithic = monolithic;
+  o.step_fields = false;  // forces and targets per step; the field only at the last step (the real-time rate)
   o.degree = degree;
   NeedleSimulation<3> sim(model, parse_scenario_text(y, 3, "bench"), o);
   const auto res = sim.run();
@@ -70,6 +77,51 @@ Timing time_run(const MeshModel<3>& model, unsigned degree, int steps, const std
   t.points = r.active_points.back();
   t.dofs = r.stats.n_dofs;
   t.force = r.axial_force.back();
+  return t;
+}
+
+// fem::HapticNeedle on the same block (its model and conditions from a NeedleSimulation that does not
+// run): the region a cylinder of radius R + h around the path, one probe (the target), stick-slip at
+// 0.5 mN/mm, the tip advanced along the path in `steps` calls. Returns the precomputation (s), the
+// region's DoFs and the per-call times.
+Timing time_haptic(const MeshModel<3>& model, unsigned degree, double h, int steps) {
+  const std::string y =
+      "material: {poisson_ratio: 0.45}\n"
+      "boundary_conditions: [{type: fixed, region: {box_face: z_max}}]\n"
+      "needle: {entry: [0.3, -0.2, 0], direction: [0, 0, 1], depth: 40, steps: 1, diameter: 1.27, friction: "
+      "{model: stick}}\n";
+  SimulationOptions so;
+  so.progress = false;
+  so.degree = degree;
+  NeedleSimulation<3> sim(model, parse_scenario_text(y, 3, "bench"), so);
+  fem::HapticNeedle::Options o;
+  o.radius = 0.635;
+  o.coupling_radius = fem::default_coupling_radius(o.radius, h, degree);
+  o.spacing = h;
+  o.max_shear_per_length = 0.5;
+  const double reach = o.coupling_radius + h;
+  const fem::Region<3> region{
+      "path", [reach](const fem::Vec<3>& x) { return std::hypot(x[0] - 0.3, x[1] + 0.2) < reach; }};
+  const auto t0 = std::chrono::steady_clock::now();
+  fem::HapticNeedle needle(sim.model(), region, {fem::Vec<3>(0, 0, 45)}, o);
+  Timing t;
+  t.precompute = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  t.dofs = static_cast<unsigned>(needle.region_dofs());
+  std::vector<double> st;
+  double total = 0.0;
+  for (int k = 0; k <= steps; ++k) {
+    const auto a = std::chrono::steady_clock::now();
+    const auto& r = needle.step(fem::Vec<3>(0.3, -0.2, 40.0 * k / steps), fem::Vec<3>(0, 0, 1));
+    const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count();
+    if (k == 0) continue;
+    st.push_back(dt), total += dt;
+    t.points = static_cast<int>(r.stations);
+    t.force = -r.force[2];
+  }
+  t.mean = total / steps;
+  std::sort(st.begin(), st.end());
+  t.median = st[st.size() / 2];
+  t.p99 = st[std::min(st.size() - 1, static_cast<std::size_t>(0.99 * static_cast<double>(st.size())))];
   return t;
 }
 
@@ -92,6 +144,7 @@ int main(int argc, char** argv) {
   int steps = 200, mono_steps = 5;
   unsigned mono_max_dofs = 100000;
   std::string friction = "stick", sizes = "1k,10k", degrees = "1,2", solver = "auto";
+  bool haptic = false;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--steps")
@@ -106,6 +159,10 @@ int main(int argc, char** argv) {
       sizes = v;
     else if (k == "--degrees")
       degrees = v;
+    else if (k == "--solver")
+      solver = v;
+    else if (k == "--haptic")
+      haptic = v == "1";
     else {
       std::fprintf(stderr, "bench_needle: unknown option %s\n", k.c_str());
       return 2;
@@ -132,6 +189,23 @@ int main(int argc, char** argv) {
                   fast.dofs, fast.points, fast.precompute, 1.0 / fast.mean, 1e3 * fast.median, 1e3 * fast.p99,
                   mono_rate, ratio, fast.force);
       std::fflush(stdout);
+    }
+  }
+  if (haptic) {
+    std::printf("\nreal-time needle (fem::HapticNeedle), stick-slip, %d calls over 40 mm\n", steps);
+    std::printf("%6s %3s %11s %9s %11s %10s %10s %10s %10s\n", "nodes", "P", "region_DoFs", "stations",
+                "precomp_s", "mean_st/s", "median_ms", "p99_ms", "force");
+    for (const std::string& size : split(sizes)) {
+      const bool big = size == "10k";
+      const MeshModel<3> m = big ? block(17, 35) : block(8, 16);
+      const double h = big ? 40.0 / 16.0 : 40.0 / 7.0;  // grid edge
+      for (const std::string& deg : split(degrees)) {
+        const auto degree = static_cast<unsigned>(std::atoi(deg.c_str()));
+        const Timing t = time_haptic(m, degree, h, steps);
+        std::printf("%6zu %3u %11u %9d %11.2f %10.0f %10.3f %10.3f %10.5g\n", m.mesh.n_points(), degree,
+                    t.dofs, t.points, t.precompute, 1.0 / t.mean, 1e3 * t.median, 1e3 * t.p99, t.force);
+        std::fflush(stdout);
+      }
     }
   }
   MPI_Finalize();

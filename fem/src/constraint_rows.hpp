@@ -5,7 +5,10 @@
 
 #include <deal.II/base/timer.h>
 
+#include <cmath>
 #include <cstddef>
+#include <sstream>
+#include <stdexcept>
 #include <utility>
 #include <vector>
 
@@ -19,10 +22,11 @@ using State = ModelAccess::State<dim>;
 // Row of C for direction axes.col(c) of point constraint p (`which` its index, for messages): a·N at the
 // point, or the weighted mean of a·N over its samples inside the mesh, Dirichlet DoFs moved to the
 // right-hand side g (which starts at `g`). Throws std::invalid_argument for a point (or all its
-// samples) outside the mesh, or one on Dirichlet nodes asking for another displacement.
+// samples) outside the mesh, or (unless `evaluation`: a row that only evaluates the field there) one on
+// Dirichlet nodes asking for another displacement.
 template <int dim>
 ConstraintRow constraint_row(const State<dim>& m, const PointConstraint<dim>& p, unsigned c, double g,
-                             std::size_t which);
+                             std::size_t which, bool evaluation = false);
 
 // The rows of one constrained solve, in order, with the right-hand sides g and (point, component) of each.
 struct RowSet {
@@ -35,6 +39,27 @@ struct RowSet {
     which.emplace_back(point, comp);
   }
 };
+
+// Of the column cache (solvers.cpp): the cache key of direction `dir` of p (position, direction, then
+// the sample offsets and weights), and the entries of the rows of `points` (one per selected component,
+// point-major), the rows not cached yet computed first in one batch of right-hand sides (their CG
+// iterations added to *iterations, their number to *computed; either may be null).
+template <int dim>
+ColumnCache::Key column_key(const PointConstraint<dim>& p, const Vec<dim>& dir);
+template <int dim>
+std::vector<ColumnCache::Entry*> cached_rows(State<dim>& m, const std::vector<PointConstraint<dim>>& points,
+                                             const SolverOptions& opt, unsigned* iterations,
+                                             unsigned* computed);
+
+// A void row (its point on Dirichlet-constrained DoFs only) with right-hand side g: std::invalid_argument
+// naming point `which`, component c unless g vanishes (relative to the requested displacement).
+inline void check_void_row(double g, double displacement, std::size_t which, unsigned c) {
+  if (std::abs(g) <= 1e-12 * (1.0 + std::abs(displacement))) return;
+  std::ostringstream s;
+  s << "point constraint " << which << " (component " << c
+    << ") lies on Dirichlet-constrained nodes and asks for a different displacement";
+  throw std::invalid_argument(s.str());
+}
 
 // Throws std::invalid_argument for non-finite positions/displacements, negative compliances or axes
 // that are not orthonormal.

@@ -2,6 +2,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -166,6 +167,42 @@ PointConstraint<3> needle_band_constraint(const Vec<3>& centre, const Vec<3>& ax
   p.compliance =
       Vec<3>(kl, kl, axial_band_compliance(band.radius, r_eff, band.length, youngs_modulus, poisson_ratio));
   return p;
+}
+
+namespace {
+
+// The edge of the cube of the cell's volume: (6V)^(1/3) for a tetrahedron (4 support vertices),
+// V^(1/3) for a grid cell (the bounding box of its 8 vertices).
+double cell_size(const CellLocator<3>& locator, const std::vector<int>& support) {
+  if (support.size() == 4) {
+    Eigen::Matrix3d e;
+    for (int k = 0; k < 3; ++k) e.col(k) = locator.vertex(support[k + 1]) - locator.vertex(support[0]);
+    return std::cbrt(std::abs(e.determinant()));
+  }
+  Eigen::Vector3d lo = locator.vertex(support.front()), hi = lo;
+  for (int v : support) lo = lo.cwiseMin(locator.vertex(v)), hi = hi.cwiseMax(locator.vertex(v));
+  return std::cbrt((hi - lo).prod());
+}
+
+}  // namespace
+
+double path_element_size(const CellLocator<3>& locator, const Eigen::Vector3d& entry,
+                         const Eigen::Vector3d& axis, double depth) {
+  // Points every quarter of the mean edge: every cell the path crosses over more than that is seen. They
+  // lie a thousandth of an edge off the path, so that a path along mesh edges or faces still finds
+  // points inside cells (whose support is the whole cell).
+  const double step = std::max(0.25 * locator.mean_edge_length(), 1e-6 * depth);
+  const Eigen::Matrix3d frame = needle_frame(axis);
+  const Eigen::Vector3d off = 1e-3 * locator.mean_edge_length() * (0.54 * frame.col(0) + 0.84 * frame.col(1));
+  std::set<long> seen;
+  std::vector<int> support;
+  double sum = 0.0;
+  for (double s = 0.5 * step; s < depth; s += step) {
+    const long c = locator.locate(entry + s * axis + off, &support);
+    if (c < 0 || support.size() < 4 || !seen.insert(c).second) continue;
+    sum += cell_size(locator, support);
+  }
+  return seen.empty() ? locator.mean_edge_length() : sum / static_cast<double>(seen.size());
 }
 
 }  // namespace vim::fem

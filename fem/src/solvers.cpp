@@ -177,17 +177,6 @@ double ColumnCache::product(const Entry& a, const Entry& b) {
 // ================================================================================================
 // solve(): Schur complement of the point constraints over cached columns K⁻¹cᵀ; precompute()
 
-namespace {
-
-// A row of solve() with its cached column K⁻¹cᵀ.
-struct SchurRow {
-  ColumnCache::Entry* entry;  // the row and its column
-  double g;
-  double compliance;  // added to the row's diagonal of the Schur complement
-  std::size_t point;
-  unsigned comp;
-};
-
 // The cache key of component direction `dir` of point constraint p: position, direction, then the
 // sample offsets and weights.
 template <int dim>
@@ -246,44 +235,59 @@ unsigned add_columns(State<dim>& m, std::vector<std::pair<ColumnCache::Key, Cons
   return iterations;
 }
 
-// The rows of `points` not yet in the cache, with their keys (each once).
+// The cache entries of the rows of `points` (one per selected component, point-major; each key built
+// once), the rows not cached yet computed first in one batch. Adds their CG iterations to
+// `iterations` and their number to `computed`.
 template <int dim>
-std::vector<std::pair<ColumnCache::Key, ConstraintRow>> missing_rows(
-    const State<dim>& m, const std::vector<PointConstraint<dim>>& points) {
+std::vector<ColumnCache::Entry*> cached_rows(State<dim>& m, const std::vector<PointConstraint<dim>>& points,
+                                             const SolverOptions& opt, unsigned* iterations,
+                                             unsigned* computed) {
+  std::vector<ColumnCache::Key> keys;
   std::vector<std::pair<ColumnCache::Key, ConstraintRow>> missing;
   std::set<ColumnCache::Key> seen;
   for (std::size_t k = 0; k < points.size(); ++k)
     for (unsigned c = 0; c < unsigned(dim); ++c) {
       if (!points[k].components[c]) continue;
-      ColumnCache::Key key = column_key<dim>(points[k], points[k].axes.col(c));
-      if (m.columns.entries.count(key) || !seen.insert(key).second) continue;
-      ConstraintRow row = constraint_row<dim>(m, points[k], c, 0.0, k);
-      missing.emplace_back(std::move(key), std::move(row));
+      keys.push_back(column_key<dim>(points[k], points[k].axes.col(c)));
+      if (m.columns.entries.count(keys.back()) || !seen.insert(keys.back()).second) continue;
+      missing.emplace_back(keys.back(), constraint_row<dim>(m, points[k], c, 0.0, k));
     }
-  return missing;
+  if (computed) *computed += static_cast<unsigned>(missing.size());
+  const unsigned it = add_columns<dim>(m, missing, opt);
+  if (iterations) *iterations += it;
+  std::vector<ColumnCache::Entry*> entries;
+  entries.reserve(keys.size());
+  for (const auto& key : keys) entries.push_back(&m.columns.entries.at(key));
+  return entries;
 }
+
+namespace {
+
+// A row of solve() with its cached column K⁻¹cᵀ.
+struct SchurRow {
+  ColumnCache::Entry* entry;  // the row and its column
+  double g;
+  double compliance;  // added to the row's diagonal of the Schur complement
+  std::size_t point;
+  unsigned comp;
+};
 
 // The rows of `points` (one per selected component) from the cache, the missing ones computed first
 // in one batch (their CG iterations are added to `iterations`).
 template <int dim>
 std::vector<SchurRow> schur_rows(State<dim>& m, const std::vector<PointConstraint<dim>>& points,
                                  const SolverOptions& opt, unsigned& iterations) {
-  auto missing = missing_rows<dim>(m, points);
-  iterations += add_columns<dim>(m, missing, opt);
+  const std::vector<ColumnCache::Entry*> entries = cached_rows<dim>(m, points, opt, &iterations, nullptr);
   std::vector<SchurRow> rows;
+  std::size_t e = 0;
   for (std::size_t k = 0; k < points.size(); ++k)
     for (unsigned c = 0; c < unsigned(dim); ++c) {
       if (!points[k].components[c]) continue;
-      ColumnCache::Entry& entry = m.columns.entries.at(column_key<dim>(points[k], points[k].axes.col(c)));
+      ColumnCache::Entry& entry = *entries[e++];
       // g of the cached row holds −c_D·u_D only; add the requested displacement now.
       const double g = points[k].displacement[c] + entry.row.g;
       if (!entry.row.active) {
-        if (std::abs(g) > 1e-12 * (1.0 + std::abs(points[k].displacement[c]))) {
-          std::ostringstream s;
-          s << "point constraint " << k << " (component " << c
-            << ") lies on Dirichlet-constrained nodes and asks for a different displacement";
-          throw std::invalid_argument(s.str());
-        }
+        check_void_row(g, points[k].displacement[c], k, c);
         continue;
       }
       rows.push_back({&entry, g, points[k].compliance[c], k, c});
@@ -428,16 +432,11 @@ unsigned ElasticModel<dim>::precompute(const std::vector<PointConstraint<dim>>& 
   m.ensure_mesh();
   m.prepare_solver(opt);
   m.ensure_u0(opt);
-  auto missing = missing_rows<dim>(m, points);
-  const auto n = static_cast<unsigned>(missing.size());
-  add_columns<dim>(m, missing, opt);
+  unsigned n = 0;
+  const std::vector<ColumnCache::Entry*> entries = cached_rows<dim>(m, points, opt, nullptr, &n);
   std::vector<ColumnCache::Entry*> active;
-  for (const auto& p : points)
-    for (unsigned c = 0; c < unsigned(dim); ++c)
-      if (p.components[c]) {
-        ColumnCache::Entry& e = m.columns.entries.at(column_key<dim>(p, p.axes.col(c)));
-        if (e.row.active) active.push_back(&e);
-      }
+  for (ColumnCache::Entry* e : entries)
+    if (e->row.active) active.push_back(e);
   for (std::size_t a = 0; a < active.size(); ++a)
     for (std::size_t b = 0; b <= a; ++b) m.columns.product(*active[a], *active[b]);
   return n;
@@ -451,7 +450,10 @@ unsigned ElasticModel<dim>::precompute(const std::vector<PointConstraint<dim>>& 
   template Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>&,        \
                                                   const SolverOptions&);                           \
   template unsigned ElasticModel<dim>::precompute(const std::vector<PointConstraint<dim>>&,        \
-                                                  const SolverOptions&);
+                                                  const SolverOptions&);                           \
+  template ColumnCache::Key column_key<dim>(const PointConstraint<dim>&, const Vec<dim>&);         \
+  template std::vector<ColumnCache::Entry*> cached_rows<dim>(                                      \
+      State<dim>&, const std::vector<PointConstraint<dim>>&, const SolverOptions&, unsigned*, unsigned*);
 VIM_FEM_SOLVERS(2)
 VIM_FEM_SOLVERS(3)
 

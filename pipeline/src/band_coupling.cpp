@@ -1,47 +1,10 @@
 // The band coupling of a 3D needle of finite radius (needle_coupling.hpp, docs/needle-model.md).
 #include <algorithm>
 #include <cmath>
-#include <set>
 #include <vim/fem/needle_band.hpp>
 #include <vim/pipeline/needle_coupling.hpp>
 
 namespace vim::pipeline {
-
-namespace {
-
-// The edge of the cube of the cell's volume: (6V)^(1/3) for a tetrahedron (4 support vertices),
-// V^(1/3) for a grid cell (the bounding box of its 8 vertices).
-double cell_size(const fem::CellLocator<3>& locator, const std::vector<int>& support) {
-  if (support.size() == 4) {
-    Eigen::Matrix3d e;
-    for (int k = 0; k < 3; ++k) e.col(k) = locator.vertex(support[k + 1]) - locator.vertex(support[0]);
-    return std::cbrt(std::abs(e.determinant()));
-  }
-  Eigen::Vector3d lo = locator.vertex(support.front()), hi = lo;
-  for (int v : support) lo = lo.cwiseMin(locator.vertex(v)), hi = hi.cwiseMax(locator.vertex(v));
-  return std::cbrt((hi - lo).prod());
-}
-
-}  // namespace
-
-double path_element_size(const fem::CellLocator<3>& locator, const Eigen::Vector3d& entry,
-                         const Eigen::Vector3d& axis, double depth) {
-  // Points every quarter of the mean edge: every cell the path crosses over more than that is seen. They
-  // lie a thousandth of an edge off the path, so that a path along mesh edges or faces still finds
-  // points inside cells (whose support is the whole cell).
-  const double step = std::max(0.25 * locator.mean_edge_length(), 1e-6 * depth);
-  const Eigen::Matrix3d frame = fem::needle_frame(axis);
-  const Eigen::Vector3d off = 1e-3 * locator.mean_edge_length() * (0.54 * frame.col(0) + 0.84 * frame.col(1));
-  std::set<long> seen;
-  std::vector<int> support;
-  double sum = 0.0;
-  for (double s = 0.5 * step; s < depth; s += step) {
-    const long c = locator.locate(entry + s * axis + off, &support);
-    if (c < 0 || support.size() < 4 || !seen.insert(c).second) continue;
-    sum += cell_size(locator, support);
-  }
-  return seen.empty() ? locator.mean_edge_length() : sum / static_cast<double>(seen.size());
-}
 
 BandCoupling::BandCoupling(const Geometry& g, const fem::CellLocator<3>& locator,
                            const std::vector<double>& cell_modulus, double poisson_ratio,
@@ -90,17 +53,14 @@ BandCoupling::BandCoupling(const Geometry& g, const fem::CellLocator<3>& locator
   lateral_.assign(stations_.size(), Vec::Zero());
 }
 
-std::vector<fem::PointConstraint<3>> BandCoupling::rows(const std::vector<std::size_t>& active,
-                                                        const std::vector<double>& axial) const {
-  std::vector<fem::PointConstraint<3>> rows;
-  rows.reserve(active.size());
-  for (std::size_t j : active) {
-    fem::PointConstraint<3> p = bands_[j];
-    // axes = (lateral 1, lateral 2, axis): the loads' lateral offset and the axial value.
-    p.displacement = Vec(p.axes.col(0).dot(lateral_[j]), p.axes.col(1).dot(lateral_[j]), axial[j]);
-    rows.push_back(std::move(p));
+// axes = (lateral 1, lateral 2, axis): the loads' lateral offset and the axial value.
+void BandCoupling::held_values(const std::vector<std::size_t>& active, const std::vector<double>& axial,
+                               std::vector<Vec>& held) const {
+  held.resize(active.size());
+  for (std::size_t i = 0; i < active.size(); ++i) {
+    const std::size_t j = active[i];
+    held[i] = Vec(bands_[j].axes.col(0).dot(lateral_[j]), bands_[j].axes.col(1).dot(lateral_[j]), axial[j]);
   }
-  return rows;
 }
 
 std::vector<double> BandCoupling::axial_forces(const std::vector<std::size_t>& active,

@@ -84,28 +84,40 @@ std::unique_ptr<FrictionLaw> make_friction_law(const NeedleSpec& spec, int max_a
 }
 
 template <int dim>
-LineCoupling<dim>::LineCoupling(std::vector<Vec> positions, const Vec& axis, const Mat& axes)
-    : positions_(std::move(positions)), lateral_(positions_.size(), Vec::Zero()), axis_(axis), axes_(axes) {}
-
-template <int dim>
-std::vector<fem::PointConstraint<dim>> LineCoupling<dim>::rows(const std::vector<std::size_t>& active,
-                                                               const std::vector<double>& axial) const {
+std::vector<fem::PointConstraint<dim>> NeedleCoupling<dim>::rows(const std::vector<std::size_t>& active,
+                                                                 const std::vector<double>& axial) const {
+  std::vector<Vec> held;
+  held_values(active, axial, held);
   std::vector<fem::PointConstraint<dim>> pts;
   pts.reserve(active.size());
-  for (std::size_t j : active) {
-    fem::PointConstraint<dim> p;
-    p.position = positions_[j];
-    p.axes = axes_;
-    p.displacement = axes_.transpose() * (axial[j] * axis_ + lateral_[j]);
-    pts.push_back(p);
+  for (std::size_t i = 0; i < active.size(); ++i) {
+    pts.push_back(row_template(active[i]));
+    pts.back().displacement = held[i];
   }
   return pts;
 }
 
 template <int dim>
+LineCoupling<dim>::LineCoupling(std::vector<Vec> positions, const Vec& axis, const Mat& axes)
+    : lateral_(positions.size(), Vec::Zero()), axis_(axis), axes_(axes) {
+  for (const Vec& x : positions) {
+    points_.emplace_back(x);
+    points_.back().axes = axes;
+  }
+}
+
+template <int dim>
+void LineCoupling<dim>::held_values(const std::vector<std::size_t>& active, const std::vector<double>& axial,
+                                    std::vector<Vec>& held) const {
+  held.resize(active.size());
+  for (std::size_t i = 0; i < active.size(); ++i)
+    held[i] = axes_.transpose() * (axial[active[i]] * axis_ + lateral_[active[i]]);
+}
+
+template <int dim>
 std::vector<double> LineCoupling<dim>::axial_forces(const std::vector<std::size_t>& active,
                                                     const fem::Solution<dim>& solution) const {
-  std::vector<double> f(positions_.size(), 0.0);
+  std::vector<double> f(points_.size(), 0.0);
   for (std::size_t i = 0; i < active.size() && i < solution.point_force.size(); ++i)
     f[active[i]] = solution.point_force[i].dot(axis_);
   return f;
@@ -120,16 +132,18 @@ std::vector<typename LineCoupling<dim>::Vec> LineCoupling<dim>::displacements(
     const std::vector<std::size_t>& points, const fem::ElasticModel<dim>& model) const {
   std::vector<Vec> at;
   at.reserve(points.size());
-  for (std::size_t j : points) at.push_back(positions_[j]);
+  for (std::size_t j : points) at.push_back(points_[j].position);
   return model.sample(at);
 }
 
 template <int dim>
 void LineCoupling<dim>::keep_offsets(const std::vector<Vec>& u) {
-  for (std::size_t j = 0; j < positions_.size() && j < u.size(); ++j)
+  for (std::size_t j = 0; j < points_.size() && j < u.size(); ++j)
     lateral_[j] = u[j] - u[j].dot(axis_) * axis_;
 }
 
+template class NeedleCoupling<2>;
+template class NeedleCoupling<3>;
 template class LineCoupling<2>;
 template class LineCoupling<3>;
 

@@ -2,6 +2,7 @@
 #include "needle_insertion.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <numeric>
 #include <sstream>
 
@@ -62,7 +63,7 @@ template <int dim>
 void NeedleInsertion<dim>::make_coupling(const NeedlePath<dim>& path, bool snap_to_vertices) {
   axis_ = path.axis;
   if constexpr (dim == 3) {
-    const double h = path_element_size(ctx_.locator(), path.entry, path.axis, spec_.depth);
+    const double h = fem::path_element_size(ctx_.locator(), path.entry, path.axis, spec_.depth);
     const auto with_spacing = [&](BandCoupling::Geometry geometry) {
       geometry.spacing = spec_.sample_spacing > 0.0 ? spec_.sample_spacing : h;
       return geometry;
@@ -98,15 +99,32 @@ void NeedleInsertion<dim>::make_coupling(const NeedlePath<dim>& path, bool snap_
   }
 }
 
+// One solve of the step: the monolithic reference forms the whole field; the condensed rows give the
+// point forces (and the targets' displacements) only, the field is formed when a step needs it.
 template <int dim>
 std::vector<double> NeedleInsertion<dim>::solve(const std::vector<double>& axial) {
-  const std::vector<fem::PointConstraint<dim>> rows = coupling_->rows(state_.active, axial);
   const auto t = Clock::now();
-  solution_ = ctx_.opt.monolithic ? ctx_.model->solve_monolithic(rows, ctx_.solver)
-                                  : ctx_.model->solve(rows, ctx_.solver);
+  if (ctx_.opt.monolithic) {
+    solution_ = ctx_.model->solve_monolithic(coupling_->rows(state_.active, axial), ctx_.solver);
+  } else {
+    coupling_->held_values(state_.active, axial, held_);
+    condensed_->solve(state_.active, held_);
+    condensed_->point_forces(solution_.point_force);
+    solution_.stats = condensed_->stats();
+  }
+  field_ = ctx_.opt.monolithic;
   solve_seconds_ += seconds_since(t);
   ++solves_;
   return coupling_->axial_forces(state_.active, solution_);
+}
+
+template <int dim>
+void NeedleInsertion<dim>::form_field() {
+  if (field_) return;
+  const auto t = Clock::now();
+  solution_ = condensed_->field();
+  solve_seconds_ += seconds_since(t);
+  field_ = true;
 }
 
 template <int dim>
@@ -162,9 +180,9 @@ template <int dim>
 void NeedleInsertion<dim>::precompute() {
   if (ctx_.opt.monolithic) return;
   const auto t = Clock::now();
-  std::vector<std::size_t> all(shaft_.size());
-  std::iota(all.begin(), all.end(), std::size_t{0});
-  ctx_.model->precompute(coupling_->rows(all, std::vector<double>(shaft_.size(), 0.0)), ctx_.solver);
+  std::vector<fem::PointConstraint<dim>> rows;
+  for (std::size_t j = 0; j < shaft_.size(); ++j) rows.push_back(coupling_->row_template(j));
+  condensed_ = std::make_unique<fem::CondensedConstraints<dim>>(*ctx_.model, rows, targets_, ctx_.solver);
   run_.precompute_seconds = seconds_since(t);
 }
 
@@ -174,12 +192,14 @@ template <int dim>
 void NeedleInsertion<dim>::rest() {
   if (loaded_) {
     solve(state_.axial);
+    form_field();
     std::vector<std::size_t> all(shaft_.size());
     for (std::size_t j = 0; j < all.size(); ++j) all[j] = j;
     coupling_->keep_offsets(coupling_->displacements(all, *ctx_.model));
   }
   have_solution_ = loaded_;
   record(0.0, loaded_ ? &solution_ : nullptr, loaded_ ? 1 : 0);
+  record_field(loaded_ ? &solution_ : nullptr, false);
   run_.step_seconds.push_back(0.0);
   if (write_) output_step(0, loaded_ ? &solution_ : nullptr);
 }
@@ -196,7 +216,7 @@ void NeedleInsertion<dim>::advance_one_step(int k) {
     if (loaded_)
       solve(state_.axial);
     else
-      solution_ = fem::Solution<dim>{};
+      solution_ = fem::Solution<dim>{}, field_ = true;
     record(d, loaded_ ? &solution_ : nullptr, solves_ - solves_before);
   } else {
     const FrictionStep step = law_->update(state_, *this);
@@ -208,14 +228,22 @@ void NeedleInsertion<dim>::advance_one_step(int k) {
   }
   have_solution_ = !state_.active.empty() || loaded_;
   run_.stats = solution_.stats;
+  const bool written = write_ && (k % ctx_.sc.output_every == 0 || k == spec_.steps);
+  if (have_solution_ && (ctx_.opt.step_fields || written || k == spec_.steps)) {
+    form_field();
+    record_field(&solution_, false);
+  } else {
+    record_field(nullptr, have_solution_);
+  }
   run_.step_seconds.push_back(seconds_since(t_step));
-  if (write_ && (k % ctx_.sc.output_every == 0 || k == spec_.steps))
-    output_step(k, state_.active.empty() && !loaded_ ? nullptr : &solution_);
+  if (written) output_step(k, state_.active.empty() && !loaded_ ? nullptr : &solution_);
 }
 
 template <int dim>
 double NeedleInsertion<dim>::axial_displacement(std::size_t j) const {
-  return have_solution_ ? coupling_->displacements({j}, *ctx_.model)[0].dot(axis_) : 0.0;
+  if (!have_solution_) return 0.0;
+  if (condensed_) return condensed_->held_displacement(j).dot(axis_);
+  return coupling_->displacements({j}, *ctx_.model)[0].dot(axis_);
 }
 
 // The active set of the step at needle travel `depth` (`travel` since the last step): the stations
@@ -270,11 +298,36 @@ void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim>* s, int
   run_.lateral_force.push_back((f - ax * axis_world_).norm());
   std::vector<Vec> td(targets_.size(), Vec::Zero());
   if (s && !targets_.empty()) {
-    const auto u = coupling_->tissue_displacements(targets_, ctx_.model->sample(targets_), state_.active,
-                                                   state_.axial, *s);
+    const auto u = coupling_->tissue_displacements(
+        targets_, condensed_ ? condensed_->probe_displacements() : ctx_.model->sample(targets_),
+        state_.active, state_.axial, *s);
     for (std::size_t t = 0; t < u.size(); ++t) td[t] = ctx_.tf.vector_to_world(u[t]);
   }
   run_.target_displacement.push_back(td);
+  std::vector<double> pa(shaft_.size(), 0.0);
+  if (s) pa = coupling_->axial_forces(state_.active, *s);
+  // The axial force splits into the shaft's friction and the force on the tissue the tip pushes (the
+  // cutting station; the force model: the tip point, which carries tip_force).
+  const std::size_t pushed = spec_.model == NeedleSpec::Model::force ? state_.tip : state_.cutting;
+  double friction = 0.0;
+  for (std::size_t j : state_.active)
+    if (j != pushed) friction += pa[j];
+  run_.friction_force.push_back(s ? friction : 0.0);
+  run_.tip_force.push_back(s && pushed < pa.size() ? pa[pushed] : 0.0);
+  run_.point_axial_force.push_back(std::move(pa));
+  run_.active_points.push_back(static_cast<int>(state_.active.size()));
+  run_.solves.push_back(solves);
+}
+
+// The step's field: vertex displacements (every step with keep_step_fields, else the last), the largest
+// displacement so far and the largest strain. `s` null: no solution (zero field), or, with `skipped`, a
+// solution whose field the step did not form (SimulationOptions::step_fields): max_strain NaN.
+template <int dim>
+void NeedleInsertion<dim>::record_field(const fem::Solution<dim>* s, bool skipped) {
+  if (skipped) {
+    run_.max_strain.push_back(std::numeric_limits<double>::quiet_NaN());
+    return;
+  }
   std::vector<Vec> vd;
   if (s) {
     vd.reserve(s->vertex_displacement.size());
@@ -289,20 +342,7 @@ void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim>* s, int
     run_.vertex_displacement.push_back(std::move(vd));
   else
     run_.vertex_displacement.back() = std::move(vd);
-  std::vector<double> pa(shaft_.size(), 0.0);
-  if (s) pa = coupling_->axial_forces(state_.active, *s);
-  // The axial force splits into the shaft's friction and the force on the tissue the tip pushes (the
-  // cutting station; the force model: the tip point, which carries tip_force).
-  const std::size_t pushed = spec_.model == NeedleSpec::Model::force ? state_.tip : state_.cutting;
-  double friction = 0.0;
-  for (std::size_t j : state_.active)
-    if (j != pushed) friction += pa[j];
-  run_.friction_force.push_back(s ? friction : 0.0);
-  run_.tip_force.push_back(s && pushed < pa.size() ? pa[pushed] : 0.0);
-  run_.point_axial_force.push_back(std::move(pa));
-  run_.active_points.push_back(static_cast<int>(state_.active.size()));
   run_.max_strain.push_back(s ? largest_principal_strain<dim>(s->cell_strain) : 0.0);
-  run_.solves.push_back(solves);
 }
 
 template <int dim>

@@ -23,6 +23,8 @@
 #include <string>
 #include <utility>
 #include <vector>
+#include <vim/fem/condensed_constraints.hpp>
+#include <vim/fem/needle_band.hpp>
 #include <vim/pipeline/needle_coupling.hpp>
 #include <vim/pipeline/progress.hpp>
 
@@ -53,7 +55,10 @@ class NeedleInsertion final : public TissueResponse {
   double axial_displacement(std::size_t j) const;  // ū_j of the last solution (0 before any)
   void make_coupling(const NeedlePath<dim>& path, bool snap_to_vertices);
   void record(double depth, const fem::Solution<dim>* solution, int solves);
+  void record_field(const fem::Solution<dim>* solution, bool skipped);
   void output_step(int k, const fem::Solution<dim>* solution);
+  // The whole field of the last solve into solution_ (once per solve; the monolithic solve has it).
+  void form_field();
 
   SimulationContext<dim>& ctx_;
   const NeedleSpec& spec_;
@@ -74,7 +79,12 @@ class NeedleInsertion final : public TissueResponse {
   std::vector<bool> picked_;
   bool cuts_ = false;  // the kinematic model with a cutting force: the tip pushes a station
   bool have_solution_ = false;
+  // The condensed rows of every shaft point and the targets (not with the monolithic reference): a
+  // solve gives the point forces and the target displacements; the field only when form_field asks.
+  std::unique_ptr<fem::CondensedConstraints<dim>> condensed_;
+  std::vector<Vec> held_;  // the active rows' displacements of a solve
   fem::Solution<dim> solution_;
+  bool field_ = false;  // solution_ holds the whole field of the last solve
   AxialMap map_;
   std::size_t map_size_ = 0;
   int solves_ = 0;

@@ -123,6 +123,11 @@ void NeedleSimulation<dim>::Impl::setup(const std::vector<Vec>& vertices) {
                 : sc.solver_type == "amg"  ? fem::SolverOptions::Type::amg
                                            : fem::SolverOptions::Type::automatic;
   solver.tolerance = sc.solver_tolerance;
+  // A 3D needle's precomputation needs one column K⁻¹cᵀ per coupling row (three per station, tens to
+  // hundreds): CHOLMOD's factorisation and one back-substitution per block of 32 rows beat one CG solve
+  // per row well beyond the single-solve limit (docs/performance.md, "Needle steps": 225k P2 DoFs
+  // factorised and 42 rows precomputed in 3.9 GB).
+  if (dim == 3 && !sc.needles.empty()) solver.direct_limit = kNeedleDirectLimit3D;
   blocked.assign(vertices.size(), false);
   for (std::size_t i = 0; i < sc.boundary_conditions.size(); ++i) {
     const auto& bc = sc.boundary_conditions[i];

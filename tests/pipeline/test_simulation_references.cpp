@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <type_traits>
 #include <vector>
 #include <vim/fem/needle_band.hpp>
 #include <vim/initial_mesh.hpp>
@@ -101,6 +102,61 @@ TEST(Simulation, FastPathMatchesMonolithicSolveAtEveryStep2D) {
     }
 }
 
+// Truth: the monolithic saddle-point solve of every step (ElasticModel::solve_monolithic), against the
+// forces-only steps of the real-time rate (SimulationOptions::step_fields = false: each step gives the
+// forces and the targets' displacements from the condensed rows alone, the field only at the last
+// step): forces, per-station axial forces, target displacements and the active set of every step, and
+// the last step's field; 3D P1 with stick-slip and the force model, 2D P1 with stick-slip (P2 and stick:
+// the condensed rows' own tests, tests/fem/test_condensed_constraints.cpp, and the test above).
+TEST(Simulation, ForcesOnlyStepsMatchMonolithicSolveAtEveryStep) {
+  MeshModel<2> plane;
+  plane.mesh = regular_grid_mesh<2>(Eigen::Vector2d(-5, 0), Eigen::Vector2d(5, 20), {{11, 21}});
+  plane.values.assign(plane.mesh.n_cells(), ElementValue{1, 10.0, 0.0});
+  const auto check = [](const auto& model, const Scenario& sc, unsigned degree, const std::string& label) {
+    constexpr int dim = std::decay_t<decltype(model.mesh.points[0])>::RowsAtCompileTime;
+    auto o = quiet();
+    o.degree = degree;
+    o.step_fields = false;
+    const auto fast = run_simulation<dim>(model, sc, o);
+    o.monolithic = true;
+    o.step_fields = true;
+    const auto mono = run_simulation<dim>(model, sc, o);
+    const auto &f = fast.needles[0], &m = mono.needles[0];
+    EXPECT_EQ(f.active_points, m.active_points) << label;
+    EXPECT_EQ(f.active_set_sweeps, m.active_set_sweeps) << label;
+    for (std::size_t k = 1; k < m.depth.size(); ++k) {
+      EXPECT_LE((f.force[k] - m.force[k]).norm(), 1e-8 * m.force[k].norm()) << label << ", step " << k;
+      for (std::size_t j = 0; j < m.point_axial_force[k].size(); ++j)
+        EXPECT_LE(std::abs(f.point_axial_force[k][j] - m.point_axial_force[k][j]), 1e-8 * m.force[k].norm())
+            << label << ", step " << k << ", station " << j;
+      for (std::size_t t = 0; t < m.target_displacement[k].size(); ++t)
+        EXPECT_LE((f.target_displacement[k][t] - m.target_displacement[k][t]).norm(),
+                  1e-8 * m.target_displacement[k][t].norm())
+            << label << ", step " << k << ", target " << t;
+    }
+    EXPECT_TRUE(std::isnan(f.max_strain[1])) << label << ": a step whose field is not formed";
+    EXPECT_NEAR(f.max_strain.back(), m.max_strain.back(), 1e-8 * m.max_strain.back()) << label;
+    double d = 0.0, scale = 0.0;
+    for (std::size_t v = 0; v < m.vertex_displacement.back().size(); ++v) {
+      d = std::max(d, (f.vertex_displacement.back()[v] - m.vertex_displacement.back()[v]).norm());
+      scale = std::max(scale, m.vertex_displacement.back()[v].norm());
+    }
+    EXPECT_LT(d, 1e-8 * scale) << label << ": the last step's field";
+  };
+  for (const std::size_t law : {1, 2}) {  // stick-slip and the force model (stick: the test above)
+    const std::string needle =
+        "{entry: [0.5, -0.3, 0], direction: [0.1, 0.05, 1], depth: 12, steps: 5, diameter: 1" +
+        kLaws[law].second + "}";
+    const Scenario sc = parse_scenario_text(yaml(needle, "[{name: t, position: [1, 1, 18]}]"), 3);
+    check(axis_block(), sc, 1, kLaws[law].first + " P1");
+  }
+  const Scenario sc2 = parse_scenario_text(
+      yaml("{entry: [0.3, 0], direction: [0.05, 1], depth: 12, steps: 5, diameter: 1" + kLaws[1].second + "}",
+           "[{name: t, position: [1, 15]}]", "{}", "[{type: fixed, region: {box_face: y_max}}]"),
+      2);
+  check(plane, sc2, 1, "stick-slip 2D P1");
+}
+
 // Truth: the force model's problem solved by the test itself — the condensed axial stiffness of the
 // active shaft stations (their band rows, fem::needle_band_constraint) measured with monolithic
 // saddle-point solves (ElasticModel::solve_monolithic, one per station), the axial values that give the
@@ -187,8 +243,9 @@ TEST(Simulation, VoxelAndGridModelsReproduceTheLayeredColumnUnderPressure) {
     img.data[v] = static_cast<float>(layer_modulus(img.index_of(v)[2] / 2));
   const double scale = 2.0, p = 1.5;
   const Scenario sc = parse_scenario_text(
-      yaml("{entry: [0.3, -0.2, 6], direction: [0, 0, 1], depth: 2, steps: 1, diameter: 1, friction: {model: stick}}", "[]",
-           "{youngs_modulus: image, scale: 2, poisson_ratio: 0}",
+      yaml("{entry: [0.3, -0.2, 6], direction: [0, 0, 1], depth: 2, steps: 1, diameter: 1, friction: {model: "
+           "stick}}",
+           "[]", "{youngs_modulus: image, scale: 2, poisson_ratio: 0}",
            "[{type: fixed, region: {box_face: x_min}, components: [x]}, {type: fixed, region: {box_face: "
            "y_min}, "
            "components: [y]}, {type: fixed, region: {box_face: z_min}, components: [z]}, {type: pressure, "

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <vim/fem/cell_locator.hpp>
 #include <vim/fem/point_constraints.hpp>
 
 namespace vim::fem {
@@ -40,6 +41,12 @@ double effective_coupling_radius(const NeedleBand& band);
 // shell around the needle's surface), samples spaced at most h/2 around, across and along.
 // Throws std::invalid_argument for a ≤ 0, h ≤ 0, ℓ ≤ 0 or c ≤ 0.
 NeedleBand needle_band_for(double radius, double element_size, double length, double c);
+
+// The element size h of needle_band_for near a straight path (entry, unit axis, depth): the mean over
+// the cells the path crosses of the edge of the cube of equal volume ((6V)^(1/3) for a tetrahedron —
+// the edge of a Kuhn grid, on which the rule was measured — V^(1/3) for a grid cell).
+double path_element_size(const CellLocator<3>& locator, const Vec<3>& entry, const Vec<3>& axis,
+                         double depth);
 
 // needle_band_for with the c measured for elements of degree 1 or 2 on the analytic antiplane and lateral
 // shafts (docs/needle-model.md); default_coupling_radius is its R. Throws for another degree.

@@ -90,8 +90,14 @@ class NeedleCoupling {
   virtual ~NeedleCoupling() = default;
   // The point constraints that hold the active points at their axial values (several rows per shaft
   // point are allowed: the forces are summed back per point by axial_forces).
-  virtual std::vector<fem::PointConstraint<dim>> rows(const std::vector<std::size_t>& active,
-                                                      const std::vector<double>& axial) const = 0;
+  std::vector<fem::PointConstraint<dim>> rows(const std::vector<std::size_t>& active,
+                                              const std::vector<double>& axial) const;
+  // The same rows' displacements alone (PointConstraint::displacement, in each row's axes), written
+  // into `held` (one per active point): what a step changes in rows that keep their geometry.
+  virtual void held_values(const std::vector<std::size_t>& active, const std::vector<double>& axial,
+                           std::vector<Vec>& held) const = 0;
+  // The constraint of shaft point j with displacement 0.
+  virtual const fem::PointConstraint<dim>& row_template(std::size_t j) const = 0;
   // Per shaft point: the axial force on the body of its rows in a solution of rows(active, ·).
   virtual std::vector<double> axial_forces(const std::vector<std::size_t>& active,
                                            const fem::Solution<dim>& solution) const = 0;
@@ -124,8 +130,9 @@ class LineCoupling final : public NeedleCoupling<dim> {
   using Vec = Eigen::Matrix<double, dim, 1>;
   using Mat = Eigen::Matrix<double, dim, dim>;
   LineCoupling(std::vector<Vec> positions, const Vec& axis, const Mat& axes);
-  std::vector<fem::PointConstraint<dim>> rows(const std::vector<std::size_t>& active,
-                                              const std::vector<double>& axial) const override;
+  void held_values(const std::vector<std::size_t>& active, const std::vector<double>& axial,
+                   std::vector<Vec>& held) const override;
+  const fem::PointConstraint<dim>& row_template(std::size_t j) const override { return points_[j]; }
   std::vector<double> axial_forces(const std::vector<std::size_t>& active,
                                    const fem::Solution<dim>& solution) const override;
   std::vector<Vec> displacements(const std::vector<std::size_t>& points,
@@ -133,7 +140,8 @@ class LineCoupling final : public NeedleCoupling<dim> {
   void keep_offsets(const std::vector<Vec>& displacement) override;
 
  private:
-  std::vector<Vec> positions_, lateral_;
+  std::vector<fem::PointConstraint<dim>> points_;  // per point, displacement 0
+  std::vector<Vec> lateral_;
   Vec axis_;
   Mat axes_;
 };
@@ -170,8 +178,9 @@ class BandCoupling final : public NeedleCoupling<3> {
   const std::vector<ShaftPoint<3>>& stations() const { return stations_; }
   // The outer radius of the region whose mean a station holds.
   double coupling_radius() const { return coupling_radius_; }
-  std::vector<fem::PointConstraint<3>> rows(const std::vector<std::size_t>& active,
-                                            const std::vector<double>& axial) const override;
+  void held_values(const std::vector<std::size_t>& active, const std::vector<double>& axial,
+                   std::vector<Vec>& held) const override;
+  const fem::PointConstraint<3>& row_template(std::size_t j) const override { return bands_[j]; }
   std::vector<double> axial_forces(const std::vector<std::size_t>& active,
                                    const fem::Solution<3>& solution) const override;
   std::vector<Vec> displacements(const std::vector<std::size_t>& points,
@@ -206,10 +215,5 @@ class BandCoupling final : public NeedleCoupling<3> {
   double radius_ = 0.0;            // a
   double effective_radius_ = 0.0;  // R_e of the bands (fem::effective_coupling_radius)
 };
-
-// The element size near a 3D needle path: the mean over the cells the path crosses of the edge of
-// the cube of equal volume ((6V)^(1/3) for a tetrahedron, V^(1/3) for a grid cell).
-double path_element_size(const fem::CellLocator<3>& locator, const Eigen::Vector3d& entry,
-                         const Eigen::Vector3d& axis, double depth);
 
 }  // namespace vim::pipeline

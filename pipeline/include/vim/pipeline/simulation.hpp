@@ -53,6 +53,10 @@
 
 namespace vim::pipeline {
 
+// The automatic solver choice of a 3D scenario with a needle: the direct solver (CHOLMOD) up to this
+// many DoFs (fem::SolverOptions::direct_limit), CG + AMG above.
+inline constexpr unsigned kNeedleDirectLimit3D = 300000;
+
 struct SimulationOptions {
   // Where to write: returns the absolute path for a file relative to the output folder (creating
   // parent folders), e.g. OutputDirectory::file. Empty: write nothing (tests, benchmarks).
@@ -61,6 +65,10 @@ struct SimulationOptions {
   bool monolithic = false;         // solve each step with solve_monolithic (reference for the fast path)
   bool keep_step_fields = false;   // keep every step's vertex displacement in the result (tests)
   bool progress = true;            // a progress line per step on stderr
+  // Every needle step forms the whole field (vertex displacements, strains: max_strain and
+  // max_displacement per step). false: only the written steps and the last do; the others give the
+  // forces and the targets' displacements alone (their max_strain is NaN) — the real-time rate.
+  bool step_fields = true;
   // Stick-slip: active-set sweeps per step (each one condensed solve). A step whose set still changes
   // after this many keeps the last iterate and is listed in NeedleRun::unsettled_steps and the warnings.
   int max_active_set_iterations = 100;

@@ -1,0 +1,464 @@
+// A needle at haptic rate in a condensed tissue region (vim/fem/haptic_needle.hpp). Per station j and
+// model axis d the row c_{j,d} (the band mean of the shape functions along e_d, over the region's free
+// DoFs, Dirichlet values as a constant h_{j,d}) is formed once, when the station joins, with
+// Y_{j,d} = W c_{j,d}; the blocks M_jk = [c_{j,d}·Y_{k,d'}] (3×3, model axes) and the probes' blocks
+// P_pj = [π_{p,d}·Y_{j,d'}] then give every step's Schur system in the current needle frame F:
+//   S_(jr)(ks) = F_rᵀ M_jk F_s + δ κ_jr,  r_(jr) = F_rᵀ(c_j·u0 + h_j) − g_jr,
+// the force on the tissue at station j −F μ_j, and u(p) = π_p·u0 + h_p − Σ_j P_pj F μ_j.
+#include <deal.II/fe/fe_system.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+#include <vim/fem/haptic_needle.hpp>
+#include <vim/fem/needle_band.hpp>
+
+#include "model_state.hpp"
+
+namespace vim::fem {
+
+using namespace dealii;
+using State3 = ModelAccess::State<3>;
+
+namespace {
+
+struct Term {  // coefficient of a region slot in a cell DoF's value, or (slot −1) a constant
+  int slot;
+  double coef;
+};
+
+}  // namespace
+
+struct HapticNeedle::Impl {
+  Options opt;
+  const State3* m = nullptr;
+  const CellLocator<3>* locator = nullptr;
+  // ---- the region ----
+  std::vector<types::global_dof_index> slot_dof;  // region slot → free DoF
+  std::vector<int> region_cell;                   // locator cell → region cell or −1
+  std::vector<Eigen::Matrix3d> jinv;              // per region cell: x − v0 → unit point
+  std::vector<Vec<3>> v0;
+  std::vector<std::size_t> dof_first;  // per region cell: its local DoFs' terms, [dof_first[c·n+i], …)
+  std::vector<Term> terms;
+  unsigned dofs_per_cell = 0;
+  Eigen::MatrixXd W;  // K⁻¹ on the slots
+  Eigen::VectorXd u0;
+  // ---- probes (model axes) ----
+  std::vector<std::array<std::vector<Term>, 3>> probe_rows;
+  Eigen::VectorXd pu0;
+  // ---- the band template (frame coordinates, E = 1) and the stations ----
+  std::vector<Vec<3>> band_offsets;  // (l1, l2, axis) coordinates
+  std::vector<double> band_weights;
+  Vec<3> band_compliance = Vec<3>::Zero();
+  std::size_t n = 0;                   // stations
+  std::vector<Vec<3>> centre;          // per station
+  std::vector<Eigen::Matrix3d> frame;  // the frame its band was sampled in
+  Eigen::MatrixXd Y;                   // slots × 3·cap
+  Eigen::MatrixXd M;                   // 3·cap × 3·cap
+  Eigen::MatrixXd P;                   // 3·probes × 3·cap
+  Eigen::VectorXd cu0;                 // 3·cap: c_j·u0 + h_j (model axes)
+  std::vector<Vec<3>> kappa;           // per station (frame rows)
+  std::vector<double> base, travel0, slip, g_axial, sign;
+  std::vector<bool> sliding;
+  // ---- workspace of a station's row and of a step ----
+  Eigen::MatrixXd c_dense;  // slots × 3
+  std::vector<int> touched;
+  std::vector<char> is_touched;
+  Eigen::MatrixXd S, L;
+  Eigen::VectorXd r, mu, nu, rhs;  // nu: μ in model axes, per station
+  std::vector<int> free_rows;
+  // ---- the pose ----
+  bool started = false;
+  Vec<3> prev_tip = Vec<3>::Zero(), track_end = Vec<3>::Zero();
+  double tau = 0.0;  // the needle's axial travel
+  Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
+  Step result;
+
+  void build_region(const Region<3>& region, const std::vector<Vec<3>>& probes);
+  void condense(const SolverOptions& solver, ElasticModel<3>& model);
+  void add_sample(const Vec<3>& x, double w, std::size_t row_sink, std::vector<Term>* sink);
+  void join(const Vec<3>& at, const Vec<3>& axis);
+  void solve_set();
+  void assemble(const Vec<3>& tip);
+  double axial_of(std::size_t j) const;  // the tissue's axial value at station j (F axis)
+  // The value that moves station j with the needle: its value at joining plus the travel since, less
+  // its slip.
+  double stick_value(std::size_t j) const {
+    return sliding[j] ? g_axial[j] : base[j] + tau - travel0[j] - slip[j];
+  }
+};
+
+namespace {
+
+// The free-DoF terms of a DoF: itself, or its constraint's entries and inhomogeneity.
+void dof_terms(const State3& m, types::global_dof_index dof,
+               std::unordered_map<types::global_dof_index, int>& slot,
+               std::vector<types::global_dof_index>& slot_dof, std::vector<Term>& out) {
+  const auto add = [&](types::global_dof_index f, double a) {
+    auto [it, fresh] = slot.emplace(f, static_cast<int>(slot_dof.size()));
+    if (fresh) slot_dof.push_back(f);
+    out.push_back({it->second, a});
+  };
+  if (const auto* entries = m.constraints.get_constraint_entries(dof)) {
+    out.push_back({-1, m.constraints.get_inhomogeneity(dof)});
+    for (const auto& [f, a] : *entries) add(f, a);
+  } else if (m.constraints.is_constrained(dof)) {
+    out.push_back({-1, m.constraints.get_inhomogeneity(dof)});
+  } else {
+    add(dof, 1.0);
+  }
+}
+
+}  // namespace
+
+void HapticNeedle::Impl::build_region(const Region<3>& region, const std::vector<Vec<3>>& probes) {
+  std::vector<bool> chosen(m->E.size(), false);
+  for (const auto& p : probes) {
+    const long c = locator->locate(p);
+    if (c < 0) throw std::invalid_argument("HapticNeedle: a probe lies outside the mesh");
+    chosen[static_cast<std::size_t>(c)] = true;
+  }
+  std::unordered_map<types::global_dof_index, int> slot;
+  region_cell.assign(m->E.size(), -1);
+  dofs_per_cell = m->fe->n_dofs_per_cell();
+  std::vector<types::global_dof_index> idx(dofs_per_cell);
+  for (const auto& cell : m->dof.active_cell_iterators()) {
+    Vec<3> mid = Vec<3>::Zero();
+    for (unsigned v = 0; v < cell->n_vertices(); ++v) mid += to_vec<3>(cell->vertex(v)) / cell->n_vertices();
+    const auto id = static_cast<std::size_t>(cell->material_id());
+    if (!chosen[id] && !region.contains(mid)) continue;
+    region_cell[id] = static_cast<int>(v0.size());
+    v0.push_back(to_vec<3>(cell->vertex(0)));
+    Eigen::Matrix3d J;
+    for (int k = 0; k < 3; ++k) J.col(k) = to_vec<3>(cell->vertex(k + 1)) - v0.back();
+    jinv.push_back(J.inverse());
+    cell->get_dof_indices(idx);
+    for (unsigned i = 0; i < dofs_per_cell; ++i) {
+      dof_first.push_back(terms.size());
+      dof_terms(*m, idx[i], slot, slot_dof, terms);
+    }
+  }
+  dof_first.push_back(terms.size());
+}
+
+void HapticNeedle::Impl::condense(const SolverOptions& solver, ElasticModel<3>& model) {
+  auto& state = ModelAccess::state(model);
+  const std::size_t nd = state.dof.n_dofs(), ns = slot_dof.size();
+  W.resize(static_cast<Eigen::Index>(ns), static_cast<Eigen::Index>(ns));
+  u0.resize(static_cast<Eigen::Index>(ns));
+  for (std::size_t s = 0; s < ns; ++s) u0[static_cast<Eigen::Index>(s)] = state.u0[slot_dof[s]];
+  constexpr std::size_t block = 32;
+  std::vector<double> B;
+  Vector<double> e(nd), x(nd);
+  for (std::size_t first = 0; first < ns; first += block) {
+    const std::size_t k = std::min(block, ns - first);
+    if (state.direct) {
+      B.assign(nd * k, 0.0);
+      for (std::size_t j = 0; j < k; ++j) B[j * nd + slot_dof[first + j]] = 1.0;
+      state.direct->solve(B.data(), k);
+    }
+    for (std::size_t j = 0; j < k; ++j) {
+      const double* col = B.data() + j * nd;
+      if (!state.direct) {
+        e = 0.0;
+        e[slot_dof[first + j]] = 1.0;
+        state.apply_inverse(e, x, solver);
+        col = x.begin();
+      }
+      for (std::size_t s = 0; s < ns; ++s)
+        W(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(first + j)) = col[slot_dof[s]];
+    }
+  }
+}
+
+HapticNeedle::HapticNeedle(ElasticModel<3>& model, const Region<3>& region, const std::vector<Vec<3>>& probes,
+                           const Options& o, const SolverOptions& solver)
+    : impl_(std::make_unique<Impl>()) {
+  Impl& h = *impl_;
+  h.opt = o;
+  if (!(o.spacing > 0.0) || o.max_sweeps < 1 || o.max_stations == 0 || !(o.max_shear_per_length > 0.0))
+    throw std::invalid_argument(
+        "HapticNeedle: spacing, max_shear_per_length > 0, max_sweeps, max_stations ≥ 1");
+  auto& m = ModelAccess::state(model);
+  m.ensure_mesh();
+  if (m.voxel) throw std::invalid_argument("HapticNeedle: simplex models only");
+  m.prepare_solver(solver);
+  m.ensure_u0(solver);
+  h.m = &m;
+  h.locator = &model.locator();
+  h.build_region(region, probes);
+  h.condense(solver, model);
+  // the band template: frame coordinates, unit modulus
+  const NeedleBand band{o.radius, o.coupling_radius, o.spacing};
+  const PointConstraint<3> t =
+      needle_band_constraint(Vec<3>::Zero(), Vec<3>::UnitZ(), band, Vec<3>::Zero(), 1.0, m.nu);
+  for (const auto& off : t.offsets) h.band_offsets.push_back(t.axes.transpose() * off);
+  h.band_weights = t.weights;
+  h.band_compliance = t.compliance;
+  const std::size_t cap = o.max_stations, ns = h.slot_dof.size(), np = probes.size();
+  const auto c3 = static_cast<Eigen::Index>(3 * cap);
+  h.Y.resize(static_cast<Eigen::Index>(ns), c3);
+  h.M.resize(c3, c3);
+  h.P.resize(static_cast<Eigen::Index>(3 * np), c3);
+  h.cu0.resize(c3);
+  h.centre.resize(cap), h.frame.resize(cap), h.kappa.resize(cap);
+  h.base.resize(cap), h.travel0.resize(cap), h.slip.resize(cap), h.g_axial.resize(cap), h.sign.resize(cap);
+  h.sliding.resize(cap);
+  h.c_dense = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(ns), 3);
+  h.touched.reserve(ns), h.is_touched.assign(ns, 0);
+  h.S.resize(c3, c3), h.L.resize(c3, c3), h.r.resize(c3), h.mu = Eigen::VectorXd::Zero(c3), h.rhs.resize(c3);
+  h.nu = Eigen::VectorXd::Zero(c3);
+  h.free_rows.reserve(3 * cap);
+  // probes: their rows along the model axes
+  h.pu0.resize(static_cast<Eigen::Index>(3 * np));
+  h.probe_rows.resize(np);
+  for (std::size_t p = 0; p < np; ++p)
+    for (int d = 0; d < 3; ++d) {
+      h.add_sample(probes[p], 1.0, static_cast<std::size_t>(d), &h.probe_rows[p][d]);
+      double v = 0.0;
+      for (const Term& term : h.probe_rows[p][d]) v += term.coef * (term.slot < 0 ? 1.0 : h.u0[term.slot]);
+      h.pu0[static_cast<Eigen::Index>(3 * p + d)] = v;
+    }
+  h.result.station_force.reserve(cap), h.result.sliding.reserve(cap);
+  h.result.probe_displacement.resize(np);
+  for (std::size_t p = 0; p < np; ++p) h.result.probe_displacement[p] = h.pu0.segment<3>(3 * p);
+}
+
+HapticNeedle::~HapticNeedle() = default;
+HapticNeedle::HapticNeedle(HapticNeedle&&) noexcept = default;
+
+std::size_t HapticNeedle::region_dofs() const { return impl_->slot_dof.size(); }
+
+// Adds w·N(x) along model axis `d` to `sink` (a probe's terms) or, sink null, to column d of c_dense.
+void HapticNeedle::Impl::add_sample(const Vec<3>& x, double w, std::size_t d, std::vector<Term>* sink) {
+  const long c = locator->locate(x);
+  const int rc = c < 0 ? -1 : region_cell[static_cast<std::size_t>(c)];
+  if (rc < 0) throw std::invalid_argument("HapticNeedle: the needle's band left the precomputed region");
+  const Vec<3> xi = jinv[static_cast<std::size_t>(rc)] * (x - v0[static_cast<std::size_t>(rc)]);
+  const Point<3> unit(xi[0], xi[1], xi[2]);
+  for (unsigned i = 0; i < dofs_per_cell; ++i) {
+    const auto [comp, k] = m->fe->system_to_component_index(i);
+    if (comp != d) continue;
+    const double v = w * m->fe->base_element(0).shape_value(k, unit);
+    const std::size_t at = static_cast<std::size_t>(rc) * dofs_per_cell + i;
+    for (std::size_t t = dof_first[at]; t < dof_first[at + 1]; ++t) {
+      const Term& term = terms[t];
+      if (sink) {
+        sink->push_back({term.slot, v * term.coef});
+      } else if (term.slot < 0) {
+        cu0[static_cast<Eigen::Index>(3 * n + d)] += v * term.coef;
+      } else {
+        if (!is_touched[static_cast<std::size_t>(term.slot)]) {
+          is_touched[static_cast<std::size_t>(term.slot)] = 1;
+          touched.push_back(term.slot);
+        }
+        c_dense(term.slot, static_cast<Eigen::Index>(d)) += v * term.coef;
+      }
+    }
+  }
+}
+
+// Station n joins, centred at `at`, its band sampled around `axis`.
+void HapticNeedle::Impl::join(const Vec<3>& at, const Vec<3>& axis) {
+  const Eigen::Matrix3d frame_j = needle_frame(axis);
+  const auto j3 = static_cast<Eigen::Index>(3 * n);
+  double inside = 0.0, e_sum = 0.0;
+  int cells = 0;
+  for (std::size_t q = 0; q < band_offsets.size(); ++q) {
+    const long c = locator->locate(at + frame_j * band_offsets[q]);
+    if (c < 0) continue;
+    inside += band_weights[q];
+    e_sum += m->E[static_cast<std::size_t>(c)];
+    ++cells;
+  }
+  if (!(inside > 0.0)) throw std::invalid_argument("HapticNeedle: a station's band lies outside the mesh");
+  cu0.segment<3>(j3).setZero();
+  for (std::size_t q = 0; q < band_offsets.size(); ++q) {
+    const Vec<3> x = at + frame_j * band_offsets[q];
+    if (locator->locate(x) < 0) continue;
+    for (std::size_t d = 0; d < 3; ++d) add_sample(x, band_weights[q] / inside, d, nullptr);
+  }
+  // Y_j = W c_j over the touched slots; M_jk = c_j·Y_k; the probes' blocks; c_j·u0
+  Y.middleCols<3>(j3).setZero();
+  for (int s : touched) Y.middleCols<3>(j3).noalias() += W.col(s) * c_dense.row(s);
+  for (std::size_t k = 0; k <= n; ++k) {
+    Eigen::Matrix3d b = Eigen::Matrix3d::Zero();
+    for (int s : touched)
+      b.noalias() += c_dense.row(s).transpose() * Y.block<1, 3>(s, static_cast<Eigen::Index>(3 * k));
+    M.block<3, 3>(j3, static_cast<Eigen::Index>(3 * k)) = b;
+    M.block<3, 3>(static_cast<Eigen::Index>(3 * k), j3) = b.transpose();
+  }
+  for (int s : touched) cu0.segment<3>(j3) += c_dense.row(s).transpose() * u0[s];
+  for (std::size_t p = 0; p < probe_rows.size(); ++p)
+    for (int d = 0; d < 3; ++d) {
+      Eigen::RowVector3d v = Eigen::RowVector3d::Zero();
+      for (const Term& t : probe_rows[p][static_cast<std::size_t>(d)])
+        if (t.slot >= 0) v += t.coef * Y.block<1, 3>(t.slot, j3);
+      P.block<1, 3>(static_cast<Eigen::Index>(3 * p + d), j3) = v;
+    }
+  for (int s : touched) c_dense.row(s).setZero(), is_touched[static_cast<std::size_t>(s)] = 0;
+  touched.clear();
+  centre[n] = at, frame[n] = frame_j;
+  kappa[n] = band_compliance / (e_sum / cells);
+  mu.segment<3>(j3).setZero(), nu.segment<3>(j3).setZero();
+  ++n;
+  base[n - 1] = axial_of(n - 1);  // the tissue's axial value when it joins: no jump
+  travel0[n - 1] = tau, slip[n - 1] = 0.0, sliding[n - 1] = false, sign[n - 1] = 1.0;
+}
+
+double HapticNeedle::Impl::axial_of(std::size_t j) const {
+  Vec<3> v = cu0.segment<3>(static_cast<Eigen::Index>(3 * j));
+  for (std::size_t k = 0; k < n; ++k)
+    v -= M.block<3, 3>(static_cast<Eigen::Index>(3 * j), static_cast<Eigen::Index>(3 * k)) *
+         nu.segment<3>(static_cast<Eigen::Index>(3 * k));
+  return F.col(2).dot(v);
+}
+
+// μ of the rows in frame F: the axial rows of sliding stations carry their limit, the others hold their
+// values (S_ff μ_f = r_f − S_fs μ_s, an in-place Cholesky of S_ff); ν_j = F μ_j in model axes.
+void HapticNeedle::Impl::solve_set() {
+  const auto m3 = static_cast<Eigen::Index>(3 * n);
+  const double limit = opt.max_shear_per_length * opt.spacing;
+  free_rows.clear();
+  for (Eigen::Index a = 0; a < m3; ++a) {
+    const auto j = static_cast<std::size_t>(a / 3);
+    if (a % 3 == 2 && sliding[j])
+      mu[a] = -sign[j] * limit;
+    else
+      free_rows.push_back(static_cast<int>(a));
+  }
+  const auto nf = static_cast<Eigen::Index>(free_rows.size());
+  for (Eigen::Index a = 0; a < nf; ++a) {
+    rhs[a] = r[free_rows[a]];
+    for (Eigen::Index b = 0; b < m3; ++b)
+      if (b % 3 == 2 && sliding[static_cast<std::size_t>(b / 3)]) rhs[a] -= S(free_rows[a], b) * mu[b];
+    for (Eigen::Index b = 0; b <= a; ++b) L(a, b) = S(free_rows[a], free_rows[b]);
+  }
+  for (Eigen::Index j = 0; j < nf; ++j) {
+    double d = L(j, j);
+    for (Eigen::Index k = 0; k < j; ++k) d -= L(j, k) * L(j, k);
+    if (!(d > 1e-14 * S(free_rows[j], free_rows[j])))
+      throw DependentPointConstraints("HapticNeedle: the stations' rows are dependent (a rigid band)");
+    L(j, j) = std::sqrt(d);
+    for (Eigen::Index i = j + 1; i < nf; ++i) {
+      double v = L(i, j);
+      for (Eigen::Index k = 0; k < j; ++k) v -= L(i, k) * L(j, k);
+      L(i, j) = v / L(j, j);
+    }
+  }
+  for (Eigen::Index i = 0; i < nf; ++i) {  // L y = rhs, Lᵀ x = y
+    for (Eigen::Index k = 0; k < i; ++k) rhs[i] -= L(i, k) * rhs[k];
+    rhs[i] /= L(i, i);
+  }
+  for (Eigen::Index i = nf - 1; i >= 0; --i) {
+    for (Eigen::Index k = i + 1; k < nf; ++k) rhs[i] -= L(k, i) * rhs[k];
+    rhs[i] /= L(i, i);
+  }
+  for (Eigen::Index a = 0; a < nf; ++a) mu[free_rows[a]] = rhs[a];
+  for (std::size_t j = 0; j < n; ++j)
+    nu.segment<3>(static_cast<Eigen::Index>(3 * j)) = F * mu.segment<3>(static_cast<Eigen::Index>(3 * j));
+}
+
+// The Schur system of the stations in frame F and the values they hold (sliding ones: their last value).
+void HapticNeedle::Impl::assemble(const Vec<3>& tip) {
+  for (std::size_t j = 0; j < n; ++j) {
+    const auto j3 = static_cast<Eigen::Index>(3 * j);
+    for (std::size_t k = 0; k <= j; ++k) {
+      const auto k3 = static_cast<Eigen::Index>(3 * k);
+      const Eigen::Matrix3d b = F.transpose() * M.block<3, 3>(j3, k3) * F;
+      S.block<3, 3>(j3, k3) = b;
+      S.block<3, 3>(k3, j3) = b.transpose();
+    }
+    for (int rr = 0; rr < 3; ++rr) S(j3 + rr, j3 + rr) += kappa[j][rr];
+    const Vec<3> held(F.col(0).dot(tip - centre[j]), F.col(1).dot(tip - centre[j]), stick_value(j));
+    r.segment<3>(j3) = F.transpose() * cu0.segment<3>(j3) - held;
+  }
+}
+
+const HapticNeedle::Step& HapticNeedle::step(const Vec<3>& tip, const Vec<3>& direction) {
+  Impl& h = *impl_;
+  if (!tip.allFinite() || !(direction.norm() > 0.0) || !direction.allFinite())
+    throw std::invalid_argument("HapticNeedle::step: the tip and a non-zero direction must be finite");
+  const Vec<3> a = direction.normalized();
+  h.F = needle_frame(a);
+  if (!h.started) {
+    h.started = true;
+    h.prev_tip = h.track_end = tip;
+  }
+  h.tau += a.dot(tip - h.prev_tip);
+  h.prev_tip = tip;
+  while (h.n < h.opt.max_stations && (tip - h.track_end).dot(a) >= h.opt.spacing) {
+    h.join(h.track_end + 0.5 * h.opt.spacing * a, a);
+    h.track_end += h.opt.spacing * a;
+  }
+  const double limit = h.opt.max_shear_per_length * h.opt.spacing;
+  Step& out = h.result;
+  out.sweeps = 0;
+  out.settled = false;
+  bool changed = true;
+  while (out.sweeps < h.opt.max_sweeps && changed) {
+    h.assemble(tip);
+    h.solve_set();
+    ++out.sweeps;
+    changed = false;
+    for (std::size_t j = 0; j < h.n; ++j) {
+      const double f = -h.mu[static_cast<Eigen::Index>(3 * j + 2)];
+      if (!h.sliding[j] && std::abs(f) > limit * (1.0 + 1e-9)) {
+        h.sliding[j] = true, h.sign[j] = f > 0.0 ? 1.0 : -1.0, changed = true;
+      } else if (h.sliding[j]) {
+        // a sliding station whose limit would need it ahead of the needle sticks again
+        const double stick = h.base[j] + h.tau - h.travel0[j] - h.slip[j];
+        const double w = h.axial_of(j) - h.kappa[j][2] * h.mu[static_cast<Eigen::Index>(3 * j + 2)];
+        if ((w - stick) * h.sign[j] > 1e-12 * std::max(1.0, std::abs(stick)))
+          h.sliding[j] = false, changed = true;
+      }
+    }
+    out.settled = !changed;
+  }
+  if (!out.settled) h.assemble(tip), h.solve_set();  // the last set's solution
+  for (std::size_t j = 0; j < h.n; ++j) {
+    const double stick = h.base[j] + h.tau - h.travel0[j];
+    if (h.sliding[j]) {
+      const double w = h.axial_of(j) - h.kappa[j][2] * h.mu[static_cast<Eigen::Index>(3 * j + 2)];
+      h.slip[j] = stick - w;
+    }
+    h.g_axial[j] = stick - h.slip[j];
+  }
+  out.stations = h.n;
+  out.station_force.resize(h.n);
+  out.sliding.resize(h.n);
+  out.force.setZero();
+  for (std::size_t j = 0; j < h.n; ++j) {
+    out.station_force[j] = -h.nu.segment<3>(static_cast<Eigen::Index>(3 * j));
+    out.force -= out.station_force[j];
+    out.sliding[j] = h.sliding[j];
+  }
+  for (std::size_t p = 0; p < out.probe_displacement.size(); ++p) {
+    Vec<3> u = h.pu0.segment<3>(static_cast<Eigen::Index>(3 * p));
+    for (std::size_t j = 0; j < h.n; ++j)
+      u -= h.P.block<3, 3>(static_cast<Eigen::Index>(3 * p), static_cast<Eigen::Index>(3 * j)) *
+           h.nu.segment<3>(static_cast<Eigen::Index>(3 * j));
+    out.probe_displacement[p] = u;
+  }
+  return out;
+}
+
+std::vector<PointConstraint<3>> HapticNeedle::constraints() const {
+  const Impl& h = *impl_;
+  std::vector<PointConstraint<3>> rows;
+  for (std::size_t j = 0; j < h.n; ++j) {
+    PointConstraint<3> p(h.centre[j]);
+    p.axes = h.F;
+    for (std::size_t q = 0; q < h.band_offsets.size(); ++q)
+      p.offsets.push_back(h.frame[j] * h.band_offsets[q]);
+    p.weights = h.band_weights;
+    p.compliance = h.kappa[j];
+    p.displacement = Vec<3>(h.F.col(0).dot(h.prev_tip - h.centre[j]),
+                            h.F.col(1).dot(h.prev_tip - h.centre[j]), h.g_axial[j]);
+    rows.push_back(std::move(p));
+  }
+  return rows;
+}
+
+}  // namespace vim::fem
