@@ -19,6 +19,8 @@
 #include <deal.II/lac/trilinos_sparsity_pattern.h>
 #include <deal.II/lac/trilinos_vector.h>
 #include <dlfcn.h>
+#include <p4est_base.h>
+#include <sc.h>
 
 #include <cfloat>
 #include <optional>
@@ -79,6 +81,17 @@ class OneThreadPerRank {
 // globally r times (2^r the largest power of two dividing every axis), so a rank holds the coarse
 // grid plus its own part of the voxel grid and never the whole serial mesh; each cell's modulus is
 // looked up by its centre (material id = voxel index).
+// p4est and libsc log every grid operation unless initialised with a log threshold, which deal.II's
+// MPI_InitFinalize does; a program that initialises MPI itself (the CLI) does not: silence them once.
+void quiet_p4est() {
+  static const bool done = [] {
+    if (sc_package_id < 0) sc_init(MPI_COMM_WORLD, 0, 0, nullptr, SC_LP_SILENT);
+    if (p4est_package_id < 0) p4est_init(nullptr, SC_LP_SILENT);
+    return true;
+  }();
+  (void)done;
+}
+
 // `multigrid`: the voxel grid keeps its level hierarchy on every rank (for the matrix-free multigrid).
 template <int dim>
 std::unique_ptr<parallel::TriangulationBase<dim>> distributed_triangulation(const State<dim>& m,
@@ -90,6 +103,7 @@ std::unique_ptr<parallel::TriangulationBase<dim>> distributed_triangulation(cons
     t->copy_triangulation(m.tria);
     return t;
   }
+  quiet_p4est();
   using Tria = parallel::distributed::Triangulation<dim>;
   auto t = multigrid ? std::make_unique<Tria>(comm, Triangulation<dim>::limit_level_difference_at_vertices,
                                               Tria::construct_multigrid_hierarchy)

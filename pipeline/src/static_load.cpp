@@ -54,8 +54,19 @@ StaticLoadRun<dim> run_static_load(SimulationContext<dim>& ctx, json& report,
             {"max_displacement", run.max_displacement},
             {"max_strain", run.max_strain},
             {"targets", final_targets},
-            {"solver", {{"method", run.stats.method}, {"n_dofs", run.stats.n_dofs}, {"solves", 1}}},
-            {"timing", {{"solve_seconds", solve_seconds}}}};
+            {"solver",
+             {{"method", run.stats.method},
+              {"n_dofs", run.stats.n_dofs},
+              {"solves", 1},
+              {"iterations", run.stats.iterations},
+              {"residual", run.stats.residual}}},
+            // the solve's parts (SolverStats): set-up and assembly, preconditioner set-up and CG within
+            {"timing",
+             {{"solve_seconds", solve_seconds},
+              {"setup_seconds", run.stats.setup_seconds},
+              {"assemble_seconds", run.stats.assemble_seconds},
+              {"precondition_seconds", run.stats.precondition_seconds},
+              {"cg_seconds", run.stats.solve_seconds - run.stats.precondition_seconds}}}};
   const std::string w = small_strain_warning(ctx.sc.where(0), "the static load case", {run.max_strain});
   if (!w.empty()) warnings.push_back(w);
   return run;
