@@ -112,6 +112,7 @@ Examples:
   vim-make-phantom prostate prostate.mha
   vim-pipeline prostate.mha --nodes 1000 --lambda 0.3 --out out/prostate
   vim-pipeline prostate.mha --nodes 1000 --simulate examples/prostate_needle.yaml --out out/needle
+  mpirun -np 4 vim-pipeline prostate.mha --simulate examples/prostate_needle.yaml --out out/needle4
   vim-pipeline prostate.mha --study examples/prostate_study.yaml --out out/study
   mpirun -np 4 vim-pipeline prostate.mha --study examples/prostate_study.yaml --out out/study
 )";
