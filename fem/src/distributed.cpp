@@ -19,6 +19,8 @@
 #include <deal.II/lac/trilinos_sparsity_pattern.h>
 #include <deal.II/lac/trilinos_vector.h>
 #include <dlfcn.h>
+#include <p4est_base.h>
+#include <sc.h>
 
 #include <cfloat>
 #include <optional>
@@ -28,14 +30,11 @@
 #include <vim/fem/distributed.hpp>
 
 #include "amg.hpp"
-#include "model_state.hpp"
+#include "distributed_system.hpp"
 
 namespace vim::fem {
 
 using namespace dealii;
-
-template <int dim>
-using State = ModelAccess::State<dim>;
 
 namespace {
 
@@ -73,21 +72,6 @@ class OneThreadPerRank {
   int blas_saved_ = 0, omp_saved_ = 0;
 };
 
-// The distributed mesh, DoFs, Dirichlet constraints and assembled system of one solve.
-template <int dim>
-struct DistributedSystem {
-  std::unique_ptr<parallel::TriangulationBase<dim>> tria;
-  DoFHandler<dim> dof;
-  IndexSet owned, relevant;
-  // per relevant DoF (position in `relevant`): support point and component
-  std::vector<Point<dim>> rel_point;
-  std::vector<unsigned char> rel_comp;
-  AffineConstraints<double> constraints;
-  std::unordered_map<types::global_dof_index, int> dof_bc;  // Dirichlet DoF -> its condition
-  TrilinosWrappers::SparseMatrix K;
-  TrilinosWrappers::MPI::Vector f;
-};
-
 // Simplex models: parallel::shared::Triangulation (METIS partition, cells away from the own part
 // artificial). deal.II 9.4.1's fullydistributed::Triangulation::create_triangulation sorts the
 // cells with a comparator that binary-searches the coarse-cell map twice per comparison: with
@@ -97,9 +81,21 @@ struct DistributedSystem {
 // globally r times (2^r the largest power of two dividing every axis), so a rank holds the coarse
 // grid plus its own part of the voxel grid and never the whole serial mesh; each cell's modulus is
 // looked up by its centre (material id = voxel index).
+// p4est and libsc log every grid operation unless initialised with a log threshold, which deal.II's
+// MPI_InitFinalize does; a program that initialises MPI itself (the CLI) does not: silence them once.
+void quiet_p4est() {
+  static const bool done = [] {
+    if (sc_package_id < 0) sc_init(MPI_COMM_WORLD, 0, 0, nullptr, SC_LP_SILENT);
+    if (p4est_package_id < 0) p4est_init(nullptr, SC_LP_SILENT);
+    return true;
+  }();
+  (void)done;
+}
+
+// `multigrid`: the voxel grid keeps its level hierarchy on every rank (for the matrix-free multigrid).
 template <int dim>
 std::unique_ptr<parallel::TriangulationBase<dim>> distributed_triangulation(const State<dim>& m,
-                                                                            MPI_Comm comm) {
+                                                                            MPI_Comm comm, bool multigrid) {
   if (!m.voxel) {
     auto t = std::make_unique<parallel::shared::Triangulation<dim>>(
         comm, Triangulation<dim>::none, /*allow_artificial_cells=*/true,
@@ -107,7 +103,11 @@ std::unique_ptr<parallel::TriangulationBase<dim>> distributed_triangulation(cons
     t->copy_triangulation(m.tria);
     return t;
   }
-  auto t = std::make_unique<parallel::distributed::Triangulation<dim>>(comm);
+  quiet_p4est();
+  using Tria = parallel::distributed::Triangulation<dim>;
+  auto t = multigrid ? std::make_unique<Tria>(comm, Triangulation<dim>::limit_level_difference_at_vertices,
+                                              Tria::construct_multigrid_hierarchy)
+                     : std::make_unique<Tria>(comm);
   unsigned r = 0;
   auto divisible = [&](unsigned k) {
     for (int d = 0; d < dim; ++d)
@@ -186,9 +186,10 @@ void distributed_constraints(const State<dim>& m, DistributedSystem<dim>& sys, M
   check_rigid_modes_removed<dim>(constrained_owned, m.vertices, m.bcs, comm);
 }
 
+// K and f, or f alone (the Dirichlet values moved to it through the cell matrices) for a matrix-free solve.
 template <int dim>
-void assemble_distributed(const State<dim>& m, DistributedSystem<dim>& sys, MPI_Comm comm) {
-  {
+void assemble_distributed(const State<dim>& m, DistributedSystem<dim>& sys, MPI_Comm comm, bool with_matrix) {
+  if (with_matrix) {
     // deal.II's DynamicSparsityPattern + distribute_sparsity_pattern: inserting into the Trilinos
     // (Epetra_FECrsGraph) pattern directly took ~3x the assembly time on the voxel grids.
     DynamicSparsityPattern dsp(sys.relevant);
@@ -207,17 +208,20 @@ void assemble_distributed(const State<dim>& m, DistributedSystem<dim>& sys, MPI_
     if (!cell->is_locally_owned()) continue;
     m.local_system(cell, *fv, *ffv, Ke, Fe);
     cell->get_dof_indices(idx);
-    sys.constraints.distribute_local_to_global(Ke, Fe, idx, sys.K, sys.f);
+    if (with_matrix)
+      sys.constraints.distribute_local_to_global(Ke, Fe, idx, sys.K, sys.f);
+    else
+      sys.constraints.distribute_local_to_global(Fe, idx, sys.f, Ke);
   }
-  sys.K.compress(VectorOperation::add);
+  if (with_matrix) sys.K.compress(VectorOperation::add);
   sys.f.compress(VectorOperation::add);
 }
 
-// CG + AMG with the rigid-body modes (rotations about the bounding-box centre); fills the iterations,
-// relative residual and AMG set-up time of `stats`.
+// The AMG preconditioner of the distributed K with the rigid-body modes (rotations about the
+// bounding-box centre); returns its set-up time.
 template <int dim>
-TrilinosWrappers::MPI::Vector solve_cg_amg(const State<dim>& m, const DistributedSystem<dim>& sys,
-                                           const SolverOptions& opt, MPI_Comm comm, SolverStats& stats) {
+double setup_amg(const State<dim>& m, const DistributedSystem<dim>& sys,
+                 TrilinosWrappers::PreconditionAMG& amg) {
   Vec<dim> lo = m.vertices[0], hi = m.vertices[0];
   for (const auto& v : m.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
   Point<dim> mid;
@@ -225,30 +229,63 @@ TrilinosWrappers::MPI::Vector solve_cg_amg(const State<dim>& m, const Distribute
   const auto local = [&sys](unsigned i) {
     return sys.relevant.index_within_set(sys.owned.nth_index_in_set(i));
   };
-  TrilinosWrappers::PreconditionAMG amg;
   Timer amg_timer;
   amg_setup<dim>(
       sys.K, [&](unsigned i) { return Point<dim>(sys.rel_point[local(i)] - mid); },
       [&](unsigned i) { return unsigned(sys.rel_comp[local(i)]); }, m.degree, m.voxel, amg);
-  stats.precondition_seconds = amg_timer.wall_time();
+  return amg_timer.wall_time();
+}
+
+// u = K⁻¹ b by CG preconditioned with `amg`; fills the iterations and relative residual of `stats`.
+template <int dim>
+TrilinosWrappers::MPI::Vector solve_cg(const DistributedSystem<dim>& sys,
+                                       const TrilinosWrappers::MPI::Vector& b,
+                                       const TrilinosWrappers::PreconditionAMG& amg, const SolverOptions& opt,
+                                       MPI_Comm comm, SolverStats& stats) {
   TrilinosWrappers::MPI::Vector u(sys.owned, comm);
-  const double fn = sys.f.l2_norm();
-  if (fn > 0.0) {
-    SolverControl control(opt.max_iterations, opt.tolerance * fn);
+  const double bn = b.l2_norm();
+  stats.iterations = 0;
+  stats.residual = 0.0;
+  if (bn > 0.0) {
+    SolverControl control(opt.max_iterations, opt.tolerance * bn);
     SolverCG<TrilinosWrappers::MPI::Vector> cg(control);
     try {
-      cg.solve(sys.K, u, sys.f, amg);
+      cg.solve(sys.K, u, b, amg);
     } catch (const SolverControl::NoConvergence& e) {
       std::ostringstream s;
       s << "solve_distributed: CG+AMG did not converge in " << e.last_step
-        << " iterations (relative residual " << e.last_residual / fn << ", tolerance " << opt.tolerance
+        << " iterations (relative residual " << e.last_residual / bn << ", tolerance " << opt.tolerance
         << ")";
       throw std::runtime_error(s.str());
     }
     stats.iterations = control.last_step();
-    stats.residual = control.last_value() / fn;
+    stats.residual = control.last_value() / bn;
   }
   return u;
+}
+
+// The distributed mesh, DoFs, constraints and assembled system of `m` over `comm`; fills the set-up and
+// assembly times of `stats`. Returns whether the solve is matrix-free multigrid (3D voxel models
+// whose conditions hold DoFs along the axes, when `allow_multigrid`): then K is not assembled.
+template <int dim>
+bool build_system(const State<dim>& m, DistributedSystem<dim>& sys, MPI_Comm comm, SolverStats& stats,
+                  bool allow_multigrid) {
+  Timer timer;
+  const bool hierarchy = allow_multigrid && m.voxel && dim == 3;
+  sys.tria = distributed_triangulation<dim>(m, comm, hierarchy);
+  sys.dof.reinit(*sys.tria);
+  sys.dof.distribute_dofs(*m.fe);
+  if (hierarchy) sys.dof.distribute_mg_dofs();
+  sys.owned = sys.dof.locally_owned_dofs();
+  DoFTools::extract_locally_relevant_dofs(sys.dof, sys.relevant);
+  relevant_support_points<dim>(m, sys);
+  distributed_constraints<dim>(m, sys, comm);
+  bool multigrid = false;
+  if constexpr (dim == 3) multigrid = hierarchy && voxel_multigrid_applies(m, sys);
+  stats.setup_seconds = timer.wall_time();
+  assemble_distributed<dim>(m, sys, comm, !multigrid);
+  stats.assemble_seconds = timer.wall_time();
+  return multigrid;
 }
 
 // Writes the values of the vertices of `cell` into vert (index: the model's vertex numbering · dim + c).
@@ -366,7 +403,97 @@ Solution<dim> solution_of(const State<dim>& m, const GatheredFields& g) {
   return s;
 }
 
+// K⁻¹ over the ranks for the serial model's solve() (DistributedInverse): the distributed system and
+// its AMG kept across calls, and the serial DoF of each locally owned DoF (cells matched by material id
+// = input cell / voxel index, DoFs by their place in the cell, checked by support point).
+template <int dim>
+class DistributedInverseOf : public DistributedInverse {
+ public:
+  DistributedInverseOf(const State<dim>& m, MPI_Comm comm) : m_(m), comm_(comm) {
+    if (!m.supports.empty())
+      throw std::invalid_argument(
+          "a model with volume supports (add_volume_support) cannot be solved over MPI ranks; run it "
+          "serially");
+    std::optional<OneThreadPerRank> one_thread;
+    if (Utilities::MPI::n_mpi_processes(comm) > 1) one_thread.emplace();
+    SolverStats stats;
+    build_system<dim>(m, sys_, comm, stats, false);
+    setup_amg<dim>(m, sys_, amg_);
+    map_serial_dofs();
+  }
+
+  unsigned apply(const Vector<double>* b, Vector<double>& x, const SolverOptions& opt,
+                 double* residual) override {
+    std::optional<OneThreadPerRank> one_thread;
+    if (Utilities::MPI::n_mpi_processes(comm_) > 1) one_thread.emplace();
+    TrilinosWrappers::MPI::Vector rhs(sys_.owned, comm_);
+    if (b) {
+      std::vector<types::global_dof_index> idx(serial_of_owned_.size());
+      std::vector<double> values(serial_of_owned_.size());
+      for (std::size_t k = 0; k < idx.size(); ++k)
+        idx[k] = sys_.owned.nth_index_in_set(k), values[k] = (*b)[serial_of_owned_[k]];
+      rhs.set(idx, values);
+      rhs.compress(VectorOperation::insert);
+    } else {
+      rhs = sys_.f;
+    }
+    SolverStats stats;
+    const TrilinosWrappers::MPI::Vector u = solve_cg<dim>(sys_, rhs, amg_, opt, comm_, stats);
+    // Each serial DoF is owned by one rank: the sum over the ranks of their parts is exact.
+    x.reinit(m_.dof.n_dofs());
+    for (std::size_t k = 0; k < serial_of_owned_.size(); ++k)
+      x[serial_of_owned_[k]] = u[sys_.owned.nth_index_in_set(k)];
+    Utilities::MPI::sum(ArrayView<const double>(x.data(), x.size()), comm_,
+                        ArrayView<double>(x.data(), x.size()));
+    if (residual) *residual = stats.residual;
+    return stats.iterations;
+  }
+
+ private:
+  void map_serial_dofs() {
+    std::vector<typename DoFHandler<dim>::active_cell_iterator> serial_cell(m_.E.size());
+    for (const auto& cell : m_.dof.active_cell_iterators()) serial_cell.at(cell->material_id()) = cell;
+    serial_of_owned_.assign(sys_.owned.n_elements(), numbers::invalid_dof_index);
+    const unsigned dpc = m_.fe->n_dofs_per_cell();
+    std::vector<types::global_dof_index> mine(dpc), serial(dpc);
+    for (const auto& cell : sys_.dof.active_cell_iterators()) {
+      if (!cell->is_locally_owned()) continue;
+      cell->get_dof_indices(mine);
+      serial_cell.at(cell->material_id())->get_dof_indices(serial);
+      for (unsigned i = 0; i < dpc; ++i) {
+        if (!sys_.owned.is_element(mine[i])) continue;
+        const Point<dim>& p = sys_.rel_point[sys_.relevant.index_within_set(mine[i])];
+        if (p.distance(m_.support_points[serial[i]]) > 1e-9 * cell->diameter())
+          throw std::logic_error("distributed solve: the DoFs of a cell differ from the serial mesh's");
+        serial_of_owned_[sys_.owned.index_within_set(mine[i])] = serial[i];
+      }
+    }
+    for (const auto d : serial_of_owned_)
+      if (d == numbers::invalid_dof_index)
+        throw std::logic_error("distributed solve: an owned DoF lies on no owned cell");
+  }
+
+  const State<dim>& m_;
+  MPI_Comm comm_;
+  DistributedSystem<dim> sys_;
+  TrilinosWrappers::PreconditionAMG amg_;
+  std::vector<types::global_dof_index> serial_of_owned_;
+};
+
 }  // namespace
+
+template <int dim>
+std::unique_ptr<DistributedInverse> make_distributed_inverse(const State<dim>& model, MPI_Comm comm) {
+  return std::make_unique<DistributedInverseOf<dim>>(model, comm);
+}
+
+template <int dim>
+void distribute_solves(ElasticModel<dim>& model, MPI_Comm comm) {
+  State<dim>& m = ModelAccess::state(model);
+  ensure_mpi_initialized();
+  m.invalidate();
+  m.solve_comm = comm;
+}
 
 template <int dim>
 Solution<dim> solve_distributed(ElasticModel<dim>& model, MPI_Comm comm, const SolverOptions& opt) {
@@ -375,33 +502,30 @@ Solution<dim> solve_distributed(ElasticModel<dim>& model, MPI_Comm comm, const S
   if (!m.supports.empty())
     throw std::invalid_argument(
         "solve_distributed: volume supports (add_volume_support) are not supported; use solve()");
-  Timer timer;
   const unsigned n_ranks = Utilities::MPI::n_mpi_processes(comm);
   std::optional<OneThreadPerRank> one_thread;
   if (n_ranks > 1) one_thread.emplace();
 
   DistributedSystem<dim> sys;
-  sys.tria = distributed_triangulation<dim>(m, comm);
-  sys.dof.reinit(*sys.tria);
-  sys.dof.distribute_dofs(*m.fe);
-  sys.owned = sys.dof.locally_owned_dofs();
-  DoFTools::extract_locally_relevant_dofs(sys.dof, sys.relevant);
-  relevant_support_points<dim>(m, sys);
-  distributed_constraints<dim>(m, sys, comm);
   SolverStats stats;
-  stats.setup_seconds = timer.wall_time();
-  assemble_distributed<dim>(m, sys, comm);
-  stats.assemble_seconds = timer.wall_time();
-
-  timer.restart();
-  TrilinosWrappers::MPI::Vector u = solve_cg_amg<dim>(m, sys, opt, comm, stats);
+  const bool multigrid = build_system<dim>(m, sys, comm, stats, true);
+  Timer timer;
+  TrilinosWrappers::MPI::Vector u;
+  if constexpr (dim == 3)
+    if (multigrid) u = solve_voxel_multigrid(m, sys, opt, comm, stats);
+  if (!multigrid) {
+    TrilinosWrappers::PreconditionAMG amg;
+    stats.precondition_seconds = setup_amg<dim>(m, sys, amg);
+    u = solve_cg<dim>(sys, sys.f, amg, opt, comm, stats);
+  }
   sys.constraints.distribute(u);
   TrilinosWrappers::MPI::Vector ug(sys.owned, sys.relevant, comm);
   ug = u;
   stats.solve_seconds = timer.wall_time();
 
   Solution<dim> s = solution_of<dim>(m, gather_fields<dim>(m, sys, ug, comm));
-  stats.method = "cg+amg (mpi, " + std::to_string(n_ranks) + " ranks)";
+  stats.method = std::string(multigrid ? "cg+matrix-free multigrid" : "cg+amg") + " (mpi, " +
+                 std::to_string(n_ranks) + " ranks)";
   stats.n_dofs = sys.dof.n_dofs();
   s.stats = stats;
   return s;
@@ -409,5 +533,9 @@ Solution<dim> solve_distributed(ElasticModel<dim>& model, MPI_Comm comm, const S
 
 template Solution<2> solve_distributed<2>(ElasticModel<2>&, MPI_Comm, const SolverOptions&);
 template Solution<3> solve_distributed<3>(ElasticModel<3>&, MPI_Comm, const SolverOptions&);
+template void distribute_solves<2>(ElasticModel<2>&, MPI_Comm);
+template void distribute_solves<3>(ElasticModel<3>&, MPI_Comm);
+template std::unique_ptr<DistributedInverse> make_distributed_inverse<2>(const State<2>&, MPI_Comm);
+template std::unique_ptr<DistributedInverse> make_distributed_inverse<3>(const State<3>&, MPI_Comm);
 
 }  // namespace vim::fem

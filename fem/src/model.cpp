@@ -187,6 +187,7 @@ void ElasticModel<dim>::Impl::invalidate() {
   direct.reset();
   amg.reset();
   K_trilinos.reset();
+  distributed.reset();
   method.clear();
   have_u0 = false;
   columns.clear();

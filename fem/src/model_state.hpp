@@ -138,6 +138,17 @@ struct ColumnCache {
   double product(const Entry& a, const Entry& b);
 };
 
+// K⁻¹ of a model over MPI ranks (distributed.cpp): vectors in the serial DoF numbering, complete on
+// every rank. Collective: every rank calls apply() with the same b.
+class DistributedInverse {
+ public:
+  virtual ~DistributedInverse() = default;
+  // x = K⁻¹ b, or x = K⁻¹ f (the model's load, assembled on the ranks) for b == nullptr; returns the
+  // CG iterations and sets *residual (relative) when given.
+  virtual unsigned apply(const dealii::Vector<double>* b, dealii::Vector<double>& x, const SolverOptions& opt,
+                         double* residual) = 0;
+};
+
 template <int dim>
 struct ElasticModel<dim>::Impl {
   using Key = ColumnCache::Key;
@@ -207,6 +218,9 @@ struct ElasticModel<dim>::Impl {
   std::unique_ptr<CholmodLLT> direct;
   std::unique_ptr<dealii::TrilinosWrappers::SparseMatrix> K_trilinos;
   std::unique_ptr<dealii::TrilinosWrappers::PreconditionAMG> amg;
+  // distribute_solves(): K⁻¹ over the ranks of solve_comm (MPI_COMM_NULL: serial)
+  MPI_Comm solve_comm = MPI_COMM_NULL;
+  std::unique_ptr<DistributedInverse> distributed;
   double prepare_seconds = 0.0;
   bool have_u0 = false;
   dealii::Vector<double> u0;  // K⁻¹ f
@@ -216,6 +230,9 @@ struct ElasticModel<dim>::Impl {
   // ---- last solution -----------------------------------------------------------------------
   bool have_solution = false;
   dealii::Vector<double> u;
+  // A voxel model's last solve_distributed through solve() (no serial mesh): its vertex displacement,
+  // which sample() interpolates multilinearly on the grid (= the Q1 field); empty otherwise.
+  std::vector<Vec<dim>> grid_vertex_u;
 
   // ---- set-up, conditions and assembly (model.cpp) -------------------------------------------
   void setup_dofs();
@@ -288,5 +305,15 @@ struct ModelAccess {
     return *model.impl_;
   }
 };
+
+// Initialises MPI (threads serialised) unless it is, and finalises it at exit then; throws
+// std::runtime_error if MPI_Init_thread fails (solvers.cpp).
+void ensure_mpi_initialized();
+
+// The distributed K⁻¹ of a serially assembled model (distributed.cpp): the model's mesh partitioned
+// over `comm` like solve_distributed, CG + AMG with the rigid-body modes. Collective.
+template <int dim>
+std::unique_ptr<DistributedInverse> make_distributed_inverse(const ModelAccess::State<dim>& model,
+                                                             MPI_Comm comm);
 
 }  // namespace vim::fem

@@ -209,10 +209,57 @@ typename ElasticModel<dim>::Impl::Located ElasticModel<dim>::Impl::locate(const 
 // ================================================================================================
 // sampling and energies
 
+namespace {
+
+// Multilinear interpolation of vertex values U on the voxel grid of m at x (the Q1 field); false
+// outside the grid's box.
+template <int dim>
+bool grid_interpolate(const ModelAccess::State<dim>& m, const std::vector<Vec<dim>>& U, const Vec<dim>& x,
+                      Vec<dim>& v) {
+  std::array<long, dim> i0{};
+  std::array<double, dim> t{};
+  for (int d = 0; d < dim; ++d) {
+    const double h = (m.grid_max[d] - m.grid_min[d]) / m.grid_cells[d];
+    const double s = (x[d] - m.grid_min[d]) / h;
+    if (!(s >= -1e-10 && s <= m.grid_cells[d] + 1e-10)) return false;
+    i0[d] = std::min(std::max(static_cast<long>(std::floor(s)), 0L), m.grid_cells[d] - 1);
+    t[d] = s - static_cast<double>(i0[d]);
+  }
+  v = Vec<dim>::Zero();
+  for (unsigned corner = 0; corner < (1u << dim); ++corner) {
+    double w = 1.0;
+    std::size_t index = 0, stride = 1;
+    for (int d = 0; d < dim; ++d) {
+      const bool up = (corner >> d) & 1u;
+      w *= up ? t[d] : 1.0 - t[d];
+      index += static_cast<std::size_t>(i0[d] + (up ? 1 : 0)) * stride;
+      stride *= static_cast<std::size_t>(m.grid_cells[d] + 1);
+    }
+    v += w * U[index];
+  }
+  return true;
+}
+
+}  // namespace
+
 template <int dim>
 std::vector<Vec<dim>> ElasticModel<dim>::sample(const std::vector<Vec<dim>>& points,
                                                 PointSample* info) const {
   const Impl& m = *impl_;
+  if (!m.have_solution && !m.grid_vertex_u.empty()) {
+    std::vector<Vec<dim>> out(points.size(), Vec<dim>::Zero());
+    std::vector<bool> inside(points.size(), false);
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      if (!points[i].allFinite())
+        throw std::invalid_argument("sample: point " + std::to_string(i) + " is not finite");
+      inside[i] = grid_interpolate<dim>(m, m.grid_vertex_u, points[i], out[i]);
+    }
+    if (info) {
+      info->inside = inside;
+      info->n_outside = static_cast<std::size_t>(std::count(inside.begin(), inside.end(), false));
+    }
+    return out;
+  }
   if (!m.have_solution)
     throw std::runtime_error("sample: no solution yet; call solve() first");  // solve() built the mesh
   for (std::size_t i = 0; i < points.size(); ++i)

@@ -21,6 +21,7 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <vim/fem/distributed.hpp>
 
 #include "amg.hpp"
 #include "constraint_rows.hpp"
@@ -31,8 +32,6 @@ using namespace dealii;
 
 // ================================================================================================
 // K⁻¹: CHOLMOD or CG + AMG
-
-namespace {
 
 // Trilinos (the AMG preconditioner and its matrix) needs MPI initialised even on one process. Test
 // mains and MPI programs do that through deal.II's MPI_InitFinalize; a serial program such as the
@@ -51,6 +50,8 @@ void ensure_mpi_initialized() {
     if (!finalized) MPI_Finalize();
   });
 }
+
+namespace {
 
 // CHOLMOD's factor of the symmetric K: its rows (CSR) are its columns (CSC); the upper triangle of
 // column i is row i's entries with column index ≤ i, sorted.
@@ -79,15 +80,21 @@ void ElasticModel<dim>::Impl::prepare_solver(const SolverOptions& opt) {
   assemble();
   const bool use_amg = opt.type == SolverOptions::Type::amg || (opt.type == SolverOptions::Type::automatic &&
                                                                 dof.n_dofs() > opt.direct_limit_for(dim));
-  const std::string wanted = use_amg ? "cg+amg" : "cholmod";
+  const unsigned ranks = solve_comm == MPI_COMM_NULL ? 1 : Utilities::MPI::n_mpi_processes(solve_comm);
+  const std::string wanted = ranks > 1 ? "cg+amg (mpi, " + std::to_string(ranks) + " ranks)"
+                             : use_amg ? "cg+amg"
+                                       : "cholmod";
   if (method == wanted) return;
   direct.reset();
   amg.reset();
   K_trilinos.reset();
+  distributed.reset();
   have_u0 = false;
   columns.clear();
   Timer timer;
-  if (!use_amg) {
+  if (ranks > 1) {
+    distributed = make_distributed_inverse<dim>(*this, solve_comm);
+  } else if (!use_amg) {
     direct = cholmod_factor(K);
   } else {
     ensure_mpi_initialized();
@@ -110,6 +117,7 @@ void ElasticModel<dim>::Impl::prepare_solver(const SolverOptions& opt) {
 template <int dim>
 unsigned ElasticModel<dim>::Impl::apply_inverse(const Vector<double>& b, Vector<double>& x,
                                                 const SolverOptions& opt, double* residual) const {
+  if (distributed) return distributed->apply(&b, x, opt, residual);
   if (direct) {
     x = b;
     direct->solve(x.data());
@@ -136,7 +144,9 @@ unsigned ElasticModel<dim>::Impl::apply_inverse(const Vector<double>& b, Vector<
 template <int dim>
 void ElasticModel<dim>::Impl::ensure_u0(const SolverOptions& opt, double* residual) {
   if (have_u0) return;
-  u0_iterations = apply_inverse(f, u0, opt, residual);
+  // distributed: the load as the ranks assemble it (Dirichlet values in, like f)
+  u0_iterations =
+      distributed ? distributed->apply(nullptr, u0, opt, residual) : apply_inverse(f, u0, opt, residual);
   have_u0 = true;
 }
 
@@ -371,6 +381,15 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
                                        const SolverOptions& opt) {
   Impl& m = *impl_;
   check_points(points);
+  // Without point constraints a distributed voxel model takes solve_distributed as it is: its p4est
+  // grid never builds the serial mesh (sample() interpolates the gathered vertex values).
+  if (points.empty() && m.voxel && m.solve_comm != MPI_COMM_NULL) {
+    Solution<dim> s = solve_distributed(*this, m.solve_comm, opt);
+    m.have_solution = false;
+    m.grid_vertex_u = s.vertex_displacement;
+    return s;
+  }
+  m.grid_vertex_u.clear();
   m.ensure_mesh();
   m.prepare_solver(opt);
   Timer timer;

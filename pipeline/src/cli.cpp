@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -17,6 +18,7 @@
 #include <vim/version.hpp>
 
 #include "run_support.hpp"
+#include "study_ranks.hpp"
 
 namespace vim::pipeline {
 
@@ -110,6 +112,7 @@ Examples:
   vim-make-phantom prostate prostate.mha
   vim-pipeline prostate.mha --nodes 1000 --lambda 0.3 --out out/prostate
   vim-pipeline prostate.mha --nodes 1000 --simulate examples/prostate_needle.yaml --out out/needle
+  mpirun -np 4 vim-pipeline prostate.mha --simulate examples/prostate_needle.yaml --out out/needle4
   vim-pipeline prostate.mha --study examples/prostate_study.yaml --out out/study
   mpirun -np 4 vim-pipeline prostate.mha --study examples/prostate_study.yaml --out out/study
 )";
@@ -322,29 +325,66 @@ void print_error(std::string msg) {
   std::cerr << "vim-pipeline: error: " << msg << "\n";
 }
 
+namespace {
+
+// The message print_error shows for the exception a run ended with ("" if `work` succeeds).
+std::string error_of_run(const std::function<void()>& work) {
+  try {
+    work();
+    return "";
+  } catch (const InvariantViolation& e) {
+    return std::string("internal error, please report it with the input: ") + e.what();
+  } catch (const std::bad_alloc&) {
+    return "out of memory (try a smaller image or fewer --nodes)";
+  } catch (const std::exception& e) {
+    const std::string m = e.what();
+    return m.empty() ? "unknown error" : m;
+  }
+}
+
+void run_image(const RunOptions& o) {
+  ImageFile image(o.image);
+  if (image.dimension() == 2)
+    MeshingRun<2>(o, std::move(image)).run();
+  else
+    MeshingRun<3>(o, std::move(image)).run();
+}
+
+// One simulation over the ranks of mpirun: every rank meshes and builds the model alike (the mesher is
+// deterministic), the FEM solves run over the ranks (fem::distribute_solves), and rank 0 alone writes
+// the output folder and prints progress.
+int run_on_ranks(const RunOptions& o) {
+  std::optional<StudyRanks> ranks;
+  const std::string error = error_of_run([&] { ranks.emplace(); });
+  if (!error.empty()) {
+    print_error(error);
+    return 1;
+  }
+  RunOptions mine = o;
+  mine.mpi_ranks = ranks->size();
+  if (ranks->rank() != 0) {
+    mine.out.clear();
+    mine.verbosity = Verbosity::quiet;
+    Log::set_verbosity(Verbosity::quiet);
+  }
+  return ranks->finish(error_of_run([&] { run_image(mine); }));
+}
+
+}  // namespace
+
 int run(const RunOptions& o) {
   Log::set_verbosity(o.verbosity);
-  try {
-    if (refused_on_many_ranks(o)) return 1;
-    if (o.info) return run_info(o);
-    if (!o.study.empty()) return run_study(o);  // prints its errors itself (once under mpirun)
-    ImageFile image(o.image);
-    if (image.dimension() == 2)
-      MeshingRun<2>(o, std::move(image)).run();
+  if (refused_on_many_ranks(o)) return 1;
+  if (!o.study.empty()) return run_study(o);  // prints its errors itself (once under mpirun)
+  if (launcher_ranks().size > 1) return run_on_ranks(o);
+  const std::string error = error_of_run([&] {
+    if (o.info)
+      run_info(o);
     else
-      MeshingRun<3>(o, std::move(image)).run();
-    return 0;
-  } catch (const InputError& e) {
-    print_error(e.what());
-  } catch (const std::invalid_argument& e) {
-    print_error(e.what());
-  } catch (const InvariantViolation& e) {
-    print_error(std::string("internal error, please report it with the input: ") + e.what());
-  } catch (const std::bad_alloc&) {
-    print_error("out of memory (try a smaller image or fewer --nodes)");
-  } catch (const std::exception& e) {
-    print_error(e.what());
-  }
+      run_image(o);
+  });
+  if (error.empty()) return 0;
+  print_error(error);
   return 1;
 }
 

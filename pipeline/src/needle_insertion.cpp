@@ -347,8 +347,9 @@ void NeedleInsertion<dim>::record_field(const fem::Solution<dim>* s, bool skippe
 
 template <int dim>
 void NeedleInsertion<dim>::output_step(int k, const fem::Solution<dim>* solution) {
-  write_step_vtu<dim>(ctx_, ctx_.opt.output_file(prefix_ + "steps/" + step_file(k)), solution);
-  pvd_.emplace_back(run_.depth.back(), "steps/" + step_file(k));
+  const std::string file = "steps/" + step_file(k, ctx_.opt.mpi_ranks);
+  write_step_vtu<dim>(ctx_, prefix_ + file, solution);
+  pvd_.emplace_back(run_.depth.back(), file);
 }
 
 template class NeedleInsertion<2>;

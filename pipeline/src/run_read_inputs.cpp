@@ -116,8 +116,10 @@ MeshingRun<dim>::MeshingRun(const RunOptions& given, ImageFile image)
                {"options", options_json(options_)},
                {"out", options_.out.string()}}),
       start_(std::chrono::steady_clock::now()),
-      // refuses a non-empty DIR before any work
-      out_(std::make_unique<OutputDirectory>(options_.out, options_.overwrite)) {
+      // refuses a non-empty DIR before any work; the ranks other than 0 of a run over MPI ranks have none
+      out_(options_.out.empty() && options_.mpi_ranks > 1
+               ? nullptr
+               : std::make_unique<OutputDirectory>(options_.out, options_.overwrite)) {
   if (image_file_->dimension() != dim)
     throw std::invalid_argument(image_file_->path() + ": a " + std::to_string(image_file_->dimension()) +
                                 "D image given to a " + std::to_string(dim) + "D run");

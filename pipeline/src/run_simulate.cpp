@@ -23,11 +23,12 @@ void MeshingRun<dim>::build_model() {
   if (!scenario_) return;
   const auto start = std::chrono::steady_clock::now();
   SimulationOptions so;
-  so.output_file = [this](const std::string& rel) { return out().file(rel); };
+  if (out_) so.output_file = [this](const std::string& rel) { return out().file(rel); };
   so.degree = static_cast<unsigned>(options_.degree);
   so.world_grid = world_grid_;  // the grid of mesh.vtu: the steps share its points and cells
   so.scenario_checked = true;   // read_inputs checked it against the image box
   so.keep_step_fields = inputs_ && inputs_->keep_step_fields;
+  so.mpi_ranks = options_.mpi_ranks;
   if (options_.mesher == MesherKind::voxel) {
     simulation_ = std::make_unique<NeedleSimulation<dim>>(
         NeedleSimulation<dim>::voxel(image_->image, model_.transform, *scenario_, std::move(so)));
@@ -47,7 +48,7 @@ void MeshingRun<dim>::simulate() {
   const SimulationResult<dim>& result = *simulation_result_;
   report_["simulation"] = result.report;
   for (const auto& w : result.warnings) warn("simulate", w);
-  write_simulation_figures(result);
+  if (out_) write_simulation_figures(result);
   report_["timing"]["simulate"] = simulate_seconds_ + seconds_since(start);
 }
 

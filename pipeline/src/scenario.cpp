@@ -483,7 +483,7 @@ void parse_output_and_solver(const Reader& r, const Fields& top, Scenario& s) {
   if (const YAML::Node& v = top["solver"]) {
     const Fields f = r.check_keys(v, "solver", {"type", "tolerance"});
     if (const YAML::Node& x = f["type"])
-      s.solver_type = r.choice(x, "solver.type", {"auto", "direct", "amg"});
+      s.solver_type = r.choice(x, "solver.type", {"auto", "direct", "amg", "multigrid"});
     if (const YAML::Node& x = f["tolerance"]) s.solver_tolerance = r.positive(x, "solver.tolerance");
   }
 }

@@ -8,6 +8,7 @@
 #include <iomanip>
 #include <limits>
 #include <sstream>
+#include <vim/fem/distributed.hpp>
 #include <vim/pipeline/needle.hpp>
 #include <vim/pipeline/scenario_regions.hpp>
 #include <vim/pipeline/simulation.hpp>
@@ -211,7 +212,12 @@ NeedleSimulation<dim>::NeedleSimulation(const MeshModel<dim>& mm, const Scenario
     m.box_min = m.box_min.cwiseMin(p);
     m.box_max = m.box_max.cwiseMax(p);
   }
+  if (scenario.solver_type == "multigrid")
+    throw ScenarioError(
+        scenario.where(0) +
+        "solver.type multigrid is for the voxel model (--mesher voxel); use auto, direct or amg");
   m.model.emplace(mm.mesh, m.E, scenario.poisson_ratio, m.degree);
+  if (m.opt.mpi_ranks > 1) fem::distribute_solves(*m.model, MPI_COMM_WORLD);
   m.grid = m.opt.world_grid ? m.opt.world_grid
                             : std::make_shared<const UnstructuredGrid>(simplex_grid(mm.mesh, mm.transform));
   // P2: quadratic cells carry the mid-edge values (edges), so ParaView interpolates quadratically.
@@ -242,6 +248,9 @@ NeedleSimulation<dim> NeedleSimulation<dim>::voxel(const Image<dim>& image,
   m.box_max = image.box_max();
   m.model.emplace(
       fem::ElasticModel<dim>::voxel_grid(image.size, m.box_min, m.box_max, m.E, scenario.poisson_ratio));
+  // multigrid: the p4est grid with its matrix-free multigrid, on one rank too
+  if (m.opt.mpi_ranks > 1 || scenario.solver_type == "multigrid")
+    fem::distribute_solves(*m.model, MPI_COMM_WORLD);
   const auto& verts = m.model->vertices();
   // One hexahedron (quad) per voxel on the lattice of corners, which is the model's vertex numbering.
   m.grid = m.opt.world_grid ? m.opt.world_grid

@@ -22,14 +22,14 @@ json to_json(const Eigen::Matrix<double, dim, 1>& v) {
 
 }  // namespace
 
-std::string step_file(int k) {
+std::string step_file(int k, int mpi_ranks) {
   char buf[32];
-  std::snprintf(buf, sizeof buf, "step_%04d.vtu", k);
+  std::snprintf(buf, sizeof buf, mpi_ranks > 1 ? "step_%04d.pvtu" : "step_%04d.vtu", k);
   return buf;
 }
 
 template <int dim>
-void write_step_vtu(const SimulationContext<dim>& ctx, const std::filesystem::path& path,
+void write_step_vtu(const SimulationContext<dim>& ctx, const std::string& relative,
                     const fem::Solution<dim>* s) {
   using Vec = Eigen::Matrix<double, dim, 1>;
   using Mat = Eigen::Matrix<double, dim, dim>;
@@ -69,7 +69,10 @@ void write_step_vtu(const SimulationContext<dim>& ctx, const std::filesystem::pa
   if (sc.wants("von_mises"))
     g.cell_data["von_mises"] = Field{1, s ? s->von_mises : std::vector<double>(nc, 0.0)};
   if (sc.wants("youngs_modulus")) g.cell_data["youngs_modulus"] = Field{1, ctx.E};
-  write_vtu(path, g);
+  if (ctx.opt.mpi_ranks > 1)
+    write_pvtu(ctx.opt.output_file, relative, g, ctx.opt.mpi_ranks);
+  else
+    write_vtu(ctx.opt.output_file(relative), g);
 }
 
 template <int dim>
@@ -202,7 +205,7 @@ json model_report(const SimulationContext<dim>& m) {
 }
 
 #define VIM_SIMULATION_OUTPUT(dim)                                                                           \
-  template void write_step_vtu<dim>(const SimulationContext<dim>&, const std::filesystem::path&,             \
+  template void write_step_vtu<dim>(const SimulationContext<dim>&, const std::string&,                       \
                                     const fem::Solution<dim>*);                                              \
   template void write_needle_csv<dim>(const std::filesystem::path&, const NeedleRun<dim>&, const Scenario&); \
   template void write_summary_csv<dim>(const std::filesystem::path&, const std::vector<NeedleRun<dim>>&,     \

@@ -12,12 +12,13 @@
 
 namespace vim::pipeline {
 
-// "step_0007.vtu"
-std::string step_file(int k);
+// "step_0007.vtu", or "step_0007.pvtu" for a run on several MPI ranks (its pieces: write_pvtu)
+std::string step_file(int k, int mpi_ranks = 1);
 
-// The world grid with the scenario's output fields of a solution (zero fields when null: rest).
+// The world grid with the scenario's output fields of a solution (zero fields when null: rest), written
+// to ctx.opt.output_file(relative): a .vtu, or with ctx.opt.mpi_ranks > 1 a .pvtu with that many pieces.
 template <int dim>
-void write_step_vtu(const SimulationContext<dim>& ctx, const std::filesystem::path& path,
+void write_step_vtu(const SimulationContext<dim>& ctx, const std::string& relative,
                     const fem::Solution<dim>* solution);
 
 // Per step: depth, tip, axial and lateral force, the axial force's friction and tip parts, the largest

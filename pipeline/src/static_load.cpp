@@ -37,9 +37,10 @@ StaticLoadRun<dim> run_static_load(SimulationContext<dim>& ctx, json& report,
       run.target_displacement.push_back(ctx.tf.vector_to_world(u));
 
   const bool write = static_cast<bool>(ctx.opt.output_file) && ctx.sc.output_every > 0;
+  const std::string file = "steps/" + step_file(0, ctx.opt.mpi_ranks);
   if (write) {
-    write_step_vtu<dim>(ctx, ctx.opt.output_file("steps/" + step_file(0)), &solution);
-    write_pvd(ctx.opt.output_file("simulation.pvd"), {{0.0, "steps/" + step_file(0)}});
+    write_step_vtu<dim>(ctx, file, &solution);
+    write_pvd(ctx.opt.output_file("simulation.pvd"), {{0.0, file}});
   }
   json final_targets = json::object();
   for (std::size_t t = 0; t < run.target_displacement.size(); ++t) {
@@ -49,12 +50,23 @@ StaticLoadRun<dim> run_static_load(SimulationContext<dim>& ctx, json& report,
     final_targets[ctx.sc.targets[t].name] = {{"displacement", d}, {"norm", u.norm()}};
   }
   report = {{"steps", 1},
-            {"files", write ? json::array({"steps/" + step_file(0)}) : json::array()},
+            {"files", write ? json::array({file}) : json::array()},
             {"max_displacement", run.max_displacement},
             {"max_strain", run.max_strain},
             {"targets", final_targets},
-            {"solver", {{"method", run.stats.method}, {"n_dofs", run.stats.n_dofs}, {"solves", 1}}},
-            {"timing", {{"solve_seconds", solve_seconds}}}};
+            {"solver",
+             {{"method", run.stats.method},
+              {"n_dofs", run.stats.n_dofs},
+              {"solves", 1},
+              {"iterations", run.stats.iterations},
+              {"residual", run.stats.residual}}},
+            // the solve's parts (SolverStats): set-up and assembly, preconditioner set-up and CG within
+            {"timing",
+             {{"solve_seconds", solve_seconds},
+              {"setup_seconds", run.stats.setup_seconds},
+              {"assemble_seconds", run.stats.assemble_seconds},
+              {"precondition_seconds", run.stats.precondition_seconds},
+              {"cg_seconds", run.stats.solve_seconds - run.stats.precondition_seconds}}}};
   const std::string w = small_strain_warning(ctx.sc.where(0), "the static load case", {run.max_strain});
   if (!w.empty()) warnings.push_back(w);
   return run;

@@ -261,11 +261,11 @@ int run_study_in(const RunOptions& given, const StudyRanks& ranks, const ImageFi
 
 bool refused_on_many_ranks(const RunOptions& options) {
   const LauncherRanks launched = launcher_ranks();
-  if (!options.study.empty() || launched.size == 1) return false;
+  if (!options.study.empty() || !options.simulate.empty() || launched.size == 1) return false;
   if (launched.rank == 0)
     print_error("started by mpirun on " + std::to_string(launched.size) +
-                " processes: only a study (--study) runs on several ranks (case i on rank i mod N); run a "
-                "single image or scenario without mpirun");
+                " processes: only a simulation (--simulate, its solves over the ranks) or a study (--study, "
+                "case i on rank i mod N) runs on several ranks; run meshing or --info without mpirun");
   return true;
 }
 

@@ -4,9 +4,13 @@
 #include <mpi.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdlib>
+#include <iostream>
 #include <stdexcept>
+#include <thread>
 #include <utility>
+#include <vim/pipeline/cli.hpp>
 
 namespace vim::pipeline {
 
@@ -45,9 +49,13 @@ StudyRanks::StudyRanks() {
   }
   MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
   MPI_Comm_size(MPI_COMM_WORLD, &size_);
+  auto* comm = new MPI_Comm;
+  MPI_Comm_dup(MPI_COMM_WORLD, comm);
+  outcome_comm_ = comm;
 }
 
 StudyRanks::~StudyRanks() {
+  delete static_cast<MPI_Comm*>(outcome_comm_);
   int finalized = 0;
   MPI_Finalized(&finalized);
   if (finalize_ && !finalized) MPI_Finalize();
@@ -79,6 +87,33 @@ std::vector<std::string> StudyRanks::gather(const std::string& text) const {
   if (rank_ == 0)
     for (int r = 0; r < size_; ++r) texts.push_back(all.substr(offsets[r], lengths[r]));
   return texts;
+}
+
+int StudyRanks::finish(const std::string& error, double grace_seconds) const {
+  const bool failed = !error.empty();
+  if (size_ == 1) {
+    if (failed) print_error(error);
+    return failed ? 1 : 0;
+  }
+  // {any rank failed, rank 0 failed}
+  int mine[2] = {failed ? 1 : 0, rank_ == 0 && failed ? 1 : 0}, all[2] = {0, 0};
+  MPI_Request request;
+  MPI_Iallreduce(mine, all, 2, MPI_INT, MPI_MAX, *static_cast<MPI_Comm*>(outcome_comm_), &request);
+  int done = 0;
+  const auto start = std::chrono::steady_clock::now();
+  while (!done) {
+    MPI_Test(&request, &done, MPI_STATUS_IGNORE);
+    if (done || !failed) continue;  // a rank that succeeded waits for the others
+    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > grace_seconds) {
+      print_error(rank_ == 0 ? error : "rank " + std::to_string(rank_) + ": " + error);
+      std::cerr.flush();
+      MPI_Abort(MPI_COMM_WORLD, 1);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  if (failed && (rank_ == 0 || !all[1]))
+    print_error(rank_ == 0 ? error : "rank " + std::to_string(rank_) + ": " + error);
+  return all[0] ? 1 : 0;
 }
 
 }  // namespace vim::pipeline

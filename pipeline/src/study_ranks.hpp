@@ -31,9 +31,16 @@ class StudyRanks {
   int min(int value) const;
   // Collective: on rank 0 every rank's text in rank order; elsewhere empty.
   std::vector<std::string> gather(const std::string& text) const;
+  // The end of a run that every rank does alike (`error`: this rank's, "" if none); returns the exit
+  // code. The ranks compare their outcomes on a communicator of their own: if any failed, every rank
+  // returns 1 and the error is printed once (by rank 0 when it failed too, else by each failed rank).
+  // A rank that fails while others still compute (they would wait for it in a solve) prints its error
+  // and aborts all ranks after `grace_seconds`.
+  int finish(const std::string& error, double grace_seconds = 30.0) const;
 
  private:
   int rank_ = 0, size_ = 1;
+  void* outcome_comm_ = nullptr;  // MPI_Comm (kept out of this header), duplicated from MPI_COMM_WORLD
   bool finalize_ = false;
 };
 

@@ -1,15 +1,16 @@
-// solve_distributed on 2 ranks (simplex: parallel::shared::Triangulation; voxel: p4est
-// parallel::distributed::Triangulation; Trilinos CG + AMG) vs the serial direct solve each rank
-// also runs: simplex (P1, P2, 2D) and voxel models (3D, 2D).
-#include "../fem/box_mesh.hpp"
-
-#include <vim/fem/distributed.hpp>
-#include <vim/fem/elasticity.hpp>
-
+// solve_distributed on 2 ranks (simplex: parallel::shared::Triangulation, Trilinos CG + AMG; voxel:
+// p4est parallel::distributed::Triangulation, 3D with CG + matrix-free geometric multigrid) vs the
+// serial direct solve each rank also runs: simplex (P1, P2, 2D) and voxel models (3D, 2D); and
+// distribute_solves with point constraints (compliance columns by distributed solves) vs the serial
+// Schur solve.
 #include <deal.II/base/mpi.h>
 #include <gtest/gtest.h>
 
 #include <random>
+#include <vim/fem/distributed.hpp>
+#include <vim/fem/elasticity.hpp>
+
+#include "../fem/box_mesh.hpp"
 
 using namespace vim;
 using namespace vim::fem;
@@ -36,7 +37,7 @@ void add_conditions(ElasticModel<dim>& model) {
 }
 
 template <int dim>
-void compare(ElasticModel<dim>& model) {
+void compare(ElasticModel<dim>& model, const std::string& method = "cg+amg") {
   const int ranks = dealii::Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD);
   SolverOptions direct;
   direct.type = SolverOptions::Type::direct;
@@ -44,7 +45,7 @@ void compare(ElasticModel<dim>& model) {
   SolverOptions amg;
   amg.tolerance = 1e-13;
   const auto sol = solve_distributed(model, MPI_COMM_WORLD, amg);
-  EXPECT_EQ(sol.stats.method, "cg+amg (mpi, " + std::to_string(ranks) + " ranks)");
+  EXPECT_EQ(sol.stats.method, method + " (mpi, " + std::to_string(ranks) + " ranks)");
   double d = 0, s = 0;
   for (std::size_t i = 0; i < ref.vertex_displacement.size(); ++i)
     d = std::max(d, (sol.vertex_displacement[i] - ref.vertex_displacement[i]).norm()),
@@ -54,10 +55,12 @@ void compare(ElasticModel<dim>& model) {
   EXPECT_NEAR(sol.strain_energy, ref.strain_energy, 1e-8 * ref.strain_energy);
   double sd = 0, ss = 0;
   for (std::size_t j = 0; j < ref.cell_stress.size(); ++j)
-    sd = std::max(sd, (sol.cell_stress[j] - ref.cell_stress[j]).norm()), ss = std::max(ss, ref.cell_stress[j].norm());
+    sd = std::max(sd, (sol.cell_stress[j] - ref.cell_stress[j]).norm()),
+    ss = std::max(ss, ref.cell_stress[j].norm());
   EXPECT_LT(sd / ss, 1e-7);
   for (std::size_t b = 0; b < ref.dirichlet_reaction.size(); ++b)
-    EXPECT_LT((sol.dirichlet_reaction[b] - ref.dirichlet_reaction[b]).norm(), 1e-7 * (1 + ref.dirichlet_reaction[b].norm()));
+    EXPECT_LT((sol.dirichlet_reaction[b] - ref.dirichlet_reaction[b]).norm(),
+              1e-7 * (1 + ref.dirichlet_reaction[b].norm()));
 }
 
 template <int dim>
@@ -121,7 +124,7 @@ TEST(Distributed, VoxelModel3D) {
   auto model = ElasticModel<3>::voxel_grid({{12, 10, 8}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1),
                                            random_moduli<3>(12 * 10 * 8), 0.4);
   add_conditions(model);
-  compare(model);
+  compare(model, "cg+matrix-free multigrid");
 }
 
 // Grid sizes divisible by 4 (coarse p4est grid refined twice) and odd sizes (no refinement), 2D.
@@ -129,11 +132,38 @@ TEST(Distributed, VoxelModel3DRefinedCoarseGrid) {
   auto model = ElasticModel<3>::voxel_grid({{16, 8, 12}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1),
                                            random_moduli<3>(16 * 8 * 12), 0.3);
   add_conditions(model);
-  compare(model);
+  compare(model, "cg+matrix-free multigrid");
+}
+
+// Five multigrid levels (32³, coarse grid one cell) with moduli spanning 1 to 8 per voxel.
+TEST(Distributed, VoxelModel3DMultigridLevels) {
+  auto model = ElasticModel<3>::voxel_grid({{32, 32, 32}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1),
+                                           random_moduli<3>(32 * 32 * 32), 0.3);
+  add_conditions(model);
+  compare(model, "cg+matrix-free multigrid");
+}
+
+// A support along rotated axes (constraint lines with entries) on a voxel grid: CG + AMG, not multigrid.
+TEST(Distributed, VoxelModel3DRotatedSupportUsesAmg) {
+  auto model = ElasticModel<3>::voxel_grid({{8, 8, 8}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1),
+                                           random_moduli<3>(8 * 8 * 8), 0.3);
+  const Vec<3> lo = Vec<3>::Zero(), hi = Vec<3>::Ones();
+  DirichletBC<3> slide;
+  slide.region = box_face_region<3>(lo, hi, 0, false, 1e-9);
+  slide.components = {{true, false, false}};
+  const double c = std::cos(0.5), s = std::sin(0.5);
+  slide.axes << c, -s, 0, s, c, 0, 0, 0, 1;
+  model.add_dirichlet(slide);
+  DirichletBC<3> fixed;
+  fixed.region = box_face_region<3>(lo, hi, 2, false, 1e-9);
+  model.add_dirichlet(fixed);
+  model.set_body_force(Vec<3>(0.1, 0.0, -0.1));
+  compare(model, "cg+amg");
 }
 
 TEST(Distributed, VoxelModel2DOddSizes) {
-  auto model = ElasticModel<2>::voxel_grid({{9, 7}}, Vec<2>(0, 0), Vec<2>(1, 1), random_moduli<2>(9 * 7), 0.3);
+  auto model =
+      ElasticModel<2>::voxel_grid({{9, 7}}, Vec<2>(0, 0), Vec<2>(1, 1), random_moduli<2>(9 * 7), 0.3);
   add_conditions(model);
   compare(model);
 }
@@ -142,4 +172,46 @@ TEST(Distributed, SingularThrowsOnEveryRank) {
   const auto mesh = test::kuhn_box<3>({{3, 3, 3}}, {{0, 0, 0}}, {{1, 1, 1}});
   ElasticModel<3> model(mesh, std::vector<double>(mesh.n_cells(), 1.0), 0.3, 1);
   EXPECT_THROW(solve_distributed(model, MPI_COMM_WORLD), std::runtime_error);
+}
+
+// distribute_solves: the needle's rows (one point held exactly, one averaged over samples with a series
+// compliance) on two ranks vs the serial Schur solve of the same model (CHOLMOD): displacements and
+// point forces to 1e-8, twice (the second solve reuses the cached columns and moves the points).
+TEST(Distributed, PointConstraintsThroughDistributedColumns) {
+  const auto mesh = test::kuhn_box<3>({{8, 8, 8}}, {{0, 0, 0}}, {{1, 1, 1}});
+  const auto E = random_moduli<3>(mesh.n_cells());
+  ElasticModel<3> serial(mesh, E, 0.35, 1), spread(mesh, E, 0.35, 1);
+  add_conditions(serial);
+  add_conditions(spread);
+  distribute_solves(spread, MPI_COMM_WORLD);
+  PointConstraint<3> tip(Vec<3>(0.43, 0.51, 0.47), Vec<3>(0.01, -0.02, 0.005));
+  PointConstraint<3> band(Vec<3>(0.3, 0.52, 0.5), Vec<3>(0.0, 0.01, 0.0));
+  for (int q = 0; q < 8; ++q) {
+    const double a = 0.25 * M_PI * q;
+    band.offsets.push_back(Vec<3>(0.0, 0.1 * std::cos(a), 0.1 * std::sin(a)));
+    band.weights.push_back(1.0);
+  }
+  band.compliance = Vec<3>(0.02, 0.03, 0.03);
+  SolverOptions direct, tight;
+  direct.type = SolverOptions::Type::direct;
+  tight.tolerance = 1e-13;
+  for (int pass = 0; pass < 2; ++pass) {
+    const auto ref = serial.solve({tip, band}, direct);
+    const auto sol = spread.solve({tip, band}, tight);
+    EXPECT_NE(sol.stats.method.find("mpi"), std::string::npos) << sol.stats.method;
+    double d = 0, s = 0;
+    for (std::size_t i = 0; i < ref.vertex_displacement.size(); ++i)
+      d = std::max(d, (sol.vertex_displacement[i] - ref.vertex_displacement[i]).norm()),
+      s = std::max(s, ref.vertex_displacement[i].norm());
+    ASSERT_GT(s, 0);
+    EXPECT_LT(d / s, 1e-8);
+    for (std::size_t k = 0; k < 2; ++k) {
+      ASSERT_GT(ref.point_force[k].norm(), 0);
+      EXPECT_LT((sol.point_force[k] - ref.point_force[k]).norm(), 1e-8 * ref.point_force[k].norm()) << k;
+    }
+    for (std::size_t b = 0; b < ref.dirichlet_reaction.size(); ++b)
+      EXPECT_LT((sol.dirichlet_reaction[b] - ref.dirichlet_reaction[b]).norm(),
+                1e-8 * (1 + ref.dirichlet_reaction[b].norm()));
+    tip.position[0] += 0.05;
+  }
 }

@@ -72,15 +72,14 @@ TEST(StudyMpi, TwoRanksWriteTheSerialStudyTable) {
   EXPECT_EQ(a[0].at("status"), "done");
 }
 
-// A run that is not a study would run whole on every rank into one folder: refused, once.
-TEST(StudyMpi, ASingleRunOnSeveralRanksIsRefusedOnce) {
+// Meshing alone (no --simulate, no --study) has nothing to spread over ranks: refused, once.
+TEST(StudyMpi, MeshingAloneOnSeveralRanksIsRefusedOnce) {
   vim::test::TempDir dir("study_mpi_single");
   vim::test::write_study_inputs(dir.path);
-  const auto r = run_on_ranks(2, quote(dir / "in.mha") + " --nodes 100 --simulate " +
-                                     quote(dir / "base.yaml") + " --out " + quote(dir / "out"));
+  const auto r = run_on_ranks(2, quote(dir / "in.mha") + " --nodes 100 --out " + quote(dir / "out"));
   EXPECT_NE(r.code, 0);
   EXPECT_EQ(r.err.find("vim-pipeline: error:"), r.err.rfind("vim-pipeline: error:")) << r.err;  // once
-  EXPECT_NE(r.err.find("vim-pipeline: error: started by mpirun on 2 processes: only a study"),
+  EXPECT_NE(r.err.find("vim-pipeline: error: started by mpirun on 2 processes: only a simulation"),
             std::string::npos)
       << r.err;
   EXPECT_FALSE(fs::exists(dir.path / "out"));

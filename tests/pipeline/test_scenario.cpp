@@ -1,7 +1,5 @@
 // Scenario parsing and validation (scenario.hpp): every key of the scenario format is read with its
 // value, and every malformed input gives a ScenarioError that names the key, the value and the YAML line.
-#include <vim/pipeline/scenario.hpp>
-
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -9,6 +7,7 @@
 #include <cmath>
 #include <string>
 #include <utility>
+#include <vim/pipeline/scenario.hpp>
 
 using namespace vim;
 using namespace vim::pipeline;
@@ -152,14 +151,17 @@ TEST(Scenario, MeshKeysBecomeVimOptions) {
   base.lambda = 0.7;
   base.min_dihedral_deg = 3.0;
   base.max_iterations = 17;
-  const vim::VimOptions full = vim::pipeline::scenario_vim_options(parse_scenario_text(kFull, 3, "full.yaml"), base);
+  const vim::VimOptions full =
+      vim::pipeline::scenario_vim_options(parse_scenario_text(kFull, 3, "full.yaml"), base);
   EXPECT_DOUBLE_EQ(full.lambda, 0.3);
   EXPECT_DOUBLE_EQ(full.min_dihedral_deg, 12.5);
   EXPECT_EQ(full.max_iterations, 17);
-  const vim::VimOptions minimal = vim::pipeline::scenario_vim_options(parse_scenario_text(kMinimal, 3, "m.yaml"), base);
+  const vim::VimOptions minimal =
+      vim::pipeline::scenario_vim_options(parse_scenario_text(kMinimal, 3, "m.yaml"), base);
   EXPECT_DOUBLE_EQ(minimal.lambda, 0.7);
   EXPECT_DOUBLE_EQ(minimal.min_dihedral_deg, 3.0);
-  const vim::VimOptions defaults = vim::pipeline::scenario_vim_options(parse_scenario_text(kMinimal, 3, "m.yaml"));
+  const vim::VimOptions defaults =
+      vim::pipeline::scenario_vim_options(parse_scenario_text(kMinimal, 3, "m.yaml"));
   EXPECT_DOUBLE_EQ(defaults.lambda, vim::VimOptions{}.lambda);  // what the CLI runs without --lambda
 }
 
@@ -183,17 +185,20 @@ TEST(Scenario, DefaultsAndNumberModulus) {
 TEST(Scenario, StickSlipIsTheDefaultFrictionAndItsLimitIsRequired) {
   const std::string plain = replace(kMinimal, ", friction: {model: stick}}", "}");
   const std::string missing = error_of(plain);
-  EXPECT_NE(missing.find("s.yaml:3: missing key 'needle.friction.max_shear_per_length'"), std::string::npos) << missing;
+  EXPECT_NE(missing.find("s.yaml:3: missing key 'needle.friction.max_shear_per_length'"), std::string::npos)
+      << missing;
   EXPECT_NE(missing.find("stick-slip is the default"), std::string::npos) << missing;
   EXPECT_NE(missing.find("{model: stick}"), std::string::npos) << missing;
   const std::string no_limit = error_of(replace(kMinimal, "{model: stick}", "{model: stick-slip}"));
-  EXPECT_NE(no_limit.find("missing key 'needle.friction.max_shear_per_length'"), std::string::npos) << no_limit;
+  EXPECT_NE(no_limit.find("missing key 'needle.friction.max_shear_per_length'"), std::string::npos)
+      << no_limit;
   const Scenario limit_only =
       parse_scenario_text(replace(kMinimal, "{model: stick}", "{max_shear_per_length: 12}"), 3);
   EXPECT_EQ(limit_only.needles[0].friction, NeedleSpec::Friction::stick_slip);
   EXPECT_DOUBLE_EQ(limit_only.needles[0].max_shear_per_length, 12.0);
   // The force model takes friction_per_length and needs no friction key.
-  EXPECT_NO_THROW(parse_scenario_text(replace(plain, "diameter: 1}", "diameter: 1, model: force, tip_force: 2}"), 3));
+  EXPECT_NO_THROW(
+      parse_scenario_text(replace(plain, "diameter: 1}", "diameter: 1, model: force, tip_force: 2}"), 3));
 }
 
 // A scenario without a needle is a static load case: it parses when a condition loads the model (a
@@ -207,12 +212,15 @@ TEST(Scenario, NeedleFreeScenariosAreStaticLoadCases) {
     const Scenario s = parse_scenario_text(held + load, 3, "s.yaml");
     EXPECT_TRUE(s.needles.empty()) << load;
   }
-  for (const char* none : {"", "  - {type: displacement, region: {box_face: z_max}, value: [0, 0, 0]}\n",
-                           "  - {type: pressure, region: {box_face: z_max}, value: 0}\n",
-                           "  - {type: displacement, region: {box_face: z_max}, value: [0, 0, -1], components: [x]}\n"}) {
+  for (const char* none :
+       {"", "  - {type: displacement, region: {box_face: z_max}, value: [0, 0, 0]}\n",
+        "  - {type: pressure, region: {box_face: z_max}, value: 0}\n",
+        "  - {type: displacement, region: {box_face: z_max}, value: [0, 0, -1], components: [x]}\n"}) {
     const std::string m = error_of(held + none);
-    EXPECT_NE(m.find("s.yaml:2: boundary_conditions: a scenario without 'needle' or 'needles' is a static load case"),
-              std::string::npos)
+    EXPECT_NE(
+        m.find(
+            "s.yaml:2: boundary_conditions: a scenario without 'needle' or 'needles' is a static load case"),
+        std::string::npos)
         << none << ": " << m;
   }
   const std::string refined = error_of(held + "  - {type: pressure, region: {box_face: z_max}, value: 2}\n" +
@@ -238,7 +246,8 @@ needles:
 
 TEST(Scenario, ModulusFromImageScaleAndClamp) {
   Scenario s = parse_scenario_text(std::string(kMinimal) + "material: {scale: 2, clamp: [3, 10]}\n", 3);
-  EXPECT_EQ(scenario_modulus(s, {1.0, 2.0, 4.0, 100.0, -5.0}), (std::vector<double>{3.0, 4.0, 8.0, 10.0, 3.0}));
+  EXPECT_EQ(scenario_modulus(s, {1.0, 2.0, 4.0, 100.0, -5.0}),
+            (std::vector<double>{3.0, 4.0, 8.0, 10.0, 3.0}));
   s.clamp.reset();
   EXPECT_THROW(scenario_modulus(s, {1.0, -1.0}), ScenarioError);
   EXPECT_THROW(scenario_modulus(s, {std::nan("")}), ScenarioError);
@@ -257,7 +266,9 @@ TEST(Scenario, BadInputsNameKeyValueAndLine) {
       {"poisson_ratio: 0.45", "poisson_ratio: 0.5", {"material.poisson_ratio", "0.5", "< 0.5", "s.yaml:6:"}},
       {"poisson_ratio: 0.45", "poisson_ratio: -1.5", {"material.poisson_ratio", "(-1, 0.5)"}},
       {"poisson_ratio: 0.45", "poisson_ratio: soft", {"material.poisson_ratio must be a number", "'soft'"}},
-      {"youngs_modulus: image", "youngs_modulus: picture", {"material.youngs_modulus", "'image' or a number", "'picture'"}},
+      {"youngs_modulus: image",
+       "youngs_modulus: picture",
+       {"material.youngs_modulus", "'image' or a number", "'picture'"}},
       {"youngs_modulus: image", "youngs_modulus: -3", {"material.youngs_modulus", "-3"}},
       {"clamp: [1.0, 1000.0]", "clamp: [10, 1]", {"material.clamp", "min <= max"}},
       {"clamp: [1.0, 1000.0]", "clamp: 5", {"material.clamp must be a list"}},
@@ -265,17 +276,26 @@ TEST(Scenario, BadInputsNameKeyValueAndLine) {
       {"nodes: 3000", "nodes: 1.5", {"mesh.nodes must be an integer", "'1.5'"}},
       {"lambda: 0.3", "lambda: 1.0", {"mesh.lambda", "[0, 1)"}},
       {"min_dihedral: 12.5", "min_dihedral: 60", {"mesh.min_dihedral must be in [0, 60) degrees", "60"}},
-      {"box_face: y_min", "box_face: y_low", {"box_face = 'y_low'", "x_min, x_max, y_min, y_max, z_min, z_max", "s.yaml:9:"}},
-      {"{type: fixed, region: {box_face: y_min}}", "{type: clamped, region: {box_face: y_min}}",
+      {"box_face: y_min",
+       "box_face: y_low",
+       {"box_face = 'y_low'", "x_min, x_max, y_min, y_max, z_min, z_max", "s.yaml:9:"}},
+      {"{type: fixed, region: {box_face: y_min}}",
+       "{type: clamped, region: {box_face: y_min}}",
        {"boundary_conditions[0].type = 'clamped'", "fixed, displacement, pressure, traction"}},
       {"radius: 10}", "radius: 0}", {"boundary_conditions[1].region.cylinder.radius must be > 0", "0"}},
-      {"axis: [0, 0, 2]", "axis: [0, 0, 0]", {"boundary_conditions[1].region.cylinder.axis must be a non-zero vector"}},
-      {"value: [0, 0, -2.0]", "value: [0, -2.0]", {"boundary_conditions[2].value must be a list of 3 numbers", "list of 2"}},
+      {"axis: [0, 0, 2]",
+       "axis: [0, 0, 0]",
+       {"boundary_conditions[1].region.cylinder.axis must be a non-zero vector"}},
+      {"value: [0, 0, -2.0]",
+       "value: [0, -2.0]",
+       {"boundary_conditions[2].value must be a list of 3 numbers", "list of 2"}},
       {", value: 1.5}", "}", {"missing key 'boundary_conditions[3].value'"}},
       {"components: [x, z]", "components: [x, w]", {"components[1] = 'w'", "x, y, z"}},
       {"entry: [0, 0, -30]", "entry: [0, 0]", {"needle.entry must be a list of 3 numbers"}},
       {"entry: [0, 0, -30]", "entry: [0, zero, -30]", {"needle.entry[1] must be a number", "'zero'"}},
-      {"direction: [0, 0, 3]", "direction: [0, 0, 0]", {"needle.direction must be a non-zero vector", "s.yaml:17:"}},
+      {"direction: [0, 0, 3]",
+       "direction: [0, 0, 0]",
+       {"needle.direction must be a non-zero vector", "s.yaml:17:"}},
       {"depth: 45.0", "depth: -45", {"needle.depth must be > 0", "-45", "s.yaml:18:"}},
       {"depth: 45.0", "depth: 0", {"needle.depth must be > 0"}},
       {"steps: 45", "steps: 0", {"needle.steps must be > 0", "0"}},
@@ -285,30 +305,44 @@ TEST(Scenario, BadInputsNameKeyValueAndLine) {
       {"  diameter: 1.27\n", "", {"missing key 'needle.diameter'"}},
       {"model: kinematic", "model: spring", {"needle.model = 'spring'", "kinematic, force"}},
       {"model: stick-slip", "model: glue", {"needle.friction.model = 'glue'", "stick, stick-slip"}},
-      {"max_shear_per_length: 0.5", "max_shear: 0.5", {"unknown key 'needle.friction.max_shear'", "max_shear_per_length"}},
+      {"max_shear_per_length: 0.5",
+       "max_shear: 0.5",
+       {"unknown key 'needle.friction.max_shear'", "max_shear_per_length"}},
       {"every: 3", "every: -1", {"output.every must be >= 0"}},
-      {"fields: [displacement, strain]", "fields: [displacement, pressure]", {"output.fields[1] = 'pressure'", "von_mises"}},
-      {"type: amg", "type: gauss", {"solver.type = 'gauss'", "auto, direct, amg"}},
+      {"fields: [displacement, strain]",
+       "fields: [displacement, pressure]",
+       {"output.fields[1] = 'pressure'", "von_mises"}},
+      {"type: amg", "type: gauss", {"solver.type = 'gauss'", "auto, direct, amg, multigrid"}},
       {"tolerance: 1.0e-8", "tolerance: 0", {"solver.tolerance must be > 0"}},
       {"{name: apex,", "{name: lesion,", {"targets[1].name = 'lesion' is used twice"}},
       {"{name: apex,", "{name: 2apex,", {"targets[1].name = '2apex' must be an identifier"}},
-      {"position: [5, 2, 10]", "position: [5, 2, 10, 1]", {"targets[0].position must be a list of 3 numbers"}},
+      {"position: [5, 2, 10]",
+       "position: [5, 2, 10, 1]",
+       {"targets[0].position must be a list of 3 numbers"}},
       {"needle:", "needel:", {"unknown key 'needel'"}},
-      {"mesh: {nodes: 3000, lambda: 0.3, degree: 2, min_dihedral: 12.5}", "mesh: [3000]", {"mesh must be a mapping, got a list", "s.yaml:7:"}},
+      {"mesh: {nodes: 3000, lambda: 0.3, degree: 2, min_dihedral: 12.5}",
+       "mesh: [3000]",
+       {"mesh must be a mapping, got a list", "s.yaml:7:"}},
   };
   for (const auto& c : cases) {
     const std::string msg = error_of(replace(kFull, c.from, c.to));
-    for (const char* e : c.expect) EXPECT_NE(msg.find(e), std::string::npos) << "case '" << c.to << "': message: " << msg << "\n  lacks: " << e;
+    for (const char* e : c.expect)
+      EXPECT_NE(msg.find(e), std::string::npos)
+          << "case '" << c.to << "': message: " << msg << "\n  lacks: " << e;
   }
 }
 
 TEST(Scenario, MissingTopLevelKeysAndSyntax) {
   // No needle and nothing that loads the model: a static load case in which nothing would move.
   const std::string no_load = error_of("boundary_conditions: [{type: fixed, region: {box_face: x_min}}]\n");
-  EXPECT_NE(no_load.find("s.yaml:1: boundary_conditions: a scenario without 'needle' or 'needles' is a static load case"),
-            std::string::npos)
+  EXPECT_NE(
+      no_load.find(
+          "s.yaml:1: boundary_conditions: a scenario without 'needle' or 'needles' is a static load case"),
+      std::string::npos)
       << no_load;
-  EXPECT_NE(error_of("needle: {entry: [0,0,0], direction: [0,0,1], depth: 1, steps: 1, diameter: 1, friction: {model: stick}}\n").find("missing key 'boundary_conditions'"),
+  EXPECT_NE(error_of("needle: {entry: [0,0,0], direction: [0,0,1], depth: 1, steps: 1, diameter: 1, "
+                     "friction: {model: stick}}\n")
+                .find("missing key 'boundary_conditions'"),
             std::string::npos);
   EXPECT_NE(error_of("").find("empty"), std::string::npos);
   EXPECT_NE(error_of("needle: [1, 2\n").find("YAML syntax error"), std::string::npos);
@@ -318,12 +352,16 @@ TEST(Scenario, MissingTopLevelKeysAndSyntax) {
   const std::string y2 = R"(boundary_conditions: [{type: fixed, region: {box_face: z_min}}]
 needle: {entry: [0, 0], direction: [0, 1], depth: 1, steps: 1, diameter: 1, friction: {model: stick}}
 )";
-  EXPECT_NE(error_of(y2, 2).find("box_face = 'z_min' is not a face of the 2D image box; use one of: x_min, x_max, y_min, y_max"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of(y2, 2).find(
+          "box_face = 'z_min' is not a face of the 2D image box; use one of: x_min, x_max, y_min, y_max"),
+      std::string::npos);
   const std::string y3 = R"(boundary_conditions: [{type: fixed, region: {box_face: y_max}}]
 needle: {entry: [0, 0, 0], direction: [0, 1], depth: 1, steps: 1, diameter: 1, friction: {model: stick}}
 )";
-  EXPECT_NE(error_of(y3, 2).find("needle.entry must be a list of 2 numbers ([x, y]) for a 2D image, got a list of 3"), std::string::npos);
+  EXPECT_NE(error_of(y3, 2).find(
+                "needle.entry must be a list of 2 numbers ([x, y]) for a 2D image, got a list of 3"),
+            std::string::npos);
   EXPECT_THROW(read_scenario("/nonexistent/dir/s.yaml", 3), ScenarioError);
   // Only loads, no fixed or displacement condition: singular.
   const std::string loads = R"(boundary_conditions:
@@ -340,12 +378,14 @@ TEST(Scenario, GeometryAgainstTheImageBox) {
   const V lo(-10, -10, 0), hi(10, 10, 40);
   WorldTransform<3> id;
   auto scen = [](const std::string& needle, const std::string& target) {
-    return parse_scenario_text("boundary_conditions: [{type: fixed, region: {box_face: z_max}}]\nneedle: " + needle +
-                                   "\ntargets: [{name: t, position: " + target + "}]\n",
+    return parse_scenario_text("boundary_conditions: [{type: fixed, region: {box_face: z_max}}]\nneedle: " +
+                                   needle + "\ntargets: [{name: t, position: " + target + "}]\n",
                                3, "g.yaml");
   };
-  const std::string ok = "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 40, steps: 4, diameter: 1, friction: {model: stick}}";
-  EXPECT_NO_THROW(check_scenario_geometry<3>(scen(ok, "[0, 0, 39]"), lo, hi, id));  // entry on the surface, tip at the far face
+  const std::string ok =
+      "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 40, steps: 4, diameter: 1, friction: {model: stick}}";
+  EXPECT_NO_THROW(check_scenario_geometry<3>(scen(ok, "[0, 0, 39]"), lo, hi,
+                                             id));  // entry on the surface, tip at the far face
   auto msg = [&](const std::string& needle, const std::string& target, const WorldTransform<3>& t) {
     try {
       check_scenario_geometry<3>(scen(needle, target), lo, hi, t);
@@ -354,16 +394,24 @@ TEST(Scenario, GeometryAgainstTheImageBox) {
     }
     return std::string("no error");
   };
-  EXPECT_NE(msg("{entry: [0, 0, -1], direction: [0, 0, 1], depth: 5, steps: 4, diameter: 1, friction: {model: stick}}", "[0, 0, 1]", id)
-                .find("needle.entry [0, 0, -1] is outside the image box (world [-10, -10, 0] .. [10, 10, 40])"),
-            std::string::npos);
-  EXPECT_NE(msg("{entry: [0, 0, 0], direction: [0, 0, 1], depth: 41, steps: 4, diameter: 1, friction: {model: stick}}", "[0, 0, 1]", id)
+  EXPECT_NE(
+      msg("{entry: [0, 0, -1], direction: [0, 0, 1], depth: 5, steps: 4, diameter: 1, friction: {model: "
+          "stick}}",
+          "[0, 0, 1]", id)
+          .find("needle.entry [0, 0, -1] is outside the image box (world [-10, -10, 0] .. [10, 10, 40])"),
+      std::string::npos);
+  EXPECT_NE(msg("{entry: [0, 0, 0], direction: [0, 0, 1], depth: 41, steps: 4, diameter: 1, friction: "
+                "{model: stick}}",
+                "[0, 0, 1]", id)
                 .find("needle.depth = 41 takes the tip out of the image box"),
             std::string::npos);
-  EXPECT_NE(msg("{entry: [0, 0, 0], direction: [0, 0, -1], depth: 1, steps: 4, diameter: 1, friction: {model: stick}}", "[0, 0, 1]", id)
+  EXPECT_NE(msg("{entry: [0, 0, 0], direction: [0, 0, -1], depth: 1, steps: 4, diameter: 1, friction: "
+                "{model: stick}}",
+                "[0, 0, 1]", id)
                 .find("points out of the image box"),
             std::string::npos);
-  EXPECT_NE(msg(ok, "[0, 11, 5]", id).find("target 't' position [0, 11, 5] is outside the image box"), std::string::npos);
+  EXPECT_NE(msg(ok, "[0, 11, 5]", id).find("target 't' position [0, 11, 5] is outside the image box"),
+            std::string::npos);
   // The diameter must fit in the box across the needle. Truth: the box's width perpendicular to the needle,
   // found here by brute force as the smallest of sum_d |p_d| extent_d over 36,000 unit vectors p
   // perpendicular to the needle: 20 along z, 20 along x (the y extent), and 20·√2 = 28.28 along the
@@ -377,20 +425,32 @@ TEST(Scenario, GeometryAgainstTheImageBox) {
     }
     return best;
   };
-  const std::string along_z = "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 5, steps: 1, diameter: D, friction: {model: stick}}";
-  const std::string diagonal = "{entry: [-5, -5, 20], direction: [1, 1, 0], depth: 5, steps: 1, diameter: D, friction: {model: stick}}";
-  for (const auto& [needle, axis] : {std::pair{along_z, V(0, 0, 1)}, std::pair{diagonal, V(1, 1, 0).normalized()}}) {
+  const std::string along_z =
+      "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 5, steps: 1, diameter: D, friction: {model: stick}}";
+  const std::string diagonal =
+      "{entry: [-5, -5, 20], direction: [1, 1, 0], depth: 5, steps: 1, diameter: D, friction: {model: "
+      "stick}}";
+  for (const auto& [needle, axis] :
+       {std::pair{along_z, V(0, 0, 1)}, std::pair{diagonal, V(1, 1, 0).normalized()}}) {
     const double width = brute_width(axis);
-    EXPECT_EQ(msg(replace(needle, "D", std::to_string(0.999 * width)), "[0, 0, 1]", id), "no error") << needle;
+    EXPECT_EQ(msg(replace(needle, "D", std::to_string(0.999 * width)), "[0, 0, 1]", id), "no error")
+        << needle;
     const std::string big = msg(replace(needle, "D", std::to_string(1.001 * width)), "[0, 0, 1]", id);
     EXPECT_NE(big.find("g.yaml:2: needle.diameter = "), std::string::npos) << big;
     EXPECT_NE(big.find("is larger than the image box"), std::string::npos) << big;
   }
-  // A rotated image: world = origin + D (p - origin); frame box [-10,10]x[-10,10]x[0,40] about origin 0, D = Rz(90°).
+  // A rotated image: world = origin + D (p - origin); frame box [-10,10]x[-10,10]x[0,40] about origin 0, D =
+  // Rz(90°).
   WorldTransform<3> rot;
   rot.direction << 0, -1, 0, 1, 0, 0, 0, 0, 1;
-  EXPECT_EQ(msg("{entry: [-10, 5, 20], direction: [1, 0, 0], depth: 20, steps: 2, diameter: 1, friction: {model: stick}}", "[5, 0, 1]", rot), "no error");
-  EXPECT_NE(msg("{entry: [-10, 5, 20], direction: [1, 0, 0], depth: 21, steps: 2, diameter: 1, friction: {model: stick}}", "[5, 0, 1]", rot).find("largest depth"),
+  EXPECT_EQ(msg("{entry: [-10, 5, 20], direction: [1, 0, 0], depth: 20, steps: 2, diameter: 1, friction: "
+                "{model: stick}}",
+                "[5, 0, 1]", rot),
+            "no error");
+  EXPECT_NE(msg("{entry: [-10, 5, 20], direction: [1, 0, 0], depth: 21, steps: 2, diameter: 1, friction: "
+                "{model: stick}}",
+                "[5, 0, 1]", rot)
+                .find("largest depth"),
             std::string::npos);
   // An oblique image (Rz(45°)): the world point (13, 3, 5) lies inside the bounding box of the box's
   // corners (|x|, |y| <= 14.14) but outside the image; the message says where it is along the image's
@@ -399,14 +459,17 @@ TEST(Scenario, GeometryAgainstTheImageBox) {
   const double c = std::sqrt(0.5);
   obl.direction << c, -c, 0, c, c, 0, 0, 0, 1;
   const std::string m = msg(ok, "[13, 3, 5]", obl);
-  EXPECT_NE(m.find("target 't' position [13, 3, 5] is outside the image box (an oblique box: the world bounding box of its corners is "
+  EXPECT_NE(m.find("target 't' position [13, 3, 5] is outside the image box (an oblique box: the world "
+                   "bounding box of its corners is "
                    "[-14.1421, -14.1421, 0] .. [14.1421, 14.1421, 40], its centre [0, 0, 20])"),
             std::string::npos)
       << m;
-  EXPECT_NE(m.find("along the image axes from voxel 0's centre it is at [11.3137, -7.07107, 5], the box spans [-10, -10, 0] .. [10, 10, 40]"),
+  EXPECT_NE(m.find("along the image axes from voxel 0's centre it is at [11.3137, -7.07107, 5], the box "
+                   "spans [-10, -10, 0] .. [10, 10, 40]"),
             std::string::npos)
       << m;
-  EXPECT_EQ(msg(ok, "[0, 0, 1]", id).find("along the image axes"), std::string::npos);  // axis-aligned: no frame part
+  EXPECT_EQ(msg(ok, "[0, 0, 1]", id).find("along the image axes"),
+            std::string::npos);                      // axis-aligned: no frame part
   EXPECT_EQ(msg(ok, "[9, 3, 5]", obl), "no error");  // D^T (9, 3, 5) = (8.49, -4.24, 5): inside
 }
 
@@ -419,12 +482,13 @@ TEST(Scenario, ComponentsAreAcceptedOnAnyImageAndMapToImageAxesWhenAligned) {
   const Scenario with = parse_scenario_text(
       "boundary_conditions:\n  - {type: fixed, region: {box_face: z_max}}\n"
       "  - {type: fixed, region: {box_face: z_min}, components: [z]}\n"
-      "needle: {entry: [0, 0, 1], direction: [0, 0, 1], depth: 5, steps: 2, diameter: 1, friction: {model: stick}}\n",
+      "needle: {entry: [0, 0, 1], direction: [0, 0, 1], depth: 5, steps: 2, diameter: 1, friction: {model: "
+      "stick}}\n",
       3, "c.yaml");
   WorldTransform<3> id, perm, obl;
   perm.direction << 0, -1, 0, 1, 0, 0, 0, 0, 1;  // Rz(90°): image axes are world axes
   const double c = std::sqrt(0.5);
-  obl.direction << c, -c, 0, c, c, 0, 0, 0, 1;   // Rz(45°)
+  obl.direction << c, -c, 0, c, c, 0, 0, 0, 1;  // Rz(45°)
   for (const auto* t : {&id, &perm, &obl}) EXPECT_NO_THROW(check_scenario_geometry<3>(with, lo, hi, *t));
   EXPECT_TRUE(id.axis_aligned());
   EXPECT_TRUE(perm.axis_aligned());
@@ -444,7 +508,8 @@ TEST(Scenario, ModulusImageNeedsClampForNegativeOrNaN) {
     check_modulus_image(plain, img);
     ADD_FAILURE() << "negative voxel accepted";
   } catch (const ScenarioError& e) {
-    EXPECT_NE(std::string(e.what()).find("material.youngs_modulus: image has 1 voxels"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("material.youngs_modulus: image has 1 voxels"), std::string::npos)
+        << e.what();
     EXPECT_NE(std::string(e.what()).find("material.clamp"), std::string::npos);
   }
   img.data[5] = std::nanf("");
@@ -461,7 +526,8 @@ TEST(Scenario, ElasticRegionSupportAndCuttingDistance) {
   - {type: fixed, region: {cylinder: {center: [0, -20, 0], axis: [0, 0, 1], radius: 6}}, support: SUPPORT}
 needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 1, friction: {model: stick}, cutting_distance: 0.5}
 )";
-  const Scenario s = parse_scenario_text(replace(base, "SUPPORT", "{elastic: {stiffness: 15, spacing: 0.5}}"), 3);
+  const Scenario s =
+      parse_scenario_text(replace(base, "SUPPORT", "{elastic: {stiffness: 15, spacing: 0.5}}"), 3);
   EXPECT_EQ(s.boundary_conditions[0].support, BoundaryConditionSpec::Support::nodes);  // the default
   EXPECT_EQ(s.boundary_conditions[1].support, BoundaryConditionSpec::Support::elastic);
   EXPECT_DOUBLE_EQ(s.boundary_conditions[1].support_stiffness, 15.0);
@@ -479,17 +545,21 @@ needle: {entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 5, diameter: 
       {"glue", "support = 'glue' is not valid"},
   };
   expect_errors(base, "SUPPORT", bad);
-  EXPECT_NE(error_of(replace(replace(base, "SUPPORT", "nodes"), "{box_face: z_max}}", "{box_face: z_max}, support: nodes}"))
+  EXPECT_NE(error_of(replace(replace(base, "SUPPORT", "nodes"), "{box_face: z_max}}",
+                             "{box_face: z_max}, support: nodes}"))
                 .find("support applies only to type fixed on a volume region"),
             std::string::npos);
   const std::string plain = replace(base, "SUPPORT", "nodes");
-  EXPECT_NE(error_of(replace(plain, "cutting_distance: 0.5", "cutting_distance: -1")).find("needle.cutting_distance must be >= 0"),
+  EXPECT_NE(error_of(replace(plain, "cutting_distance: 0.5", "cutting_distance: -1"))
+                .find("needle.cutting_distance must be >= 0"),
             std::string::npos);
-  EXPECT_NE(error_of(replace(plain, "cutting_distance: 0.5", "cutting_distance: 10")).find("less than the depth"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of(replace(plain, "cutting_distance: 0.5", "cutting_distance: 10")).find("less than the depth"),
+      std::string::npos);
   // The force model loads the newest point with the tip force: a cutting distance would leave the first
   // millimetres without any force (a probe saw 0 N up to the first point, then 150), so it is refused.
-  EXPECT_NE(error_of(replace(plain, "diameter: 1, friction: {model: stick},", "diameter: 1, model: force, tip_force: 1,"))
+  EXPECT_NE(error_of(replace(plain, "diameter: 1, friction: {model: stick},",
+                             "diameter: 1, model: force, tip_force: 1,"))
                 .find("needle.cutting_distance applies only to needle model 'kinematic'"),
             std::string::npos);
 }
@@ -522,7 +592,8 @@ TEST(Scenario, NeedleRefinementAndPaths) {
 needles:
   - {entry: [1, 2, 3], direction: [0, 2, 0], depth: 10, steps: 5, diameter: 1, friction: {model: stick}}
   - {entry: [0, 0, 0], direction: [0, 0, 1], depth: 4, steps: 5, diameter: 1, friction: {model: stick}}
-)", 3);
+)",
+                                     3);
   const auto paths = needle_paths<3>(two, tf);
   ASSERT_EQ(paths.size(), 2u);
   EXPECT_LT((paths[0].entry - Eigen::Vector3d(1, 2, 3)).norm(), 1e-12);
@@ -538,7 +609,8 @@ needles:
 // A repeated key is refused (yaml-cpp would keep both and look up the first, silently dropping the
 // second), at the top level and inside a block, naming both lines.
 TEST(Scenario, DuplicateKeysAreErrors) {
-  const std::string top = error_of(std::string(kMinimal) + "material: {poisson_ratio: 0.3}\nmaterial: {poisson_ratio: 0.2}\n");
+  const std::string top =
+      error_of(std::string(kMinimal) + "material: {poisson_ratio: 0.3}\nmaterial: {poisson_ratio: 0.2}\n");
   EXPECT_NE(top.find("s.yaml:5:"), std::string::npos) << top;
   EXPECT_NE(top.find("duplicate key 'material' (first given on line 4)"), std::string::npos) << top;
   const std::string inner = error_of(replace(kMinimal, "depth: 10,", "depth: 10, depth: 5,"));
@@ -549,7 +621,8 @@ TEST(Scenario, DuplicateKeysAreErrors) {
 // underflows (1e-170) must not turn the direction into zeros or into an error.
 TEST(Scenario, DirectionsOfAnyMagnitudeAreNormalised) {
   for (const char* d : {"[1e200, 0, 1e200]", "[1e-170, 0, 1e-170]", "[3, 0, 3]"}) {
-    const Scenario s = parse_scenario_text(replace(kMinimal, "direction: [0, 0, 1]", std::string("direction: ") + d), 3);
+    const Scenario s =
+        parse_scenario_text(replace(kMinimal, "direction: [0, 0, 1]", std::string("direction: ") + d), 3);
     ASSERT_EQ(s.needles.size(), 1u);
     EXPECT_NEAR(s.needles[0].direction[0], std::sqrt(0.5), 1e-15) << d;
     EXPECT_EQ(s.needles[0].direction[1], 0.0) << d;
@@ -559,15 +632,20 @@ TEST(Scenario, DirectionsOfAnyMagnitudeAreNormalised) {
 
 // Keys that the chosen model would ignore are refused, as tip_force is with the kinematic model.
 TEST(Scenario, KeysTheModelWouldIgnoreAreErrors) {
-  const std::string friction = error_of(
-      replace(kMinimal, "diameter: 1,", "diameter: 1, model: force, tip_force: 5,"));
-  EXPECT_NE(friction.find("needle.friction applies only to needle model 'kinematic'"), std::string::npos) << friction;
+  const std::string friction =
+      error_of(replace(kMinimal, "diameter: 1,", "diameter: 1, model: force, tip_force: 5,"));
+  EXPECT_NE(friction.find("needle.friction applies only to needle model 'kinematic'"), std::string::npos)
+      << friction;
   const std::string scale = error_of(std::string(kMinimal) + "material: {youngs_modulus: 20, scale: 3}\n");
   EXPECT_NE(scale.find("material.scale applies only to youngs_modulus: image"), std::string::npos) << scale;
   // scale 1 with a constant modulus changes nothing and is accepted.
-  EXPECT_NO_THROW(parse_scenario_text(std::string(kMinimal) + "material: {youngs_modulus: 20, scale: 1}\n", 3));
-  const std::string spacing = error_of(replace(kMinimal, "diameter: 1, friction: {model: stick}}", "diameter: 1, friction: {model: stick}, sample_spacing: 1.0e-8}"));
+  EXPECT_NO_THROW(
+      parse_scenario_text(std::string(kMinimal) + "material: {youngs_modulus: 20, scale: 1}\n", 3));
+  const std::string spacing =
+      error_of(replace(kMinimal, "diameter: 1, friction: {model: stick}}",
+                       "diameter: 1, friction: {model: stick}, sample_spacing: 1.0e-8}"));
   EXPECT_NE(spacing.find("more than 100000 shaft points"), std::string::npos) << spacing;
-  const std::string clamp = error_of(std::string(kMinimal) + "material: {youngs_modulus: image, clamp: [1, 2, 3]}\n");
+  const std::string clamp =
+      error_of(std::string(kMinimal) + "material: {youngs_modulus: image, clamp: [1, 2, 3]}\n");
   EXPECT_NE(clamp.find("got a list of 3"), std::string::npos) << clamp;
 }

@@ -7,16 +7,29 @@
 
 namespace vim::fem {
 
-// Solves `model` over `comm` with Trilinos CG + AMG with rigid-body modes: simplex models on a
-// METIS-partitioned parallel::shared::Triangulation (every rank holds the whole mesh); voxel models on a
+// Solves `model` over `comm`: simplex models on a METIS-partitioned parallel::shared::Triangulation
+// (every rank holds the whole mesh) with Trilinos CG + AMG with rigid-body modes; voxel models on a
 // p4est parallel::distributed::Triangulation built from the grid description, so a rank holds only its
 // part (a voxel model's serial mesh is built only if solve()/solve_monolithic()/strain_energy_of() is
-// used). Collective: every rank must hold the same model (same mesh, moduli, conditions) and call it.
+// used), in 3D with CG preconditioned by a matrix-free geometric multigrid over the grid's refinement
+// levels (no matrix is stored) when every Dirichlet condition holds DoFs along the model's axes, else
+// CG + AMG. Collective: every rank must hold the same model (same mesh, moduli, conditions) and call it.
 // Every rank gets the full vertex_displacement, per-cell fields, strain energy and reactions. Point
-// constraints and volume supports are not supported here (use ElasticModel::solve()). With more than
+// constraints and volume supports are not supported here (see distribute_solves). With more than
 // one rank, OpenBLAS, OpenMP and deal.II's TBB run one thread per rank during the call (their worker
 // threads otherwise spin on the cores the other ranks need); the previous limits are restored on return.
 template <int dim>
 Solution<dim> solve_distributed(ElasticModel<dim>& model, MPI_Comm comm, const SolverOptions& options = {});
+
+// Makes the model's solve() and precompute() collective over `comm`: without point constraints a voxel
+// model's solve() is solve_distributed (also on one rank: the matrix-free multigrid without a serial
+// mesh); otherwise, with more than one rank, every rank holds the serial model (mesh,
+// assembled K for the post-processing, constraint rows), and each K⁻¹ — the load's u0 and every
+// compliance column K⁻¹cᵀ of a point-constraint row — is one CG + AMG solve on the distributed system
+// (kept across calls), gathered to every rank; the Schur step over the rows is the serial one, done
+// alike on every rank. Every rank must build the same model and make the same calls. Volume supports
+// are refused (std::invalid_argument). The solver options' type is ignored (always CG + AMG).
+template <int dim>
+void distribute_solves(ElasticModel<dim>& model, MPI_Comm comm);
 
 }  // namespace vim::fem

@@ -65,6 +65,7 @@ class MeshingRun {
     make_mesh();
     build_model();
     simulate();
+    if (!out_) return;  // a rank other than 0 of a simulation over MPI ranks: rank 0 writes the files
     write_outputs();
     write_report();
   }

@@ -51,6 +51,9 @@ struct RunOptions {
   Verbosity verbosity = Verbosity::normal;
 
   std::vector<std::string> command_line;  // argv, for the report
+  // Not an option: the MPI ranks one simulation runs on (mpirun without --study); the FEM solves go
+  // over MPI_COMM_WORLD and the step files are written as .pvtu with a .vtu piece per rank.
+  int mpi_ranks = 1;
 
   // The mesher's options (threads, seed, λ, quality bound, iterations) taken from this struct.
   VimOptions vim_options() const;

@@ -126,7 +126,7 @@ struct Scenario {
                                             "youngs_modulus"};
   bool wants(const std::string& field) const;
 
-  std::string solver_type = "auto";  // auto | direct | amg
+  std::string solver_type = "auto";  // auto | direct | amg | multigrid (voxel model, matrix-free)
   double solver_tolerance = 1e-10;
 
   // "file.yaml:LINE: " prefix for messages (line <= 0: just "file.yaml: ").

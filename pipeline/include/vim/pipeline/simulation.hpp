@@ -79,6 +79,9 @@ struct SimulationOptions {
   // The caller has checked the scenario against this image's box (check_scenario_geometry, and for
   // the voxel model check_modulus_image): the simulation does not check it again.
   bool scenario_checked = false;
+  // More than 1 (mpirun): every rank builds the same simulation, the FEM solves run over
+  // MPI_COMM_WORLD (fem::distribute_solves) and step files are .pvtu with this many .vtu pieces.
+  int mpi_ranks = 1;
 };
 
 template <int dim>

@@ -63,7 +63,7 @@ Study parse_study_text(const std::string& yaml_text, const std::string& source, 
 int run_study(const RunOptions& options);
 
 // True (after printing the error on rank 0 alone) when an MPI launcher started several processes for a
-// run that is not a study: each would run the whole command into the same folder.
+// run that is neither a study nor a simulation (meshing alone, --info): nothing of it runs over ranks.
 bool refused_on_many_ranks(const RunOptions& options);
 
 }  // namespace vim::pipeline

@@ -4,6 +4,7 @@
 
 #include <array>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -53,6 +54,16 @@ template <int dim>
 UnstructuredGrid voxel_grid(const Image<dim>& image, const WorldTransform<dim>& transform);
 
 void write_vtu(const std::filesystem::path& path, const UnstructuredGrid& grid);
+
+// The cells [n·r/pieces, n·(r+1)/pieces) of `grid` with the points they use (renumbered in order of
+// first use) and their point and cell fields: piece r of `pieces`.
+UnstructuredGrid grid_piece(const UnstructuredGrid& grid, int r, int pieces);
+
+// `grid` as a parallel VTU: `relative` names the .pvtu ("steps/step_0003.pvtu"), its pieces are
+// STEM_R.vtu next to it (r = 0 … pieces − 1, grid_piece), each path taken from `file` (e.g.
+// OutputDirectory::file); every file written atomically, the .pvtu last.
+void write_pvtu(const std::function<std::filesystem::path(const std::string&)>& file,
+                const std::string& relative, const UnstructuredGrid& grid, int pieces);
 
 // ParaView collection: (time, file relative to the .pvd) pairs.
 void write_pvd(const std::filesystem::path& path, const std::vector<std::pair<double, std::string>>& entries);

@@ -1,0 +1,50 @@
+// Internal to vim_fem: the distributed system of an MPI solve (distributed.cpp) and the matrix-free
+// geometric multigrid solve of 3D voxel models on it (distributed_mg.cpp).
+#pragma once
+
+#include <deal.II/distributed/tria_base.h>
+#include <deal.II/lac/trilinos_sparse_matrix.h>
+#include <deal.II/lac/trilinos_vector.h>
+
+#include <memory>
+#include <unordered_map>
+#include <vector>
+
+#include "model_state.hpp"
+
+namespace vim::fem {
+
+template <int dim>
+using State = ModelAccess::State<dim>;
+
+// The distributed mesh, DoFs, Dirichlet constraints and assembled system of one solve (K stays empty
+// when the solve is matrix-free).
+template <int dim>
+struct DistributedSystem {
+  std::unique_ptr<dealii::parallel::TriangulationBase<dim>> tria;
+  dealii::DoFHandler<dim> dof;
+  dealii::IndexSet owned, relevant;
+  // per relevant DoF (position in `relevant`): support point and component
+  std::vector<dealii::Point<dim>> rel_point;
+  std::vector<unsigned char> rel_comp;
+  dealii::AffineConstraints<double> constraints;
+  std::unordered_map<dealii::types::global_dof_index, int> dof_bc;  // Dirichlet DoF -> its condition
+  dealii::TrilinosWrappers::SparseMatrix K;
+  dealii::TrilinosWrappers::MPI::Vector f;
+};
+
+// Whether a voxel model's distributed solve can be matrix-free multigrid: 3D, and every Dirichlet
+// condition holds DoFs along the model's axes (constraint lines u_i = value, no oblique axes).
+bool voxel_multigrid_applies(const State<3>& m, const DistributedSystem<3>& sys);
+
+// u = K⁻¹ f on the p4est voxel grid of `sys` (built with its multigrid hierarchy and level DoFs), by CG
+// preconditioned with a matrix-free geometric multigrid V-cycle (Chebyshev smoothing, per-cell Lamé
+// parameters; coarse cells take the mean modulus of their voxels). `sys.f` is the assembled load with
+// the Dirichlet values moved to the right-hand side; the result's constrained entries are zero (the
+// caller distributes the constraints). Fills iterations, residual and precondition_seconds of stats.
+dealii::TrilinosWrappers::MPI::Vector solve_voxel_multigrid(const State<3>& m,
+                                                            const DistributedSystem<3>& sys,
+                                                            const SolverOptions& opt, MPI_Comm comm,
+                                                            SolverStats& stats);
+
+}  // namespace vim::fem

@@ -1,0 +1,199 @@
+// One simulation on two MPI ranks through the real CLI (this program starts `mpirun -np 2 vim-pipeline
+// ...`). Truth: the serial run of the same image and scenario (CHOLMOD's direct solve, one process);
+// the two-rank run (CG + AMG on the distributed mesh, the needle's compliance columns one distributed
+// solve each) gives the same needle forces, target displacements, step displacements and stresses to
+// 1e-8 of their scale, with the steps as .pvtu files of one piece per rank.
+#include <gtest/gtest.h>
+#include <vtkCellData.h>
+#include <vtkDataArray.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkSmartPointer.h>
+#include <vtkUnstructuredGrid.h>
+#include <vtkXMLPUnstructuredGridReader.h>
+#include <vtkXMLUnstructuredGridReader.h>
+
+#include <array>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "run_cli.hpp"
+#include "study_inputs.hpp"
+
+using vim::test::quote;
+using vim::test::run_command;
+using vim::test::run_pipeline;
+namespace fs = std::filesystem;
+
+namespace {
+
+vim::test::CliResult run_on_ranks(int ranks, const std::string& args) {
+  return run_command("env", "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 " +
+                                quote(VIM_MPIEXEC) + " -np " + std::to_string(ranks) + " --oversubscribe " +
+                                quote(VIM_PIPELINE_EXE) + " " + args);
+}
+
+template <class Reader>
+vtkSmartPointer<vtkUnstructuredGrid> read_grid(const fs::path& path) {
+  vtkNew<Reader> r;
+  r->SetFileName(path.c_str());
+  r->Update();
+  return r->GetOutput();
+}
+
+// A point field of a grid by the point's coordinates (pieces renumber and repeat their shared points).
+using PointValues = std::map<std::array<double, 3>, std::vector<double>>;
+PointValues by_position(vtkUnstructuredGrid* g, const char* field) {
+  PointValues out;
+  vtkDataArray* a = g->GetPointData()->GetArray(field);
+  if (!a) return out;
+  for (vtkIdType i = 0; i < g->GetNumberOfPoints(); ++i) {
+    std::array<double, 3> p{};
+    g->GetPoint(i, p.data());
+    std::vector<double> v(static_cast<std::size_t>(a->GetNumberOfComponents()));
+    for (int c = 0; c < a->GetNumberOfComponents(); ++c)
+      v[static_cast<std::size_t>(c)] = a->GetComponent(i, c);
+    out[p] = v;
+  }
+  return out;
+}
+
+// The largest |a − b| over all entries and the largest |a|.
+struct Misfit {
+  double diff = 0.0, scale = 0.0;
+  void add(double a, double b) {
+    diff = std::max(diff, std::abs(a - b));
+    scale = std::max(scale, std::abs(a));
+  }
+};
+
+// Step `step` of the serial run (.vtu) against the two-rank run (.pvtu, two pieces): the displacement
+// at every point and the sorted per-cell stress components (pieces keep the cells' order).
+void expect_same_step(const fs::path& serial, const fs::path& two, const std::string& step) {
+  const auto a = read_grid<vtkXMLUnstructuredGridReader>(serial / "steps" / (step + ".vtu"));
+  ASSERT_TRUE(fs::exists(two / "steps" / (step + ".pvtu")));
+  EXPECT_TRUE(fs::exists(two / "steps" / (step + "_0.vtu")));
+  EXPECT_TRUE(fs::exists(two / "steps" / (step + "_1.vtu")));
+  const auto b = read_grid<vtkXMLPUnstructuredGridReader>(two / "steps" / (step + ".pvtu"));
+  ASSERT_EQ(a->GetNumberOfCells(), b->GetNumberOfCells());
+  const PointValues ua = by_position(a, "displacement"), ub = by_position(b, "displacement");
+  ASSERT_FALSE(ua.empty());
+  ASSERT_EQ(ua.size(), ub.size());
+  Misfit u;
+  for (const auto& [p, v] : ua) {
+    ASSERT_EQ(ub.count(p), 1u);
+    for (std::size_t c = 0; c < v.size(); ++c) u.add(v[c], ub.at(p)[c]);
+  }
+  EXPECT_GT(u.scale, 0.0);
+  EXPECT_LE(u.diff, 1e-8 * u.scale) << step << " displacement";
+  vtkDataArray* sa = a->GetCellData()->GetArray("stress");
+  vtkDataArray* sb = b->GetCellData()->GetArray("stress");
+  ASSERT_TRUE(sa && sb);
+  Misfit s;
+  for (vtkIdType i = 0; i < a->GetNumberOfCells(); ++i)
+    for (int c = 0; c < 9; ++c) s.add(sa->GetComponent(i, c), sb->GetComponent(i, c));
+  EXPECT_LE(s.diff, 1e-8 * s.scale) << step << " stress";
+}
+
+// needle.csv as columns of numbers.
+std::map<std::string, std::vector<double>> read_columns(const fs::path& path) {
+  std::map<std::string, std::vector<double>> out;
+  for (const auto& row : vim::test::read_study_csv(path))
+    for (const auto& [column, cell] : row) out[column].push_back(cell.empty() ? 0.0 : std::stod(cell));
+  return out;
+}
+
+nlohmann::json read_json(const fs::path& path) { return nlohmann::json::parse(std::ifstream(path)); }
+
+std::size_t count(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (std::size_t at = 0; (at = text.find(what, at)) != std::string::npos; ++at) ++n;
+  return n;
+}
+
+}  // namespace
+
+// A needle (finite diameter: the band rows with their series compliance) into the table1 phantom, on a
+// VIM mesh (shared triangulation) and on the voxel model (p4est): every column of needle.csv (forces,
+// tip, target displacements) and the last step agree.
+TEST(SimulateMpi, NeedleOnTwoRanksEqualsTheSerialRun) {
+  vim::test::TempDir dir("simulate_mpi_needle");
+  vim::test::write_study_inputs(dir.path);
+  std::ofstream(dir.path / "base.yaml", std::ios::app) << "solver: {tolerance: 1e-13}\n";
+  for (const std::string mesher : {"vim", "voxel"}) {
+    const fs::path serial_dir = dir.path / ("serial_" + mesher), two_dir = dir.path / ("two_" + mesher);
+    const std::string common = quote(dir / "in.mha") + " --mesher " + mesher +
+                               " --nodes 100 --max-iterations 3 --export none --simulate " +
+                               quote(dir / "base.yaml") + " --out ";
+    const auto serial = run_pipeline(common + quote(serial_dir.string()) + " -q");
+    ASSERT_EQ(serial.code, 0) << serial.err;
+    const auto two = run_on_ranks(2, common + quote(two_dir.string()));
+    ASSERT_EQ(two.code, 0) << two.err;
+    const auto a = read_columns(serial_dir / "needle.csv");
+    const auto b = read_columns(two_dir / "needle.csv");
+    ASSERT_EQ(a.size(), b.size());
+    ASSERT_TRUE(a.count("axial_force"));
+    // A column that is zero by symmetry (lateral force, a target's off-axis displacement) holds
+    // rounding noise: its scale is at least 1e-6 of the largest number of the file.
+    double file_scale = 0.0;
+    for (const auto& [column, values] : a)
+      for (const double v : values) file_scale = std::max(file_scale, std::abs(v));
+    for (const auto& [column, values] : a) {
+      ASSERT_EQ(values.size(), b.at(column).size()) << column;
+      Misfit m;
+      for (std::size_t i = 0; i < values.size(); ++i) m.add(values[i], b.at(column)[i]);
+      EXPECT_LE(m.diff, 1e-8 * std::max(m.scale, 1e-6 * file_scale)) << mesher << " " << column;
+    }
+    EXPECT_GT(std::abs(a.at("axial_force").back()), 0.0);
+    expect_same_step(serial_dir, two_dir, "step_0003");
+    const auto report = read_json(two_dir / "report.json");
+    EXPECT_NE(report.dump().find("mpi, 2 ranks"), std::string::npos) << mesher;
+    EXPECT_TRUE(fs::exists(two_dir / "mesh.vtu"));
+    EXPECT_FALSE(fs::exists(two_dir / "steps" / "step_0003.vtu"));
+  }
+}
+
+// A compression of the voxel model (p4est on two ranks, no serial mesh): the step's displacements and
+// stresses and the sampled target agree.
+TEST(SimulateMpi, VoxelCompressionOnTwoRanksEqualsTheSerialRun) {
+  vim::test::TempDir dir("simulate_mpi_voxel");
+  vim::test::write_study_inputs(dir.path);
+  std::ofstream(dir.path / "press.yaml")
+      << "material: {youngs_modulus: image, scale: 10.0, poisson_ratio: 0.3}\n"
+         "boundary_conditions:\n"
+         "  - {type: fixed, region: {box_face: z_min}}\n"
+         "  - {type: displacement, region: {box_face: z_max}, value: [0.02, 0, -0.05]}\n"
+         "targets: [{name: inner, position: [1.3, 1.7, 2.2]}]\n"
+         "solver: {tolerance: 1e-13}\n";
+  const std::string common =
+      quote(dir / "in.mha") + " --mesher voxel --simulate " + quote(dir / "press.yaml") + " --out ";
+  const auto serial = run_pipeline(common + quote(dir / "serial") + " -q");
+  ASSERT_EQ(serial.code, 0) << serial.err;
+  const auto two = run_on_ranks(2, common + quote(dir / "two"));
+  ASSERT_EQ(two.code, 0) << two.err;
+  expect_same_step(dir.path / "serial", dir.path / "two", "step_0000");
+  const auto ta =
+      read_json(dir.path / "serial" / "report.json")["simulation"]["static_load"]["targets"]["inner"];
+  const auto tb =
+      read_json(dir.path / "two" / "report.json")["simulation"]["static_load"]["targets"]["inner"];
+  Misfit m;
+  for (int c = 0; c < 3; ++c) m.add(ta["displacement"][c].get<double>(), tb["displacement"][c].get<double>());
+  EXPECT_GT(m.scale, 1e-4);
+  EXPECT_LE(m.diff, 1e-8 * m.scale);
+}
+
+// A bad scenario on two ranks: one error line, a non-zero exit, no output folder.
+TEST(SimulateMpi, AnErrorIsPrintedOnceAndEveryRankFails) {
+  vim::test::TempDir dir("simulate_mpi_error");
+  vim::test::write_study_inputs(dir.path);
+  std::ofstream(dir.path / "bad.yaml") << "material: {youngs_modulus: image, poisson_ratio: 0.7}\n";
+  const auto two = run_on_ranks(2, quote(dir / "in.mha") + " --mesher voxel --simulate " +
+                                       quote(dir / "bad.yaml") + " --out " + quote(dir / "out"));
+  EXPECT_NE(two.code, 0);
+  EXPECT_EQ(count(two.err, "vim-pipeline: error:"), 1u) << two.err;
+  EXPECT_NE(two.err.find("poisson_ratio"), std::string::npos) << two.err;
+  EXPECT_FALSE(fs::exists(dir.path / "out" / "report.json"));
+}
