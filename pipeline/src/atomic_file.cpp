@@ -2,6 +2,8 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
+#include <cstring>
 #include <stdexcept>
 #include <vim/pipeline/atomic_file.hpp>
 
@@ -34,9 +36,14 @@ void write_text_atomically(const fs::path& final_path, const std::function<void(
     std::ofstream out(tmp);
     if (!out) throw std::runtime_error("cannot open " + tmp.string() + " for writing");
     out.precision(17);
+    errno = 0;
     write(out);
-    out.flush();
-    if (!out) throw std::runtime_error("error while writing " + final_path.string());
+    out.close();
+    if (!out) {
+      // errno of the failed write() (EFBIG, ENOSPC, EIO, ...), as the VTK and PNG writers report it.
+      const std::string why = errno != 0 ? std::string(": ") + std::strerror(errno) : std::string();
+      throw std::runtime_error("cannot write " + final_path.string() + why + " (is the disk full?)");
+    }
   });
 }
 

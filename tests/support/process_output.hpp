@@ -21,6 +21,8 @@
 #include <string>
 #include <vector>
 
+#include "run_cli.hpp"  // slurp
+
 namespace vim::test {
 
 namespace fs = std::filesystem;
@@ -30,13 +32,6 @@ struct ProcessResult {
   int signal = 0;   // terminating signal, if any
   std::string err;  // everything the CLI wrote to stderr
 };
-
-inline std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 // fork/exec of vim-pipeline with stdout to /dev/null and stderr to `err_file`; file_size_limit >= 0
 // sets RLIMIT_FSIZE (bytes) in the child, with SIGXFSZ ignored (a full disk, without privileges).
