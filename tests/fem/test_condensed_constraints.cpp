@@ -9,6 +9,7 @@
 #include <vim/fem/elasticity.hpp>
 
 #include "box_mesh.hpp"
+#include "needle_path_rows.hpp"
 
 using namespace vim;
 using namespace vim::fem;
@@ -44,23 +45,7 @@ ElasticModel<dim> block(unsigned degree) {
 // rows alternating, the last one on the held corner (a void row).
 template <int dim>
 std::vector<PointConstraint<dim>> path() {
-  std::vector<PointConstraint<dim>> path;
-  for (int j = 0; j < 5; ++j) {
-    PointConstraint<dim> p;
-    p.position = Vec<dim>::Constant(0.5);
-    p.position[dim - 1] = 0.9 - 0.17 * j;
-    p.position[0] = 0.31 + 0.013 * j;
-    if (j % 2 == 1) {
-      for (int q = 0; q < 4; ++q) {
-        Vec<dim> o = Vec<dim>::Zero();
-        o[q % (dim - 1)] = (q < 2 ? 0.04 : -0.04);
-        p.offsets.push_back(o);
-        p.weights.push_back(1.0 + 0.1 * q);
-      }
-      p.compliance = Vec<dim>::Constant(0.02);
-    }
-    path.push_back(p);
-  }
+  std::vector<PointConstraint<dim>> path = vim::test::needle_path_rows<dim>(5, 0.17, 0.31, 0.013);
   path.push_back(PointConstraint<dim>(Vec<dim>::Zero()));  // on the held corner
   return path;
 }

@@ -1,18 +1,17 @@
 // Tests for fem/include/vim/fem/elasticity.hpp against independent truth: patch tests (linear
 // fields reproduced exactly), the two-material bar in series (σ(L1/E1 + L2/E2)), a near-incompressible
 // cantilever vs Euler–Bernoulli, fast (Schur, cached) vs monolithic point constraints, and bad input.
-#include "box_mesh.hpp"
-
-#include <vim/fem/distributed.hpp>
-#include <vim/fem/elasticity.hpp>
-
-#include <Eigen/Geometry>
-
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <random>
+#include <vim/fem/distributed.hpp>
+#include <vim/fem/elasticity.hpp>
+
+#include "box_mesh.hpp"
+#include "needle_path_rows.hpp"
 
 using namespace vim;
 using namespace vim::fem;
@@ -77,7 +76,8 @@ void patch_test(unsigned degree) {
     ASSERT_LT((sol.cell_strain[j] - eps).norm(), 1e-10 * eps.norm()) << "cell " << j;
     // textbook Lamé parameters, not the code's lame_parameters
     const double lambda = E[j] * nu / ((1 + nu) * (1 - 2 * nu)), mu = E[j] / (2 * (1 + nu));
-    Eigen::Matrix<double, dim, dim> sigma = 2 * mu * eps + lambda * eps.trace() * Eigen::Matrix<double, dim, dim>::Identity();
+    Eigen::Matrix<double, dim, dim> sigma =
+        2 * mu * eps + lambda * eps.trace() * Eigen::Matrix<double, dim, dim>::Identity();
     ASSERT_LT((sol.cell_stress[j] - sigma).norm(), 1e-9 * sigma.norm()) << "cell " << j;
     energy += 0.5 * (sigma.array() * eps.array()).sum() * std::abs(signed_volume(mesh, j));
   }
@@ -180,10 +180,13 @@ TEST(LayeredBar, FromVoxelImageThroughElementModulus) {
   const int nx = 20, ny = 4, nz = 4;  // voxel size 0.1 × 0.125 × 0.2
   const double Lx = L1 + L2, Ly = 0.5, Lz = 0.8;
   std::vector<double> image(nx * ny * nz);
-  auto centre = [&](int i, int j, int k) { return Vec<3>((i + 0.5) * Lx / nx, (j + 0.5) * Ly / ny, (k + 0.5) * Lz / nz); };
+  auto centre = [&](int i, int j, int k) {
+    return Vec<3>((i + 0.5) * Lx / nx, (j + 0.5) * Ly / ny, (k + 0.5) * Lz / nz);
+  };
   for (int k = 0; k < nz; ++k)
     for (int j = 0; j < ny; ++j)
-      for (int i = 0; i < nx; ++i) image[i + nx * (j + ny * k)] = 1000.0 * (centre(i, j, k)[0] < L1 ? E1 : E2);
+      for (int i = 0; i < nx; ++i)
+        image[i + nx * (j + ny * k)] = 1000.0 * (centre(i, j, k)[0] < L1 ? E1 : E2);
   // mesh nodes on every second voxel boundary: the interface x = L1 = 6 voxels is a node plane
   std::array<int, 3> cells{{10, 2, 2}};
   const auto mesh = test::kuhn_box<3>(cells, {{0, 0, 0}}, {{Lx, Ly, Lz}});
@@ -273,7 +276,8 @@ double cantilever_tip(unsigned degree, int nx, int nyz) {
 TEST(Cantilever, NearIncompressibleP2ConvergesP1Locks) {
   const double p1 = cantilever_tip(1, 20, 2), p2 = cantilever_tip(2, 20, 2);
   const double p1_fine = cantilever_tip(1, 40, 4);
-  std::printf("cantilever nu=0.49 tip/EB: P1(20x2x2) %.4f  P1(40x4x4) %.4f  P2(20x2x2) %.4f\n", p1, p1_fine, p2);
+  std::printf("cantilever nu=0.49 tip/EB: P1(20x2x2) %.4f  P1(40x4x4) %.4f  P2(20x2x2) %.4f\n", p1, p1_fine,
+              p2);
   EXPECT_GT(p2, 0.93);
   EXPECT_LT(p2, 1.05);
   EXPECT_LT(p1, 0.5);  // locking: far too stiff
@@ -322,8 +326,10 @@ void fast_vs_monolithic(unsigned degree) {
     points.push_back(p);
     for (auto& q : points)
       if (q.position[dim - 1] > 0.01) q.displacement[dim - 1] = -0.01 * (step + 1);
-    if (step == 3) points[0].components = DirichletBC<dim>::filled(false), points[0].components[dim - 1] = true;
-    if (step == 2) points.push_back({Vec<dim>::Constant(0.0), Vec<dim>::Constant(0.0)});  // on the fixed corner: void row
+    if (step == 3)
+      points[0].components = DirichletBC<dim>::filled(false), points[0].components[dim - 1] = true;
+    if (step == 2)
+      points.push_back({Vec<dim>::Constant(0.0), Vec<dim>::Constant(0.0)});  // on the fixed corner: void row
     const auto fast = model.solve(points);
     const auto ref = model.solve_monolithic(points);
     double umax = 0, fmax = 0;
@@ -332,9 +338,11 @@ void fast_vs_monolithic(unsigned degree) {
     ASSERT_GT(umax, 0);
     ASSERT_GT(fmax, 0);
     for (std::size_t i = 0; i < ref.vertex_displacement.size(); ++i)
-      ASSERT_LT((fast.vertex_displacement[i] - ref.vertex_displacement[i]).norm(), 1e-8 * umax) << "step " << step;
+      ASSERT_LT((fast.vertex_displacement[i] - ref.vertex_displacement[i]).norm(), 1e-8 * umax)
+          << "step " << step;
     for (std::size_t k = 0; k < points.size(); ++k)
-      ASSERT_LT((fast.point_force[k] - ref.point_force[k]).norm(), 1e-8 * fmax) << "step " << step << " point " << k;
+      ASSERT_LT((fast.point_force[k] - ref.point_force[k]).norm(), 1e-8 * fmax)
+          << "step " << step << " point " << k;
     EXPECT_NEAR(fast.strain_energy, ref.strain_energy, 1e-8 * ref.strain_energy);
     // the constraints hold at the embedded points
     std::vector<Vec<dim>> pos;
@@ -343,7 +351,8 @@ void fast_vs_monolithic(unsigned degree) {
     for (std::size_t k = 0; k < points.size(); ++k)
       for (int c = 0; c < dim; ++c)
         if (points[k].components[c]) {
-          EXPECT_NEAR(at[k][c], points[k].displacement[c], 1e-10) << "step " << step << " point " << k << " comp " << c;
+          EXPECT_NEAR(at[k][c], points[k].displacement[c], 1e-10)
+              << "step " << step << " point " << k << " comp " << c;
         }
     // global equilibrium: reactions + point forces + body force = 0 (per component)
     Vec<dim> total = Vec<dim>::Constant(-0.1);  // body force × unit volume
@@ -365,22 +374,8 @@ namespace {
 template <int dim>
 void precomputed_vs_monolithic(unsigned degree) {
   auto model = needle_block<dim>(degree);
-  std::vector<PointConstraint<dim>> path;
-  for (int j = 0; j < 5; ++j) {
-    PointConstraint<dim> p;
-    p.position = Vec<dim>::Constant(0.5);
-    p.position[dim - 1] = 0.9 - 0.15 * j;
-    if (j % 2 == 1) {  // a band: the mean over four samples around the axis, held through a compliance
-      for (int q = 0; q < 4; ++q) {
-        Vec<dim> o = Vec<dim>::Zero();
-        o[q % (dim - 1)] = (q < 2 ? 0.04 : -0.04);
-        p.offsets.push_back(o);
-        p.weights.push_back(1.0 + 0.1 * q);
-      }
-      p.compliance = Vec<dim>::Constant(0.02);
-    }
-    path.push_back(p);
-  }
+  // Band rows (a finite-radius needle's stations) and point rows alternating.
+  const std::vector<PointConstraint<dim>> path = vim::test::needle_path_rows<dim>(5, 0.15, 0.5, 0.0);
   EXPECT_EQ(model.precompute(path), static_cast<unsigned>(dim * path.size()));
   EXPECT_EQ(model.precompute(path), 0u);  // all cached
   std::vector<PointConstraint<dim>> active;
@@ -437,7 +432,8 @@ TEST(PointConstraints, RedundantCollinearPointsInOneElement) {
   for (const auto& u : ref.vertex_displacement) umax = std::max(umax, u.norm());
   for (std::size_t i = 0; i < ref.vertex_displacement.size(); ++i)
     ASSERT_LT((fast.vertex_displacement[i] - ref.vertex_displacement[i]).norm(), 1e-8 * umax);
-  for (std::size_t k = 0; k < pts.size(); ++k) EXPECT_LT((fast.point_force[k] - ref.point_force[k]).norm(), 1e-8);
+  for (std::size_t k = 0; k < pts.size(); ++k)
+    EXPECT_LT((fast.point_force[k] - ref.point_force[k]).norm(), 1e-8);
   std::vector<Vec<3>> pos;
   for (const auto& p : pts) pos.push_back(p.position);
   const auto at = model.sample(pos);
@@ -487,7 +483,8 @@ TEST(Sample, CountsPointsOutside) {
   auto model = needle_block<3>(1);
   model.solve();
   PointSample info;
-  const auto v = model.sample({Vec<3>(0.5, 0.5, 0.5), Vec<3>(2, 0, 0), Vec<3>(1, 1, 1), Vec<3>(-0.1, 0.5, 0.5)}, &info);
+  const auto v =
+      model.sample({Vec<3>(0.5, 0.5, 0.5), Vec<3>(2, 0, 0), Vec<3>(1, 1, 1), Vec<3>(-0.1, 0.5, 0.5)}, &info);
   EXPECT_EQ(info.n_outside, 2u);
   EXPECT_EQ(info.inside, (std::vector<bool>{true, false, true, false}));
   EXPECT_EQ(v[1], Vec<3>::Zero());
@@ -530,8 +527,10 @@ TEST(BadInput, Modulus) {
   E[7] = 0.0;
   EXPECT_THROW(ElasticModel<3>(mesh, E, 0.3), std::invalid_argument);
   E.pop_back();
-  EXPECT_THAT(message_of([&] { ElasticModel<3>(mesh, E, 0.3); }), HasSubstr("47 Young's moduli given for 48 cells"));
-  EXPECT_THAT(message_of([&] { ElasticModel<3>(mesh, std::vector<double>(48, 1.0), 0.3, 3); }), HasSubstr("degree 3"));
+  EXPECT_THAT(message_of([&] { ElasticModel<3>(mesh, E, 0.3); }),
+              HasSubstr("47 Young's moduli given for 48 cells"));
+  EXPECT_THAT(message_of([&] { ElasticModel<3>(mesh, std::vector<double>(48, 1.0), 0.3, 3); }),
+              HasSubstr("degree 3"));
 }
 
 TEST(BadInput, InvertedAndDegenerateCells) {
@@ -548,7 +547,8 @@ TEST(BadInput, InvertedAndDegenerateCells) {
   const std::string msg = message_of([&] { ElasticModel<3>(tangled, E, 0.3); });
   EXPECT_THAT(msg, HasSubstr("is inverted"));
   auto flat = mesh;
-  flat.points[flat.cells[5][3]] = flat.points[flat.cells[5][0]] + 0.5 * (flat.points[flat.cells[5][1]] - flat.points[flat.cells[5][0]]);
+  flat.points[flat.cells[5][3]] =
+      flat.points[flat.cells[5][0]] + 0.5 * (flat.points[flat.cells[5][1]] - flat.points[flat.cells[5][0]]);
   EXPECT_THROW(ElasticModel<3>(flat, E, 0.3), std::invalid_argument);
   SimplexMesh<2> tri;
   tri.points = {Eigen::Vector2d(0, 0), Eigen::Vector2d(1, 0), Eigen::Vector2d(2, 0)};
@@ -558,14 +558,19 @@ TEST(BadInput, InvertedAndDegenerateCells) {
   EXPECT_THAT(message_of([&] { ElasticModel<2>(tri, {1.0}, 0.3); }), HasSubstr("refers to vertex 5"));
   // three triangles on edge 0-1 (the first two on opposite sides): the third is reported
   SimplexMesh<2> fan;
-  fan.points = {Eigen::Vector2d(0, 0), Eigen::Vector2d(1, 0), Eigen::Vector2d(0.5, 1), Eigen::Vector2d(0.5, -1),
-                Eigen::Vector2d(0.5, 2)};
+  fan.points = {Eigen::Vector2d(0, 0), Eigen::Vector2d(1, 0), Eigen::Vector2d(0.5, 1),
+                Eigen::Vector2d(0.5, -1), Eigen::Vector2d(0.5, 2)};
   fan.cells = {{{0, 1, 2}}, {{1, 0, 3}}, {{0, 1, 4}}};
-  EXPECT_THAT(message_of([&] { ElasticModel<2>(fan, {1.0, 1.0, 1.0}, 0.3); }),
+  EXPECT_THAT(message_of([&] {
+                ElasticModel<2>(fan, {1.0, 1.0, 1.0}, 0.3);
+              }),
               HasSubstr("cell 2 shares a face with two other cells"));
   // two triangles on the same side of one edge overlap: reported at the second, naming the first
   fan.cells = {{{0, 1, 2}}, {{1, 0, 4}}};
-  EXPECT_THAT(message_of([&] { ElasticModel<2>(fan, {1.0, 1.0}, 0.3); }), HasSubstr("cell 1 is inverted: it overlaps cell 0"));
+  EXPECT_THAT(message_of([&] {
+                ElasticModel<2>(fan, {1.0, 1.0}, 0.3);
+              }),
+              HasSubstr("cell 1 is inverted: it overlaps cell 0"));
 }
 
 TEST(BadInput, SingularSystems) {
@@ -593,7 +598,9 @@ TEST(BadInput, PointConstraintsAndOptions) {
   EXPECT_THAT(message_of([&] { model.solve({PointConstraint<3>{Vec<3>(0.5, 0.5, 1.5)}}); }),
               HasSubstr("point constraint 0 at (0.5, 0.5, 1.5) lies outside the mesh"));
   PointConstraint<3> p{Vec<3>(0.5, 0.5, 0.5)}, q{Vec<3>(0.5, 0.5, 0.5), Vec<3>(0, 0, 0.01)};
-  EXPECT_THAT(message_of([&] { model.solve({p, q}); }),
+  EXPECT_THAT(message_of([&] {
+                model.solve({p, q});
+              }),
               HasSubstr("point constraint 1 (component 2) conflicts with earlier point constraints"));
   EXPECT_THROW(model.solve_monolithic({p, q}), std::runtime_error);
   PointConstraint<3> on_fixed{Vec<3>(0.5, 0.5, 0.0), Vec<3>(0, 0, 0.1)};
@@ -601,9 +608,14 @@ TEST(BadInput, PointConstraintsAndOptions) {
   SolverOptions bad;
   bad.tolerance = -1;
   EXPECT_THAT(message_of([&] { model.solve({}, bad); }), HasSubstr("tolerance"));
-  EXPECT_THAT(message_of([&] { ElasticModel<3>::voxel_grid({{2, 0, 2}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1), {}, 0.3); }),
+  EXPECT_THAT(message_of([&] {
+                ElasticModel<3>::voxel_grid({{2, 0, 2}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1), {}, 0.3);
+              }),
               HasSubstr("0 cells along axis 1"));
-  EXPECT_THAT(message_of([&] { ElasticModel<3>::voxel_grid({{2, 2, 2}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1), std::vector<double>(7, 1.0), 0.3); }),
+  EXPECT_THAT(message_of([&] {
+                ElasticModel<3>::voxel_grid({{2, 2, 2}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1),
+                                            std::vector<double>(7, 1.0), 0.3);
+              }),
               HasSubstr("7 Young's moduli given for 8 cells"));
   ElasticModel<3> fresh(unit_tets(), std::vector<double>(48, 1.0), 0.3);
   EXPECT_THAT(message_of([&] { fresh.sample({Vec<3>(0.5, 0.5, 0.5)}); }), HasSubstr("no solution yet"));
@@ -665,13 +677,15 @@ TEST(VolumeSupport, BarOnAnElasticFoundationMatchesTheCoshSolution) {
   }
   EXPECT_LT(previous, 2e-3);  // 32 P2 cells along the bar; the lattice quadrature (h = 0.05) is the limit
   // The voxel (Q1) reference with the same points: the same solution.
-  auto voxel = ElasticModel<3>::voxel_grid({{40, 5, 5}}, Vec<3>(0, 0, 0), Vec<3>(L, W, W), std::vector<double>(1000, E), 0.0);
+  auto voxel = ElasticModel<3>::voxel_grid({{40, 5, 5}}, Vec<3>(0, 0, 0), Vec<3>(L, W, W),
+                                           std::vector<double>(1000, E), 0.0);
   voxel.add_volume_support(foundation(L, W, 0.05, k));
   EXPECT_LT(foundation_bar_error(voxel, L, W, u0, 1.0), 1e-2);
   // Without the support the x-only push leaves the bar free: a rigid motion.
   const auto mesh = test::kuhn_box<3>({{4, 1, 1}}, {{0, 0, 0}}, {{L, W, W}});
   ElasticModel<3> free_bar(mesh, std::vector<double>(mesh.n_cells(), E), 0.0, 1);
-  EXPECT_THAT(message_of([&] { foundation_bar_error(free_bar, L, W, u0, 1.0); }), HasSubstr("rigid-body motion"));
+  EXPECT_THAT(message_of([&] { foundation_bar_error(free_bar, L, W, u0, 1.0); }),
+              HasSubstr("rigid-body motion"));
 }
 
 TEST(VolumeSupport, HoldsTheBodyWhereNoNodeIsAndRejectsBadInput) {
@@ -692,7 +706,7 @@ TEST(VolumeSupport, HoldsTheBodyWhereNoNodeIsAndRejectsBadInput) {
   EXPECT_EQ(model.volume_support_points_outside(), 1u);
   const auto u = model.sample({Vec<3>(0.25, 0.25, 0.25), Vec<3>(0.9, 0.9, 0.9)});
   EXPECT_LT(u[0].norm(), 1e-3 * u[1].norm());  // held where the points are
-  EXPECT_GT(u[1].norm(), 0.1);                  // the far corner hangs from it
+  EXPECT_GT(u[1].norm(), 0.1);                 // the far corner hangs from it
   // Equilibrium: the support carries the whole body force (weight 1 × volume 1): Σ k w_p u(x_p) = (0, 0, −1).
   std::vector<Vec<3>> inside(ball.points.begin(), ball.points.end() - 1);
   Vec<3> reaction = Vec<3>::Zero();
@@ -701,7 +715,8 @@ TEST(VolumeSupport, HoldsTheBodyWhereNoNodeIsAndRejectsBadInput) {
   EXPECT_NEAR(reaction.head<2>().norm(), 0.0, 1e-8);
   VolumeSupport<3> bad = ball;
   bad.stiffness = 0.0;
-  EXPECT_THAT(message_of([&] { model.add_volume_support(bad); }), HasSubstr("stiffness must be finite and > 0"));
+  EXPECT_THAT(message_of([&] { model.add_volume_support(bad); }),
+              HasSubstr("stiffness must be finite and > 0"));
   bad = ball;
   bad.weights.pop_back();
   EXPECT_THAT(message_of([&] { model.add_volume_support(bad); }), HasSubstr("weights"));
@@ -742,7 +757,9 @@ void rotated_axes_match_the_rotated_body(unsigned degree) {
   auto face = [](int axis, double at) {
     return [axis, at](const Vec<dim>& x) { return std::abs(x[axis] - at) < 1e-9; };
   };
-  auto on_a = [](const std::function<bool(const Vec<dim>&)>& f, const char* name) { return Region<dim>{name, f}; };
+  auto on_a = [](const std::function<bool(const Vec<dim>&)>& f, const char* name) {
+    return Region<dim>{name, f};
+  };
   auto on_b = [R](const std::function<bool(const Vec<dim>&)>& f, const char* name) {
     return Region<dim>{name, [R, f](const Vec<dim>& x) { return f(R.transpose() * x); }};
   };
@@ -751,7 +768,9 @@ void rotated_axes_match_the_rotated_body(unsigned degree) {
   if (dim == 3) pushed[dim - 1] = -0.02;
   for (int body = 0; body < 2; ++body) {
     ElasticModel<dim>& m = body == 0 ? a : b;
-    auto region = [&](const std::function<bool(const Vec<dim>&)>& f, const char* name) { return body == 0 ? on_a(f, name) : on_b(f, name); };
+    auto region = [&](const std::function<bool(const Vec<dim>&)>& f, const char* name) {
+      return body == 0 ? on_a(f, name) : on_b(f, name);
+    };
     DirichletBC<dim> slide;
     slide.region = region(face(0, 0.0), "x0");
     slide.components = DirichletBC<dim>::filled(false);
@@ -775,7 +794,8 @@ void rotated_axes_match_the_rotated_body(unsigned degree) {
   std::vector<PointConstraint<dim>> pa, pb;
   for (int k = 0; k < 3; ++k) {
     PointConstraint<dim> p;
-    const double spread[3][3] = {{0.08, 0.3, 0.6}, {0.12, 0.7, 0.4}, {0.1, 0.5, 0.15}};  // in cells on the sliding face
+    const double spread[3][3] = {
+        {0.08, 0.3, 0.6}, {0.12, 0.7, 0.4}, {0.1, 0.5, 0.15}};  // in cells on the sliding face
     for (int d = 0; d < dim; ++d) p.position[d] = spread[k][d];
     p.displacement = Vec<dim>::Constant(0.01 * (k + 1));
     pa.push_back(p);
@@ -805,7 +825,8 @@ void rotated_axes_match_the_rotated_body(unsigned degree) {
     ASSERT_GT(umax, 0.01);
     ASSERT_GT(rmax, 0.01);
     for (std::size_t i = 0; i < a_mesh.n_points(); ++i)
-      ASSERT_LT((sa.vertex_displacement[i] - R.transpose() * sb.vertex_displacement[i]).norm(), 1e-9 * umax) << "vertex " << i;
+      ASSERT_LT((sa.vertex_displacement[i] - R.transpose() * sb.vertex_displacement[i]).norm(), 1e-9 * umax)
+          << "vertex " << i;
     // The sliding face moves along it only: B's x component is 0 there (A's x = 0 face).
     for (std::size_t i = 0; i < a_mesh.n_points(); ++i)
       if (std::abs(a_mesh.points[i][0]) < 1e-9) {
@@ -813,7 +834,8 @@ void rotated_axes_match_the_rotated_body(unsigned degree) {
       }
     EXPECT_NEAR(sa.strain_energy, sb.strain_energy, 1e-9 * sb.strain_energy);
     for (std::size_t k = 0; k < 2; ++k)
-      EXPECT_LT((sa.dirichlet_reaction[k] - R.transpose() * sb.dirichlet_reaction[k]).norm(), 1e-8 * rmax) << "condition " << k;
+      EXPECT_LT((sa.dirichlet_reaction[k] - R.transpose() * sb.dirichlet_reaction[k]).norm(), 1e-8 * rmax)
+          << "condition " << k;
     for (std::size_t k = 0; k < pa.size(); ++k)
       EXPECT_LT((sa.point_force[k] - R.transpose() * sb.point_force[k]).norm(), 1e-8 * rmax) << "point " << k;
     // A sliding support's reaction is normal to its plane: along B's x only.
@@ -853,9 +875,11 @@ TEST(RotatedAxes, RigidModesAndBadAxesAreReported) {
   EXPECT_NEAR(s.dirichlet_reaction[0][2], 1.0, 1e-9);  // it carries the body force
   DirichletBC<3> skew = slide;
   skew.axes(0, 0) = 2.0;
-  EXPECT_THAT([&] { m.add_dirichlet(skew); }, ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("not orthonormal")));
+  EXPECT_THAT([&] { m.add_dirichlet(skew); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("not orthonormal")));
   PointConstraint<3> p;
   p.position = Vec<3>::Constant(0.5);
   p.axes = skew.axes;
-  EXPECT_THAT([&] { c.solve({p}); }, ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("point constraint 0 has axes that are not orthonormal")));
+  EXPECT_THAT([&] { c.solve({p}); }, ::testing::ThrowsMessage<std::invalid_argument>(
+                                         HasSubstr("point constraint 0 has axes that are not orthonormal")));
 }

@@ -21,20 +21,16 @@
 #include <sstream>
 
 #include "run_cli.hpp"
+#include "run_on_ranks.hpp"
 #include "study_inputs.hpp"
 
 using vim::test::quote;
 using vim::test::run_command;
+using vim::test::run_on_ranks;
 using vim::test::run_pipeline;
 namespace fs = std::filesystem;
 
 namespace {
-
-vim::test::CliResult run_on_ranks(int ranks, const std::string& args) {
-  return run_command("env", "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 " +
-                                quote(VIM_MPIEXEC) + " -np " + std::to_string(ranks) + " --oversubscribe " +
-                                quote(VIM_PIPELINE_EXE) + " " + args);
-}
 
 template <class Reader>
 vtkSmartPointer<vtkUnstructuredGrid> read_grid(const fs::path& path) {

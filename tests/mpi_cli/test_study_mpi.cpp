@@ -6,24 +6,18 @@
 #include <cmath>
 
 #include "run_cli.hpp"
+#include "run_on_ranks.hpp"
 #include "study_inputs.hpp"
 
 using vim::test::quote;
 using vim::test::read_study_csv;
 using vim::test::run_command;
+using vim::test::run_on_ranks;
 using vim::test::run_pipeline;
 using vim::test::study_options;
 namespace fs = std::filesystem;
 
-namespace {
 
-vim::test::CliResult run_on_ranks(int ranks, const std::string& args) {
-  return run_command("env", "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 " +
-                                quote(VIM_MPIEXEC) + " -np " + std::to_string(ranks) + " --oversubscribe " +
-                                quote(VIM_PIPELINE_EXE) + " " + args);
-}
-
-}  // namespace
 
 TEST(StudyMpi, TwoRanksWriteTheSerialStudyTable) {
   vim::test::TempDir dir("study_mpi");
