@@ -1,15 +1,36 @@
 // The band coupling of a 3D needle of finite radius (needle_coupling.hpp, docs/needle-model.md).
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <vim/fem/band_load_field.hpp>
 #include <vim/fem/needle_band.hpp>
 #include <vim/pipeline/needle_coupling.hpp>
 
 namespace vim::pipeline {
 
+namespace {
+// Stations farther from a point than this many times max(R, ℓ) add nothing to its surface-load
+// correction that counts: the two loads have the same resultant, so their difference falls as 1/d³.
+constexpr double kSurfaceLoadReach = 8.0;
+}  // namespace
+
 BandCoupling::BandCoupling(const Geometry& g, const fem::CellLocator<3>& locator,
                            const std::vector<double>& cell_modulus, double poisson_ratio,
-                           const std::vector<bool>& blocked)
-    : axis_(g.axis) {
+                           const std::vector<bool>& blocked, std::vector<fem::Region<3>> held_regions)
+    : held_regions_(std::move(held_regions)),
+      axis_(g.axis),
+      radius_(g.radius),
+      poisson_ratio_(poisson_ratio) {
+  add_stations(g, locator, cell_modulus, poisson_ratio, blocked);
+  lateral_.assign(stations_.size(), Vec::Zero());
+  for (std::size_t v = 0; v < blocked.size(); ++v)
+    if (blocked[v]) held_points_.push_back(locator.vertex(static_cast<int>(v)));
+}
+
+// Stations of equal length, at most g.spacing, along the path.
+void BandCoupling::add_stations(const Geometry& g, const fem::CellLocator<3>& locator,
+                                const std::vector<double>& cell_modulus, double poisson_ratio,
+                                const std::vector<bool>& blocked) {
   const long n = std::max(1L, static_cast<long>(std::ceil(g.depth / g.spacing - 1e-9)));
   const double length = g.depth / static_cast<double>(n);
   fem::NeedleBand band;
@@ -21,7 +42,6 @@ BandCoupling::BandCoupling(const Geometry& g, const fem::CellLocator<3>& locator
     band = fem::default_needle_band(g.radius, g.element_size, length, g.degree);
   }
   coupling_radius_ = band.coupling_radius;
-  radius_ = g.radius;
   effective_radius_ = fem::effective_coupling_radius(band);
   std::vector<int> support;
   for (long i = 0; i < n; ++i) {
@@ -49,8 +69,9 @@ BandCoupling::BandCoupling(const Geometry& g, const fem::CellLocator<3>& locator
     p.compliance /= e_sum / inside;
     stations_.push_back({centre, s, length});
     bands_.push_back(std::move(p));
+    shapes_.push_back(band);
+    moduli_.push_back(e_sum / inside);
   }
-  lateral_.assign(stations_.size(), Vec::Zero());
 }
 
 // axes = (lateral 1, lateral 2, axis): the loads' lateral offset and the axial value.
@@ -107,10 +128,10 @@ std::vector<BandCoupling::StationState> BandCoupling::station_states(const std::
     const Vec g_axes(b.axes.col(0).dot(lateral_[active[i]]), b.axes.col(1).dot(lateral_[active[i]]),
                      axial[active[i]]);
     const Vec f_axes = b.axes.transpose() * solution.point_force[i];
-    st.push_back({stations_[active[i]].s, b.axes * g_axes, b.axes * b.compliance.cwiseProduct(f_axes)});
+    st.push_back({stations_[active[i]].s, 0.5 * stations_[active[i]].length, b.axes * g_axes,
+                  b.axes * b.compliance.cwiseProduct(f_axes)});
   }
-  std::sort(st.begin(), st.end(), [](const StationState& x, const StationState& y) { return x.s < y.s; });
-  return st;
+  return st;  // in shaft order: the active stations are listed by ascending arc length
 }
 
 std::vector<BandCoupling::Vec> BandCoupling::tissue_displacements(const std::vector<Vec>& points,
@@ -121,22 +142,57 @@ std::vector<BandCoupling::Vec> BandCoupling::tissue_displacements(const std::vec
   const std::vector<StationState> st = station_states(active, axial, solution);
   if (st.empty() || effective_radius_ <= radius_) return mesh_values;
   const Vec entry = stations_.front().position - stations_.front().s * axis_;
-  const double half = 0.5 * stations_.front().length, log_ratio = std::log(effective_radius_ / radius_);
   for (std::size_t k = 0; k < points.size(); ++k) {
     const Vec d = points[k] - entry;
     const double t = d.dot(axis_), r = (d - t * axis_).norm();
-    if (r >= effective_radius_ || t < st.front().s - half || t > st.back().s + half) continue;
-    // The two station centres around t (the nearest one beyond the ends), weights linear in t.
-    std::size_t hi = 0;
-    while (hi < st.size() && st[hi].s < t) ++hi;
-    const std::size_t lo = hi == 0 ? 0 : hi - 1;
-    hi = std::min(hi, st.size() - 1);
-    const double w = hi == lo ? 0.0 : (t - st[lo].s) / (st[hi].s - st[lo].s);
-    const Vec g = (1 - w) * st[lo].g + w * st[hi].g, jump = (1 - w) * st[lo].jump + w * st[hi].jump;
-    const double phi = std::log(effective_radius_ / std::max(r, radius_)) / log_ratio;
-    mesh_values[k] = g - (1.0 - phi) * jump;  // ū + φ (g − ū)
+    const bool beside = t >= st.front().s - st.front().half && t <= st.back().s + st.back().half;
+    if (beside && r < effective_radius_)
+      mesh_values[k] = annulus_value(st, t, r);
+    else if (!beside)
+      mesh_values[k] += surface_load_correction(points[k], active, solution);
   }
   return mesh_values;
+}
+
+// Inside the held prism: ū + φ(r)(g − ū) between the two station centres around arc length t (the
+// nearest one beyond the ends), linear in t.
+BandCoupling::Vec BandCoupling::annulus_value(const std::vector<StationState>& st, double t, double r) const {
+  std::size_t hi = 0;
+  while (hi < st.size() && st[hi].s < t) ++hi;
+  const std::size_t lo = hi == 0 ? 0 : hi - 1;
+  hi = std::min(hi, st.size() - 1);
+  const double w = hi == lo ? 0.0 : (t - st[lo].s) / (st[hi].s - st[lo].s);
+  const Vec g = (1 - w) * st[lo].g + w * st[hi].g, jump = (1 - w) * st[lo].jump + w * st[hi].jump;
+  const double phi =
+      std::log(effective_radius_ / std::max(r, radius_)) / std::log(effective_radius_ / radius_);
+  return g - (1.0 - phi) * jump;  // ū + φ (g − ū)
+}
+
+// Beyond the held shaft's ends: the model carries each station's force f spread over its band (radius
+// R); the tissue takes it on the needle's surface (radius a). The difference of the two Kelvin fields at
+// x, summed over the active stations near x. The unbounded body stands for the tissue between a station
+// and x while the held tissue is not much nearer x: none in a held region; with b the distance from x to
+// the nearest held vertex, weight 1 for a station within 2b, falling linearly to 0 at 3b.
+BandCoupling::Vec BandCoupling::surface_load_correction(const Vec& x, const std::vector<std::size_t>& active,
+                                                        const fem::Solution<3>& solution) const {
+  for (const auto& region : held_regions_)
+    if (region.contains(x)) return Vec::Zero();
+  double b = std::numeric_limits<double>::infinity();
+  for (const Vec& p : held_points_) b = std::min(b, (p - x).norm());
+  Vec du = Vec::Zero();
+  for (std::size_t i = 0; i < active.size() && i < solution.point_force.size(); ++i) {
+    const std::size_t j = active[i];
+    const ShaftPoint<3>& p = stations_[j];
+    const double d = (x - p.position).norm(), w = std::clamp(3.0 - d / b, 0.0, 1.0);
+    if (w == 0.0 || d > kSurfaceLoadReach * std::max(coupling_radius_, p.length)) continue;
+    fem::NeedleBand surface = shapes_[j];
+    surface.coupling_radius = radius_;
+    surface.inner_fraction = 1.0;
+    const Vec& f = solution.point_force[i];
+    du += w * (fem::band_load_displacement(surface, p.position, axis_, f, x, moduli_[j], poisson_ratio_) -
+               fem::band_load_displacement(shapes_[j], p.position, axis_, f, x, moduli_[j], poisson_ratio_));
+  }
+  return du;
 }
 
 }  // namespace vim::pipeline

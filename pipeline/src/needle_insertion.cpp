@@ -78,12 +78,12 @@ void NeedleInsertion<dim>::make_coupling(const NeedlePath<dim>& path, bool snap_
     g.element_size = h;
     g.degree = ctx_.degree;
     auto band = std::make_unique<BandCoupling>(with_spacing(g), ctx_.locator(), ctx_.E, ctx_.sc.poisson_ratio,
-                                               ctx_.blocked);
+                                               ctx_.blocked, ctx_.held_regions);
     // A mesh so coarse that no band of the default size fits in it (every sample outside): halve h.
     for (int k = 0; k < 8 && band->stations().empty() && spec_.coupling_radius <= 0.0; ++k) {
       g.element_size *= 0.5;
       band = std::make_unique<BandCoupling>(with_spacing(g), ctx_.locator(), ctx_.E, ctx_.sc.poisson_ratio,
-                                            ctx_.blocked);
+                                            ctx_.blocked, ctx_.held_regions);
     }
     shaft_ = band->stations();
     pitch_ = shaft_.empty() ? with_spacing(g).spacing : shaft_.front().length;

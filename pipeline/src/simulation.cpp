@@ -27,8 +27,8 @@ using json = nlohmann::json;
 template <int dim>
 struct NeedleSimulation<dim>::Impl : SimulationContext<dim> {
   using Base = SimulationContext<dim>;
-  using Base::blocked, Base::box_max, Base::box_min, Base::locator, Base::model, Base::opt, Base::point_axes,
-      Base::region, Base::sc, Base::solver, Base::tf;
+  using Base::blocked, Base::held_regions, Base::box_max, Base::box_min, Base::locator, Base::model,
+      Base::opt, Base::point_axes, Base::region, Base::sc, Base::solver, Base::tf;
   void setup(const std::vector<Vec>& vertices);
   fem::VolumeSupport<dim> volume_support(const BoundaryConditionSpec& bc, const std::string& where) const;
   NeedleRun<dim> run_needle(const NeedleSpec& spec, const std::string& prefix, json& needle_report,
@@ -135,6 +135,7 @@ void NeedleSimulation<dim>::Impl::setup(const std::vector<Vec>& vertices) {
     const std::string where = sc.where(bc.line) + "boundary_conditions[" + std::to_string(i) + "]";
     if (bc.support == BoundaryConditionSpec::Support::elastic) {
       model->add_volume_support(volume_support(bc, where));
+      held_regions.push_back(region(bc.region));
       continue;
     }
     const fem::Region<dim> reg = region(bc.region);
@@ -161,9 +162,11 @@ void NeedleSimulation<dim>::Impl::setup(const std::vector<Vec>& vertices) {
         if (bc.type == BoundaryConditionSpec::Type::displacement) d.value = vec<dim>(bc.value);
       }
       model->add_dirichlet(d);
-      if (all)
+      if (all) {
         for (std::size_t v = 0; v < vertices.size(); ++v)
           blocked[v] = blocked[v] || reg.contains(vertices[v]);
+        held_regions.push_back(reg);
+      }
     } else {
       fem::SurfaceLoad<dim> load;
       load.region = reg;

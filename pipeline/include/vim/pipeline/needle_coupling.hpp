@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 #include <vim/fem/elasticity.hpp>
+#include <vim/fem/needle_band.hpp>
 #include <vim/pipeline/needle.hpp>
 #include <vim/pipeline/scenario.hpp>
 
@@ -146,7 +147,7 @@ class LineCoupling final : public NeedleCoupling<dim> {
   Mat axes_;
 };
 
-// A straight needle of radius a in 3D (docs/needle-model.md): shaft stations uniform along the path,
+// A straight needle of radius a in 3D (docs/needle-model.md): shaft stations along the path (Geometry),
 // each holding the mean displacement of its band of the cylinder of coupling radius R ≥ a around the
 // axis (its segment of the shaft) through the analytic compliance of the annulus a ≤ r ≤ R in series
 // (fem::needle_band_constraint): three rows per station (two lateral, one axial). A line carries no
@@ -170,10 +171,11 @@ class BandCoupling final : public NeedleCoupling<3> {
     Eigen::Matrix3d to_world = Eigen::Matrix3d::Identity();
   };
   // `cell_modulus`: Young's modulus per cell of the locator (the band's compliance takes the mean over
-  // the cells its samples fall in); `blocked`: vertices held in every direction.
+  // the cells its samples fall in); `blocked`: vertices held in every direction; `held_regions`: the
+  // regions held in every direction (clamped or elastically supported).
   BandCoupling(const Geometry& geometry, const fem::CellLocator<3>& locator,
                const std::vector<double>& cell_modulus, double poisson_ratio,
-               const std::vector<bool>& blocked);
+               const std::vector<bool>& blocked, std::vector<fem::Region<3>> held_regions = {});
   // The stations: centre, arc length of the centre, band length.
   const std::vector<ShaftPoint<3>>& stations() const { return stations_; }
   // The outer radius of the region whose mean a station holds.
@@ -192,7 +194,11 @@ class BandCoupling final : public NeedleCoupling<3> {
   // g) and R_e (at ū):
   //   u(r) = ū + φ(r)(g − ū),  φ(r) = ln(R_e / max(r, a)) / ln(R_e / a),  g − ū = κ f per row,
   // linear in the arc length between station centres (docs/needle-model.md, target displacements).
-  // Tissue ahead of the tip and within the cutting distance behind it is free: the model's value.
+  // Beside the held shaft beyond R_e: the model's value. Ahead of the held shaft's end or behind its
+  // start: the model's value plus the near field it misses where it spreads each station's force f over
+  // the band rather than the needle's surface, Σ w [K_a(x) − K_R(x)] f over the stations near x (K the
+  // Kelvin field of the load's region; w = 0 in a held region, else from 1 to 0 as the station is
+  // two to three times farther from x than the nearest held vertex is).
   std::vector<Vec> tissue_displacements(const std::vector<Vec>& points, std::vector<Vec> mesh_values,
                                         const std::vector<std::size_t>& active,
                                         const std::vector<double>& axial,
@@ -201,19 +207,31 @@ class BandCoupling final : public NeedleCoupling<3> {
  private:
   struct StationState {
     double s;     // arc length of the centre
+    double half;  // half the band's length
     Vec g, jump;  // frame: the rows' value g and g − ū
   };
+  Vec annulus_value(const std::vector<StationState>& st, double t, double r) const;
+  Vec surface_load_correction(const Vec& x, const std::vector<std::size_t>& active,
+                              const fem::Solution<3>& solution) const;
+  void add_stations(const Geometry& geometry, const fem::CellLocator<3>& locator,
+                    const std::vector<double>& cell_modulus, double poisson_ratio,
+                    const std::vector<bool>& blocked);
   std::vector<StationState> station_states(const std::vector<std::size_t>& active,
                                            const std::vector<double>& axial,
                                            const fem::Solution<3>& solution) const;
 
   std::vector<ShaftPoint<3>> stations_;
   std::vector<fem::PointConstraint<3>> bands_;  // per station, displacement 0
+  std::vector<fem::NeedleBand> shapes_;         // per station: its band's region
+  std::vector<double> moduli_;                  // per station: the mean modulus around its band
+  std::vector<Vec> held_points_;                // vertices held in every direction
+  std::vector<fem::Region<3>> held_regions_;
   std::vector<Vec> lateral_;
   Vec axis_;
   double coupling_radius_ = 0.0;
   double radius_ = 0.0;            // a
   double effective_radius_ = 0.0;  // R_e of the bands (fem::effective_coupling_radius)
+  double poisson_ratio_ = 0.0;
 };
 
 }  // namespace vim::pipeline
