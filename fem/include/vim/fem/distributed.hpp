@@ -7,8 +7,9 @@
 
 namespace vim::fem {
 
-// Solves `model` over `comm`: simplex models on a METIS-partitioned parallel::shared::Triangulation
-// (every rank holds the whole mesh) with Trilinos CG + AMG with rigid-body modes; voxel models on a
+// Solves `model` over `comm`: simplex models on a parallel::fullydistributed::Triangulation of the
+// rank's part of the mesh (METIS partition of the cells, the same on every rank, plus the ghost cells
+// around it) with Trilinos CG + AMG with rigid-body modes; voxel models on a
 // p4est parallel::distributed::Triangulation built from the grid description, so a rank holds only its
 // part (a voxel model's serial mesh is built only if solve()/solve_monolithic()/strain_energy_of() is
 // used), in 3D with CG preconditioned by a matrix-free geometric multigrid over the grid's refinement
@@ -31,5 +32,12 @@ Solution<dim> solve_distributed(ElasticModel<dim>& model, MPI_Comm comm, const S
 // are refused (std::invalid_argument). The solver options' type is ignored (always CG + AMG).
 template <int dim>
 void distribute_solves(ElasticModel<dim>& model, MPI_Comm comm);
+
+// The cells the calling rank of `comm` owns in the model's distributed solves, ascending: input cell
+// indices of a simplex model (METIS partition), voxel indices of a voxel model (p4est partition); the
+// ranks' lists together hold every cell once. Taken from the last distributed solve over as many
+// ranks; before one, collective: the distributed mesh is built for it.
+template <int dim>
+std::vector<std::size_t> owned_cells(const ElasticModel<dim>& model, MPI_Comm comm);
 
 }  // namespace vim::fem
