@@ -1,13 +1,13 @@
 // The elastic model solved over MPI ranks (docs/architecture.md, fem module): simplex models on a
-// parallel::fullydistributed::Triangulation of the rank's part of the mesh (simplex_part.cpp); voxel
-// models on a p4est parallel::distributed::Triangulation built from the grid description alone (no
-// serial mesh).
+// parallel::shared::Triangulation (a copy of the serial triangulation every rank holds, METIS
+// partition, cells away from the own part artificial); voxel models on a p4est
+// parallel::distributed::Triangulation built from the grid description alone (no serial mesh).
 // Each rank assembles its cells into Trilinos matrices and solves with CG + ML AMG fed the
 // rigid-body modes. Outputs are gathered so every rank gets the full Solution.
 #include <deal.II/base/index_set.h>
 #include <deal.II/base/multithread_info.h>
 #include <deal.II/base/timer.h>
-#include <deal.II/distributed/fully_distributed_tria.h>
+#include <deal.II/distributed/shared_tria.h>
 #include <deal.II/distributed/tria.h>
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/grid/grid_generator.h>
@@ -73,8 +73,12 @@ class OneThreadPerRank {
   int blas_saved_ = 0, omp_saved_ = 0;
 };
 
-// Simplex models: a parallel::fullydistributed::Triangulation of the rank's cells and their ghosts
-// (simplex_part), so the distributed solve keeps only its part of the mesh.
+// Simplex models: parallel::shared::Triangulation (METIS partition, cells away from the own part
+// artificial). A parallel::fullydistributed::Triangulation of each rank's cells and ghosts, described
+// directly from the serial mesh, made the set-up 2-3x slower on 2 ranks (deal.II 9.4.1's
+// create_triangulation sorts the cells twice with a comparator that binary-searches the coarse-cell
+// map, and every tetrahedron is a coarse cell; docs/mpi.md).
+// partition_metis explicitly: partition_auto picks Zoltan's hypergraph partitioner, far slower here.
 // Voxel models: a parallel::distributed::Triangulation (p4est) of a coarse block grid refined
 // globally r times (2^r the largest power of two dividing every axis), so a rank holds the coarse
 // grid plus its own part of the voxel grid and never the whole serial mesh; each cell's modulus is
@@ -90,8 +94,7 @@ void quiet_p4est() {
   (void)done;
 }
 
-// Sets sys.tria (and sys.serial_vertex for simplex models). `multigrid`: the voxel grid keeps its
-// level hierarchy on every rank (for the matrix-free multigrid).
+// Records the cells (material ids) this rank owns in `tria` in m.owned_cells.
 template <int dim>
 void remember_owned_cells(const State<dim>& m, const parallel::TriangulationBase<dim>& tria, MPI_Comm comm) {
   m.owned_cells.clear();
@@ -101,16 +104,16 @@ void remember_owned_cells(const State<dim>& m, const parallel::TriangulationBase
   m.owned_cells_ranks = Utilities::MPI::n_mpi_processes(comm);
 }
 
+// `multigrid`: the voxel grid keeps its level hierarchy on every rank (for the matrix-free multigrid).
 template <int dim>
-void distributed_triangulation(const State<dim>& m, MPI_Comm comm, bool multigrid,
-                               DistributedSystem<dim>& sys) {
+std::unique_ptr<parallel::TriangulationBase<dim>> distributed_triangulation(const State<dim>& m,
+                                                                            MPI_Comm comm, bool multigrid) {
   if (!m.voxel) {
-    SimplexPart<dim> part = simplex_part<dim>(m.tria, comm);
-    auto t = std::make_unique<parallel::fullydistributed::Triangulation<dim>>(comm);
-    t->create_triangulation(part.description);
-    sys.serial_vertex = std::move(part.serial_vertex);
-    sys.tria = std::move(t);
-    return;
+    auto t = std::make_unique<parallel::shared::Triangulation<dim>>(
+        comm, Triangulation<dim>::none, /*allow_artificial_cells=*/true,
+        parallel::shared::Triangulation<dim>::partition_metis);
+    t->copy_triangulation(m.tria);
+    return t;
   }
   quiet_p4est();
   using Tria = parallel::distributed::Triangulation<dim>;
@@ -131,7 +134,7 @@ void distributed_triangulation(const State<dim>& m, MPI_Comm comm, bool multigri
   for (const auto& cell : t->active_cell_iterators())
     if (!cell->is_artificial())
       cell->set_material_id(static_cast<types::material_id>(m.voxel_index(cell->center())));
-  sys.tria = std::move(t);
+  return t;
 }
 
 // Support points and components of the relevant DoFs.
@@ -281,7 +284,7 @@ bool build_system(const State<dim>& m, DistributedSystem<dim>& sys, MPI_Comm com
                   bool allow_multigrid) {
   Timer timer;
   const bool hierarchy = allow_multigrid && m.voxel && dim == 3;
-  distributed_triangulation<dim>(m, comm, hierarchy, sys);
+  sys.tria = distributed_triangulation<dim>(m, comm, hierarchy);
   remember_owned_cells<dim>(m, *sys.tria, comm);
   sys.dof.reinit(*sys.tria);
   sys.dof.distribute_dofs(*m.fe);
@@ -300,8 +303,7 @@ bool build_system(const State<dim>& m, DistributedSystem<dim>& sys, MPI_Comm com
 
 // Writes the values of the vertices of `cell` into vert (index: the model's vertex numbering · dim + c).
 template <int dim>
-void cell_vertex_values(const State<dim>& m, const DistributedSystem<dim>& sys,
-                        const typename DoFHandler<dim>::active_cell_iterator& cell,
+void cell_vertex_values(const State<dim>& m, const typename DoFHandler<dim>::active_cell_iterator& cell,
                         const TrilinosWrappers::MPI::Vector& ug, std::vector<double>& vert) {
   if (m.voxel) {
     // vertices: lexicographic grid index from the position (the numbering of m.vertices)
@@ -317,10 +319,10 @@ void cell_vertex_values(const State<dim>& m, const DistributedSystem<dim>& sys,
     }
     return;
   }
-  // vertices: the serial index of each vertex of the rank's part
+  // vertices: the shared triangulation is a copy of the serial one, same vertex numbering
   const auto& serial_vertices = m.tria.get_vertices();
   for (const unsigned v : cell->vertex_indices()) {
-    const unsigned gv = sys.serial_vertex.at(cell->vertex_index(v));
+    const unsigned gv = cell->vertex_index(v);
     if (gv >= serial_vertices.size() ||
         serial_vertices[gv].distance(cell->vertex(v)) > 1e-12 * cell->diameter())
       throw std::logic_error("solve_distributed: vertex numbering differs from the serial mesh");
@@ -356,7 +358,7 @@ GatheredFields gather_fields(const State<dim>& m, const DistributedSystem<dim>& 
     if (!cell->is_locally_owned()) continue;
     cell->get_dof_indices(idx);
     for (unsigned i = 0; i < dpc; ++i) uev[i] = ue[i] = ug[idx[i]];
-    cell_vertex_values<dim>(m, sys, cell, ug, g.vert);
+    cell_vertex_values<dim>(m, cell, ug, g.vert);
     const unsigned j = cell->material_id();
     Eigen::Matrix<double, dim, dim> eps = m.centroid_strain(cell, cv, ue), sigma;
     double vm = 0;
@@ -547,9 +549,7 @@ std::vector<std::size_t> owned_cells(const ElasticModel<dim>& model, MPI_Comm co
   const State<dim>& m = ModelAccess::state(model);
   ensure_mpi_initialized();
   if (m.owned_cells_ranks != Utilities::MPI::n_mpi_processes(comm)) {
-    DistributedSystem<dim> sys;
-    distributed_triangulation<dim>(m, comm, false, sys);
-    remember_owned_cells<dim>(m, *sys.tria, comm);
+    remember_owned_cells<dim>(m, *distributed_triangulation<dim>(m, comm, false), comm);
   }
   return m.owned_cells;
 }

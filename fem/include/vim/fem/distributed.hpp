@@ -7,9 +7,8 @@
 
 namespace vim::fem {
 
-// Solves `model` over `comm`: simplex models on a parallel::fullydistributed::Triangulation of the
-// rank's part of the mesh (METIS partition of the cells, the same on every rank, plus the ghost cells
-// around it) with Trilinos CG + AMG with rigid-body modes; voxel models on a
+// Solves `model` over `comm`: simplex models on a METIS-partitioned parallel::shared::Triangulation
+// (every rank holds the whole mesh) with Trilinos CG + AMG with rigid-body modes; voxel models on a
 // p4est parallel::distributed::Triangulation built from the grid description, so a rank holds only its
 // part (a voxel model's serial mesh is built only if solve()/solve_monolithic()/strain_energy_of() is
 // used), in 3D with CG preconditioned by a matrix-free geometric multigrid over the grid's refinement
