@@ -22,6 +22,7 @@
 #include <p4est_base.h>
 #include <sc.h>
 
+#include <algorithm>
 #include <cfloat>
 #include <optional>
 #include <sstream>
@@ -73,9 +74,10 @@ class OneThreadPerRank {
 };
 
 // Simplex models: parallel::shared::Triangulation (METIS partition, cells away from the own part
-// artificial). deal.II 9.4.1's fullydistributed::Triangulation::create_triangulation sorts the
-// cells with a comparator that binary-searches the coarse-cell map twice per comparison: with
-// every cell a coarse cell (~2M tets for ~1M DoFs) that dominated the set-up (docs/performance.md).
+// artificial). A parallel::fullydistributed::Triangulation of each rank's cells and ghosts, described
+// directly from the serial mesh, made the set-up 2-3x slower on 2 ranks (deal.II 9.4.1's
+// create_triangulation sorts the cells twice with a comparator that binary-searches the coarse-cell
+// map, and every tetrahedron is a coarse cell; docs/mpi.md).
 // partition_metis explicitly: partition_auto picks Zoltan's hypergraph partitioner, far slower here.
 // Voxel models: a parallel::distributed::Triangulation (p4est) of a coarse block grid refined
 // globally r times (2^r the largest power of two dividing every axis), so a rank holds the coarse
@@ -90,6 +92,16 @@ void quiet_p4est() {
     return true;
   }();
   (void)done;
+}
+
+// Records the cells (material ids) this rank owns in `tria` in m.owned_cells.
+template <int dim>
+void remember_owned_cells(const State<dim>& m, const parallel::TriangulationBase<dim>& tria, MPI_Comm comm) {
+  m.owned_cells.clear();
+  for (const auto& cell : tria.active_cell_iterators())
+    if (cell->is_locally_owned()) m.owned_cells.push_back(cell->material_id());
+  std::sort(m.owned_cells.begin(), m.owned_cells.end());
+  m.owned_cells_ranks = Utilities::MPI::n_mpi_processes(comm);
 }
 
 // `multigrid`: the voxel grid keeps its level hierarchy on every rank (for the matrix-free multigrid).
@@ -273,6 +285,7 @@ bool build_system(const State<dim>& m, DistributedSystem<dim>& sys, MPI_Comm com
   Timer timer;
   const bool hierarchy = allow_multigrid && m.voxel && dim == 3;
   sys.tria = distributed_triangulation<dim>(m, comm, hierarchy);
+  remember_owned_cells<dim>(m, *sys.tria, comm);
   sys.dof.reinit(*sys.tria);
   sys.dof.distribute_dofs(*m.fe);
   if (hierarchy) sys.dof.distribute_mg_dofs();
@@ -531,9 +544,21 @@ Solution<dim> solve_distributed(ElasticModel<dim>& model, MPI_Comm comm, const S
   return s;
 }
 
+template <int dim>
+std::vector<std::size_t> owned_cells(const ElasticModel<dim>& model, MPI_Comm comm) {
+  const State<dim>& m = ModelAccess::state(model);
+  ensure_mpi_initialized();
+  if (m.owned_cells_ranks != Utilities::MPI::n_mpi_processes(comm)) {
+    remember_owned_cells<dim>(m, *distributed_triangulation<dim>(m, comm, false), comm);
+  }
+  return m.owned_cells;
+}
+
 template Solution<2> solve_distributed<2>(ElasticModel<2>&, MPI_Comm, const SolverOptions&);
 template Solution<3> solve_distributed<3>(ElasticModel<3>&, MPI_Comm, const SolverOptions&);
 template void distribute_solves<2>(ElasticModel<2>&, MPI_Comm);
+template std::vector<std::size_t> owned_cells<2>(const ElasticModel<2>&, MPI_Comm);
+template std::vector<std::size_t> owned_cells<3>(const ElasticModel<3>&, MPI_Comm);
 template void distribute_solves<3>(ElasticModel<3>&, MPI_Comm);
 template std::unique_ptr<DistributedInverse> make_distributed_inverse<2>(const State<2>&, MPI_Comm);
 template std::unique_ptr<DistributedInverse> make_distributed_inverse<3>(const State<3>&, MPI_Comm);

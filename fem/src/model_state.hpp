@@ -221,6 +221,10 @@ struct ElasticModel<dim>::Impl {
   // distribute_solves(): K⁻¹ over the ranks of solve_comm (MPI_COMM_NULL: serial)
   MPI_Comm solve_comm = MPI_COMM_NULL;
   std::unique_ptr<DistributedInverse> distributed;
+  // The cells (material ids) the calling rank owned in the last distributed triangulation built for
+  // this model, ascending, and the number of ranks it was built for (0: none yet).
+  mutable std::vector<std::size_t> owned_cells;
+  mutable unsigned owned_cells_ranks = 0;
   double prepare_seconds = 0.0;
   bool have_u0 = false;
   dealii::Vector<double> u0;  // K⁻¹ f
@@ -302,6 +306,10 @@ struct ModelAccess {
   using State = typename ElasticModel<dim>::Impl;
   template <int dim>
   static State<dim>& state(ElasticModel<dim>& model) {
+    return *model.impl_;
+  }
+  template <int dim>
+  static const State<dim>& state(const ElasticModel<dim>& model) {
     return *model.impl_;
   }
 };

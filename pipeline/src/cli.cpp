@@ -363,6 +363,7 @@ int run_on_ranks(const RunOptions& o) {
   RunOptions mine = o;
   mine.mpi_ranks = ranks->size();
   if (ranks->rank() != 0) {
+    mine.pieces_out = mine.out;
     mine.out.clear();
     mine.verbosity = Verbosity::quiet;
     Log::set_verbosity(Verbosity::quiet);

@@ -40,7 +40,7 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim>& context, const Nee
   loaded_ = std::any_of(
       ctx_.sc.boundary_conditions.begin(), ctx_.sc.boundary_conditions.end(),
       [](const BoundaryConditionSpec& bc) { return bc.type != BoundaryConditionSpec::Type::fixed; });
-  write_ = static_cast<bool>(ctx_.opt.output_file) && ctx_.sc.output_every > 0;
+  write_ = writes_steps(ctx_.opt) && ctx_.sc.output_every > 0;
   state_.joined.assign(np, false);
   state_.axial.assign(np, 0.0);
   state_.stick.assign(np, 0.0);

@@ -24,6 +24,8 @@ void MeshingRun<dim>::build_model() {
   const auto start = std::chrono::steady_clock::now();
   SimulationOptions so;
   if (out_) so.output_file = [this](const std::string& rel) { return out().file(rel); };
+  if (!out_ && !options_.pieces_out.empty())
+    so.piece_file = [dir = options_.pieces_out](const std::string& rel) { return dir / rel; };
   so.degree = static_cast<unsigned>(options_.degree);
   so.world_grid = world_grid_;  // the grid of mesh.vtu: the steps share its points and cells
   so.scenario_checked = true;   // read_inputs checked it against the image box

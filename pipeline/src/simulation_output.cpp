@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <iomanip>
 #include <limits>
+#include <vim/fem/distributed.hpp>
 #include <vim/pipeline/atomic_file.hpp>
 #include <vim/pipeline/vtk_output.hpp>
 
@@ -28,24 +29,30 @@ std::string step_file(int k, int mpi_ranks) {
   return buf;
 }
 
+namespace {
+
+// The scenario's output fields of a solution (zero fields when null: rest) on `g`, whose points and
+// cells are the world grid's `points` and `cells` (null: all of them, in order).
 template <int dim>
-void write_step_vtu(const SimulationContext<dim>& ctx, const std::string& relative,
-                    const fem::Solution<dim>* s) {
+void add_step_fields(const SimulationContext<dim>& ctx, const fem::Solution<dim>* s, UnstructuredGrid& g,
+                     const std::vector<std::size_t>* points, const std::vector<std::size_t>* cells) {
   using Vec = Eigen::Matrix<double, dim, 1>;
   using Mat = Eigen::Matrix<double, dim, dim>;
   const Scenario& sc = ctx.sc;
-  UnstructuredGrid g = *ctx.grid;
   const Mat D = ctx.tf.direction;
-  const std::size_t nc = ctx.E.size();
+  const std::size_t np = g.points.size(), nc = g.n_cells();
+  const auto point = [points](std::size_t v) { return points ? (*points)[v] : v; };
+  const auto cell = [cells](std::size_t c) { return cells ? (*cells)[c] : c; };
   if (sc.wants("displacement")) {
     Field f{dim, {}};
-    f.values.reserve(g.points.size() * dim);
+    f.values.reserve(np * dim);
     // Degree 2: the grid's mid-edge points follow its vertices; their values are the P2 edge DoFs of the
     // last solve (s is the model's last solution).
-    const std::size_t nv = g.points.size() - ctx.edges.size();
+    const std::size_t nv = ctx.grid->points.size() - ctx.edges.size();
     const std::vector<Vec> mid =
         s && !ctx.edges.empty() ? ctx.model->edge_midpoint_displacement(ctx.edges) : std::vector<Vec>{};
-    for (std::size_t v = 0; v < g.points.size(); ++v) {
+    for (std::size_t k = 0; k < np; ++k) {
+      const std::size_t v = point(k);
       const Vec u = !s ? Vec::Zero() : v < nv ? Vec(D * s->vertex_displacement[v]) : Vec(D * mid[v - nv]);
       for (int d = 0; d < dim; ++d) f.values.push_back(u[d]);
     }
@@ -55,7 +62,8 @@ void write_step_vtu(const SimulationContext<dim>& ctx, const std::string& relati
   auto tensor = [&](const std::vector<Mat>* t, bool stress) {
     Field f{9, {}};
     f.values.reserve(nc * 9);
-    for (std::size_t c = 0; c < nc; ++c) {
+    for (std::size_t k = 0; k < nc; ++k) {
+      const std::size_t c = cell(k);
       Eigen::Matrix3d w = Eigen::Matrix3d::Zero();
       if (t) w.topLeftCorner<dim, dim>() = D * (*t)[c] * D.transpose();
       if (t && stress && dim == 2) w(2, 2) = sc.poisson_ratio * (*t)[c].trace();
@@ -64,15 +72,49 @@ void write_step_vtu(const SimulationContext<dim>& ctx, const std::string& relati
     }
     return f;
   };
+  auto per_cell = [&](const std::vector<double>* values) {
+    Field f{1, {}};
+    f.values.reserve(nc);
+    for (std::size_t k = 0; k < nc; ++k) f.values.push_back(values ? (*values)[cell(k)] : 0.0);
+    return f;
+  };
   if (sc.wants("strain")) g.cell_data["strain"] = tensor(s ? &s->cell_strain : nullptr, false);
   if (sc.wants("stress")) g.cell_data["stress"] = tensor(s ? &s->cell_stress : nullptr, true);
-  if (sc.wants("von_mises"))
-    g.cell_data["von_mises"] = Field{1, s ? s->von_mises : std::vector<double>(nc, 0.0)};
-  if (sc.wants("youngs_modulus")) g.cell_data["youngs_modulus"] = Field{1, ctx.E};
-  if (ctx.opt.mpi_ranks > 1)
-    write_pvtu(ctx.opt.output_file, relative, g, ctx.opt.mpi_ranks);
-  else
-    write_vtu(ctx.opt.output_file(relative), g);
+  if (sc.wants("von_mises")) g.cell_data["von_mises"] = per_cell(s ? &s->von_mises : nullptr);
+  if (sc.wants("youngs_modulus")) g.cell_data["youngs_modulus"] = per_cell(&ctx.E);
+}
+
+// A step of a run over MPI ranks, on every rank: its piece (the cells it owns in the distributed
+// solves) through a temporary name; rank 0, once every piece is in place, the .pvtu that names them,
+// so that a stopped run never leaves a .pvtu naming a missing piece.
+template <int dim>
+void write_step_pieces(const SimulationContext<dim>& ctx, const std::string& relative,
+                       const fem::Solution<dim>* s) {
+  int rank = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  const std::vector<std::size_t> cells = fem::owned_cells(*ctx.model, MPI_COMM_WORLD);
+  std::vector<std::size_t> points;
+  UnstructuredGrid piece = grid_cells(*ctx.grid, cells, &points);
+  add_step_fields<dim>(ctx, s, piece, &points, &cells);
+  const auto& file = rank == 0 ? ctx.opt.output_file : ctx.opt.piece_file;
+  // rank 0 registers every piece in the output folder (creating steps/) before any rank writes one
+  if (rank == 0)
+    for (int r = 0; r < ctx.opt.mpi_ranks; ++r) file(pvtu_piece(relative, r));
+  MPI_Barrier(MPI_COMM_WORLD);
+  write_vtu(file(pvtu_piece(relative, rank)), piece);
+  MPI_Barrier(MPI_COMM_WORLD);
+  if (rank == 0) write_pvtu(file(relative), ctx.opt.mpi_ranks, piece);
+}
+
+}  // namespace
+
+template <int dim>
+void write_step_vtu(const SimulationContext<dim>& ctx, const std::string& relative,
+                    const fem::Solution<dim>* s) {
+  if (ctx.opt.mpi_ranks > 1) return write_step_pieces<dim>(ctx, relative, s);
+  UnstructuredGrid g = *ctx.grid;
+  add_step_fields<dim>(ctx, s, g, nullptr, nullptr);
+  write_vtu(ctx.opt.output_file(relative), g);
 }
 
 template <int dim>

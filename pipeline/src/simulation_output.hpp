@@ -16,10 +16,18 @@ namespace vim::pipeline {
 std::string step_file(int k, int mpi_ranks = 1);
 
 // The world grid with the scenario's output fields of a solution (zero fields when null: rest), written
-// to ctx.opt.output_file(relative): a .vtu, or with ctx.opt.mpi_ranks > 1 a .pvtu with that many pieces.
+// to ctx.opt.output_file(relative): a .vtu, or with ctx.opt.mpi_ranks > 1 a .pvtu with a piece per rank,
+// each written by its rank (the cells it owns in the distributed solves, through
+// ctx.opt.piece_file on the ranks other than 0): then collective over MPI_COMM_WORLD.
 template <int dim>
 void write_step_vtu(const SimulationContext<dim>& ctx, const std::string& relative,
                     const fem::Solution<dim>* solution);
+
+// Whether this process writes step files: rank 0 of a run with an output folder (output_file), or
+// another rank of such a run over MPI ranks (piece_file: its pieces of the .pvtu).
+inline bool writes_steps(const SimulationOptions& o) {
+  return static_cast<bool>(o.output_file) || static_cast<bool>(o.piece_file);
+}
 
 // Per step: depth, tip, axial and lateral force, the axial force's friction and tip parts, the largest
 // strain (max_strain), each target's displacement and its norm.

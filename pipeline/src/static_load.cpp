@@ -36,12 +36,10 @@ StaticLoadRun<dim> run_static_load(SimulationContext<dim>& ctx, json& report,
     for (const Vec& u : ctx.model->sample(targets))
       run.target_displacement.push_back(ctx.tf.vector_to_world(u));
 
-  const bool write = static_cast<bool>(ctx.opt.output_file) && ctx.sc.output_every > 0;
+  const bool write = writes_steps(ctx.opt) && ctx.sc.output_every > 0;
   const std::string file = "steps/" + step_file(0, ctx.opt.mpi_ranks);
-  if (write) {
-    write_step_vtu<dim>(ctx, file, &solution);
-    write_pvd(ctx.opt.output_file("simulation.pvd"), {{0.0, file}});
-  }
+  if (write) write_step_vtu<dim>(ctx, file, &solution);
+  if (write && ctx.opt.output_file) write_pvd(ctx.opt.output_file("simulation.pvd"), {{0.0, file}});
   json final_targets = json::object();
   for (std::size_t t = 0; t < run.target_displacement.size(); ++t) {
     const Vec& u = run.target_displacement[t];

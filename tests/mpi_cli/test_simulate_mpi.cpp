@@ -4,8 +4,10 @@
 // solve each) gives the same needle forces, target displacements, step displacements and stresses to
 // 1e-8 of their scale, with the steps as .pvtu files of one piece per rank.
 #include <gtest/gtest.h>
+#include <vtkCell.h>
 #include <vtkCellData.h>
 #include <vtkDataArray.h>
+#include <vtkIdList.h>
 #include <vtkNew.h>
 #include <vtkPointData.h>
 #include <vtkSmartPointer.h>
@@ -13,9 +15,11 @@
 #include <vtkXMLPUnstructuredGridReader.h>
 #include <vtkXMLUnstructuredGridReader.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -66,13 +70,57 @@ struct Misfit {
   }
 };
 
-// Step `step` of the serial run (.vtu) against the two-rank run (.pvtu, two pieces): the displacement
-// at every point and the sorted per-cell stress components (pieces keep the cells' order).
+// A cell by the sorted coordinates of its points (pieces renumber their points and hold the cells in
+// their rank's order), and its cell fields.
+using CellKey = std::vector<std::array<double, 3>>;
+std::map<CellKey, std::vector<double>> by_cell(vtkUnstructuredGrid* g) {
+  std::map<CellKey, std::vector<double>> out;
+  for (vtkIdType c = 0; c < g->GetNumberOfCells(); ++c) {
+    vtkIdList* ids = g->GetCell(c)->GetPointIds();
+    CellKey key(static_cast<std::size_t>(ids->GetNumberOfIds()));
+    for (vtkIdType k = 0; k < ids->GetNumberOfIds(); ++k)
+      g->GetPoint(ids->GetId(k), key[static_cast<std::size_t>(k)].data());
+    std::sort(key.begin(), key.end());
+    std::vector<double> values;
+    for (int a = 0; a < g->GetCellData()->GetNumberOfArrays(); ++a) {
+      vtkDataArray* f = g->GetCellData()->GetArray(a);
+      for (int k = 0; k < f->GetNumberOfComponents(); ++k) values.push_back(f->GetComponent(c, k));
+    }
+    out[key] = values;
+  }
+  return out;
+}
+
+// The pieces a .pvtu names (its Piece Source attributes).
+std::vector<std::string> piece_sources(const fs::path& pvtu) {
+  std::ifstream in(pvtu);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::vector<std::string> out;
+  const std::string tag = "<Piece Source=\"";
+  for (std::size_t at = text.find(tag); at != std::string::npos; at = text.find(tag, at + 1)) {
+    const std::size_t from = at + tag.size();
+    out.push_back(text.substr(from, text.find('"', from) - from));
+  }
+  return out;
+}
+
+// Step `step` of the serial run (.vtu) against the two-rank run (.pvtu naming one piece per rank, each
+// written by its rank: the cells it owns): the pieces together hold every serial cell once (matched by
+// its points' coordinates) and no other, each piece a non-empty part; the displacement at every point
+// and every cell field (stress, von Mises, ...) agree.
 void expect_same_step(const fs::path& serial, const fs::path& two, const std::string& step) {
   const auto a = read_grid<vtkXMLUnstructuredGridReader>(serial / "steps" / (step + ".vtu"));
   ASSERT_TRUE(fs::exists(two / "steps" / (step + ".pvtu")));
-  EXPECT_TRUE(fs::exists(two / "steps" / (step + "_0.vtu")));
-  EXPECT_TRUE(fs::exists(two / "steps" / (step + "_1.vtu")));
+  EXPECT_EQ(piece_sources(two / "steps" / (step + ".pvtu")),
+            (std::vector<std::string>{step + "_0.vtu", step + "_1.vtu"}));
+  vtkIdType piece_cells = 0;
+  for (const std::string r : {"_0", "_1"}) {
+    const auto piece = read_grid<vtkXMLUnstructuredGridReader>(two / "steps" / (step + r + ".vtu"));
+    EXPECT_GT(piece->GetNumberOfCells(), 0) << step << r;
+    EXPECT_LT(piece->GetNumberOfCells(), a->GetNumberOfCells()) << step << r;
+    piece_cells += piece->GetNumberOfCells();
+  }
+  EXPECT_EQ(piece_cells, a->GetNumberOfCells());
   const auto b = read_grid<vtkXMLPUnstructuredGridReader>(two / "steps" / (step + ".pvtu"));
   ASSERT_EQ(a->GetNumberOfCells(), b->GetNumberOfCells());
   const PointValues ua = by_position(a, "displacement"), ub = by_position(b, "displacement");
@@ -85,13 +133,18 @@ void expect_same_step(const fs::path& serial, const fs::path& two, const std::st
   }
   EXPECT_GT(u.scale, 0.0);
   EXPECT_LE(u.diff, 1e-8 * u.scale) << step << " displacement";
-  vtkDataArray* sa = a->GetCellData()->GetArray("stress");
-  vtkDataArray* sb = b->GetCellData()->GetArray("stress");
-  ASSERT_TRUE(sa && sb);
+  ASSERT_TRUE(a->GetCellData()->GetArray("stress") && b->GetCellData()->GetArray("stress"));
+  const auto ca = by_cell(a), cb = by_cell(b);
+  ASSERT_EQ(ca.size(), static_cast<std::size_t>(a->GetNumberOfCells()));  // no two cells alike
+  ASSERT_EQ(cb.size(), ca.size());                                        // every cell once
   Misfit s;
-  for (vtkIdType i = 0; i < a->GetNumberOfCells(); ++i)
-    for (int c = 0; c < 9; ++c) s.add(sa->GetComponent(i, c), sb->GetComponent(i, c));
-  EXPECT_LE(s.diff, 1e-8 * s.scale) << step << " stress";
+  for (const auto& [key, values] : ca) {
+    ASSERT_EQ(cb.count(key), 1u) << step << ": a serial cell is in no piece";
+    ASSERT_EQ(cb.at(key).size(), values.size());
+    for (std::size_t k = 0; k < values.size(); ++k) s.add(values[k], cb.at(key)[k]);
+  }
+  EXPECT_GT(s.scale, 0.0);
+  EXPECT_LE(s.diff, 1e-8 * s.scale) << step << " cell fields";
 }
 
 // needle.csv as columns of numbers.
@@ -145,6 +198,14 @@ TEST(SimulateMpi, NeedleOnTwoRanksEqualsTheSerialRun) {
     }
     EXPECT_GT(std::abs(a.at("axial_force").back()), 0.0);
     expect_same_step(serial_dir, two_dir, "step_0003");
+    int pvtu = 0;  // every step's .pvtu names pieces that are all there
+    for (const auto& f : fs::directory_iterator(two_dir / "steps"))
+      if (f.path().extension() == ".pvtu") {
+        ++pvtu;
+        for (const auto& piece : piece_sources(f.path()))
+          EXPECT_TRUE(fs::exists(two_dir / "steps" / piece)) << piece;
+      }
+    EXPECT_EQ(pvtu, 2) << mesher;  // steps 0 and 3 (output every 3)
     const auto report = read_json(two_dir / "report.json");
     EXPECT_NE(report.dump().find("mpi, 2 ranks"), std::string::npos) << mesher;
     EXPECT_TRUE(fs::exists(two_dir / "mesh.vtu"));

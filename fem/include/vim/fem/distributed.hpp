@@ -32,4 +32,11 @@ Solution<dim> solve_distributed(ElasticModel<dim>& model, MPI_Comm comm, const S
 template <int dim>
 void distribute_solves(ElasticModel<dim>& model, MPI_Comm comm);
 
+// The cells the calling rank of `comm` owns in the model's distributed solves, ascending: input cell
+// indices of a simplex model (METIS partition), voxel indices of a voxel model (p4est partition); the
+// ranks' lists together hold every cell once. Taken from the last distributed solve over as many
+// ranks; before one, collective: the distributed mesh is built for it.
+template <int dim>
+std::vector<std::size_t> owned_cells(const ElasticModel<dim>& model, MPI_Comm comm);
+
 }  // namespace vim::fem

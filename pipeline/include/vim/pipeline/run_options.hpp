@@ -54,6 +54,9 @@ struct RunOptions {
   // Not an option: the MPI ranks one simulation runs on (mpirun without --study); the FEM solves go
   // over MPI_COMM_WORLD and the step files are written as .pvtu with a .vtu piece per rank.
   int mpi_ranks = 1;
+  // Not an option: on the ranks other than 0 of such a run (whose `out` is empty: rank 0 alone owns the
+  // output folder), the --out folder, where the rank writes its pieces of the step files.
+  std::filesystem::path pieces_out;
 
   // The mesher's options (threads, seed, λ, quality bound, iterations) taken from this struct.
   VimOptions vim_options() const;

@@ -80,8 +80,13 @@ struct SimulationOptions {
   // the voxel model check_modulus_image): the simulation does not check it again.
   bool scenario_checked = false;
   // More than 1 (mpirun): every rank builds the same simulation, the FEM solves run over
-  // MPI_COMM_WORLD (fem::distribute_solves) and step files are .pvtu with this many .vtu pieces.
+  // MPI_COMM_WORLD (fem::distribute_solves) and step files are .pvtu with this many .vtu pieces, each
+  // written by its rank.
   int mpi_ranks = 1;
+  // On the ranks other than 0 of such a run with an output folder (rank 0 alone has output_file and
+  // writes every other file): the path of a file relative to that folder, for this rank's pieces of
+  // the step files. Empty otherwise.
+  std::function<std::filesystem::path(const std::string& relative)> piece_file;
 };
 
 template <int dim>

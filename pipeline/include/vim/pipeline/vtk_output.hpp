@@ -55,15 +55,20 @@ UnstructuredGrid voxel_grid(const Image<dim>& image, const WorldTransform<dim>& 
 
 void write_vtu(const std::filesystem::path& path, const UnstructuredGrid& grid);
 
-// The cells [n·r/pieces, n·(r+1)/pieces) of `grid` with the points they use (renumbered in order of
-// first use) and their point and cell fields: piece r of `pieces`.
-UnstructuredGrid grid_piece(const UnstructuredGrid& grid, int r, int pieces);
+// The cells `cells` (indices into `grid`, in this order) of `grid` with the points they use
+// (renumbered in order of first use; `points_used`, if given, gets the grid point of each) and their
+// point and cell fields: a piece of a parallel VTU. Throws std::invalid_argument for a cell index out
+// of range.
+UnstructuredGrid grid_cells(const UnstructuredGrid& grid, const std::vector<std::size_t>& cells,
+                            std::vector<std::size_t>* points_used = nullptr);
 
-// `grid` as a parallel VTU: `relative` names the .pvtu ("steps/step_0003.pvtu"), its pieces are
-// STEM_R.vtu next to it (r = 0 … pieces − 1, grid_piece), each path taken from `file` (e.g.
-// OutputDirectory::file); every file written atomically, the .pvtu last.
-void write_pvtu(const std::function<std::filesystem::path(const std::string&)>& file,
-                const std::string& relative, const UnstructuredGrid& grid, int pieces);
+// The file of piece r of the parallel VTU `relative`: "steps/step_0003.pvtu" -> "steps/step_0003_1.vtu".
+std::string pvtu_piece(const std::string& relative, int r);
+
+// The .pvtu at `path` naming `pieces` pieces STEM_0.vtu … next to it (pvtu_piece), with the point and
+// cell arrays of `fields` (any piece: the arrays' names and components, as write_vtu writes them);
+// written atomically. Write it after its pieces, so that it never names a missing one.
+void write_pvtu(const std::filesystem::path& path, int pieces, const UnstructuredGrid& fields);
 
 // ParaView collection: (time, file relative to the .pvd) pairs.
 void write_pvd(const std::filesystem::path& path, const std::vector<std::pair<double, std::string>>& entries);
