@@ -1,6 +1,7 @@
 // Test helpers for killing and starving the real CLI: fork/exec of vim-pipeline (optionally with a
-// file-size limit, RLIMIT_FSIZE, set in the child before exec), its exit status or signal, and a check
-// that every file left under a final name is complete of its kind.
+// file-size limit, RLIMIT_FSIZE, set in the child before exec) or of any program (mpirun), SIGKILL of
+// a whole process tree, the exit status or signal, and a check that every file left under a final name
+// is complete of its kind.
 #pragma once
 
 #include <fcntl.h>
