@@ -8,7 +8,8 @@
 # validation smoke run from this script (docs/robustness.md records the last run and its commit).
 #   scripts/sanitize.sh [BUILD_DIR]            (default: ../build-sanitize next to the checkout)
 # Environment: JOBS (default 1), TARGETS (default: every suite below), CONFIGURE_ONLY=1 to stop after
-# cmake, GTEST_FILTER passed through, VALIDATION_FILTER (the validation smoke; default below),
+# cmake, GTEST_FILTER passed through to every suite, FILTER_<suite> (e.g. FILTER_test_pipeline: a
+# GoogleTest filter for that suite alone), VALIDATION_FILTER (the validation smoke; default below),
 # CMAKE_ARGS added to the configure line (e.g. -DCMAKE_CXX_COMPILER_LAUNCHER=ccache), FEM_FROM (a
 # normal build dir of the same checkout: its vim_fem is brought up to date and linked uninstrumented
 # instead of compiling fem's deal.II units again; not with test_fem, which would then check nothing).
@@ -58,7 +59,8 @@ for t in $targets; do
   exe=$(find "$build/tests" -maxdepth 2 -type f -name "$t" -perm -u+x | head -1)
   log="$build/$t.sanitize.log"
   echo "== $t (log: $log)"
-  filter=${GTEST_FILTER:-*}
+  suite_filter="FILTER_$t"
+  filter=${GTEST_FILTER:-${!suite_filter:-*}}
   [ "$t" = test_validation ] && filter=${GTEST_FILTER:-$validation_filter}
   t0=$(date +%s)
   set +e
