@@ -4,7 +4,7 @@
 # on (VIM_CHECKED=ON: every VIM stage of every test run is checked) in a separate build dir and runs
 # them, timing the build and the run of each suite. The instrumented code is compiled at -O1 with
 # line tables (-g1), enough for the sanitizers' stacks. CI (scripts/test.sh) runs the mesher
-# suite this way (SANITIZE_TARGETS adds the bad-input and pipeline suites); the fem suite and the
+# and bad-input suites this way (SANITIZE_TARGETS chooses); the pipeline and fem suites and the
 # validation smoke run from this script (docs/robustness.md records the last run and its commit).
 #   scripts/sanitize.sh [BUILD_DIR]            (default: ../build-sanitize next to the checkout)
 # Environment: JOBS (default 1), TARGETS (default: every suite below), CONFIGURE_ONLY=1 to stop after
