@@ -4,11 +4,12 @@
 # on (VIM_CHECKED=ON: every VIM stage of every test run is checked) in a separate build dir and runs
 # them, timing the build and the run of each suite. The instrumented code is compiled at -O1 with
 # line tables (-g1), enough for the sanitizers' stacks. CI (scripts/test.sh) runs the mesher
-# suite this way (SANITIZE_TARGETS adds the bad-input and pipeline suites); the fem suite and the
+# and bad-input suites this way (SANITIZE_TARGETS chooses); the pipeline and fem suites and the
 # validation smoke run from this script (docs/robustness.md records the last run and its commit).
 #   scripts/sanitize.sh [BUILD_DIR]            (default: ../build-sanitize next to the checkout)
 # Environment: JOBS (default 1), TARGETS (default: every suite below), CONFIGURE_ONLY=1 to stop after
-# cmake, GTEST_FILTER passed through, VALIDATION_FILTER (the validation smoke; default below),
+# cmake, GTEST_FILTER passed through to every suite, FILTER_<suite> (e.g. FILTER_test_pipeline: a
+# GoogleTest filter for that suite alone), VALIDATION_FILTER (the validation smoke; default below),
 # CMAKE_ARGS added to the configure line (e.g. -DCMAKE_CXX_COMPILER_LAUNCHER=ccache), FEM_FROM (a
 # normal build dir of the same checkout: its vim_fem is brought up to date and linked uninstrumented
 # instead of compiling fem's deal.II units again; not with test_fem, which would then check nothing).
@@ -58,7 +59,8 @@ for t in $targets; do
   exe=$(find "$build/tests" -maxdepth 2 -type f -name "$t" -perm -u+x | head -1)
   log="$build/$t.sanitize.log"
   echo "== $t (log: $log)"
-  filter=${GTEST_FILTER:-*}
+  suite_filter="FILTER_$t"
+  filter=${GTEST_FILTER:-${!suite_filter:-*}}
   [ "$t" = test_validation ] && filter=${GTEST_FILTER:-$validation_filter}
   t0=$(date +%s)
   set +e

@@ -15,14 +15,16 @@ BUILD_DIR="$BUILD_DIR" CMAKE_ARGS="-DVIM_WERROR=ON ${CMAKE_ARGS:-}" bash "$ROOT/
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 cd "$BUILD_DIR"
 ctest --output-on-failure --timeout 1800 "$@"
-# The full run also builds the mesher suite with ASan+UBSan (leak detection on, scripts/lsan.supp) and
-# every mesh invariant checked (scripts/sanitize.sh; SANITIZE=0 skips it). SANITIZE_TARGETS="test_mesher
-# test_bad_inputs test_pipeline" adds the suites with an MPI main, whose first sanitized runs still had
-# leak reports to classify (docs/robustness.md). fem is linked uninstrumented from this build
+# The full run also builds the mesher and bad-input suites with ASan+UBSan (leak detection on,
+# scripts/lsan.supp) and every mesh invariant checked (scripts/sanitize.sh; SANITIZE=0 skips it); the
+# bad-input suite drives the instrumented vim-pipeline through the image, scenario and study readers,
+# meshing, simulation, figures and the fault paths. SANITIZE_TARGETS chooses the suites (the pipeline
+# suite, the fem suite and the validation smoke run from scripts/sanitize.sh: docs/robustness.md gives
+# their times and results). fem is linked uninstrumented from this build
 # (FEM_FROM), so its deal.II units are not compiled twice. Then a 30-second smoke of each fuzz target
 # (scripts/fuzz.sh; FUZZ=0 skips it).
 if [ $# -eq 0 ] && [ "${SANITIZE:-1}" != 0 ]; then
-  TARGETS="${SANITIZE_TARGETS:-test_mesher}" FEM_FROM="$BUILD_DIR" JOBS="${JOBS:-2}" \
+  TARGETS="${SANITIZE_TARGETS:-test_mesher test_bad_inputs}" FEM_FROM="$BUILD_DIR" JOBS="${JOBS:-2}" \
     bash "$ROOT/scripts/sanitize.sh" "$BUILD_DIR-sanitize"
 fi
 if [ $# -eq 0 ] && [ "${FUZZ:-1}" != 0 ]; then

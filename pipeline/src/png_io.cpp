@@ -8,7 +8,9 @@
 #include <itkPNGImageIO.h>
 #include <itkRGBPixel.h>
 
+#include <cerrno>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
@@ -43,9 +45,14 @@ void write_rgb24_png(const std::filesystem::path& path, int width, int height, c
   write_atomically(path, [&](const std::filesystem::path& tmp) {
     std::ofstream out(tmp, std::ios::binary);
     if (!out) throw std::runtime_error("cannot open " + tmp.string() + " for writing");
+    errno = 0;
     out.write(file.data(), static_cast<std::streamsize>(file.size()));
     out.close();
-    if (!out) throw std::runtime_error("error while writing " + path.string() + " (is the disk full?)");
+    if (!out) {
+      // errno of the failed write() (EFBIG, ENOSPC, EIO, ...), as the text and VTK writers report it.
+      const std::string why = errno != 0 ? std::string(": ") + std::strerror(errno) : std::string();
+      throw std::runtime_error("cannot write " + path.string() + why + " (is the disk full?)");
+    }
   });
 }
 

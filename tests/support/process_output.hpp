@@ -1,6 +1,7 @@
 // Test helpers for killing and starving the real CLI: fork/exec of vim-pipeline (optionally with a
-// file-size limit, RLIMIT_FSIZE, set in the child before exec), its exit status or signal, and a check
-// that every file left under a final name is complete of its kind.
+// file-size limit, RLIMIT_FSIZE, set in the child before exec) or of any program (mpirun), SIGKILL of
+// a whole process tree, the exit status or signal, and a check that every file left under a final name
+// is complete of its kind.
 #pragma once
 
 #include <fcntl.h>
@@ -33,12 +34,10 @@ struct ProcessResult {
   std::string err;  // everything the CLI wrote to stderr
 };
 
-// fork/exec of vim-pipeline with stdout to /dev/null and stderr to `err_file`; file_size_limit >= 0
+// fork/exec of argv[0] (a path) with stdout to /dev/null and stderr to `err_file`; file_size_limit >= 0
 // sets RLIMIT_FSIZE (bytes) in the child, with SIGXFSZ ignored (a full disk, without privileges).
-inline pid_t spawn_cli(const std::vector<std::string>& args, const fs::path& err_file,
-                       long file_size_limit = -1) {
-  std::vector<std::string> argv_s{VIM_PIPELINE_EXE};
-  argv_s.insert(argv_s.end(), args.begin(), args.end());
+inline pid_t spawn_process(std::vector<std::string> argv_s, const fs::path& err_file,
+                           long file_size_limit = -1) {
   const pid_t pid = ::fork();
   if (pid == 0) {
     const int out = ::open("/dev/null", O_WRONLY);
@@ -59,6 +58,14 @@ inline pid_t spawn_cli(const std::vector<std::string>& args, const fs::path& err
   return pid;
 }
 
+// spawn_process of vim-pipeline with `args`.
+inline pid_t spawn_cli(const std::vector<std::string>& args, const fs::path& err_file,
+                       long file_size_limit = -1) {
+  std::vector<std::string> argv_s{VIM_PIPELINE_EXE};
+  argv_s.insert(argv_s.end(), args.begin(), args.end());
+  return spawn_process(std::move(argv_s), err_file, file_size_limit);
+}
+
 inline ProcessResult wait_cli(pid_t pid, const fs::path& err_file) {
   ProcessResult r;
   int status = 0;
@@ -67,6 +74,48 @@ inline ProcessResult wait_cli(pid_t pid, const fs::path& err_file) {
   if (WIFSIGNALED(status)) r.signal = WTERMSIG(status);
   r.err = slurp(err_file);
   return r;
+}
+
+// `root` and every process below it (parent links read from /proc/PID/stat).
+inline std::vector<pid_t> process_tree(pid_t root) {
+  std::vector<std::pair<pid_t, pid_t>> parent_of;  // {pid, ppid}
+  for (const auto& e : fs::directory_iterator("/proc")) {
+    const std::string name = e.path().filename().string();
+    if (name.empty() ||
+        !std::all_of(name.begin(), name.end(), [](unsigned char c) { return std::isdigit(c) != 0; }))
+      continue;
+    const std::string stat = slurp(e.path() / "stat");  // "pid (comm) state ppid ..."
+    const auto close = stat.rfind(')');
+    if (close == std::string::npos) continue;
+    std::istringstream rest(stat.substr(close + 1));
+    char state = 0;
+    long ppid = 0;
+    if (rest >> state >> ppid)
+      parent_of.emplace_back(static_cast<pid_t>(std::stol(name)), static_cast<pid_t>(ppid));
+  }
+  std::vector<pid_t> tree{root};
+  for (std::size_t at = 0; at < tree.size(); ++at)
+    for (const auto& [pid, ppid] : parent_of)
+      if (ppid == tree[at]) tree.push_back(pid);
+  return tree;
+}
+
+// True while `pid` runs (not exited, not a zombie).
+inline bool running(pid_t pid) {
+  const std::string stat = slurp(fs::path("/proc") / std::to_string(pid) / "stat");
+  const auto close = stat.rfind(')');
+  return close != std::string::npos && close + 2 < stat.size() && stat[close + 2] != 'Z';
+}
+
+// SIGKILL to `root` and every process below it (a job killed whole: mpirun and its ranks), then waits
+// (at most 10 s) until none of them runs any more; the caller still reaps `root` (wait_cli).
+inline void kill_tree(pid_t root) {
+  const std::vector<pid_t> tree = process_tree(root);
+  for (const pid_t pid : tree) ::kill(pid, SIGKILL);
+  for (int waited = 0; waited < 1000; ++waited) {
+    if (std::none_of(tree.begin() + 1, tree.end(), running)) break;
+    ::usleep(10000);
+  }
 }
 
 // Files in `dir` (recursively) with a final name: not hidden temporaries (".NAME.PID.N.partial",
@@ -111,6 +160,17 @@ inline std::string incomplete_reason(const fs::path& p) {
     reader->Update();
     if (reader->GetErrorCode() != 0 || reader->GetOutput() == nullptr)
       return "vtkXMLUnstructuredGridReader fails";
+  } else if (ext == ".pvtu") {
+    // Complete when it is whole XML and every piece it names is a complete .vtu beside it.
+    if (!ends_with(rtrim(text), "</VTKFile>")) return "pvtu does not end with </VTKFile>";
+    const std::string key = "<Piece Source=\"";
+    for (auto at = text.find(key); at != std::string::npos; at = text.find(key, at + 1)) {
+      const auto from = at + key.size();
+      const fs::path piece = p.parent_path() / text.substr(from, text.find('"', from) - from);
+      if (!fs::exists(piece)) return "pvtu names a missing piece " + piece.string();
+      const std::string why = incomplete_reason(piece);
+      if (!why.empty()) return "piece " + piece.string() + ": " + why;
+    }
   } else if (ext == ".pvd" || ext == ".feb" || ext == ".xml") {
     if (rtrim(text).back() != '>') return "xml file ends mid-element";
   } else if (ext == ".csv") {
