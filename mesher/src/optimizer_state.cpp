@@ -55,6 +55,13 @@ VimOptimizer<dim>::VimOptimizer(SimplexMesh<dim> mesh, const VoxelStatistics<dim
     }
     cache_[c] = evaluate(x);
   }
+  const MeshQuality start = mesh_quality<dim>(mesh_);
+  invariant_bound_ = bound;
+  invariant_bound_.max_dihedral_deg = std::max(bound.max_dihedral_deg, start.max_dihedral_deg);
+  if (bound.min_dihedral_deg > 0.0)
+    invariant_bound_.min_dihedral_deg = std::min(bound.min_dihedral_deg, start.min_dihedral_deg);
+  if (bound.min_radius_ratio > 0.0)
+    invariant_bound_.min_radius_ratio = std::min(bound.min_radius_ratio, start.min_nrr);
   adj_.build(mesh_.points.size(), mesh_.cells);
   fix_normalization();
   recolour();
@@ -127,7 +134,7 @@ void VimOptimizer<dim>::check_invariants(const char* stage, int iteration, doubl
     throw InvariantViolation(m.str());
   };
   std::string v = mesh_invariant_violation<dim>(mesh_, alive_, fixed_, box_min_, box_max_, boundary_tol_,
-                                                quality_.bound());
+                                                invariant_bound_);
   if (!v.empty()) fail(v);
   if (!adj_.consistent(mesh_.n_points(), mesh_.cells, alive_))
     fail("the node-to-cell adjacency differs from a rebuild");
