@@ -57,7 +57,6 @@ VimOptimizer<dim>::VimOptimizer(SimplexMesh<dim> mesh, const VoxelStatistics<dim
   }
   const MeshQuality start = mesh_quality<dim>(mesh_);
   invariant_bound_ = bound;
-  invariant_bound_.max_dihedral_deg = std::max(bound.max_dihedral_deg, start.max_dihedral_deg);
   if (bound.min_dihedral_deg > 0.0)
     invariant_bound_.min_dihedral_deg = std::min(bound.min_dihedral_deg, start.min_dihedral_deg);
   if (bound.min_radius_ratio > 0.0)

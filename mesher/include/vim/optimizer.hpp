@@ -83,10 +83,10 @@ class VimOptimizer {
   long insert_nodes(long k);
 
   // Checks the invariants of invariants.hpp (nodes in the box and on their faces, no inverted cell,
-  // quality bound — no looser than the starting mesh's worst cell —, conforming tiling of the box) plus: the
-  // adjacency equals a rebuild from the cells, the per-element caches equal a fresh evaluation (relative
-  // 1e-9) and E has not risen above previous_energy. Costs about one full evaluation of the mesh. Throws
-  // InvariantViolation naming `stage`, `iteration` and the first violation.
+  // quality bound — its optional parts no stricter than the starting mesh —, conforming tiling of the box)
+  // plus: the adjacency equals a rebuild from the cells, the per-element caches equal a fresh evaluation
+  // (relative 1e-9) and E has not risen above previous_energy. Costs about one full evaluation of the mesh.
+  // Throws InvariantViolation naming `stage`, `iteration` and the first violation.
   void check_invariants(const char* stage, int iteration, double previous_energy) const;
 
   // Sums over live cells (deterministic order, extended precision).
@@ -172,8 +172,9 @@ class VimOptimizer {
   const Image<dim>* density_;
   VimOptions options_;
   QualityCheck<dim> quality_;
-  // The bound check_invariants holds the mesh to: the options' bound, relaxed to the starting mesh's
-  // worst cells (a cell that starts below an optional bound is kept unless a move improves it).
+  // The bound check_invariants holds the mesh to: the options' bound, its optional minimum angle and
+  // radius ratio relaxed to the starting mesh's worst cells (a cell that starts below them is kept
+  // unless a move improves it; the maximum angle stays strict).
   QualityBound invariant_bound_;
   Point box_min_, box_max_;
   double boundary_tol_ = 0.0;
