@@ -136,10 +136,9 @@ std::vector<BandCoupling::StationState> BandCoupling::station_states(const std::
 
 std::vector<BandCoupling::Vec> BandCoupling::tissue_displacements(const std::vector<Vec>& points,
                                                                   std::vector<Vec> mesh_values,
-                                                                  const std::vector<std::size_t>& active,
-                                                                  const std::vector<double>& axial,
+                                                                  const ShaftState& state,
                                                                   const fem::Solution<3>& solution) const {
-  const std::vector<StationState> st = station_states(active, axial, solution);
+  const std::vector<StationState> st = station_states(state.active, state.axial, solution);
   if (st.empty() || effective_radius_ <= radius_) return mesh_values;
   const Vec entry = stations_.front().position - stations_.front().s * axis_;
   for (std::size_t k = 0; k < points.size(); ++k) {
@@ -149,7 +148,7 @@ std::vector<BandCoupling::Vec> BandCoupling::tissue_displacements(const std::vec
     if (beside && r < effective_radius_)
       mesh_values[k] = annulus_value(st, t, r);
     else if (!beside)
-      mesh_values[k] += surface_load_correction(points[k], active, solution);
+      mesh_values[k] += surface_load_correction(points[k], state, solution);
   }
   return mesh_values;
 }
@@ -169,27 +168,34 @@ BandCoupling::Vec BandCoupling::annulus_value(const std::vector<StationState>& s
 }
 
 // Beyond the held shaft's ends: the model carries each station's force f spread over its band (radius
-// R); the tissue takes it on the needle's surface (radius a). The difference of the two Kelvin fields at
-// x, summed over the active stations near x. The unbounded body stands for the tissue between a station
-// and x while the held tissue is not much nearer x: none in a held region; with b the distance from x to
-// the nearest held vertex, weight 1 for a station within 2b, falling linearly to 0 at 3b.
-BandCoupling::Vec BandCoupling::surface_load_correction(const Vec& x, const std::vector<std::size_t>& active,
+// R, the station's length); the tissue takes it on the needle's surface (radius a) along the shaft the
+// station carries — its own length, or up to the tip for the station nearest it — except the station the
+// tip pushes, whose load stays at its band. The difference of the two Kelvin fields at x, summed over the
+// active stations near x. The unbounded body stands for the tissue between a station and x while the held
+// tissue is not much nearer x: none in a held region; with b the distance from x to the nearest held
+// vertex, weight 1 for a station within 2b, falling linearly to 0 at 3b.
+BandCoupling::Vec BandCoupling::surface_load_correction(const Vec& x, const ShaftState& state,
                                                         const fem::Solution<3>& solution) const {
   for (const auto& region : held_regions_)
     if (region.contains(x)) return Vec::Zero();
   double b = std::numeric_limits<double>::infinity();
   for (const Vec& p : held_points_) b = std::min(b, (p - x).norm());
   Vec du = Vec::Zero();
-  for (std::size_t i = 0; i < active.size() && i < solution.point_force.size(); ++i) {
-    const std::size_t j = active[i];
+  for (std::size_t i = 0; i < state.active.size() && i < solution.point_force.size(); ++i) {
+    const std::size_t j = state.active[i];
     const ShaftPoint<3>& p = stations_[j];
     const double d = (x - p.position).norm(), w = std::clamp(3.0 - d / b, 0.0, 1.0);
     if (w == 0.0 || d > kSurfaceLoadReach * std::max(coupling_radius_, p.length)) continue;
     fem::NeedleBand surface = shapes_[j];
     surface.coupling_radius = radius_;
     surface.inner_fraction = 1.0;
+    Vec centre = p.position;
+    if (j != state.cutting && j < state.carried.size() && state.carried[j] > 0.0) {
+      surface.length = state.carried[j];
+      centre += 0.5 * (state.carried[j] - p.length) * axis_;
+    }
     const Vec& f = solution.point_force[i];
-    du += w * (fem::band_load_displacement(surface, p.position, axis_, f, x, moduli_[j], poisson_ratio_) -
+    du += w * (fem::band_load_displacement(surface, centre, axis_, f, x, moduli_[j], poisson_ratio_) -
                fem::band_load_displacement(shapes_[j], p.position, axis_, f, x, moduli_[j], poisson_ratio_));
   }
   return du;

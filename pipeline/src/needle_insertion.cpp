@@ -299,8 +299,7 @@ void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim>* s, int
   std::vector<Vec> td(targets_.size(), Vec::Zero());
   if (s && !targets_.empty()) {
     const auto u = coupling_->tissue_displacements(
-        targets_, condensed_ ? condensed_->probe_displacements() : ctx_.model->sample(targets_),
-        state_.active, state_.axial, *s);
+        targets_, condensed_ ? condensed_->probe_displacements() : ctx_.model->sample(targets_), state_, *s);
     for (std::size_t t = 0; t < u.size(); ++t) td[t] = ctx_.tf.vector_to_world(u[t]);
   }
   run_.target_displacement.push_back(td);

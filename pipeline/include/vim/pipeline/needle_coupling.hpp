@@ -113,10 +113,9 @@ class NeedleCoupling {
   // solution of rows(active, axial): a coupling whose rows stand for an analytic near field replaces
   // the model's value where the near field holds (BandCoupling); the line leaves them as they are.
   virtual std::vector<Vec> tissue_displacements(const std::vector<Vec>& points, std::vector<Vec> mesh_values,
-                                                const std::vector<std::size_t>& active,
-                                                const std::vector<double>& axial,
+                                                const ShaftState& state,
                                                 const fem::Solution<dim>& solution) const {
-    (void)points, (void)active, (void)axial, (void)solution;
+    (void)points, (void)state, (void)solution;
     return mesh_values;
   }
 };
@@ -200,8 +199,7 @@ class BandCoupling final : public NeedleCoupling<3> {
   // Kelvin field of the load's region; w = 0 in a held region, else from 1 to 0 as the station is
   // two to three times farther from x than the nearest held vertex is).
   std::vector<Vec> tissue_displacements(const std::vector<Vec>& points, std::vector<Vec> mesh_values,
-                                        const std::vector<std::size_t>& active,
-                                        const std::vector<double>& axial,
+                                        const ShaftState& state,
                                         const fem::Solution<3>& solution) const override;
 
  private:
@@ -211,8 +209,7 @@ class BandCoupling final : public NeedleCoupling<3> {
     Vec g, jump;  // frame: the rows' value g and g − ū
   };
   Vec annulus_value(const std::vector<StationState>& st, double t, double r) const;
-  Vec surface_load_correction(const Vec& x, const std::vector<std::size_t>& active,
-                              const fem::Solution<3>& solution) const;
+  Vec surface_load_correction(const Vec& x, const ShaftState& state, const fem::Solution<3>& solution) const;
   void add_stations(const Geometry& geometry, const fem::CellLocator<3>& locator,
                     const std::vector<double>& cell_modulus, double poisson_ratio,
                     const std::vector<bool>& blocked);
