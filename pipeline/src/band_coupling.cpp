@@ -41,6 +41,7 @@ void BandCoupling::add_stations(const Geometry& g, const fem::CellLocator<3>& lo
   } else {
     band = fem::default_needle_band(g.radius, g.element_size, length, g.degree);
   }
+  band_ = band;
   coupling_radius_ = band.coupling_radius;
   effective_radius_ = fem::effective_coupling_radius(band);
   std::vector<int> support;
@@ -69,7 +70,6 @@ void BandCoupling::add_stations(const Geometry& g, const fem::CellLocator<3>& lo
     p.compliance /= e_sum / inside;
     stations_.push_back({centre, s, length});
     bands_.push_back(std::move(p));
-    shapes_.push_back(band);
     moduli_.push_back(e_sum / inside);
   }
 }
@@ -128,8 +128,7 @@ std::vector<BandCoupling::StationState> BandCoupling::station_states(const std::
     const Vec g_axes(b.axes.col(0).dot(lateral_[active[i]]), b.axes.col(1).dot(lateral_[active[i]]),
                      axial[active[i]]);
     const Vec f_axes = b.axes.transpose() * solution.point_force[i];
-    st.push_back({stations_[active[i]].s, 0.5 * stations_[active[i]].length, b.axes * g_axes,
-                  b.axes * b.compliance.cwiseProduct(f_axes)});
+    st.push_back({stations_[active[i]].s, b.axes * g_axes, b.axes * b.compliance.cwiseProduct(f_axes)});
   }
   return st;  // in shaft order: the active stations are listed by ascending arc length
 }
@@ -144,7 +143,8 @@ std::vector<BandCoupling::Vec> BandCoupling::tissue_displacements(const std::vec
   for (std::size_t k = 0; k < points.size(); ++k) {
     const Vec d = points[k] - entry;
     const double t = d.dot(axis_), r = (d - t * axis_).norm();
-    const bool beside = t >= st.front().s - st.front().half && t <= st.back().s + st.back().half;
+    const double half = 0.5 * band_.length;
+    const bool beside = t >= st.front().s - half && t <= st.back().s + half;
     if (beside && r < effective_radius_)
       mesh_values[k] = annulus_value(st, t, r);
     else if (!beside)
@@ -186,7 +186,7 @@ BandCoupling::Vec BandCoupling::surface_load_correction(const Vec& x, const Shaf
     const ShaftPoint<3>& p = stations_[j];
     const double d = (x - p.position).norm(), w = std::clamp(3.0 - d / b, 0.0, 1.0);
     if (w == 0.0 || d > kSurfaceLoadReach * std::max(coupling_radius_, p.length)) continue;
-    fem::NeedleBand surface = shapes_[j];
+    fem::NeedleBand surface = band_;
     surface.coupling_radius = radius_;
     surface.inner_fraction = 1.0;
     Vec centre = p.position;
@@ -196,7 +196,7 @@ BandCoupling::Vec BandCoupling::surface_load_correction(const Vec& x, const Shaf
     }
     const Vec& f = solution.point_force[i];
     du += w * (fem::band_load_displacement(surface, centre, axis_, f, x, moduli_[j], poisson_ratio_) -
-               fem::band_load_displacement(shapes_[j], p.position, axis_, f, x, moduli_[j], poisson_ratio_));
+               fem::band_load_displacement(band_, p.position, axis_, f, x, moduli_[j], poisson_ratio_));
   }
   return du;
 }

@@ -205,7 +205,6 @@ class BandCoupling final : public NeedleCoupling<3> {
  private:
   struct StationState {
     double s;     // arc length of the centre
-    double half;  // half the band's length
     Vec g, jump;  // frame: the rows' value g and g − ū
   };
   Vec annulus_value(const std::vector<StationState>& st, double t, double r) const;
@@ -219,7 +218,7 @@ class BandCoupling final : public NeedleCoupling<3> {
 
   std::vector<ShaftPoint<3>> stations_;
   std::vector<fem::PointConstraint<3>> bands_;  // per station, displacement 0
-  std::vector<fem::NeedleBand> shapes_;         // per station: its band's region
+  fem::NeedleBand band_;                        // every station's band region (around the world axis)
   std::vector<double> moduli_;                  // per station: the mean modulus around its band
   std::vector<Vec> held_points_;                // vertices held in every direction
   std::vector<fem::Region<3>> held_regions_;
