@@ -68,12 +68,7 @@ TEST(StudyFaults, SigkillAtRandomMomentsThenTheSameCommandGivesTheUninterruptedT
   for (int k = 0; k < 4; ++k) {
     const fs::path out = dir / ("killed" + std::to_string(k));
     const pid_t pid = spawn_cli(study_args(dir, out), dir / "err.txt");
-    const double at = moment(rng) * duration;
-    std::this_thread::sleep_for(std::chrono::duration<double>(at));
-    ::kill(pid, SIGKILL);
-    wait_cli(pid, dir / "err.txt");
-    SCOPED_TRACE("killed after " + std::to_string(at) + " s of a " + std::to_string(duration) + " s study");
-    for (const auto& f : final_files(out)) EXPECT_EQ(incomplete_reason(f), "") << f;
+    kill_and_count_complete_files(pid, moment(rng) * duration, duration, dir / "err.txt", out);
     const ProcessResult resumed = run_to_end(study_args(dir, out), dir / "err.txt");
     EXPECT_EQ(resumed.code, 0) << resumed.err;
     EXPECT_EQ(slurp(out / "study.csv"), table);

@@ -102,16 +102,9 @@ TEST(MpiFaults, SigkillOfTheWholeJobAtRandomMomentsLeavesOnlyCompleteFiles) {
   long left = 0;
   for (int k = 0; k < 8; ++k) {
     const fs::path out = dir / ("killed" + std::to_string(k));
+    // mpirun, the shells and both ranks at once
     const pid_t pid = spawn_process(mpirun_args(dir, out), dir / "err.txt");
-    const double at = moment(rng) * duration;
-    std::this_thread::sleep_for(std::chrono::duration<double>(at));
-    kill_tree(pid);  // mpirun, the shells and both ranks at once
-    wait_cli(pid, dir / "err.txt");
-    SCOPED_TRACE("killed after " + std::to_string(at) + " s of a " + std::to_string(duration) + " s run");
-    for (const auto& f : final_files(out)) {
-      ++left;
-      EXPECT_EQ(incomplete_reason(f), "") << f;
-    }
+    left += kill_and_count_complete_files(pid, moment(rng) * duration, duration, dir / "err.txt", out);
   }
   std::cout << "[ info ] run " << duration << " s; " << left << " final-named files left by 8 killed runs\n";
 }

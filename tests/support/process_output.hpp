@@ -5,6 +5,7 @@
 #pragma once
 
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -15,11 +16,13 @@
 
 #include <algorithm>
 #include <cctype>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "run_cli.hpp"  // slurp
@@ -193,6 +196,22 @@ inline std::string incomplete_reason(const fs::path& p) {
     if (t.compare(t.rfind('\n') + 1, 4, "$End") != 0) return "msh does not end with an $End* line";
   }
   return "";
+}
+
+// Kills the job started as `pid` (it and every process below it) `at` seconds from now, reaps it, and
+// expects every file left under a final name in `out` to be complete; returns how many there are.
+inline long kill_and_count_complete_files(pid_t pid, double at, double duration, const fs::path& err_file,
+                                          const fs::path& out) {
+  std::this_thread::sleep_for(std::chrono::duration<double>(at));
+  kill_tree(pid);
+  wait_cli(pid, err_file);
+  SCOPED_TRACE("killed after " + std::to_string(at) + " s of a " + std::to_string(duration) + " s run");
+  long left = 0;
+  for (const auto& f : final_files(out)) {
+    ++left;
+    EXPECT_EQ(incomplete_reason(f), "") << f;
+  }
+  return left;
 }
 
 }  // namespace vim::test
