@@ -53,33 +53,44 @@ rm -rf "$reports_dir"
 mkdir -p "$reports_dir"
 export LSAN_OPTIONS=suppressions="$root/scripts/lsan.supp":print_suppressions=0
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+# A GoogleTest filter (POSITIVE[-NEGATIVE]: patterns separated by ':', with * and ?) as an extended
+# regular expression over CTest's names of the discovered tests (Suite.Test); empty for no pattern.
+filter_regex() {
+  [ -n "$1" ] || return 0
+  printf '^(%s)$' "$(printf '%s' "$1" | sed -e 's/[].+()|^$[{}\\]/\\&/g' -e 's/\*/.*/g' -e 's/?/./g' -e 's/:/|/g')"
+}
 status=0
 summary=""
 for t in $targets; do
-  exe=$(find "$build/tests" -maxdepth 2 -type f -name "$t" -perm -u+x | head -1)
   log="$build/$t.sanitize.log"
   echo "== $t (log: $log)"
   suite_filter="FILTER_$t"
   filter=${GTEST_FILTER:-${!suite_filter:-*}}
   [ "$t" = test_validation ] && filter=${GTEST_FILTER:-$validation_filter}
+  select=(-L "^$t\$")
+  include=$(filter_regex "${filter%%-*}")
+  [ "$include" = '^(.*)$' ] || [ -z "$include" ] || select+=(-R "$include")
+  case "$filter" in *-*) select+=(-E "$(filter_regex "${filter#*-}")") ;; esac
   t0=$(date +%s)
   set +e
   # The suites with an MPI main: MPI_Finalize unloads OpenMPI's plugins, so the fast unwinder's stacks of
   # their allocations end in an unknown module no suppression can name; full stacks reach libmpi.
   fast_unwind=1
   [ "$t" = test_mesher ] || fast_unwind=0
-  (cd "$build/tests" &&
+  # Every test in its own process (CTest runs the discovered tests), JOBS at a time.
+  (cd "$build" &&
     ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:halt_on_error=1:fast_unwind_on_malloc=$fast_unwind:log_path="$reports_dir/$t" \
     UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1:log_path="$reports_dir/$t" \
-    GTEST_FILTER="$filter" "$exe") >"$log" 2>&1
+    env -u GTEST_FILTER ctest -j"$jobs" --no-tests=error --output-on-failure "${select[@]}") >"$log" 2>&1
   rc=$?
   set -e
   run_seconds=$(( $(date +%s) - t0 ))
   reports=$(cat "$reports_dir/$t".* 2>/dev/null | grep -cE 'ERROR: AddressSanitizer|runtime error:|ERROR: LeakSanitizer' || true)
   [ "$reports" -eq 0 ] || { echo "sanitizer reports of $t:"; head -c 20000 "$reports_dir/$t".*; }
-  passed=$(grep -oE '\[  PASSED  \] [0-9]+' "$log" | grep -oE '[0-9]+$' || echo 0)
-  failed=$(grep -oE '\[  FAILED  \] [0-9]+ test' "$log" | grep -oE '[0-9]+' || echo 0)
-  [ "$rc" -ne 0 ] || [ "$reports" -ne 0 ] && status=1
+  counts=$(grep -oE '[0-9]+ tests failed out of [0-9]+' "$log" | tail -1)
+  failed=$(echo "${counts:-0 tests failed out of 0}" | awk '{print $1}')
+  passed=$(echo "${counts:-0 tests failed out of 0}" | awk '{print $NF - $1}')
+  { [ "$rc" -ne 0 ] || [ "$reports" -ne 0 ]; } && status=1
   summary+=$(printf '%-16s exit %-3s passed %-4s failed %-4s sanitizer reports %-3s build %5s s run %5s s' \
     "$t" "$rc" "$passed" "$failed" "$reports" "${build_seconds[$t]}" "$run_seconds")$'\n'
 done
