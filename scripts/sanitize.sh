@@ -3,13 +3,15 @@
 # code; deal.II, ITK and VTK are the uninstrumented system libraries) and the mesh-invariant checks
 # on (VIM_CHECKED=ON: every VIM stage of every test run is checked) in a separate build dir and runs
 # them, timing the build and the run of each suite. The instrumented code is compiled at -O1 with
-# line tables (-g1), enough for the sanitizers' stacks. CI (scripts/test.sh) runs the mesher
-# and bad-input suites this way (SANITIZE_TARGETS chooses); the pipeline and fem suites and the
-# validation smoke run from this script (docs/robustness.md records the last run and its commit).
+# line tables (-g1), enough for the sanitizers' stacks. Each suite runs through CTest, every test in
+# its own process, JOBS at a time. CI (scripts/test.sh) runs the mesher, pipeline and bad-input
+# suites this way (SANITIZE_TARGETS chooses); the fem suite and the validation smoke run from this
+# script (docs/robustness.md records the last run and its commit).
 #   scripts/sanitize.sh [BUILD_DIR]            (default: ../build-sanitize next to the checkout)
-# Environment: JOBS (default 1), TARGETS (default: every suite below), CONFIGURE_ONLY=1 to stop after
-# cmake, GTEST_FILTER passed through to every suite, FILTER_<suite> (e.g. FILTER_test_pipeline: a
-# GoogleTest filter for that suite alone), VALIDATION_FILTER (the validation smoke; default below),
+# Environment: JOBS (default 1: build and test parallelism), TARGETS (default: every suite below),
+# CONFIGURE_ONLY=1 to stop after cmake, GTEST_FILTER (a GoogleTest filter for every suite, turned into
+# ctest -R/-E), FILTER_<suite> (e.g. FILTER_test_pipeline: a filter for that suite alone),
+# VALIDATION_FILTER (the validation smoke; default below),
 # CMAKE_ARGS added to the configure line (e.g. -DCMAKE_CXX_COMPILER_LAUNCHER=ccache), FEM_FROM (a
 # normal build dir of the same checkout: its vim_fem is brought up to date and linked uninstrumented
 # instead of compiling fem's deal.II units again; not with test_fem, which would then check nothing).
@@ -61,6 +63,21 @@ filter_regex() {
 }
 status=0
 summary=""
+# CTest lists the tests of every built suite (gtest_discover_tests, PRE_TEST) the first time it runs,
+# whichever suite it selects: list them all once here, with full stacks (the MPI suites, below).
+set +e
+(cd "$build" &&
+  ASAN_OPTIONS=detect_leaks=1:halt_on_error=1:fast_unwind_on_malloc=0:log_path="$reports_dir/discovery" \
+  UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1:log_path="$reports_dir/discovery" \
+  env -u GTEST_FILTER ctest -N) >"$build/discovery.sanitize.log" 2>&1
+rc=$?
+set -e
+reports=$(cat "$reports_dir"/discovery.* 2>/dev/null | grep -cE 'ERROR: AddressSanitizer|runtime error:|ERROR: LeakSanitizer' || true)
+if [ "$rc" -ne 0 ] || [ "$reports" -ne 0 ] || grep -q "Error running test executable" "$build/discovery.sanitize.log"; then
+  echo "sanitize.sh: listing the tests failed (log: $build/discovery.sanitize.log)" >&2
+  head -c 20000 "$build/discovery.sanitize.log" "$reports_dir"/discovery.* >&2 2>/dev/null || true
+  exit 1
+fi
 for t in $targets; do
   log="$build/$t.sanitize.log"
   echo "== $t (log: $log)"
@@ -87,7 +104,7 @@ for t in $targets; do
   run_seconds=$(( $(date +%s) - t0 ))
   reports=$(cat "$reports_dir/$t".* 2>/dev/null | grep -cE 'ERROR: AddressSanitizer|runtime error:|ERROR: LeakSanitizer' || true)
   [ "$reports" -eq 0 ] || { echo "sanitizer reports of $t:"; head -c 20000 "$reports_dir/$t".*; }
-  counts=$(grep -oE '[0-9]+ tests failed out of [0-9]+' "$log" | tail -1)
+  counts=$(grep -oE '[0-9]+ tests failed out of [0-9]+' "$log" | tail -1 || true)
   failed=$(echo "${counts:-0 tests failed out of 0}" | awk '{print $1}')
   passed=$(echo "${counts:-0 tests failed out of 0}" | awk '{print $NF - $1}')
   { [ "$rc" -ne 0 ] || [ "$reports" -ne 0 ]; } && status=1
