@@ -3,13 +3,15 @@
 # code; deal.II, ITK and VTK are the uninstrumented system libraries) and the mesh-invariant checks
 # on (VIM_CHECKED=ON: every VIM stage of every test run is checked) in a separate build dir and runs
 # them, timing the build and the run of each suite. The instrumented code is compiled at -O1 with
-# line tables (-g1), enough for the sanitizers' stacks. CI (scripts/test.sh) runs the mesher
-# and bad-input suites this way (SANITIZE_TARGETS chooses); the pipeline and fem suites and the
-# validation smoke run from this script (docs/robustness.md records the last run and its commit).
+# line tables (-g1), enough for the sanitizers' stacks. Each suite runs through CTest, every test in
+# its own process, JOBS at a time. CI (scripts/test.sh) runs the mesher, pipeline and bad-input
+# suites this way (SANITIZE_TARGETS chooses); the fem suite and the validation smoke run from this
+# script (docs/robustness.md records the last run and its commit).
 #   scripts/sanitize.sh [BUILD_DIR]            (default: ../build-sanitize next to the checkout)
-# Environment: JOBS (default 1), TARGETS (default: every suite below), CONFIGURE_ONLY=1 to stop after
-# cmake, GTEST_FILTER passed through to every suite, FILTER_<suite> (e.g. FILTER_test_pipeline: a
-# GoogleTest filter for that suite alone), VALIDATION_FILTER (the validation smoke; default below),
+# Environment: JOBS (default 1: build and test parallelism), TARGETS (default: every suite below),
+# CONFIGURE_ONLY=1 to stop after cmake, GTEST_FILTER (a GoogleTest filter for every suite, turned into
+# ctest -R/-E), FILTER_<suite> (e.g. FILTER_test_pipeline: a filter for that suite alone),
+# VALIDATION_FILTER (the validation smoke; default below),
 # CMAKE_ARGS added to the configure line (e.g. -DCMAKE_CXX_COMPILER_LAUNCHER=ccache), FEM_FROM (a
 # normal build dir of the same checkout: its vim_fem is brought up to date and linked uninstrumented
 # instead of compiling fem's deal.II units again; not with test_fem, which would then check nothing).
@@ -53,33 +55,59 @@ rm -rf "$reports_dir"
 mkdir -p "$reports_dir"
 export LSAN_OPTIONS=suppressions="$root/scripts/lsan.supp":print_suppressions=0
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+# A GoogleTest filter (POSITIVE[-NEGATIVE]: patterns separated by ':', with * and ?) as an extended
+# regular expression over CTest's names of the discovered tests (Suite.Test); empty for no pattern.
+filter_regex() {
+  [ -n "$1" ] || return 0
+  printf '^(%s)$' "$(printf '%s' "$1" | sed -e 's/[].+()|^$[{}\\]/\\&/g' -e 's/\*/.*/g' -e 's/?/./g' -e 's/:/|/g')"
+}
 status=0
 summary=""
+# CTest lists the tests of every built suite (gtest_discover_tests, PRE_TEST) the first time it runs,
+# whichever suite it selects: list them all once here, with full stacks (the MPI suites, below).
+set +e
+(cd "$build" &&
+  ASAN_OPTIONS=detect_leaks=1:halt_on_error=1:fast_unwind_on_malloc=0:log_path="$reports_dir/discovery" \
+  UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1:log_path="$reports_dir/discovery" \
+  env -u GTEST_FILTER ctest -N) >"$build/discovery.sanitize.log" 2>&1
+rc=$?
+set -e
+reports=$(cat "$reports_dir"/discovery.* 2>/dev/null | grep -cE 'ERROR: AddressSanitizer|runtime error:|ERROR: LeakSanitizer' || true)
+if [ "$rc" -ne 0 ] || [ "$reports" -ne 0 ] || grep -q "Error running test executable" "$build/discovery.sanitize.log"; then
+  echo "sanitize.sh: listing the tests failed (log: $build/discovery.sanitize.log)" >&2
+  head -c 20000 "$build/discovery.sanitize.log" "$reports_dir"/discovery.* >&2 2>/dev/null || true
+  exit 1
+fi
 for t in $targets; do
-  exe=$(find "$build/tests" -maxdepth 2 -type f -name "$t" -perm -u+x | head -1)
   log="$build/$t.sanitize.log"
   echo "== $t (log: $log)"
   suite_filter="FILTER_$t"
   filter=${GTEST_FILTER:-${!suite_filter:-*}}
   [ "$t" = test_validation ] && filter=${GTEST_FILTER:-$validation_filter}
+  select=(-L "^$t\$")
+  include=$(filter_regex "${filter%%-*}")
+  [ "$include" = '^(.*)$' ] || [ -z "$include" ] || select+=(-R "$include")
+  case "$filter" in *-*) select+=(-E "$(filter_regex "${filter#*-}")") ;; esac
   t0=$(date +%s)
   set +e
   # The suites with an MPI main: MPI_Finalize unloads OpenMPI's plugins, so the fast unwinder's stacks of
   # their allocations end in an unknown module no suppression can name; full stacks reach libmpi.
   fast_unwind=1
   [ "$t" = test_mesher ] || fast_unwind=0
-  (cd "$build/tests" &&
+  # Every test in its own process (CTest runs the discovered tests), JOBS at a time.
+  (cd "$build" &&
     ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:halt_on_error=1:fast_unwind_on_malloc=$fast_unwind:log_path="$reports_dir/$t" \
     UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1:log_path="$reports_dir/$t" \
-    GTEST_FILTER="$filter" "$exe") >"$log" 2>&1
+    env -u GTEST_FILTER ctest -j"$jobs" --no-tests=error --output-on-failure "${select[@]}") >"$log" 2>&1
   rc=$?
   set -e
   run_seconds=$(( $(date +%s) - t0 ))
   reports=$(cat "$reports_dir/$t".* 2>/dev/null | grep -cE 'ERROR: AddressSanitizer|runtime error:|ERROR: LeakSanitizer' || true)
   [ "$reports" -eq 0 ] || { echo "sanitizer reports of $t:"; head -c 20000 "$reports_dir/$t".*; }
-  passed=$(grep -oE '\[  PASSED  \] [0-9]+' "$log" | grep -oE '[0-9]+$' || echo 0)
-  failed=$(grep -oE '\[  FAILED  \] [0-9]+ test' "$log" | grep -oE '[0-9]+' || echo 0)
-  [ "$rc" -ne 0 ] || [ "$reports" -ne 0 ] && status=1
+  counts=$(grep -oE '[0-9]+ tests failed out of [0-9]+' "$log" | tail -1 || true)
+  failed=$(echo "${counts:-0 tests failed out of 0}" | awk '{print $1}')
+  passed=$(echo "${counts:-0 tests failed out of 0}" | awk '{print $NF - $1}')
+  { [ "$rc" -ne 0 ] || [ "$reports" -ne 0 ]; } && status=1
   summary+=$(printf '%-16s exit %-3s passed %-4s failed %-4s sanitizer reports %-3s build %5s s run %5s s' \
     "$t" "$rc" "$passed" "$failed" "$reports" "${build_seconds[$t]}" "$run_seconds")$'\n'
 done
