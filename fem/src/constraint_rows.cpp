@@ -253,6 +253,7 @@ Solution<dim> ElasticModel<dim>::solve_monolithic(const std::vector<PointConstra
   check_points(points);
   m.ensure_mesh();
   m.assemble();
+  m.assemble_matrices();
   Timer timer;
   const unsigned n = m.dof.n_dofs();
   std::vector<ConstraintRow> rows;

@@ -1,13 +1,13 @@
 // The elastic model solved over MPI ranks (docs/architecture.md, fem module): simplex models on a
-// parallel::shared::Triangulation (a copy of the serial triangulation every rank holds, METIS
-// partition, cells away from the own part artificial); voxel models on a p4est
-// parallel::distributed::Triangulation built from the grid description alone (no serial mesh).
+// parallel::fullydistributed::Triangulation of the rank's part of the mesh (simplex_part.cpp); voxel
+// models on a p4est parallel::distributed::Triangulation built from the grid description alone (no
+// serial mesh).
 // Each rank assembles its cells into Trilinos matrices and solves with CG + ML AMG fed the
 // rigid-body modes. Outputs are gathered so every rank gets the full Solution.
 #include <deal.II/base/index_set.h>
 #include <deal.II/base/multithread_info.h>
 #include <deal.II/base/timer.h>
-#include <deal.II/distributed/shared_tria.h>
+#include <deal.II/distributed/fully_distributed_tria.h>
 #include <deal.II/distributed/tria.h>
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/grid/grid_generator.h>
@@ -73,12 +73,11 @@ class OneThreadPerRank {
   int blas_saved_ = 0, omp_saved_ = 0;
 };
 
-// Simplex models: parallel::shared::Triangulation (METIS partition, cells away from the own part
-// artificial). A parallel::fullydistributed::Triangulation of each rank's cells and ghosts, described
-// directly from the serial mesh, made the set-up 2-3x slower on 2 ranks (deal.II 9.4.1's
-// create_triangulation sorts the cells twice with a comparator that binary-searches the coarse-cell
-// map, and every tetrahedron is a coarse cell; docs/mpi.md).
-// partition_metis explicitly: partition_auto picks Zoltan's hypergraph partitioner, far slower here.
+// Simplex models: a parallel::fullydistributed::Triangulation of the rank's cells and their ghosts
+// (simplex_part), so the distributed solve keeps only its part of the mesh. Its set-up takes about
+// twice the time of a parallel::shared::Triangulation (a copy of the whole serial mesh on every rank)
+// on 2 ranks: deal.II 9.4.1's create_triangulation sorts the cells twice with a comparator that
+// binary-searches the coarse-cell map, and every tetrahedron is a coarse cell (docs/mpi.md).
 // Voxel models: a parallel::distributed::Triangulation (p4est) of a coarse block grid refined
 // globally r times (2^r the largest power of two dividing every axis), so a rank holds the coarse
 // grid plus its own part of the voxel grid and never the whole serial mesh; each cell's modulus is
@@ -104,16 +103,18 @@ void remember_owned_cells(const State<dim>& m, const parallel::TriangulationBase
   m.owned_cells_ranks = Utilities::MPI::n_mpi_processes(comm);
 }
 
-// `multigrid`: the voxel grid keeps its level hierarchy on every rank (for the matrix-free multigrid).
+// Sets sys.tria (and sys.serial_vertex for simplex models). `multigrid`: the voxel grid keeps its
+// level hierarchy on every rank (for the matrix-free multigrid).
 template <int dim>
-std::unique_ptr<parallel::TriangulationBase<dim>> distributed_triangulation(const State<dim>& m,
-                                                                            MPI_Comm comm, bool multigrid) {
+void distributed_triangulation(const State<dim>& m, MPI_Comm comm, bool multigrid,
+                               DistributedSystem<dim>& sys) {
   if (!m.voxel) {
-    auto t = std::make_unique<parallel::shared::Triangulation<dim>>(
-        comm, Triangulation<dim>::none, /*allow_artificial_cells=*/true,
-        parallel::shared::Triangulation<dim>::partition_metis);
-    t->copy_triangulation(m.tria);
-    return t;
+    SimplexPart<dim> part = simplex_part<dim>(m.tria, comm);
+    auto t = std::make_unique<parallel::fullydistributed::Triangulation<dim>>(comm);
+    t->create_triangulation(part.description);
+    sys.serial_vertex = std::move(part.serial_vertex);
+    sys.tria = std::move(t);
+    return;
   }
   quiet_p4est();
   using Tria = parallel::distributed::Triangulation<dim>;
@@ -134,7 +135,7 @@ std::unique_ptr<parallel::TriangulationBase<dim>> distributed_triangulation(cons
   for (const auto& cell : t->active_cell_iterators())
     if (!cell->is_artificial())
       cell->set_material_id(static_cast<types::material_id>(m.voxel_index(cell->center())));
-  return t;
+  sys.tria = std::move(t);
 }
 
 // Support points and components of the relevant DoFs.
@@ -284,7 +285,7 @@ bool build_system(const State<dim>& m, DistributedSystem<dim>& sys, MPI_Comm com
                   bool allow_multigrid) {
   Timer timer;
   const bool hierarchy = allow_multigrid && m.voxel && dim == 3;
-  sys.tria = distributed_triangulation<dim>(m, comm, hierarchy);
+  distributed_triangulation<dim>(m, comm, hierarchy, sys);
   remember_owned_cells<dim>(m, *sys.tria, comm);
   sys.dof.reinit(*sys.tria);
   sys.dof.distribute_dofs(*m.fe);
@@ -303,7 +304,8 @@ bool build_system(const State<dim>& m, DistributedSystem<dim>& sys, MPI_Comm com
 
 // Writes the values of the vertices of `cell` into vert (index: the model's vertex numbering · dim + c).
 template <int dim>
-void cell_vertex_values(const State<dim>& m, const typename DoFHandler<dim>::active_cell_iterator& cell,
+void cell_vertex_values(const State<dim>& m, const DistributedSystem<dim>& sys,
+                        const typename DoFHandler<dim>::active_cell_iterator& cell,
                         const TrilinosWrappers::MPI::Vector& ug, std::vector<double>& vert) {
   if (m.voxel) {
     // vertices: lexicographic grid index from the position (the numbering of m.vertices)
@@ -319,10 +321,10 @@ void cell_vertex_values(const State<dim>& m, const typename DoFHandler<dim>::act
     }
     return;
   }
-  // vertices: the shared triangulation is a copy of the serial one, same vertex numbering
+  // vertices: the serial index of each vertex of the rank's part
   const auto& serial_vertices = m.tria.get_vertices();
   for (const unsigned v : cell->vertex_indices()) {
-    const unsigned gv = cell->vertex_index(v);
+    const unsigned gv = sys.serial_vertex.at(cell->vertex_index(v));
     if (gv >= serial_vertices.size() ||
         serial_vertices[gv].distance(cell->vertex(v)) > 1e-12 * cell->diameter())
       throw std::logic_error("solve_distributed: vertex numbering differs from the serial mesh");
@@ -358,7 +360,7 @@ GatheredFields gather_fields(const State<dim>& m, const DistributedSystem<dim>& 
     if (!cell->is_locally_owned()) continue;
     cell->get_dof_indices(idx);
     for (unsigned i = 0; i < dpc; ++i) uev[i] = ue[i] = ug[idx[i]];
-    cell_vertex_values<dim>(m, cell, ug, g.vert);
+    cell_vertex_values<dim>(m, sys, cell, ug, g.vert);
     const unsigned j = cell->material_id();
     Eigen::Matrix<double, dim, dim> eps = m.centroid_strain(cell, cv, ue), sigma;
     double vm = 0;
@@ -420,7 +422,7 @@ Solution<dim> solution_of(const State<dim>& m, const GatheredFields& g) {
 // its AMG kept across calls, and the serial DoF of each locally owned DoF (cells matched by material id
 // = input cell / voxel index, DoFs by their place in the cell, checked by support point).
 template <int dim>
-class DistributedInverseOf : public DistributedInverse {
+class DistributedInverseOf : public DistributedInverse<dim> {
  public:
   DistributedInverseOf(const State<dim>& m, MPI_Comm comm) : m_(m), comm_(comm) {
     if (!m.supports.empty())
@@ -439,17 +441,7 @@ class DistributedInverseOf : public DistributedInverse {
                  double* residual) override {
     std::optional<OneThreadPerRank> one_thread;
     if (Utilities::MPI::n_mpi_processes(comm_) > 1) one_thread.emplace();
-    TrilinosWrappers::MPI::Vector rhs(sys_.owned, comm_);
-    if (b) {
-      std::vector<types::global_dof_index> idx(serial_of_owned_.size());
-      std::vector<double> values(serial_of_owned_.size());
-      for (std::size_t k = 0; k < idx.size(); ++k)
-        idx[k] = sys_.owned.nth_index_in_set(k), values[k] = (*b)[serial_of_owned_[k]];
-      rhs.set(idx, values);
-      rhs.compress(VectorOperation::insert);
-    } else {
-      rhs = sys_.f;
-    }
+    const TrilinosWrappers::MPI::Vector rhs = b ? owned_part(*b) : sys_.f;
     SolverStats stats;
     const TrilinosWrappers::MPI::Vector u = solve_cg<dim>(sys_, rhs, amg_, opt, comm_, stats);
     // Each serial DoF is owned by one rank: the sum over the ranks of their parts is exact.
@@ -462,7 +454,27 @@ class DistributedInverseOf : public DistributedInverse {
     return stats.iterations;
   }
 
+  Solution<dim> fields(const Vector<double>& u) override {
+    // a copy, not a move: moving the owned vector in would drop the ghost entries of the relevant DoFs
+    const TrilinosWrappers::MPI::Vector owned = owned_part(u);
+    TrilinosWrappers::MPI::Vector ghosted(sys_.owned, sys_.relevant, comm_);
+    ghosted = owned;
+    return solution_of<dim>(m_, gather_fields<dim>(m_, sys_, ghosted, comm_));
+  }
+
  private:
+  // The entries of a serial vector at this rank's owned DoFs, as a distributed vector.
+  TrilinosWrappers::MPI::Vector owned_part(const Vector<double>& serial) const {
+    TrilinosWrappers::MPI::Vector v(sys_.owned, comm_);
+    std::vector<types::global_dof_index> idx(serial_of_owned_.size());
+    std::vector<double> values(serial_of_owned_.size());
+    for (std::size_t k = 0; k < idx.size(); ++k)
+      idx[k] = sys_.owned.nth_index_in_set(k), values[k] = serial[serial_of_owned_[k]];
+    v.set(idx, values);
+    v.compress(VectorOperation::insert);
+    return v;
+  }
+
   void map_serial_dofs() {
     std::vector<typename DoFHandler<dim>::active_cell_iterator> serial_cell(m_.E.size());
     for (const auto& cell : m_.dof.active_cell_iterators()) serial_cell.at(cell->material_id()) = cell;
@@ -496,7 +508,7 @@ class DistributedInverseOf : public DistributedInverse {
 }  // namespace
 
 template <int dim>
-std::unique_ptr<DistributedInverse> make_distributed_inverse(const State<dim>& model, MPI_Comm comm) {
+std::unique_ptr<DistributedInverse<dim>> make_distributed_inverse(const State<dim>& model, MPI_Comm comm) {
   return std::make_unique<DistributedInverseOf<dim>>(model, comm);
 }
 
@@ -549,7 +561,9 @@ std::vector<std::size_t> owned_cells(const ElasticModel<dim>& model, MPI_Comm co
   const State<dim>& m = ModelAccess::state(model);
   ensure_mpi_initialized();
   if (m.owned_cells_ranks != Utilities::MPI::n_mpi_processes(comm)) {
-    remember_owned_cells<dim>(m, *distributed_triangulation<dim>(m, comm, false), comm);
+    DistributedSystem<dim> sys;
+    distributed_triangulation<dim>(m, comm, false, sys);
+    remember_owned_cells<dim>(m, *sys.tria, comm);
   }
   return m.owned_cells;
 }
@@ -560,7 +574,7 @@ template void distribute_solves<2>(ElasticModel<2>&, MPI_Comm);
 template std::vector<std::size_t> owned_cells<2>(const ElasticModel<2>&, MPI_Comm);
 template std::vector<std::size_t> owned_cells<3>(const ElasticModel<3>&, MPI_Comm);
 template void distribute_solves<3>(ElasticModel<3>&, MPI_Comm);
-template std::unique_ptr<DistributedInverse> make_distributed_inverse<2>(const State<2>&, MPI_Comm);
-template std::unique_ptr<DistributedInverse> make_distributed_inverse<3>(const State<3>&, MPI_Comm);
+template std::unique_ptr<DistributedInverse<2>> make_distributed_inverse<2>(const State<2>&, MPI_Comm);
+template std::unique_ptr<DistributedInverse<3>> make_distributed_inverse<3>(const State<3>&, MPI_Comm);
 
 }  // namespace vim::fem

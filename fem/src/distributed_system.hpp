@@ -1,8 +1,10 @@
-// Internal to vim_fem: the distributed system of an MPI solve (distributed.cpp) and the matrix-free
-// geometric multigrid solve of 3D voxel models on it (distributed_mg.cpp).
+// Internal to vim_fem: the distributed system of an MPI solve (distributed.cpp), the part of a simplex
+// mesh a rank builds for it (simplex_part.cpp) and the matrix-free geometric multigrid solve of 3D
+// voxel models on it (distributed_mg.cpp).
 #pragma once
 
 #include <deal.II/distributed/tria_base.h>
+#include <deal.II/grid/tria_description.h>
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
 
@@ -22,6 +24,8 @@ using State = ModelAccess::State<dim>;
 template <int dim>
 struct DistributedSystem {
   std::unique_ptr<dealii::parallel::TriangulationBase<dim>> tria;
+  // simplex models: the serial vertex index of each vertex of `tria` (the rank's part of the mesh)
+  std::vector<unsigned> serial_vertex;
   dealii::DoFHandler<dim> dof;
   dealii::IndexSet owned, relevant;
   // per relevant DoF (position in `relevant`): support point and component
@@ -32,6 +36,22 @@ struct DistributedSystem {
   dealii::TrilinosWrappers::SparseMatrix K;
   dealii::TrilinosWrappers::MPI::Vector f;
 };
+
+// One rank's part of a simplex mesh for a parallel::fullydistributed::Triangulation.
+template <int dim>
+struct SimplexPart {
+  // The rank's cells and the cells sharing a vertex with them (ghosts), each a coarse cell whose id
+  // is its serial cell index, with its material id (the input cell index) and boundary ids.
+  dealii::TriangulationDescription::Description<dim, dim> description;
+  // per vertex of the description: its index in the serial triangulation (ascending)
+  std::vector<unsigned> serial_vertex;
+};
+
+// The part of `serial` that the calling rank of `comm` builds: the cells are partitioned by METIS on
+// their face graph (blocks of consecutive cells if METIS leaves a rank empty), identically on every
+// rank, so no communication is needed. Throws std::invalid_argument if there are fewer cells than ranks.
+template <int dim>
+SimplexPart<dim> simplex_part(const dealii::Triangulation<dim>& serial, MPI_Comm comm);
 
 // Whether a voxel model's distributed solve can be matrix-free multigrid: 3D, and every Dirichlet
 // condition holds DoFs along the model's axes (constraint lines u_i = value, no oblique axes).

@@ -2,6 +2,7 @@
 // and assembly: the triangulation from a SimplexMesh (P1/P2 simplices) or a voxel grid (Q1
 // hexahedra), the conditions (Dirichlet regions along any axes, surface loads, body force, volume
 // supports), and the assembly of K and f with per-cell Lamé parameters.
+#include <deal.II/base/memory_consumption.h>
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/base/timer.h>
 #include <deal.II/dofs/dof_tools.h>
@@ -184,6 +185,7 @@ void ElasticModel<dim>::Impl::setup_dofs() {
 template <int dim>
 void ElasticModel<dim>::Impl::invalidate() {
   assembled = false;
+  matrices_assembled = false;
   direct.reset();
   amg.reset();
   K_trilinos.reset();
@@ -507,10 +509,23 @@ void ElasticModel<dim>::Impl::assemble() {
     for (const auto& x : sup.points)
       for (unsigned c = 0; c < unsigned(dim); ++c) constrained.emplace_back(x, Vec<dim>::Unit(c));
   check_rigid_modes_removed<dim>(constrained, vertices, bcs, MPI_COMM_SELF);
+  assembled = true;
+  // Volume supports cannot run over ranks (make_distributed_inverse refuses them): keep their check here.
+  if (!solves_over_ranks() || !supports.empty()) assemble_matrices();
+  assemble_seconds = timer.wall_time();
+}
+
+template <int dim>
+void ElasticModel<dim>::Impl::assemble_matrices() {
+  if (matrices_assembled) return;
   assemble_cells();
   assemble_supports();
-  assembled = true;
-  assemble_seconds = timer.wall_time();
+  matrices_assembled = true;
+}
+
+template <int dim>
+bool ElasticModel<dim>::Impl::solves_over_ranks() const {
+  return solve_comm != MPI_COMM_NULL && dealii::Utilities::MPI::n_mpi_processes(solve_comm) > 1;
 }
 
 // Support points and vector components of all DoFs.
@@ -635,6 +650,20 @@ void ElasticModel<dim>::Impl::assemble_supports() {
     cell->get_dof_indices(idx);
     constraints.distribute_local_to_global(Ke, Fe, idx, K, f);
   }
+}
+
+template <int dim>
+std::size_t ElasticModel<dim>::memory_consumption() const {
+  const Impl& m = *impl_;
+  std::size_t columns = 0;
+  for (const auto& [key, e] : m.columns.entries) columns += e.col.memory_consumption();
+  return m.tria.memory_consumption() + m.dof.memory_consumption() + m.constraints.memory_consumption() +
+         m.sparsity.memory_consumption() + m.K.memory_consumption() + m.K_full.memory_consumption() +
+         m.f.memory_consumption() + m.f_full.memory_consumption() + m.u0.memory_consumption() +
+         m.u.memory_consumption() + columns +
+         dealii::MemoryConsumption::memory_consumption(m.support_points) +
+         dealii::MemoryConsumption::memory_consumption(m.dof_bc) +
+         dealii::MemoryConsumption::memory_consumption(m.dof_component);
 }
 
 template class ElasticModel<2>;

@@ -139,7 +139,8 @@ struct ColumnCache {
 };
 
 // K⁻¹ of a model over MPI ranks (distributed.cpp): vectors in the serial DoF numbering, complete on
-// every rank. Collective: every rank calls apply() with the same b.
+// every rank. Collective: every rank calls apply() and fields() with the same arguments.
+template <int dim>
 class DistributedInverse {
  public:
   virtual ~DistributedInverse() = default;
@@ -147,6 +148,9 @@ class DistributedInverse {
   // CG iterations and sets *residual (relative) when given.
   virtual unsigned apply(const dealii::Vector<double>* b, dealii::Vector<double>& x, const SolverOptions& opt,
                          double* residual) = 0;
+  // The vertex displacement, cell strain, stress and von Mises, strain energy and Dirichlet reactions
+  // of the displacement u (serial numbering, Dirichlet values in), each rank computing its own cells.
+  virtual Solution<dim> fields(const dealii::Vector<double>& u) = 0;
 };
 
 template <int dim>
@@ -195,7 +199,8 @@ struct ElasticModel<dim>::Impl {
   mutable std::vector<typename dealii::Triangulation<dim>::active_cell_iterator> cell_of_index;
 
   // ---- assembled system (serial) -----------------------------------------------------------
-  bool assembled = false;
+  bool assembled = false;           // support points, DoF components and conditions, constraints
+  bool matrices_assembled = false;  // K, K_full, f, f_full (not built while K⁻¹ runs over ranks)
   std::vector<dealii::Point<dim>> support_points;  // per DoF
   std::vector<int> dof_bc;                         // per DoF: owning DirichletBC or -1
   std::vector<unsigned> dof_component;             // per DoF: vector component
@@ -220,7 +225,7 @@ struct ElasticModel<dim>::Impl {
   std::unique_ptr<dealii::TrilinosWrappers::PreconditionAMG> amg;
   // distribute_solves(): K⁻¹ over the ranks of solve_comm (MPI_COMM_NULL: serial)
   MPI_Comm solve_comm = MPI_COMM_NULL;
-  std::unique_ptr<DistributedInverse> distributed;
+  std::unique_ptr<DistributedInverse<dim>> distributed;
   // The cells (material ids) the calling rank owned in the last distributed triangulation built for
   // this model, ascending, and the number of ranks it was built for (0: none yet).
   mutable std::vector<std::size_t> owned_cells;
@@ -261,8 +266,14 @@ struct ElasticModel<dim>::Impl {
                     dealii::Vector<double>& fe_rhs) const;
   std::unique_ptr<dealii::FEValues<dim>> make_fe_values() const;
   std::unique_ptr<dealii::FEFaceValues<dim>> make_face_values() const;
-  // K, K_full, f, f_full, the Dirichlet constraints and the volume supports (once per set of conditions).
+  // The support points, the Dirichlet constraints and, unless K⁻¹ runs over several ranks
+  // (solves_over_ranks: each rank then assembles only its part of the distributed system),
+  // assemble_matrices() (once per set of conditions).
   void assemble();
+  // K, K_full, f, f_full and the volume supports (once per set of conditions).
+  void assemble_matrices();
+  // distribute_solves() over more than one rank.
+  bool solves_over_ranks() const;
 
   // ---- solvers (solvers.cpp) -----------------------------------------------------------------
   // Assembles, then factorises K (UMFPACK) or sets up AMG, as `opt` and the size ask (once per method).
@@ -277,8 +288,11 @@ struct ElasticModel<dim>::Impl {
   const CellLocator<dim>& cell_locator() const;
   // The cell containing x and x's reference coordinates, or (tria.end(), ·) if x is outside the mesh.
   Located locate(const dealii::Point<dim>& x) const;
-  // Vertex displacement, centroid strain/stress, energy and reactions of u.
+  // Vertex displacement, centroid strain/stress, energy and reactions of u: over the ranks when K⁻¹
+  // runs over them (DistributedInverse::fields), else postprocess_serial.
   Solution<dim> postprocess();
+  // The same from the serial K_full, f_full and the post-processing cache.
+  void postprocess_serial(Solution<dim>& s);
   // Strain at the centroid of `cell` from the local DoF values.
   Eigen::Matrix<double, dim, dim> centroid_strain(const Cell& cell, dealii::FEValues<dim>& centroid_values,
                                                   const std::vector<double>& local_u) const;
@@ -321,7 +335,7 @@ void ensure_mpi_initialized();
 // The distributed K⁻¹ of a serially assembled model (distributed.cpp): the model's mesh partitioned
 // over `comm` like solve_distributed, CG + AMG with the rigid-body modes. Collective.
 template <int dim>
-std::unique_ptr<DistributedInverse> make_distributed_inverse(const ModelAccess::State<dim>& model,
-                                                             MPI_Comm comm);
+std::unique_ptr<DistributedInverse<dim>> make_distributed_inverse(const ModelAccess::State<dim>& model,
+                                                                  MPI_Comm comm);
 
 }  // namespace vim::fem

@@ -105,6 +105,18 @@ void cell_fields(const State& m, const Vector<double>& u, Solution<dim>& s) {
 template <int dim>
 Solution<dim> ElasticModel<dim>::Impl::postprocess() {
   Solution<dim> s;
+  if (distributed) {
+    s = distributed->fields(u);
+  } else {
+    postprocess_serial(s);
+  }
+  s.stats.n_dofs = dof.n_dofs();
+  s.stats.assemble_seconds = assemble_seconds;
+  return s;
+}
+
+template <int dim>
+void ElasticModel<dim>::Impl::postprocess_serial(Solution<dim>& s) {
   if (vertex_dofs.empty()) build_post_cache();
   s.vertex_displacement.resize(tria.n_vertices());
   for (std::size_t v = 0; v < vertex_dofs.size(); ++v)
@@ -120,9 +132,6 @@ Solution<dim> ElasticModel<dim>::Impl::postprocess() {
   s.dirichlet_reaction.assign(bcs.size(), Vec<dim>::Zero());
   for (unsigned i = 0; i < u.size(); ++i)
     if (dof_bc[i] >= 0) s.dirichlet_reaction[dof_bc[i]][dof_component[i]] += Ku[i] - f_full[i];
-  s.stats.n_dofs = dof.n_dofs();
-  s.stats.assemble_seconds = assemble_seconds;
-  return s;
 }
 
 template <int dim>
@@ -375,6 +384,7 @@ double ElasticModel<dim>::strain_energy_of(const std::vector<Vec<dim>>& U) const
 #define VIM_FEM_POSTPROCESS(dim)                                                                       \
   template void ElasticModel<dim>::Impl::build_post_cache();                                           \
   template Solution<dim> ElasticModel<dim>::Impl::postprocess();                                       \
+  template void ElasticModel<dim>::Impl::postprocess_serial(Solution<dim>&);                           \
   template Eigen::Matrix<double, dim, dim> ElasticModel<dim>::Impl::centroid_strain(                   \
       const Cell&, FEValues<dim>&, const std::vector<double>&) const;                                  \
   template void ElasticModel<dim>::Impl::stress_of(const Eigen::Matrix<double, dim, dim>&, double,     \

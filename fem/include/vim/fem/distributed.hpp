@@ -7,8 +7,9 @@
 
 namespace vim::fem {
 
-// Solves `model` over `comm`: simplex models on a METIS-partitioned parallel::shared::Triangulation
-// (every rank holds the whole mesh) with Trilinos CG + AMG with rigid-body modes; voxel models on a
+// Solves `model` over `comm`: simplex models on a parallel::fullydistributed::Triangulation of the
+// rank's part of the mesh (METIS partition of the cells, the same on every rank, plus the ghost cells
+// around it) with Trilinos CG + AMG with rigid-body modes; voxel models on a
 // p4est parallel::distributed::Triangulation built from the grid description, so a rank holds only its
 // part (a voxel model's serial mesh is built only if solve()/solve_monolithic()/strain_energy_of() is
 // used), in 3D with CG preconditioned by a matrix-free geometric multigrid over the grid's refinement
@@ -23,12 +24,14 @@ Solution<dim> solve_distributed(ElasticModel<dim>& model, MPI_Comm comm, const S
 
 // Makes the model's solve() and precompute() collective over `comm`: without point constraints a voxel
 // model's solve() is solve_distributed (also on one rank: the matrix-free multigrid without a serial
-// mesh); otherwise, with more than one rank, every rank holds the serial model (mesh,
-// assembled K for the post-processing, constraint rows), and each K⁻¹ — the load's u0 and every
-// compliance column K⁻¹cᵀ of a point-constraint row — is one CG + AMG solve on the distributed system
-// (kept across calls), gathered to every rank; the Schur step over the rows is the serial one, done
-// alike on every rank. Every rank must build the same model and make the same calls. Volume supports
-// are refused (std::invalid_argument). The solver options' type is ignored (always CG + AMG).
+// mesh); otherwise, with more than one rank, every rank holds the serial mesh and DoF numbering (for
+// the constraint rows, sampling and the gathered fields) but no serial matrix: each K⁻¹ — the load's
+// u0 and every compliance column K⁻¹cᵀ of a point-constraint row — is one CG + AMG solve on the
+// distributed system (kept across calls), gathered to every rank, and the fields of a solution
+// (strain, stress, energy, reactions) are computed by each rank on its own cells of that system. The
+// Schur step over the rows is the serial one, done alike on every rank. Every rank must build the same
+// model and make the same calls. Volume supports are refused (std::invalid_argument). The solver
+// options' type is ignored (always CG + AMG); solve_monolithic() assembles the serial matrices.
 template <int dim>
 void distribute_solves(ElasticModel<dim>& model, MPI_Comm comm);
 

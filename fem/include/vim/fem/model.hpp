@@ -142,6 +142,11 @@ class ElasticModel {
   // into the FE space; exact for P1/Q1, and for P2 a linear-per-cell field is represented exactly).
   double strain_energy_of(const std::vector<Vec<dim>>& vertex_displacement) const;
 
+  // Bytes held by the model's deal.II objects on the calling process: mesh, DoFs, constraints,
+  // assembled matrices and vectors, cached solution and compliance columns (not the solvers' factors
+  // or preconditioners).
+  std::size_t memory_consumption() const;
+
   // Per-cell Young's modulus as used (input cell order) and the Poisson ratio.
   const std::vector<double>& youngs_modulus() const;
   double poisson_ratio() const;
