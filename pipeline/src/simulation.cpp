@@ -492,6 +492,7 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
     rep["max_strain"] = *std::max_element(r.max_strain.begin(), r.max_strain.end());
     rep["steps_per_second"] = r.steps_per_second;
   }
+  rep["model"]["memory_bytes"] = m.model->memory_consumption();  // after the solves: with their caches
   rep["timing"] = {{"build_seconds", m.build_seconds}};
   if (m.sc.needle_list && m.opt.output_file) {
     write_summary_csv<dim>(m.opt.output_file("summary.csv"), res.needles, m.sc);

@@ -175,6 +175,40 @@ TEST(Distributed, SingularThrowsOnEveryRank) {
   EXPECT_THROW(solve_distributed(model, MPI_COMM_WORLD), std::runtime_error);
 }
 
+// The fully distributed simplex mesh: the cells the ranks own together hold every cell once, each rank
+// some (METIS splits the cube into parts of comparable size).
+TEST(Distributed, OwnedCellsOfASimplexModelPartitionItsCells) {
+  const auto mesh = test::kuhn_box<3>({{6, 6, 6}}, {{0, 0, 0}}, {{1, 1, 1}});
+  ElasticModel<3> model(mesh, random_moduli<3>(mesh.n_cells()), 0.3, 1);
+  add_conditions(model);
+  const std::vector<std::size_t> mine = owned_cells(model, MPI_COMM_WORLD);
+  const unsigned ranks = dealii::Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD);
+  EXPECT_GT(mine.size(), mesh.n_cells() / (3 * ranks));
+  std::vector<double> times_owned(mesh.n_cells(), 0.0);
+  for (const std::size_t c : mine) times_owned.at(c) += 1.0;
+  dealii::Utilities::MPI::sum(dealii::ArrayView<const double>(times_owned.data(), times_owned.size()), MPI_COMM_WORLD,
+                              dealii::ArrayView<double>(times_owned.data(), times_owned.size()));
+  for (std::size_t c = 0; c < times_owned.size(); ++c) ASSERT_EQ(times_owned[c], 1.0) << "cell " << c;
+  // a solve reads the same partition
+  solve_distributed(model, MPI_COMM_WORLD);
+  EXPECT_EQ(owned_cells(model, MPI_COMM_WORLD), mine);
+}
+
+// A mesh with fewer cells than ranks cannot be split: every rank gets the same clear error.
+TEST(Distributed, FewerCellsThanRanksIsRefusedOnEveryRank) {
+  SimplexMesh<3> tet;
+  tet.points = {Vec<3>(0, 0, 0), Vec<3>(1, 0, 0), Vec<3>(0, 1, 0), Vec<3>(0, 0, 1)};
+  tet.cells = {{0, 1, 2, 3}};
+  ElasticModel<3> model(tet, {1.0}, 0.3, 1);
+  add_conditions(model);
+  try {
+    solve_distributed(model, MPI_COMM_WORLD);
+    ADD_FAILURE() << "no error for a 1-cell mesh on 2 ranks";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("fewer than the 2 MPI ranks"), std::string::npos) << e.what();
+  }
+}
+
 // distribute_solves: the needle's rows (one point held exactly, one averaged over samples with a series
 // compliance) on two ranks vs the serial Schur solve of the same model (CHOLMOD): displacements and
 // point forces to 1e-8, twice (the second solve reuses the cached columns and moves the points).
