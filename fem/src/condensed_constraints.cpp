@@ -99,7 +99,7 @@ CondensedConstraints<dim>::CondensedConstraints(ElasticModel<dim>& model,
   c.used.reserve(n), c.kept.reserve(n), c.g_used.reserve(n), c.used_slot.reserve(n), c.keep.reserve(n);
   c.S.resize(n, n), c.L.resize(n, n), c.r.resize(n), c.x.resize(n), c.l.resize(n);
   c.stats.method = m.method;
-  c.stats.n_dofs = m.dof.n_dofs();
+  c.stats.n_dofs = static_cast<unsigned>(m.n_solve_dofs());
 }
 
 template <int dim>
@@ -299,7 +299,7 @@ Solution<dim> CondensedConstraints<dim>::field() {
   Solution<dim> s = finish_constrained_solve<dim>(m, all, c.keep, c.n_active, timer, &solve_seconds);
   point_forces(s.point_force);
   for (std::size_t a = 0; a < c.kept.size(); ++a)
-    add_constraint_reactions<dim>(m, c.entry[static_cast<std::size_t>(c.used[c.kept[a]])]->row,
+    add_constraint_reactions<dim>(c.entry[static_cast<std::size_t>(c.used[c.kept[a]])]->row,
                                   c.x[static_cast<Eigen::Index>(a)], s);
   s.stats = c.stats;
   s.stats.solve_seconds = solve_seconds;

@@ -52,36 +52,28 @@ std::vector<std::pair<Vec<dim>, double>> constraint_samples(const PointConstrain
   return samples;
 }
 
-// Adds w·a·N(x) (the shape-function values of the cell containing x, along a) to `row`, Dirichlet DoFs
-// moved to the right-hand side. Returns false when x lies outside the mesh.
+// Adds w·a·N(x) (the stencil of x: the shape-function values of the cell containing it, along a) to
+// `row`, Dirichlet DoFs moved to the right-hand side.
 template <int dim>
-bool add_sample_to_row(const State<dim>& m, const Vec<dim>& x, const Vec<dim>& a, double w,
-                       ConstraintRow& row, double& scale) {
-  const auto found = m.locate(to_point<dim>(x));
-  if (found.first == m.tria.end()) return false;
-  const typename DoFHandler<dim>::active_cell_iterator cell(&m.tria, found.first->level(),
-                                                            found.first->index(), &m.dof);
-  // The shape values are not mapped (P1/P2 simplices, Q1 boxes): those of the reference point, without
-  // an FEValues object per sample.
-  std::vector<types::global_dof_index> idx(m.fe->n_dofs_per_cell());
-  cell->get_dof_indices(idx);
-  for (unsigned i = 0; i < idx.size(); ++i) {
-    const double v = w * a[m.fe->system_to_component_index(i).first] * m.fe->shape_value(i, found.second);
+void add_sample_to_row(const PointStencil& st, const Vec<dim>& a, double w, ConstraintRow& row,
+                       double& scale) {
+  for (const StencilDof& d : st.dofs) {
+    const double v = w * a[d.comp] * d.shape;
     scale = std::max(scale, std::abs(v));
     if (v == 0.0) continue;
-    if (m.dof_bc[idx[i]] >= 0) {  // for the reactions: the row's own coefficients on held DoFs
-      row.dirichlet_dofs.push_back(idx[i]);
+    if (d.bc >= 0) {  // for the reactions: the row's own coefficients on held DoFs
       row.dirichlet_values.push_back(v);
+      row.dirichlet_bc.push_back(d.bc);
+      row.dirichlet_comp.push_back(static_cast<unsigned char>(d.comp));
     }
-    if (const auto* entries = m.constraints.get_constraint_entries(idx[i])) {
+    if (d.constrained) {
       // u_i = h + Σ a_f u_f (a support along other axes): h moves to g, v·a_f onto the free DoFs f.
-      row.g -= v * m.constraints.get_inhomogeneity(idx[i]);
-      for (const auto& [f, af] : *entries) add_to_row(row, f, v * af);
+      row.g -= v * d.inhomogeneity;
+      for (const auto& [f, af] : d.entries) add_to_row(row, f, v * af);
     } else {
-      add_to_row(row, idx[i], v);
+      add_to_row(row, d.dof, v);
     }
   }
-  return true;
 }
 
 // Greedy, in the given order: a row numerically in the span of earlier kept rows is not kept.
@@ -141,11 +133,12 @@ ConstraintRow constraint_row(const State<dim>& m, const PointConstraint<dim>& p,
                              std::size_t which, bool evaluation) {
   const Vec<dim> a = p.axes.col(c);
   auto samples = constraint_samples(p, which);
+  std::vector<Vec<dim>> at(samples.size());
+  for (std::size_t q = 0; q < samples.size(); ++q) at[q] = samples[q].first;
+  const std::vector<PointStencil> st = m.stencils(at);
   double inside = 0.0;
-  std::vector<bool> in(samples.size());
   for (std::size_t q = 0; q < samples.size(); ++q)
-    if ((in[q] = m.locate(to_point<dim>(samples[q].first)).first != m.tria.end()))
-      inside += samples[q].second;
+    if (st[q].inside) inside += samples[q].second;
   if (!(inside > 0.0)) {
     std::ostringstream s;
     s << "point constraint " << which << " at " << fmt_point(p.position.data(), dim)
@@ -157,7 +150,7 @@ ConstraintRow constraint_row(const State<dim>& m, const PointConstraint<dim>& p,
   row.compliance = p.compliance[c];
   double scale = 0.0;
   for (std::size_t q = 0; q < samples.size(); ++q)
-    if (in[q]) add_sample_to_row<dim>(m, samples[q].first, a, samples[q].second / inside, row, scale);
+    if (st[q].inside) add_sample_to_row<dim>(st[q], a, samples[q].second / inside, row, scale);
   double free_scale = 0.0;
   for (double v : row.values) free_scale = std::max(free_scale, std::abs(v));
   if (!(free_scale > 1e-12 * scale)) {
@@ -191,12 +184,9 @@ void check_points(const std::vector<PointConstraint<dim>>& points) {
 // The full system reads K u = f + r − Cᵀμ on every DoF (r: support reactions), so on Dirichlet
 // DoFs r = K u − f + C_Dᵀ μ: add the constraint rows' Dirichlet parts to the reactions.
 template <int dim>
-void add_constraint_reactions(const State<dim>& m, const ConstraintRow& row, double mu, Solution<dim>& s) {
-  for (std::size_t i = 0; i < row.dirichlet_dofs.size(); ++i) {
-    const auto d = row.dirichlet_dofs[i];
-    const int b = m.dof_bc[d];
-    if (b >= 0) s.dirichlet_reaction[b][m.dof_component[d]] += mu * row.dirichlet_values[i];
-  }
+void add_constraint_reactions(const ConstraintRow& row, double mu, Solution<dim>& s) {
+  for (std::size_t i = 0; i < row.dirichlet_values.size(); ++i)
+    s.dirichlet_reaction[row.dirichlet_bc[i]][row.dirichlet_comp[i]] += mu * row.dirichlet_values[i];
 }
 
 // After a constrained solve of m.u (free DoFs): checks the dropped rows, distributes the Dirichlet
@@ -205,7 +195,7 @@ template <int dim>
 Solution<dim> finish_constrained_solve(State<dim>& m, const RowSet& set, const std::vector<bool>& keep,
                                        std::size_t n_points, const Timer& timer, double* solve_seconds) {
   check_dropped_rows(set, keep, m.u);
-  m.constraints.distribute(m.u);
+  m.distribute_constraints(m.u);
   m.have_solution = true;
   *solve_seconds = timer.wall_time();
   Solution<dim> s = m.postprocess();
@@ -251,6 +241,9 @@ Solution<dim> ElasticModel<dim>::solve_monolithic(const std::vector<PointConstra
                                                   const SolverOptions& opt) {
   Impl& m = *impl_;
   check_points(points);
+  if (m.solves_over_ranks())
+    throw std::invalid_argument(
+        "solve_monolithic: the model's solves run over MPI ranks (distribute_solves); use solve()");
   m.ensure_mesh();
   m.assemble();
   m.assemble_matrices();
@@ -285,7 +278,7 @@ Solution<dim> ElasticModel<dim>::solve_monolithic(const std::vector<PointConstra
   for (unsigned a = 0; a < nr; ++a) {
     const auto [point, comp] = used_which[a];
     s.point_force[point] -= x[n + a] * points[point].axes.col(comp);
-    add_constraint_reactions<dim>(m, *used[a], x[n + a], s);
+    add_constraint_reactions<dim>(*used[a], x[n + a], s);
   }
   s.stats.method = "umfpack-monolithic";
   s.stats.constraint_rows = nr;
@@ -299,8 +292,7 @@ Solution<dim> ElasticModel<dim>::solve_monolithic(const std::vector<PointConstra
   template ConstraintRow constraint_row<dim>(const State<dim>&, const PointConstraint<dim>&, unsigned,       \
                                              double, std::size_t, bool);                                     \
   template void check_points<dim>(const std::vector<PointConstraint<dim>>&);                                 \
-  template void add_constraint_reactions<dim>(const State<dim>&, const ConstraintRow&, double,               \
-                                              Solution<dim>&);                                               \
+  template void add_constraint_reactions<dim>(const ConstraintRow&, double, Solution<dim>&);                 \
   template Solution<dim> finish_constrained_solve<dim>(State<dim>&, const RowSet&, const std::vector<bool>&, \
                                                        std::size_t, const Timer&, double*);                  \
   template Solution<dim> ElasticModel<dim>::solve_monolithic(const std::vector<PointConstraint<dim>>&,       \

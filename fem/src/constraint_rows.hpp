@@ -68,7 +68,7 @@ void check_points(const std::vector<PointConstraint<dim>>& points);
 
 // Adds the Dirichlet part of a row with multiplier mu to the support reactions of s.
 template <int dim>
-void add_constraint_reactions(const State<dim>& m, const ConstraintRow& row, double mu, Solution<dim>& s);
+void add_constraint_reactions(const ConstraintRow& row, double mu, Solution<dim>& s);
 
 // After a constrained solve of m.u (free DoFs): checks the dropped rows (DependentPointConstraints when
 // one does not hold), distributes the Dirichlet values and post-processes; the point forces are left

@@ -4,6 +4,7 @@
 // serial mesh).
 // Each rank assembles its cells into Trilinos matrices and solves with CG + ML AMG fed the
 // rigid-body modes. Outputs are gathered so every rank gets the full Solution.
+// No rank builds the model's serial mesh or DoFs for these solves.
 #include <deal.II/base/index_set.h>
 #include <deal.II/base/multithread_info.h>
 #include <deal.II/base/timer.h>
@@ -109,7 +110,7 @@ template <int dim>
 void distributed_triangulation(const State<dim>& m, MPI_Comm comm, bool multigrid,
                                DistributedSystem<dim>& sys) {
   if (!m.voxel) {
-    SimplexPart<dim> part = simplex_part<dim>(m.tria, comm);
+    SimplexPart<dim> part = simplex_part<dim>(m.vertices, m.simplices, comm);
     auto t = std::make_unique<parallel::fullydistributed::Triangulation<dim>>(comm);
     t->create_triangulation(part.description);
     sys.serial_vertex = std::move(part.serial_vertex);
@@ -321,13 +322,12 @@ void cell_vertex_values(const State<dim>& m, const DistributedSystem<dim>& sys,
     }
     return;
   }
-  // vertices: the serial index of each vertex of the rank's part
-  const auto& serial_vertices = m.tria.get_vertices();
+  // vertices: the input index of each vertex of the rank's part
   for (const unsigned v : cell->vertex_indices()) {
     const unsigned gv = sys.serial_vertex.at(cell->vertex_index(v));
-    if (gv >= serial_vertices.size() ||
-        serial_vertices[gv].distance(cell->vertex(v)) > 1e-12 * cell->diameter())
-      throw std::logic_error("solve_distributed: vertex numbering differs from the serial mesh");
+    if (gv >= m.vertices.size() ||
+        (to_vec<dim>(cell->vertex(v)) - m.vertices[gv]).norm() > 1e-12 * cell->diameter())
+      throw std::logic_error("solve_distributed: vertex numbering differs from the input mesh");
     for (unsigned c = 0; c < unsigned(dim); ++c) vert[gv * dim + c] = ug[cell->vertex_dof_index(v, c)];
   }
 }
@@ -418,9 +418,44 @@ Solution<dim> solution_of(const State<dim>& m, const GatheredFields& g) {
   return s;
 }
 
-// K⁻¹ over the ranks for the serial model's solve() (DistributedInverse): the distributed system and
-// its AMG kept across calls, and the serial DoF of each locally owned DoF (cells matched by material id
-// = input cell / voxel index, DoFs by their place in the cell, checked by support point).
+// Appends a stencil to `out` as numbers: its index i, its number of DoFs, then per DoF: the DoF, its
+// component, shape value, condition, whether constrained, inhomogeneity, number of entries and the
+// entries (DoF, coefficient). DoF indices are exact as doubles below 2^53.
+void pack_stencil(std::size_t i, const PointStencil& st, std::vector<double>& out) {
+  out.push_back(static_cast<double>(i));
+  out.push_back(static_cast<double>(st.dofs.size()));
+  for (const StencilDof& d : st.dofs) {
+    out.insert(out.end(),
+               {static_cast<double>(d.dof), static_cast<double>(d.comp), d.shape, static_cast<double>(d.bc),
+                d.constrained ? 1.0 : 0.0, d.inhomogeneity, static_cast<double>(d.entries.size())});
+    for (const auto& [f, a] : d.entries) out.insert(out.end(), {static_cast<double>(f), a});
+  }
+}
+
+// Reads the stencils packed by pack_stencil into `stencils` (by their index).
+void unpack_stencils(const std::vector<double>& in, std::vector<PointStencil>& stencils) {
+  std::size_t k = 0;
+  const auto next = [&in, &k] { return in.at(k++); };
+  while (k < in.size()) {
+    PointStencil& st = stencils.at(static_cast<std::size_t>(next()));
+    st.inside = true;
+    st.dofs.resize(static_cast<std::size_t>(next()));
+    for (StencilDof& d : st.dofs) {
+      d.dof = static_cast<types::global_dof_index>(next());
+      d.comp = static_cast<unsigned>(next());
+      d.shape = next();
+      d.bc = static_cast<int>(next());
+      d.constrained = next() != 0.0;
+      d.inhomogeneity = next();
+      d.entries.resize(static_cast<std::size_t>(next()));
+      for (auto& [f, a] : d.entries) f = static_cast<types::global_dof_index>(next()), a = next();
+    }
+  }
+}
+
+// K⁻¹ over the ranks for the model's solve() (DistributedInverse): the distributed system and its AMG
+// kept across calls. Vectors are in the distributed system's DoF numbering, complete on every rank;
+// point stencils come from the rank owning the point's cell.
 template <int dim>
 class DistributedInverseOf : public DistributedInverse<dim> {
  public:
@@ -434,7 +469,8 @@ class DistributedInverseOf : public DistributedInverse<dim> {
     SolverStats stats;
     build_system<dim>(m, sys_, comm, stats, false);
     setup_amg<dim>(m, sys_, amg_);
-    map_serial_dofs();
+    for (const auto& cell : sys_.dof.active_cell_iterators())
+      if (cell->is_locally_owned()) owned_cell_.emplace(cell->material_id(), cell);
   }
 
   unsigned apply(const Vector<double>* b, Vector<double>& x, const SolverOptions& opt,
@@ -444,12 +480,9 @@ class DistributedInverseOf : public DistributedInverse<dim> {
     const TrilinosWrappers::MPI::Vector rhs = b ? owned_part(*b) : sys_.f;
     SolverStats stats;
     const TrilinosWrappers::MPI::Vector u = solve_cg<dim>(sys_, rhs, amg_, opt, comm_, stats);
-    // Each serial DoF is owned by one rank: the sum over the ranks of their parts is exact.
-    x.reinit(m_.dof.n_dofs());
-    for (std::size_t k = 0; k < serial_of_owned_.size(); ++k)
-      x[serial_of_owned_[k]] = u[sys_.owned.nth_index_in_set(k)];
-    Utilities::MPI::sum(ArrayView<const double>(x.data(), x.size()), comm_,
-                        ArrayView<double>(x.data(), x.size()));
+    x.reinit(sys_.dof.n_dofs());
+    for (const auto i : sys_.owned) x[i] = u[i];
+    sum_over_ranks(x);
     if (residual) *residual = stats.residual;
     return stats.iterations;
   }
@@ -462,47 +495,80 @@ class DistributedInverseOf : public DistributedInverse<dim> {
     return solution_of<dim>(m_, gather_fields<dim>(m_, sys_, ghosted, comm_));
   }
 
+  std::vector<PointStencil> stencils(const std::vector<std::pair<long, Point<dim>>>& at) override {
+    const auto bc_of = [this](types::global_dof_index d) {
+      const auto it = sys_.dof_bc.find(d);
+      return it == sys_.dof_bc.end() ? -1 : it->second;
+    };
+    std::vector<double> mine;
+    for (std::size_t i = 0; i < at.size(); ++i) {
+      if (at[i].first < 0) continue;
+      const auto cell = owned_cell_.find(static_cast<types::material_id>(at[i].first));
+      if (cell == owned_cell_.end()) continue;
+      if (const auto xi = reference_point<dim>(*m_.mapping, cell->second, at[i].second))
+        pack_stencil(i, cell_stencil<dim>(*m_.fe, cell->second, *xi, sys_.constraints, bc_of), mine);
+    }
+    std::vector<PointStencil> out(at.size());
+    for (const std::vector<double>& part : Utilities::MPI::all_gather(comm_, mine))
+      unpack_stencils(part, out);
+    return out;
+  }
+
+  void distribute_constraints(Vector<double>& u) override {
+    Vector<double> w(u.size());
+    for (const auto i : sys_.owned) {
+      if (!sys_.constraints.is_constrained(i)) {
+        w[i] = u[i];
+        continue;
+      }
+      w[i] = sys_.constraints.get_inhomogeneity(i);
+      if (const auto* entries = sys_.constraints.get_constraint_entries(i))
+        for (const auto& [f, a] : *entries) w[i] += a * u[f];
+    }
+    sum_over_ranks(w);
+    u.swap(w);
+  }
+
+  types::global_dof_index n_dofs() const override { return sys_.dof.n_dofs(); }
+
+  std::size_t cells_held() const override {
+    std::size_t n = 0;
+    for (const auto& cell : sys_.tria->active_cell_iterators()) n += cell->is_artificial() ? 0 : 1;
+    return n;
+  }
+
+  std::size_t memory_consumption() const override {
+    return sys_.tria->memory_consumption() + sys_.dof.memory_consumption() +
+           sys_.constraints.memory_consumption() + sys_.K.memory_consumption() + sys_.f.memory_consumption() +
+           amg_.memory_consumption() + MemoryConsumption::memory_consumption(sys_.rel_point) +
+           MemoryConsumption::memory_consumption(sys_.serial_vertex);
+  }
+
  private:
-  // The entries of a serial vector at this rank's owned DoFs, as a distributed vector.
-  TrilinosWrappers::MPI::Vector owned_part(const Vector<double>& serial) const {
+  // The entries of a complete vector at this rank's owned DoFs, as a distributed vector.
+  TrilinosWrappers::MPI::Vector owned_part(const Vector<double>& complete) const {
     TrilinosWrappers::MPI::Vector v(sys_.owned, comm_);
-    std::vector<types::global_dof_index> idx(serial_of_owned_.size());
-    std::vector<double> values(serial_of_owned_.size());
-    for (std::size_t k = 0; k < idx.size(); ++k)
-      idx[k] = sys_.owned.nth_index_in_set(k), values[k] = serial[serial_of_owned_[k]];
+    std::vector<types::global_dof_index> idx;
+    std::vector<double> values;
+    idx.reserve(sys_.owned.n_elements()), values.reserve(sys_.owned.n_elements());
+    for (const auto i : sys_.owned) idx.push_back(i), values.push_back(complete[i]);
     v.set(idx, values);
     v.compress(VectorOperation::insert);
     return v;
   }
 
-  void map_serial_dofs() {
-    std::vector<typename DoFHandler<dim>::active_cell_iterator> serial_cell(m_.E.size());
-    for (const auto& cell : m_.dof.active_cell_iterators()) serial_cell.at(cell->material_id()) = cell;
-    serial_of_owned_.assign(sys_.owned.n_elements(), numbers::invalid_dof_index);
-    const unsigned dpc = m_.fe->n_dofs_per_cell();
-    std::vector<types::global_dof_index> mine(dpc), serial(dpc);
-    for (const auto& cell : sys_.dof.active_cell_iterators()) {
-      if (!cell->is_locally_owned()) continue;
-      cell->get_dof_indices(mine);
-      serial_cell.at(cell->material_id())->get_dof_indices(serial);
-      for (unsigned i = 0; i < dpc; ++i) {
-        if (!sys_.owned.is_element(mine[i])) continue;
-        const Point<dim>& p = sys_.rel_point[sys_.relevant.index_within_set(mine[i])];
-        if (p.distance(m_.support_points[serial[i]]) > 1e-9 * cell->diameter())
-          throw std::logic_error("distributed solve: the DoFs of a cell differ from the serial mesh's");
-        serial_of_owned_[sys_.owned.index_within_set(mine[i])] = serial[i];
-      }
-    }
-    for (const auto d : serial_of_owned_)
-      if (d == numbers::invalid_dof_index)
-        throw std::logic_error("distributed solve: an owned DoF lies on no owned cell");
+  // Each DoF is owned by one rank and zero on the others: the sum over the ranks is exact.
+  void sum_over_ranks(Vector<double>& x) const {
+    Utilities::MPI::sum(ArrayView<const double>(x.data(), x.size()), comm_,
+                        ArrayView<double>(x.data(), x.size()));
   }
 
   const State<dim>& m_;
   MPI_Comm comm_;
   DistributedSystem<dim> sys_;
   TrilinosWrappers::PreconditionAMG amg_;
-  std::vector<types::global_dof_index> serial_of_owned_;
+  // the locally owned cells by material id (input cell / voxel index)
+  std::unordered_map<types::material_id, typename DoFHandler<dim>::active_cell_iterator> owned_cell_;
 };
 
 }  // namespace

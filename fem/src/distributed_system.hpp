@@ -24,7 +24,7 @@ using State = ModelAccess::State<dim>;
 template <int dim>
 struct DistributedSystem {
   std::unique_ptr<dealii::parallel::TriangulationBase<dim>> tria;
-  // simplex models: the serial vertex index of each vertex of `tria` (the rank's part of the mesh)
+  // simplex models: the input vertex index of each vertex of `tria` (the rank's part of the mesh)
   std::vector<unsigned> serial_vertex;
   dealii::DoFHandler<dim> dof;
   dealii::IndexSet owned, relevant;
@@ -43,15 +43,17 @@ struct SimplexPart {
   // The rank's cells and the cells sharing a vertex with them (ghosts), each a coarse cell whose id
   // is its serial cell index, with its material id (the input cell index) and boundary ids.
   dealii::TriangulationDescription::Description<dim, dim> description;
-  // per vertex of the description: its index in the serial triangulation (ascending)
+  // per vertex of the description: its index among the input vertices (ascending)
   std::vector<unsigned> serial_vertex;
 };
 
-// The part of `serial` that the calling rank of `comm` builds: the cells are partitioned by METIS on
-// their face graph (blocks of consecutive cells if METIS leaves a rank empty), identically on every
-// rank, so no communication is needed. Throws std::invalid_argument if there are fewer cells than ranks.
+// The part of the mesh of `cells` (positively oriented simplices over `vertices`) that the calling rank
+// of `comm` builds: the cells are partitioned by METIS on their face graph (blocks of consecutive
+// cells if METIS leaves a rank empty), identically on every rank, so no communication is needed.
+// Throws std::invalid_argument if there are fewer cells than ranks.
 template <int dim>
-SimplexPart<dim> simplex_part(const dealii::Triangulation<dim>& serial, MPI_Comm comm);
+SimplexPart<dim> simplex_part(const std::vector<Vec<dim>>& vertices,
+                              const std::vector<std::array<int, dim + 1>>& cells, MPI_Comm comm);
 
 // Whether a voxel model's distributed solve can be matrix-free multigrid: 3D, and every Dirichlet
 // condition holds DoFs along the model's axes (constraint lines u_i = value, no oblique axes).

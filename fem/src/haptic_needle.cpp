@@ -181,8 +181,11 @@ HapticNeedle::HapticNeedle(ElasticModel<3>& model, const Region<3>& region, cons
     throw std::invalid_argument(
         "HapticNeedle: spacing, max_shear_per_length > 0, max_sweeps, max_stations ≥ 1");
   auto& m = ModelAccess::state(model);
-  m.ensure_mesh();
   if (m.voxel) throw std::invalid_argument("HapticNeedle: simplex models only");
+  if (m.solves_over_ranks())
+    throw std::invalid_argument(
+        "HapticNeedle: the model's solves run over MPI ranks (distribute_solves); haptic stepping is serial");
+  m.ensure_mesh();
   m.prepare_solver(solver);
   m.ensure_u0(solver);
   h.m = &m;

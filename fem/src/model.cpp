@@ -51,6 +51,22 @@ std::vector<Vec<dim>> grid_vertices(const std::array<long, dim>& cells, const Ve
   return vertices;
 }
 
+// The cells of `mesh` with the vertex order of those of negative measure reversed (deal.II's
+// orientation), as the serial and the distributed triangulations take them.
+template <int dim>
+std::vector<typename SimplexMesh<dim>::Cell> positively_oriented(const SimplexMesh<dim>& mesh) {
+  std::vector<Point<dim>> pts(mesh.points.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) pts[i] = to_point<dim>(mesh.points[i]);
+  std::vector<CellData<dim>> cells(mesh.cells.size(), CellData<dim>(dim + 1));
+  for (std::size_t c = 0; c < cells.size(); ++c)
+    for (int k = 0; k <= dim; ++k) cells[c].vertices[k] = static_cast<unsigned>(mesh.cells[c][k]);
+  GridTools::invert_cells_with_negative_measure(pts, cells);
+  std::vector<typename SimplexMesh<dim>::Cell> out(cells.size());
+  for (std::size_t c = 0; c < cells.size(); ++c)
+    for (int k = 0; k <= dim; ++k) out[c][k] = static_cast<int>(cells[c].vertices[k]);
+  return out;
+}
+
 }  // namespace
 
 // ================================================================================================
@@ -76,17 +92,7 @@ ElasticModel<dim>::ElasticModel(const SimplexMesh<dim>& mesh, std::vector<double
   m.nu = poisson_ratio;
   m.degree = degree;
   m.vertices.assign(mesh.points.begin(), mesh.points.end());
-  m.simplices = mesh.cells;
-
-  std::vector<Point<dim>> pts(mesh.points.size());
-  for (std::size_t i = 0; i < pts.size(); ++i) pts[i] = to_point<dim>(mesh.points[i]);
-  std::vector<CellData<dim>> cells(mesh.cells.size(), CellData<dim>(dim + 1));
-  for (std::size_t c = 0; c < cells.size(); ++c) {
-    for (int k = 0; k <= dim; ++k) cells[c].vertices[k] = static_cast<unsigned>(mesh.cells[c][k]);
-    cells[c].material_id = static_cast<types::material_id>(c);
-  }
-  GridTools::invert_cells_with_negative_measure(pts, cells);
-  m.tria.create_triangulation(pts, cells, SubCellData());
+  m.simplices = positively_oriented<dim>(mesh);
 
   m.fe = std::make_unique<FESystem<dim>>(FE_SimplexP<dim>(degree), dim);
   m.linear_fe = std::make_unique<FE_SimplexP<dim>>(1);
@@ -94,7 +100,6 @@ ElasticModel<dim>::ElasticModel(const SimplexMesh<dim>& mesh, std::vector<double
   m.quadrature = std::make_unique<QGaussSimplex<dim>>(degree + 1);
   m.face_quadrature = std::make_unique<QGaussSimplex<dim - 1>>(degree + 1);
   for (int d = 0; d < dim; ++d) m.unit_centroid[d] = 1.0 / (dim + 1);
-  m.mesh_built = true;  // DoFs on first serial use (ensure_mesh): solve_distributed does not need them
 }
 
 template <int dim>
@@ -149,10 +154,18 @@ std::size_t ElasticModel<dim>::Impl::voxel_index(const Point<dim>& x) const {
 
 template <int dim>
 void ElasticModel<dim>::Impl::ensure_mesh() {
-  if (mesh_built) {
-    if (!dofs_ready) setup_dofs();
-    return;
-  }
+  if (mesh_built) return;
+  if (voxel)
+    build_voxel_triangulation();
+  else
+    build_simplex_triangulation();
+  dof.reinit(tria);
+  dof.distribute_dofs(*fe);  // no renumbering: DoFs stay node-interleaved for AMG "PDE equations"
+  mesh_built = true;
+}
+
+template <int dim>
+void ElasticModel<dim>::Impl::build_voxel_triangulation() {
   std::vector<unsigned> reps(dim);
   for (int d = 0; d < dim; ++d) reps[d] = static_cast<unsigned>(grid_cells[d]);
   GridGenerator::subdivided_hyper_rectangle(tria, reps, grid_min, grid_max);
@@ -168,15 +181,18 @@ void ElasticModel<dim>::Impl::ensure_mesh() {
     if ((to_vec<dim>(tv[v]) - vertices[v]).norm() > 1e-9 * h)
       throw std::logic_error(
           "voxel_grid: vertex numbering differs from deal.II's subdivided_hyper_rectangle");
-  setup_dofs();
-  mesh_built = true;
 }
 
 template <int dim>
-void ElasticModel<dim>::Impl::setup_dofs() {
-  dof.reinit(tria);
-  dof.distribute_dofs(*fe);  // no renumbering: DoFs stay node-interleaved for AMG "PDE equations"
-  dofs_ready = true;
+void ElasticModel<dim>::Impl::build_simplex_triangulation() {
+  std::vector<Point<dim>> pts(vertices.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) pts[i] = to_point<dim>(vertices[i]);
+  std::vector<CellData<dim>> cells(simplices.size(), CellData<dim>(dim + 1));
+  for (std::size_t c = 0; c < cells.size(); ++c) {
+    for (int k = 0; k <= dim; ++k) cells[c].vertices[k] = static_cast<unsigned>(simplices[c][k]);
+    cells[c].material_id = static_cast<types::material_id>(c);
+  }
+  tria.create_triangulation(pts, cells, SubCellData());
 }
 
 // ================================================================================================
@@ -253,12 +269,17 @@ void ElasticModel<dim>::set_body_force(const Vec<dim>& f) {
 
 template <int dim>
 unsigned ElasticModel<dim>::n_dofs() const {
-  Impl& m = *impl_;
-  if (m.dofs_ready) return static_cast<unsigned>(m.dof.n_dofs());
-  if (m.voxel)
-    return static_cast<unsigned>(dim * m.vertices.size());  // grid not built yet: Q1, dim per vertex
-  m.ensure_mesh();
-  return static_cast<unsigned>(m.dof.n_dofs());
+  const Impl& m = *impl_;
+  if (m.distributed) return static_cast<unsigned>(m.distributed->n_dofs());
+  if (m.mesh_built) return static_cast<unsigned>(m.dof.n_dofs());
+  // no mesh built yet: dim DoFs per vertex, and per edge for P2
+  std::vector<std::pair<int, int>> edges;
+  for (const auto& c : m.simplices)
+    for (int a = 0; a <= dim && m.degree == 2; ++a)
+      for (int b = a + 1; b <= dim; ++b) edges.emplace_back(std::min(c[a], c[b]), std::max(c[a], c[b]));
+  std::sort(edges.begin(), edges.end());
+  const auto n_edges = static_cast<std::size_t>(std::unique(edges.begin(), edges.end()) - edges.begin());
+  return static_cast<unsigned>(dim * (m.vertices.size() + n_edges));
 }
 template <int dim>
 unsigned ElasticModel<dim>::n_cells() const {
@@ -510,8 +531,7 @@ void ElasticModel<dim>::Impl::assemble() {
       for (unsigned c = 0; c < unsigned(dim); ++c) constrained.emplace_back(x, Vec<dim>::Unit(c));
   check_rigid_modes_removed<dim>(constrained, vertices, bcs, MPI_COMM_SELF);
   assembled = true;
-  // Volume supports cannot run over ranks (make_distributed_inverse refuses them): keep their check here.
-  if (!solves_over_ranks() || !supports.empty()) assemble_matrices();
+  assemble_matrices();
   assemble_seconds = timer.wall_time();
 }
 
@@ -663,7 +683,14 @@ std::size_t ElasticModel<dim>::memory_consumption() const {
          m.u.memory_consumption() + columns +
          dealii::MemoryConsumption::memory_consumption(m.support_points) +
          dealii::MemoryConsumption::memory_consumption(m.dof_bc) +
-         dealii::MemoryConsumption::memory_consumption(m.dof_component);
+         dealii::MemoryConsumption::memory_consumption(m.dof_component) +
+         (m.distributed ? m.distributed->memory_consumption() : 0);
+}
+
+template <int dim>
+std::size_t ElasticModel<dim>::cells_held() const {
+  const Impl& m = *impl_;
+  return (m.mesh_built ? m.tria.n_active_cells() : 0) + (m.distributed ? m.distributed->cells_held() : 0);
 }
 
 template class ElasticModel<2>;

@@ -20,11 +20,13 @@
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/vector.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -76,11 +78,34 @@ inline void check_solver_options(const SolverOptions& opt) {
 struct ConstraintRow {
   std::vector<dealii::types::global_dof_index> dofs;
   std::vector<double> values;
-  std::vector<dealii::types::global_dof_index> dirichlet_dofs;  // the part moved to g (for reactions)
+  // the part on Dirichlet DoFs moved to g (for the reactions): each coefficient with the condition
+  // holding its DoF and the DoF's component
   std::vector<double> dirichlet_values;
+  std::vector<int> dirichlet_bc;
+  std::vector<unsigned char> dirichlet_comp;
   double g = 0.0;           // right-hand side after moving Dirichlet contributions over
   bool active = true;       // false: the point sits on Dirichlet DoFs only (the row is void)
   double compliance = 0.0;  // κ of the row: c·u − g = κ·μ (PointConstraint::compliance)
+};
+
+// One DoF of the cell holding a point: its index in the numbering of the solve, its component, the value
+// of its shape function at the point, and its Dirichlet data — the condition holding it (or −1) and,
+// when constrained, u_dof = inhomogeneity + Σ a_f u_f over `entries`.
+struct StencilDof {
+  dealii::types::global_dof_index dof = 0;
+  unsigned comp = 0;
+  double shape = 0.0;
+  int bc = -1;
+  bool constrained = false;
+  double inhomogeneity = 0.0;
+  std::vector<std::pair<dealii::types::global_dof_index, double>> entries;
+};
+
+// What a constraint row or a sample needs of a point: the DoFs of its cell with their shape values
+// there (empty, inside == false, for a point outside the mesh).
+struct PointStencil {
+  bool inside = false;
+  std::vector<StencilDof> dofs;
 };
 
 // The DoFs of a cell grouped by support point: groups[k][c] is the DoF of component c at the k-th
@@ -113,6 +138,46 @@ double barycentric_gradients(const CellIterator& cell, std::array<dealii::Tensor
   return std::abs(dealii::determinant(J)) / (dim == 2 ? 2.0 : 6.0);
 }
 
+// x's reference coordinates in `cell`, when they lie in the reference cell within 1e-10 and map back to
+// x (the test that accepts a point location); std::nullopt otherwise.
+template <int dim, class CellIterator>
+std::optional<dealii::Point<dim>> reference_point(const dealii::Mapping<dim>& mapping,
+                                                  const CellIterator& cell, const dealii::Point<dim>& x) {
+  try {
+    const dealii::Point<dim> xi = mapping.transform_real_to_unit_cell(cell, x);
+    if (cell->reference_cell().contains_point(xi, 1e-10) &&
+        mapping.transform_unit_to_real_cell(cell, xi).distance(x) <= 1e-9 * std::max(1.0, cell->diameter()))
+      return xi;
+  } catch (...) {  // the mapping could not invert: x is not in this cell
+  }
+  return std::nullopt;
+}
+
+// The stencil of reference point xi of a DoF cell: its DoFs with their shape values (not mapped: P1/P2
+// simplices, Q1 boxes) and Dirichlet data from `constraints` and bc_of(dof) (the condition or −1).
+template <int dim, class DofCell, class BcOf>
+PointStencil cell_stencil(const dealii::FiniteElement<dim>& fe, const DofCell& cell,
+                          const dealii::Point<dim>& xi, const dealii::AffineConstraints<double>& constraints,
+                          const BcOf& bc_of) {
+  PointStencil st;
+  st.inside = true;
+  std::vector<dealii::types::global_dof_index> idx(fe.n_dofs_per_cell());
+  cell->get_dof_indices(idx);
+  st.dofs.resize(idx.size());
+  for (unsigned i = 0; i < idx.size(); ++i) {
+    StencilDof& d = st.dofs[i];
+    d.dof = idx[i];
+    d.comp = fe.system_to_component_index(i).first;
+    d.shape = fe.shape_value(i, xi);
+    d.bc = bc_of(idx[i]);
+    d.constrained = constraints.is_constrained(idx[i]);
+    if (!d.constrained) continue;
+    d.inhomogeneity = constraints.get_inhomogeneity(idx[i]);
+    if (const auto* entries = constraints.get_constraint_entries(idx[i])) d.entries = *entries;
+  }
+  return st;
+}
+
 // The constraint rows whose columns K⁻¹cᵀ have been computed, by key (a row's position, direction, then
 // its sample offsets and weights), with c·u0 and the symmetrised products c_a·K⁻¹c_bᵀ of pairs as
 // solves need them: after a precomputation a solve with cached rows does only dense work on these.
@@ -138,8 +203,9 @@ struct ColumnCache {
   double product(const Entry& a, const Entry& b);
 };
 
-// K⁻¹ of a model over MPI ranks (distributed.cpp): vectors in the serial DoF numbering, complete on
-// every rank. Collective: every rank calls apply() and fields() with the same arguments.
+// K⁻¹ of a model over MPI ranks (distributed.cpp): vectors in the DoF numbering of the distributed
+// system, complete on every rank; no rank builds the serial mesh. Collective: every rank calls each
+// function with the same arguments.
 template <int dim>
 class DistributedInverse {
  public:
@@ -149,8 +215,17 @@ class DistributedInverse {
   virtual unsigned apply(const dealii::Vector<double>* b, dealii::Vector<double>& x, const SolverOptions& opt,
                          double* residual) = 0;
   // The vertex displacement, cell strain, stress and von Mises, strain energy and Dirichlet reactions
-  // of the displacement u (serial numbering, Dirichlet values in), each rank computing its own cells.
+  // of the displacement u (Dirichlet values in), each rank computing its own cells.
   virtual Solution<dim> fields(const dealii::Vector<double>& u) = 0;
+  // The stencils of points x_i in cells c_i (material ids; −1: outside), each computed by the rank
+  // owning its cell and shared with all.
+  virtual std::vector<PointStencil> stencils(const std::vector<std::pair<long, dealii::Point<dim>>>& at) = 0;
+  // Sets the Dirichlet-constrained entries of u from the free ones and the conditions.
+  virtual void distribute_constraints(dealii::Vector<double>& u) = 0;
+  virtual dealii::types::global_dof_index n_dofs() const = 0;
+  virtual std::size_t memory_consumption() const = 0;
+  // The rank's owned and ghost cells.
+  virtual std::size_t cells_held() const = 0;
 };
 
 template <int dim>
@@ -161,19 +236,19 @@ struct ElasticModel<dim>::Impl {
 
   // ---- input -------------------------------------------------------------------------------
   bool voxel = false;
-  // Voxel models: the grid (cells per axis, box). Their serial triangulation/DoFHandler is built on
-  // first serial use (ensure_mesh); solve_distributed builds its own distributed grid instead, so an
-  // MPI voxel solve never holds the whole mesh on a rank.
+  // Voxel models: the grid (cells per axis, box). The serial triangulation/DoFHandler of every model is
+  // built on first serial use (ensure_mesh); distributed solves build their own distributed mesh from
+  // the grid or the input simplices instead, so no rank of an MPI solve holds the whole mesh.
   std::array<long, dim> grid_cells{};
   dealii::Point<dim> grid_min, grid_max;
-  bool mesh_built = false;
-  bool dofs_ready = false;  // DoFs set up (setup_dofs); simplex models too only on first serial use
+  bool mesh_built = false;  // the serial triangulation and its DoFs (ensure_mesh)
   // Voxel cells are congruent boxes: K_e = λ_e Kλ + μ_e Kμ and ∫N_i from the first cell assembled.
   mutable bool voxel_reference_ready = false;
   mutable dealii::FullMatrix<double> voxel_K_lambda, voxel_K_mu;
   mutable std::vector<double> voxel_shape_integral;
   std::vector<Vec<dim>> vertices;
-  std::vector<typename SimplexMesh<dim>::Cell> simplices;  // simplex models: the input cells
+  // simplex models: the input cells, each positively oriented (vertex order reversed if needed)
+  std::vector<typename SimplexMesh<dim>::Cell> simplices;
   std::vector<double> E;  // per input cell (material_id of a deal.II cell = its input index)
   double nu = 0.3;
   unsigned degree = 1;
@@ -244,8 +319,12 @@ struct ElasticModel<dim>::Impl {
   std::vector<Vec<dim>> grid_vertex_u;
 
   // ---- set-up, conditions and assembly (model.cpp) -------------------------------------------
-  void setup_dofs();
-  // Builds the serial voxel triangulation if not built yet, and the DoFs (every serial entry point).
+  // The serial triangulation of the (positively oriented) input simplices, material id = input index.
+  void build_simplex_triangulation();
+  // The serial voxel grid, material id = voxel index (its vertex numbering checked against `vertices`).
+  void build_voxel_triangulation();
+  // Builds the serial triangulation if not built yet, and the DoFs (every serial entry point; never
+  // while the solves run over ranks).
   void ensure_mesh();
   // Forgets the assembled system and the solver state (a condition was added).
   void invalidate();
@@ -266,14 +345,23 @@ struct ElasticModel<dim>::Impl {
                     dealii::Vector<double>& fe_rhs) const;
   std::unique_ptr<dealii::FEValues<dim>> make_fe_values() const;
   std::unique_ptr<dealii::FEFaceValues<dim>> make_face_values() const;
-  // The support points, the Dirichlet constraints and, unless K⁻¹ runs over several ranks
-  // (solves_over_ranks: each rank then assembles only its part of the distributed system),
-  // assemble_matrices() (once per set of conditions).
+  // The serial system: support points, Dirichlet constraints and assemble_matrices() (once per set of
+  // conditions). Not used while the solves run over ranks (each rank then assembles its part of the
+  // distributed system).
   void assemble();
   // K, K_full, f, f_full and the volume supports (once per set of conditions).
   void assemble_matrices();
-  // distribute_solves() over more than one rank.
+  // distribute_solves() over more than one rank: the solves then run on the distributed system alone,
+  // in its DoF numbering (u0, u and the cached columns), and the serial mesh is never built.
   bool solves_over_ranks() const;
+  // The DoFs of the solves: the distributed system's, or the serial DoFHandler's.
+  dealii::types::global_dof_index n_solve_dofs() const;
+  // The stencils of `points` in the numbering of the solves (collective when they run over ranks).
+  std::vector<PointStencil> stencils(const std::vector<Vec<dim>>& points) const;
+  // The same for points x_i in given cells c_i (input cell / voxel index; −1: outside).
+  std::vector<PointStencil> stencils_in(const std::vector<std::pair<long, dealii::Point<dim>>>& at) const;
+  // Sets the Dirichlet-constrained entries of a solution from its free ones.
+  void distribute_constraints(dealii::Vector<double>& x) const;
 
   // ---- solvers (solvers.cpp) -----------------------------------------------------------------
   // Assembles, then factorises K (UMFPACK) or sets up AMG, as `opt` and the size ask (once per method).

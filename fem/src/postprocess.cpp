@@ -110,7 +110,7 @@ Solution<dim> ElasticModel<dim>::Impl::postprocess() {
   } else {
     postprocess_serial(s);
   }
-  s.stats.n_dofs = dof.n_dofs();
+  s.stats.n_dofs = n_solve_dofs();
   s.stats.assemble_seconds = assemble_seconds;
   return s;
 }
@@ -205,14 +205,49 @@ typename ElasticModel<dim>::Impl::Located ElasticModel<dim>::Impl::locate(const 
     for (const auto& cell : tria.active_cell_iterators()) cell_of_index[cell->material_id()] = cell;
   }
   const auto& cell = cell_of_index[static_cast<std::size_t>(c)];
-  try {
-    const Point<dim> xi = mapping->transform_real_to_unit_cell(cell, x);
-    if (cell->reference_cell().contains_point(xi, 1e-10) &&
-        mapping->transform_unit_to_real_cell(cell, xi).distance(x) <= 1e-9 * std::max(1.0, cell->diameter()))
-      return {cell, xi};
-  } catch (...) {  // the mapping could not invert: x is not in this cell
-  }
+  if (const auto xi = reference_point<dim>(*mapping, cell, x)) return {cell, *xi};
   return {tria.end(), Point<dim>()};
+}
+
+template <int dim>
+std::vector<PointStencil> ElasticModel<dim>::Impl::stencils(const std::vector<Vec<dim>>& points) const {
+  std::vector<std::pair<long, Point<dim>>> at(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i)
+    at[i] = {cell_locator().locate(points[i]), to_point<dim>(points[i])};
+  return stencils_in(at);
+}
+
+template <int dim>
+std::vector<PointStencil> ElasticModel<dim>::Impl::stencils_in(
+    const std::vector<std::pair<long, Point<dim>>>& at) const {
+  if (distributed) return distributed->stencils(at);
+  if (cell_of_index.empty()) {
+    cell_of_index.assign(E.size(), tria.end());
+    for (const auto& cell : tria.active_cell_iterators()) cell_of_index[cell->material_id()] = cell;
+  }
+  std::vector<PointStencil> out(at.size());
+  const auto bc_of = [this](types::global_dof_index d) { return dof_bc.empty() ? -1 : dof_bc[d]; };
+  for (std::size_t i = 0; i < at.size(); ++i) {
+    if (at[i].first < 0) continue;
+    const auto& cell = cell_of_index[static_cast<std::size_t>(at[i].first)];
+    const auto xi = reference_point<dim>(*mapping, cell, at[i].second);
+    if (!xi) continue;
+    out[i] = cell_stencil<dim>(*fe, Cell(&tria, cell->level(), cell->index(), &dof), *xi, constraints, bc_of);
+  }
+  return out;
+}
+
+template <int dim>
+types::global_dof_index ElasticModel<dim>::Impl::n_solve_dofs() const {
+  return distributed ? distributed->n_dofs() : dof.n_dofs();
+}
+
+template <int dim>
+void ElasticModel<dim>::Impl::distribute_constraints(Vector<double>& x) const {
+  if (distributed)
+    distributed->distribute_constraints(x);
+  else
+    constraints.distribute(x);
 }
 
 // ================================================================================================
@@ -276,19 +311,10 @@ std::vector<Vec<dim>> ElasticModel<dim>::sample(const std::vector<Vec<dim>>& poi
       throw std::invalid_argument("sample: point " + std::to_string(i) + " is not finite");
   std::vector<Vec<dim>> out(points.size(), Vec<dim>::Zero());
   std::vector<bool> inside(points.size(), false);
-  std::vector<types::global_dof_index> idx(m.fe->n_dofs_per_cell());
+  const std::vector<PointStencil> st = m.stencils(points);
   for (std::size_t i = 0; i < points.size(); ++i) {
-    const auto where = m.locate(to_point<dim>(points[i]));
-    if (where.first == m.tria.end()) continue;
-    const typename Impl::Cell cell(&m.tria, where.first->level(), where.first->index(), &m.dof);
-    Quadrature<dim> q(std::vector<Point<dim>>{where.second});
-    FEValues<dim> fv(*m.mapping, *m.fe, q, update_values);
-    fv.reinit(cell);
-    cell->get_dof_indices(idx);
-    Vec<dim> v = Vec<dim>::Zero();
-    for (unsigned j = 0; j < idx.size(); ++j)
-      v[m.fe->system_to_component_index(j).first] += m.u[idx[j]] * fv.shape_value(j, 0);
-    out[i] = v;
+    if (!st[i].inside) continue;
+    for (const StencilDof& d : st[i].dofs) out[i][d.comp] += m.u[d.dof] * d.shape;
     inside[i] = true;
   }
   if (info) {
@@ -298,9 +324,8 @@ std::vector<Vec<dim>> ElasticModel<dim>::sample(const std::vector<Vec<dim>>& poi
   return out;
 }
 
-// The last solution at edge midpoints through the cell's own shape functions on the reference simplex
-// (no point location: an edge's midpoint is the midpoint of two reference vertices of every cell that
-// holds the edge).
+// The last solution at edge midpoints through the shape functions of a cell holding the edge (no point
+// location: the cell is looked up among the input cells).
 template <int dim>
 std::vector<Vec<dim>> ElasticModel<dim>::edge_midpoint_displacement(
     const std::vector<std::array<int, 2>>& edges) const {
@@ -308,30 +333,32 @@ std::vector<Vec<dim>> ElasticModel<dim>::edge_midpoint_displacement(
   if (m.voxel) throw std::invalid_argument("edge_midpoint_displacement: simplex models only");
   if (!m.have_solution)
     throw std::runtime_error("edge_midpoint_displacement: no solution yet; call solve() first");
-  std::map<std::pair<unsigned, unsigned>, std::size_t> wanted;
+  // a cell holding each edge (−1: none), then each edge's midpoint in it
+  const auto key = [](const std::array<int, 2>& e) {
+    return std::make_pair(std::min(e[0], e[1]), std::max(e[0], e[1]));
+  };
+  std::map<std::pair<int, int>, long> cell_of_edge;
+  for (const auto& e : edges) cell_of_edge[key(e)] = -1;
+  for (std::size_t c = 0; c < m.simplices.size(); ++c)
+    for (int a = 0; a <= dim; ++a)
+      for (int b = a + 1; b <= dim; ++b) {
+        const auto it = cell_of_edge.find(key({{m.simplices[c][a], m.simplices[c][b]}}));
+        if (it != cell_of_edge.end() && it->second < 0) it->second = static_cast<long>(c);
+      }
+  std::vector<std::pair<long, Point<dim>>> at(edges.size(), {-1, Point<dim>()});
   for (std::size_t e = 0; e < edges.size(); ++e) {
-    const auto [a, b] = edges[e];
-    wanted[{static_cast<unsigned>(std::min(a, b)), static_cast<unsigned>(std::max(a, b))}] = e;
+    const long c = cell_of_edge.at(key(edges[e]));
+    if (c >= 0)
+      at[e] = {c, to_point<dim>(0.5 * (m.vertices[static_cast<std::size_t>(edges[e][0])] +
+                                       m.vertices[static_cast<std::size_t>(edges[e][1])]))};
   }
   std::vector<Vec<dim>> out(edges.size(), Vec<dim>::Zero());
   std::vector<bool> found(edges.size(), false);
-  const FiniteElement<dim>& fe = *m.fe;
-  std::vector<types::global_dof_index> idx(fe.n_dofs_per_cell());
-  for (const auto& cell : m.dof.active_cell_iterators()) {
-    cell->get_dof_indices(idx);
-    for (unsigned a = 0; a < cell->n_vertices(); ++a)
-      for (unsigned b = a + 1; b < cell->n_vertices(); ++b) {
-        const unsigned va = cell->vertex_index(a), vb = cell->vertex_index(b);
-        const auto it = wanted.find({std::min(va, vb), std::max(va, vb)});
-        if (it == wanted.end() || found[it->second]) continue;
-        const ReferenceCell ref = cell->reference_cell();
-        const Point<dim> mid = 0.5 * (ref.template vertex<dim>(a) + ref.template vertex<dim>(b));
-        Vec<dim> v = Vec<dim>::Zero();
-        for (unsigned j = 0; j < idx.size(); ++j)
-          v[fe.system_to_component_index(j).first] += m.u[idx[j]] * fe.shape_value(j, mid);
-        out[it->second] = v;
-        found[it->second] = true;
-      }
+  const std::vector<PointStencil> st = m.stencils_in(at);
+  for (std::size_t e = 0; e < edges.size(); ++e) {
+    if (!st[e].inside) continue;
+    for (const StencilDof& d : st[e].dofs) out[e][d.comp] += m.u[d.dof] * d.shape;
+    found[e] = true;
   }
   for (std::size_t e = 0; e < edges.size(); ++e)
     if (!found[e])
@@ -381,22 +408,27 @@ double ElasticModel<dim>::strain_energy_of(const std::vector<Vec<dim>>& U) const
   return energy;
 }
 
-#define VIM_FEM_POSTPROCESS(dim)                                                                       \
-  template void ElasticModel<dim>::Impl::build_post_cache();                                           \
-  template Solution<dim> ElasticModel<dim>::Impl::postprocess();                                       \
-  template void ElasticModel<dim>::Impl::postprocess_serial(Solution<dim>&);                           \
-  template Eigen::Matrix<double, dim, dim> ElasticModel<dim>::Impl::centroid_strain(                   \
-      const Cell&, FEValues<dim>&, const std::vector<double>&) const;                                  \
-  template void ElasticModel<dim>::Impl::stress_of(const Eigen::Matrix<double, dim, dim>&, double,     \
-                                                   Eigen::Matrix<double, dim, dim>&, double&) const;   \
-  template std::vector<Vec<dim>> ElasticModel<dim>::sample(const std::vector<Vec<dim>>&, PointSample*) \
-      const;                                                                                           \
-  template std::vector<Vec<dim>> ElasticModel<dim>::edge_midpoint_displacement(                        \
-      const std::vector<std::array<int, 2>>&) const;                                                   \
-  template double ElasticModel<dim>::strain_energy_of(const std::vector<Vec<dim>>&) const;             \
-  template const CellLocator<dim>& ElasticModel<dim>::locator() const;                                 \
-  template const CellLocator<dim>& ElasticModel<dim>::Impl::cell_locator() const;                      \
-  template ElasticModel<dim>::Impl::Located ElasticModel<dim>::Impl::locate(const Point<dim>&) const;
+#define VIM_FEM_POSTPROCESS(dim)                                                                            \
+  template void ElasticModel<dim>::Impl::build_post_cache();                                                \
+  template Solution<dim> ElasticModel<dim>::Impl::postprocess();                                            \
+  template void ElasticModel<dim>::Impl::postprocess_serial(Solution<dim>&);                                \
+  template Eigen::Matrix<double, dim, dim> ElasticModel<dim>::Impl::centroid_strain(                        \
+      const Cell&, FEValues<dim>&, const std::vector<double>&) const;                                       \
+  template void ElasticModel<dim>::Impl::stress_of(const Eigen::Matrix<double, dim, dim>&, double,          \
+                                                   Eigen::Matrix<double, dim, dim>&, double&) const;        \
+  template std::vector<Vec<dim>> ElasticModel<dim>::sample(const std::vector<Vec<dim>>&, PointSample*)      \
+      const;                                                                                                \
+  template std::vector<Vec<dim>> ElasticModel<dim>::edge_midpoint_displacement(                             \
+      const std::vector<std::array<int, 2>>&) const;                                                        \
+  template double ElasticModel<dim>::strain_energy_of(const std::vector<Vec<dim>>&) const;                  \
+  template const CellLocator<dim>& ElasticModel<dim>::locator() const;                                      \
+  template const CellLocator<dim>& ElasticModel<dim>::Impl::cell_locator() const;                           \
+  template ElasticModel<dim>::Impl::Located ElasticModel<dim>::Impl::locate(const Point<dim>&) const;       \
+  template std::vector<PointStencil> ElasticModel<dim>::Impl::stencils(const std::vector<Vec<dim>>&) const; \
+  template std::vector<PointStencil> ElasticModel<dim>::Impl::stencils_in(                                  \
+      const std::vector<std::pair<long, Point<dim>>>&) const;                                               \
+  template types::global_dof_index ElasticModel<dim>::Impl::n_solve_dofs() const;                           \
+  template void ElasticModel<dim>::Impl::distribute_constraints(Vector<double>&) const;
 VIM_FEM_POSTPROCESS(2)
 VIM_FEM_POSTPROCESS(3)
 

@@ -77,13 +77,14 @@ std::unique_ptr<CholmodLLT> cholmod_factor(const SparseMatrix<double>& K) {
 template <int dim>
 void ElasticModel<dim>::Impl::prepare_solver(const SolverOptions& opt) {
   check_solver_options(opt);
-  assemble();
+  const bool over_ranks = solves_over_ranks();
+  if (!over_ranks) assemble();
   const bool use_amg = opt.type == SolverOptions::Type::amg || (opt.type == SolverOptions::Type::automatic &&
                                                                 dof.n_dofs() > opt.direct_limit_for(dim));
-  const unsigned ranks = solve_comm == MPI_COMM_NULL ? 1 : Utilities::MPI::n_mpi_processes(solve_comm);
-  const std::string wanted = ranks > 1 ? "cg+amg (mpi, " + std::to_string(ranks) + " ranks)"
-                             : use_amg ? "cg+amg"
-                                       : "cholmod";
+  const std::string wanted =
+      over_ranks ? "cg+amg (mpi, " + std::to_string(Utilities::MPI::n_mpi_processes(solve_comm)) + " ranks)"
+      : use_amg  ? "cg+amg"
+                 : "cholmod";
   if (method == wanted) return;
   direct.reset();
   amg.reset();
@@ -92,7 +93,7 @@ void ElasticModel<dim>::Impl::prepare_solver(const SolverOptions& opt) {
   have_u0 = false;
   columns.clear();
   Timer timer;
-  if (ranks > 1) {
+  if (over_ranks) {
     distributed = make_distributed_inverse<dim>(*this, solve_comm);
   } else if (!use_amg) {
     direct = cholmod_factor(K);
@@ -208,7 +209,7 @@ template <int dim>
 unsigned add_columns(State<dim>& m, std::vector<std::pair<ColumnCache::Key, ConstraintRow>>& missing,
                      const SolverOptions& opt) {
   constexpr std::size_t block = 32;
-  const std::size_t n = m.dof.n_dofs();
+  const std::size_t n = m.n_solve_dofs();
   unsigned iterations = 0;
   std::vector<double> B;
   Vector<double> e(n);
@@ -390,7 +391,7 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
     return s;
   }
   m.grid_vertex_u.clear();
-  m.ensure_mesh();
+  if (!m.solves_over_ranks()) m.ensure_mesh();
   m.prepare_solver(opt);
   Timer timer;
   unsigned iterations = 0;
@@ -430,7 +431,7 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
   Solution<dim> s = finish_constrained_solve<dim>(m, all, keep, points.size(), timer, &solve_seconds);
   for (std::size_t a = 0; a < nr; ++a) {
     s.point_force[rows[a].point] -= mu[a] * points[rows[a].point].axes.col(rows[a].comp);
-    add_constraint_reactions<dim>(m, rows[a].entry->row, mu[a], s);
+    add_constraint_reactions<dim>(rows[a].entry->row, mu[a], s);
   }
   s.stats.method = m.method;
   s.stats.constraint_rows = static_cast<unsigned>(nr);
@@ -448,7 +449,7 @@ unsigned ElasticModel<dim>::precompute(const std::vector<PointConstraint<dim>>& 
                                        const SolverOptions& opt) {
   Impl& m = *impl_;
   check_points(points);
-  m.ensure_mesh();
+  if (!m.solves_over_ranks()) m.ensure_mesh();
   m.prepare_solver(opt);
   m.ensure_u0(opt);
   unsigned n = 0;

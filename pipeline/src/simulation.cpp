@@ -493,6 +493,7 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
     rep["steps_per_second"] = r.steps_per_second;
   }
   rep["model"]["memory_bytes"] = m.model->memory_consumption();  // after the solves: with their caches
+  rep["model"]["cells_held"] = m.model->cells_held();  // by rank 0: serial mesh, or owned + ghost cells
   rep["timing"] = {{"build_seconds", m.build_seconds}};
   if (m.sc.needle_list && m.opt.output_file) {
     write_summary_csv<dim>(m.opt.output_file("summary.csv"), res.needles, m.sc);

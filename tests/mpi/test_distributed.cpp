@@ -251,10 +251,88 @@ TEST(Distributed, PointConstraintsThroughDistributedColumns) {
     expect_same_fields(ref, sol, 1e-8);
     tip.position[0] += 0.05;
   }
-  // No serial stiffness matrix on the ranks: the serial model holds K, K_full and their pattern on top
-  // of the mesh, the DoFs and the cached columns that both hold.
+  // No rank builds the serial model: each holds its part of the distributed mesh (owned and ghost
+  // cells) and no serial stiffness matrix, while the serial model holds the whole mesh, K and K_full.
   std::cout << "[rank " << dealii::Utilities::MPI::this_mpi_process(MPI_COMM_WORLD)
             << "] model bytes: serial " << serial.memory_consumption() << ", over the ranks "
-            << spread.memory_consumption() << "\n";
+            << spread.memory_consumption() << "; cells held: serial " << serial.cells_held()
+            << ", over the ranks " << spread.cells_held() << " of " << mesh.n_cells() << "\n";
+  EXPECT_EQ(serial.cells_held(), mesh.n_cells());
+  EXPECT_GT(spread.cells_held(), 0u);
+  EXPECT_LT(spread.cells_held(), 0.8 * mesh.n_cells());
   EXPECT_LT(spread.memory_consumption(), 0.6 * serial.memory_consumption());
+}
+
+// The same random points and mesh edges on every rank: points inside the unit box and one outside.
+std::vector<Vec<3>> sample_points() {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  std::vector<Vec<3>> at(40);
+  for (auto& x : at) x = Vec<3>(U(rng), U(rng), U(rng));
+  at.push_back(Vec<3>(1.5, 0.5, 0.5));
+  return at;
+}
+
+// sample() and edge_midpoint_displacement() of a P2 model whose solves run over the ranks (stencils
+// from the rank owning each point's cell) vs the serial model: to 1e-8 of the largest displacement,
+// the point outside the mesh reported outside by both; and the DoF count before any solve.
+TEST(Distributed, P2SamplesAndEdgeMidpointsMatchTheSerialModel) {
+  const auto mesh = test::kuhn_box<3>({{4, 4, 4}}, {{0, 0, 0}}, {{1, 1, 1}});
+  const auto E = random_moduli<3>(mesh.n_cells());
+  ElasticModel<3> serial(mesh, E, 0.3, 2), spread(mesh, E, 0.3, 2);
+  add_conditions(serial);
+  add_conditions(spread);
+  distribute_solves(spread, MPI_COMM_WORLD);
+  EXPECT_EQ(spread.n_dofs(), serial.n_dofs());
+  EXPECT_EQ(spread.cells_held(), 0u);  // nothing built before the first solve
+  PointConstraint<3> tip(Vec<3>(0.41, 0.52, 0.46), Vec<3>(0.01, -0.02, 0.005));
+  SolverOptions direct, tight;
+  direct.type = SolverOptions::Type::direct;
+  tight.tolerance = 1e-13;
+  const auto ref = serial.solve({tip}, direct);
+  const auto sol = spread.solve({tip}, tight);
+  expect_same_fields(ref, sol, 1e-8);
+  EXPECT_LT((sol.point_force[0] - ref.point_force[0]).norm(), 1e-8 * ref.point_force[0].norm());
+  double scale = 0;
+  for (const auto& u : ref.vertex_displacement) scale = std::max(scale, u.norm());
+  PointSample in_serial, in_spread;
+  const auto at = sample_points();
+  const auto a = serial.sample(at, &in_serial), b = spread.sample(at, &in_spread);
+  EXPECT_EQ(in_spread.inside, in_serial.inside);
+  EXPECT_EQ(in_spread.n_outside, 1u);
+  for (std::size_t i = 0; i < at.size(); ++i) EXPECT_LT((a[i] - b[i]).norm(), 1e-8 * scale) << i;
+  std::vector<std::array<int, 2>> edges;
+  for (std::size_t c = 0; c < mesh.cells.size(); c += 7)
+    edges.push_back({{mesh.cells[c][0], mesh.cells[c][2]}});
+  const auto ea = serial.edge_midpoint_displacement(edges), eb = spread.edge_midpoint_displacement(edges);
+  for (std::size_t e = 0; e < edges.size(); ++e) EXPECT_LT((ea[e] - eb[e]).norm(), 1e-8 * scale) << e;
+  EXPECT_THROW(spread.edge_midpoint_displacement({{{0, static_cast<int>(mesh.points.size()) - 1}}}),
+               std::invalid_argument);
+}
+
+// A voxel model with a point constraint whose solves run over the ranks (p4est grid, no serial grid on
+// any rank) vs the serial model: point force and samples to 1e-8.
+TEST(Distributed, VoxelModelWithAPointConstraintMatchesTheSerialModel) {
+  const std::array<long, 3> cells{{6, 5, 4}};
+  const auto E = random_moduli<3>(6 * 5 * 4);
+  auto serial = ElasticModel<3>::voxel_grid(cells, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1), E, 0.3);
+  auto spread = ElasticModel<3>::voxel_grid(cells, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1), E, 0.3);
+  add_conditions(serial);
+  add_conditions(spread);
+  distribute_solves(spread, MPI_COMM_WORLD);
+  PointConstraint<3> tip(Vec<3>(0.45, 0.55, 0.5), Vec<3>(0.0, 0.01, -0.01));
+  SolverOptions direct, tight;
+  direct.type = SolverOptions::Type::direct;
+  tight.tolerance = 1e-13;
+  const auto ref = serial.solve({tip}, direct);
+  const auto sol = spread.solve({tip}, tight);
+  EXPECT_NE(sol.stats.method.find("mpi"), std::string::npos) << sol.stats.method;
+  expect_same_fields(ref, sol, 1e-8);
+  EXPECT_LT((sol.point_force[0] - ref.point_force[0]).norm(), 1e-8 * ref.point_force[0].norm());
+  double scale = 0;
+  for (const auto& u : ref.vertex_displacement) scale = std::max(scale, u.norm());
+  const auto at = sample_points();
+  const auto a = serial.sample(at), b = spread.sample(at);
+  for (std::size_t i = 0; i < at.size(); ++i) EXPECT_LT((a[i] - b[i]).norm(), 1e-8 * scale) << i;
+  EXPECT_LT(spread.cells_held(), 6u * 5u * 4u);
 }

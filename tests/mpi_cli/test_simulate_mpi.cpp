@@ -169,7 +169,7 @@ std::size_t count(const std::string& text, const std::string& what) {
 // A needle (finite diameter: the band rows with their series compliance) into the table1 phantom, on a
 // VIM mesh (fully distributed triangulation) and on the voxel model (p4est): every column of needle.csv
 // (forces, tip, target displacements) and the last step agree, and rank 0's model is smaller than the
-// serial one (no serial stiffness matrix on the ranks).
+// serial one (no serial mesh or stiffness matrix on the ranks).
 TEST(SimulateMpi, NeedleOnTwoRanksEqualsTheSerialRun) {
   vim::test::TempDir dir("simulate_mpi_needle");
   vim::test::write_study_inputs(dir.path);
@@ -210,11 +210,18 @@ TEST(SimulateMpi, NeedleOnTwoRanksEqualsTheSerialRun) {
     EXPECT_EQ(pvtu, 2) << mesher;  // steps 0 and 3 (output every 3)
     const auto report = read_json(two_dir / "report.json");
     EXPECT_NE(report.dump().find("mpi, 2 ranks"), std::string::npos) << mesher;
-    // rank 0 holds no serial stiffness matrix (the serial run holds K and K_full)
+    // rank 0 holds no serial stiffness matrix (the serial run holds K and K_full) ...
     const double two_bytes = report["simulation"]["model"]["memory_bytes"];
     const double serial_bytes = read_json(serial_dir / "report.json")["simulation"]["model"]["memory_bytes"];
     std::cout << mesher << ": model bytes serial " << serial_bytes << ", rank 0 of 2 " << two_bytes << "\n";
     EXPECT_LT(two_bytes, 0.8 * serial_bytes) << mesher;
+    // and only its part of the mesh, owned and ghost cells (on this small mesh the ghost layer is a
+    // good share of it), never the whole serial mesh on top
+    const double two_cells = report["simulation"]["model"]["cells_held"];
+    const double serial_cells = read_json(serial_dir / "report.json")["simulation"]["model"]["cells_held"];
+    std::cout << mesher << ": cells held serial " << serial_cells << ", rank 0 of 2 " << two_cells << "\n";
+    EXPECT_GT(two_cells, 0) << mesher;
+    EXPECT_LT(two_cells, serial_cells) << mesher;
     EXPECT_TRUE(fs::exists(two_dir / "mesh.vtu"));
     EXPECT_FALSE(fs::exists(two_dir / "steps" / "step_0003.vtu"));
   }

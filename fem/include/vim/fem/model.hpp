@@ -143,9 +143,13 @@ class ElasticModel {
   double strain_energy_of(const std::vector<Vec<dim>>& vertex_displacement) const;
 
   // Bytes held by the model's deal.II objects on the calling process: mesh, DoFs, constraints,
-  // assembled matrices and vectors, cached solution and compliance columns (not the solvers' factors
-  // or preconditioners).
+  // assembled matrices and vectors, cached solution and compliance columns, and its part of the
+  // distributed system with the AMG preconditioner when the solves run over ranks (not CHOLMOD's
+  // factor).
   std::size_t memory_consumption() const;
+  // The deal.II cells the calling process holds for the model: its serial mesh (built on first serial
+  // use) plus, when the solves run over ranks, its owned and ghost cells of the distributed mesh.
+  std::size_t cells_held() const;
 
   // Per-cell Young's modulus as used (input cell order) and the Poisson ratio.
   const std::vector<double>& youngs_modulus() const;
