@@ -2,9 +2,9 @@
 # The needle bench of docs/mpi.md: the demo's prostate insertion (P2, examples/prostate_needle.yaml)
 # with the TRUS probe clamped instead of elastically supported (volume supports run serially only)
 # and 6 steps, meshed with NODES vertices (default 6000), through the CLI on each rank count of RANKS
-# (default "1 2"). Prints per run: wall time, peak resident memory and CPU time of every rank, DoFs
-# and the solver from report.json, and the last row's force and lesion displacement (equal for every
-# rank count to the solver tolerance).
+# (default "1 2"). Prints per run: wall time, peak resident memory and CPU time of every rank; DoFs,
+# rank 0's model bytes and cells held from report.json; and the last row's force and lesion
+# displacement (equal for every rank count to the solver tolerance).
 # Usage: bash bench/mpi_needle.sh [BUILD_DIR]   (NODES=12000 RANKS="2" to change the size and ranks)
 set -euo pipefail
 BUILD="${1:-build}"
@@ -35,7 +35,8 @@ for r in $RANKS; do
 import csv, json, sys
 r = json.load(open(sys.argv[1]))
 last = list(csv.DictReader(open(sys.argv[2])))[-1]
-print("  %d vertices, %d DoFs; final axial force %s mN, lesion %s mm" % (
-    r["simulation"]["model"]["vertices"], r["simulation"]["model"]["dofs"], last["axial_force"], last["lesion_norm"]))
+m = r["simulation"]["model"]
+print("  %d vertices, %d DoFs; rank 0's model %.1f MB, %d cells held; final axial force %s mN, lesion %s mm" % (
+    m["vertices"], m["dofs"], m["memory_bytes"] / 1e6, m["cells_held"], last["axial_force"], last["lesion_norm"]))
 PY
 done

@@ -626,11 +626,20 @@ template <int dim>
 std::vector<std::size_t> owned_cells(const ElasticModel<dim>& model, MPI_Comm comm) {
   const State<dim>& m = ModelAccess::state(model);
   ensure_mpi_initialized();
-  if (m.owned_cells_ranks != Utilities::MPI::n_mpi_processes(comm)) {
+  const unsigned ranks = Utilities::MPI::n_mpi_processes(comm);
+  if (m.owned_cells_ranks == ranks) return m.owned_cells;
+  if (m.voxel) {  // the p4est partition: the distributed grid without DoFs
     DistributedSystem<dim> sys;
     distributed_triangulation<dim>(m, comm, false, sys);
     remember_owned_cells<dim>(m, *sys.tria, comm);
+    return m.owned_cells;
   }
+  const std::vector<unsigned> owner = partition_cells<dim>(m.vertices, m.simplices, ranks);
+  const unsigned rank = Utilities::MPI::this_mpi_process(comm);
+  m.owned_cells.clear();
+  for (std::size_t c = 0; c < owner.size(); ++c)
+    if (owner[c] == rank) m.owned_cells.push_back(c);
+  m.owned_cells_ranks = ranks;
   return m.owned_cells;
 }
 

@@ -47,10 +47,16 @@ struct SimplexPart {
   std::vector<unsigned> serial_vertex;
 };
 
+// The owning rank of each of `cells` (positively oriented simplices over `vertices`) among n_ranks, the
+// same on every rank: METIS on the cells' face graph; blocks of consecutive cells when METIS would
+// leave a rank without cells. Throws std::invalid_argument if there are fewer cells than ranks.
+template <int dim>
+std::vector<unsigned> partition_cells(const std::vector<Vec<dim>>& vertices,
+                                      const std::vector<std::array<int, dim + 1>>& cells, unsigned n_ranks);
+
 // The part of the mesh of `cells` (positively oriented simplices over `vertices`) that the calling rank
-// of `comm` builds: the cells are partitioned by METIS on their face graph (blocks of consecutive
-// cells if METIS leaves a rank empty), identically on every rank, so no communication is needed.
-// Throws std::invalid_argument if there are fewer cells than ranks.
+// of `comm` builds, its cells those partition_cells gives it (identically on every rank, so no
+// communication is needed).
 template <int dim>
 SimplexPart<dim> simplex_part(const std::vector<Vec<dim>>& vertices,
                               const std::vector<std::array<int, dim + 1>>& cells, MPI_Comm comm);

@@ -38,10 +38,10 @@ DynamicSparsityPattern face_graph(std::size_t n_vertices,
   return graph;
 }
 
-// Owning rank per cell, the same on every rank: METIS on the face graph of the cells; blocks of
-// consecutive cells when METIS would leave a rank without cells.
+}  // namespace
+
 template <int dim>
-std::vector<unsigned> partition_cells(std::size_t n_vertices,
+std::vector<unsigned> partition_cells(const std::vector<Vec<dim>>& vertices,
                                       const std::vector<std::array<int, dim + 1>>& cells, unsigned n_ranks) {
   const auto n_cells = static_cast<unsigned>(cells.size());
   if (n_cells < n_ranks)
@@ -51,7 +51,7 @@ std::vector<unsigned> partition_cells(std::size_t n_vertices,
   std::vector<unsigned> owner(n_cells, 0);
   if (n_ranks == 1) return owner;
   SparsityPattern graph;
-  graph.copy_from(face_graph<dim>(n_vertices, cells));
+  graph.copy_from(face_graph<dim>(vertices.size(), cells));
   SparsityTools::partition(graph, n_ranks, owner, SparsityTools::Partitioner::metis);
   std::vector<unsigned> per_rank(n_ranks, 0);
   for (const unsigned r : owner) ++per_rank.at(r);
@@ -64,14 +64,12 @@ std::vector<unsigned> partition_cells(std::size_t n_vertices,
   return owner;
 }
 
-}  // namespace
-
 template <int dim>
 SimplexPart<dim> simplex_part(const std::vector<Vec<dim>>& vertices,
                               const std::vector<std::array<int, dim + 1>>& cells, MPI_Comm comm) {
   const unsigned rank = Utilities::MPI::this_mpi_process(comm);
   const std::vector<unsigned> owner =
-      partition_cells<dim>(vertices.size(), cells, Utilities::MPI::n_mpi_processes(comm));
+      partition_cells<dim>(vertices, cells, Utilities::MPI::n_mpi_processes(comm));
   // The rank's cells and every cell that shares a vertex with one of them (its ghosts).
   std::vector<char> near(vertices.size(), 0);
   for (std::size_t c = 0; c < cells.size(); ++c)
@@ -119,6 +117,10 @@ SimplexPart<dim> simplex_part(const std::vector<Vec<dim>>& vertices,
   return part;
 }
 
+template std::vector<unsigned> partition_cells<2>(const std::vector<Vec<2>>&,
+                                                  const std::vector<std::array<int, 3>>&, unsigned);
+template std::vector<unsigned> partition_cells<3>(const std::vector<Vec<3>>&,
+                                                  const std::vector<std::array<int, 4>>&, unsigned);
 template SimplexPart<2> simplex_part<2>(const std::vector<Vec<2>>&, const std::vector<std::array<int, 3>>&,
                                         MPI_Comm);
 template SimplexPart<3> simplex_part<3>(const std::vector<Vec<3>>&, const std::vector<std::array<int, 4>>&,
