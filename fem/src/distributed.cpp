@@ -514,6 +514,26 @@ class DistributedInverseOf : public DistributedInverse<dim> {
     return out;
   }
 
+  std::vector<std::optional<Vec<dim>>> values(const std::vector<std::pair<long, Point<dim>>>& at,
+                                              const Vector<double>& u) override {
+    std::vector<double> mine;  // per point found here: its index and value
+    for (std::size_t i = 0; i < at.size(); ++i) {
+      if (at[i].first < 0) continue;
+      const auto cell = owned_cell_.find(static_cast<types::material_id>(at[i].first));
+      if (cell == owned_cell_.end()) continue;
+      if (const auto xi = reference_point<dim>(*m_.mapping, cell->second, at[i].second)) {
+        const Vec<dim> v = cell_value<dim>(*m_.fe, cell->second, *xi, u);
+        mine.push_back(static_cast<double>(i));
+        mine.insert(mine.end(), v.data(), v.data() + dim);
+      }
+    }
+    std::vector<std::optional<Vec<dim>>> out(at.size());
+    for (const std::vector<double>& part : Utilities::MPI::all_gather(comm_, mine))
+      for (std::size_t k = 0; k < part.size(); k += dim + 1)
+        out.at(static_cast<std::size_t>(part[k])) = Vec<dim>(Eigen::Map<const Vec<dim>>(&part[k + 1]));
+    return out;
+  }
+
   void distribute_constraints(Vector<double>& u) override {
     Vector<double> w(u.size());
     for (const auto i : sys_.owned) {

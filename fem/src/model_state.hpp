@@ -178,6 +178,18 @@ PointStencil cell_stencil(const dealii::FiniteElement<dim>& fe, const DofCell& c
   return st;
 }
 
+// The value of the field u at reference point xi of a DoF cell.
+template <int dim, class DofCell>
+Vec<dim> cell_value(const dealii::FiniteElement<dim>& fe, const DofCell& cell, const dealii::Point<dim>& xi,
+                    const dealii::Vector<double>& u) {
+  std::vector<dealii::types::global_dof_index> idx(fe.n_dofs_per_cell());
+  cell->get_dof_indices(idx);
+  Vec<dim> v = Vec<dim>::Zero();
+  for (unsigned i = 0; i < idx.size(); ++i)
+    v[fe.system_to_component_index(i).first] += u[idx[i]] * fe.shape_value(i, xi);
+  return v;
+}
+
 // The constraint rows whose columns K⁻¹cᵀ have been computed, by key (a row's position, direction, then
 // its sample offsets and weights), with c·u0 and the symmetrised products c_a·K⁻¹c_bᵀ of pairs as
 // solves need them: after a precomputation a solve with cached rows does only dense work on these.
@@ -220,6 +232,10 @@ class DistributedInverse {
   // The stencils of points x_i in cells c_i (material ids; −1: outside), each computed by the rank
   // owning its cell and shared with all.
   virtual std::vector<PointStencil> stencils(const std::vector<std::pair<long, dealii::Point<dim>>>& at) = 0;
+  // The values of u (complete on every rank) at the same kind of points, each computed by the rank
+  // owning its cell; std::nullopt for a point outside.
+  virtual std::vector<std::optional<Vec<dim>>> values(
+      const std::vector<std::pair<long, dealii::Point<dim>>>& at, const dealii::Vector<double>& u) = 0;
   // Sets the Dirichlet-constrained entries of u from the free ones and the conditions.
   virtual void distribute_constraints(dealii::Vector<double>& u) = 0;
   virtual dealii::types::global_dof_index n_dofs() const = 0;
@@ -360,6 +376,9 @@ struct ElasticModel<dim>::Impl {
   std::vector<PointStencil> stencils(const std::vector<Vec<dim>>& points) const;
   // The same for points x_i in given cells c_i (input cell / voxel index; −1: outside).
   std::vector<PointStencil> stencils_in(const std::vector<std::pair<long, dealii::Point<dim>>>& at) const;
+  // The last solution u at such points (std::nullopt outside); collective when the solves run over ranks.
+  std::vector<std::optional<Vec<dim>>> values_in(
+      const std::vector<std::pair<long, dealii::Point<dim>>>& at) const;
   // Sets the Dirichlet-constrained entries of a solution from its free ones.
   void distribute_constraints(dealii::Vector<double>& x) const;
 
@@ -374,6 +393,8 @@ struct ElasticModel<dim>::Impl {
 
   // ---- post-processing and point location (postprocess.cpp) ---------------------------------
   const CellLocator<dim>& cell_locator() const;
+  // Fills cell_of_index from the serial triangulation (once).
+  void serial_cells() const;
   // The cell containing x and x's reference coordinates, or (tria.end(), ·) if x is outside the mesh.
   Located locate(const dealii::Point<dim>& x) const;
   // Vertex displacement, centroid strain/stress, energy and reactions of u: over the ranks when K⁻¹

@@ -194,16 +194,20 @@ const CellLocator<dim>& ElasticModel<dim>::Impl::cell_locator() const {
   return *locator;
 }
 
+template <int dim>
+void ElasticModel<dim>::Impl::serial_cells() const {
+  if (!cell_of_index.empty()) return;
+  cell_of_index.assign(E.size(), tria.end());
+  for (const auto& cell : tria.active_cell_iterators()) cell_of_index[cell->material_id()] = cell;
+}
+
 // The locator's cell (input cell index = material id; voxel index on the grid), accepted when x's
 // reference coordinates in it lie in the reference cell within 1e-10 and map back to x.
 template <int dim>
 typename ElasticModel<dim>::Impl::Located ElasticModel<dim>::Impl::locate(const Point<dim>& x) const {
   const long c = cell_locator().locate(to_vec<dim>(x));
   if (c < 0) return {tria.end(), Point<dim>()};
-  if (cell_of_index.empty()) {
-    cell_of_index.assign(E.size(), tria.end());
-    for (const auto& cell : tria.active_cell_iterators()) cell_of_index[cell->material_id()] = cell;
-  }
+  serial_cells();
   const auto& cell = cell_of_index[static_cast<std::size_t>(c)];
   if (const auto xi = reference_point<dim>(*mapping, cell, x)) return {cell, *xi};
   return {tria.end(), Point<dim>()};
@@ -221,10 +225,7 @@ template <int dim>
 std::vector<PointStencil> ElasticModel<dim>::Impl::stencils_in(
     const std::vector<std::pair<long, Point<dim>>>& at) const {
   if (distributed) return distributed->stencils(at);
-  if (cell_of_index.empty()) {
-    cell_of_index.assign(E.size(), tria.end());
-    for (const auto& cell : tria.active_cell_iterators()) cell_of_index[cell->material_id()] = cell;
-  }
+  serial_cells();
   std::vector<PointStencil> out(at.size());
   const auto bc_of = [this](types::global_dof_index d) { return dof_bc.empty() ? -1 : dof_bc[d]; };
   for (std::size_t i = 0; i < at.size(); ++i) {
@@ -233,6 +234,21 @@ std::vector<PointStencil> ElasticModel<dim>::Impl::stencils_in(
     const auto xi = reference_point<dim>(*mapping, cell, at[i].second);
     if (!xi) continue;
     out[i] = cell_stencil<dim>(*fe, Cell(&tria, cell->level(), cell->index(), &dof), *xi, constraints, bc_of);
+  }
+  return out;
+}
+
+template <int dim>
+std::vector<std::optional<Vec<dim>>> ElasticModel<dim>::Impl::values_in(
+    const std::vector<std::pair<long, Point<dim>>>& at) const {
+  if (distributed) return distributed->values(at, u);
+  serial_cells();
+  std::vector<std::optional<Vec<dim>>> out(at.size());
+  for (std::size_t i = 0; i < at.size(); ++i) {
+    if (at[i].first < 0) continue;
+    const auto& cell = cell_of_index[static_cast<std::size_t>(at[i].first)];
+    if (const auto xi = reference_point<dim>(*mapping, cell, at[i].second))
+      out[i] = cell_value<dim>(*fe, Cell(&tria, cell->level(), cell->index(), &dof), *xi, u);
   }
   return out;
 }
@@ -311,12 +327,12 @@ std::vector<Vec<dim>> ElasticModel<dim>::sample(const std::vector<Vec<dim>>& poi
       throw std::invalid_argument("sample: point " + std::to_string(i) + " is not finite");
   std::vector<Vec<dim>> out(points.size(), Vec<dim>::Zero());
   std::vector<bool> inside(points.size(), false);
-  const std::vector<PointStencil> st = m.stencils(points);
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    if (!st[i].inside) continue;
-    for (const StencilDof& d : st[i].dofs) out[i][d.comp] += m.u[d.dof] * d.shape;
-    inside[i] = true;
-  }
+  std::vector<std::pair<long, Point<dim>>> at(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i)
+    at[i] = {m.cell_locator().locate(points[i]), to_point<dim>(points[i])};
+  const std::vector<std::optional<Vec<dim>>> values = m.values_in(at);
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if ((inside[i] = values[i].has_value())) out[i] = *values[i];
   if (info) {
     info->inside = inside;
     info->n_outside = static_cast<std::size_t>(std::count(inside.begin(), inside.end(), false));
@@ -353,15 +369,11 @@ std::vector<Vec<dim>> ElasticModel<dim>::edge_midpoint_displacement(
                                        m.vertices[static_cast<std::size_t>(edges[e][1])]))};
   }
   std::vector<Vec<dim>> out(edges.size(), Vec<dim>::Zero());
-  std::vector<bool> found(edges.size(), false);
-  const std::vector<PointStencil> st = m.stencils_in(at);
-  for (std::size_t e = 0; e < edges.size(); ++e) {
-    if (!st[e].inside) continue;
-    for (const StencilDof& d : st[e].dofs) out[e][d.comp] += m.u[d.dof] * d.shape;
-    found[e] = true;
-  }
+  const std::vector<std::optional<Vec<dim>>> values = m.values_in(at);
   for (std::size_t e = 0; e < edges.size(); ++e)
-    if (!found[e])
+    if (values[e])
+      out[e] = *values[e];
+    else
       throw std::invalid_argument("edge_midpoint_displacement: vertices " + std::to_string(edges[e][0]) +
                                   " and " + std::to_string(edges[e][1]) + " are not an edge of the mesh");
   return out;
