@@ -501,13 +501,9 @@ class DistributedInverseOf : public DistributedInverse<dim> {
       return it == sys_.dof_bc.end() ? -1 : it->second;
     };
     std::vector<double> mine;
-    for (std::size_t i = 0; i < at.size(); ++i) {
-      if (at[i].first < 0) continue;
-      const auto cell = owned_cell_.find(static_cast<types::material_id>(at[i].first));
-      if (cell == owned_cell_.end()) continue;
-      if (const auto xi = reference_point<dim>(*m_.mapping, cell->second, at[i].second))
-        pack_stencil(i, cell_stencil<dim>(*m_.fe, cell->second, *xi, sys_.constraints, bc_of), mine);
-    }
+    for_each_owned_point(at, [&](std::size_t i, const Cell& cell, const Point<dim>& xi) {
+      pack_stencil(i, cell_stencil<dim>(*m_.fe, cell, xi, sys_.constraints, bc_of), mine);
+    });
     std::vector<PointStencil> out(at.size());
     for (const std::vector<double>& part : Utilities::MPI::all_gather(comm_, mine))
       unpack_stencils(part, out);
@@ -517,16 +513,11 @@ class DistributedInverseOf : public DistributedInverse<dim> {
   std::vector<std::optional<Vec<dim>>> values(const std::vector<std::pair<long, Point<dim>>>& at,
                                               const Vector<double>& u) override {
     std::vector<double> mine;  // per point found here: its index and value
-    for (std::size_t i = 0; i < at.size(); ++i) {
-      if (at[i].first < 0) continue;
-      const auto cell = owned_cell_.find(static_cast<types::material_id>(at[i].first));
-      if (cell == owned_cell_.end()) continue;
-      if (const auto xi = reference_point<dim>(*m_.mapping, cell->second, at[i].second)) {
-        const Vec<dim> v = cell_value<dim>(*m_.fe, cell->second, *xi, u);
-        mine.push_back(static_cast<double>(i));
-        mine.insert(mine.end(), v.data(), v.data() + dim);
-      }
-    }
+    for_each_owned_point(at, [&](std::size_t i, const Cell& cell, const Point<dim>& xi) {
+      const Vec<dim> v = cell_value<dim>(*m_.fe, cell, xi, u);
+      mine.push_back(static_cast<double>(i));
+      mine.insert(mine.end(), v.data(), v.data() + dim);
+    });
     std::vector<std::optional<Vec<dim>>> out(at.size());
     for (const std::vector<double>& part : Utilities::MPI::all_gather(comm_, mine))
       for (std::size_t k = 0; k < part.size(); k += dim + 1)
@@ -565,6 +556,21 @@ class DistributedInverseOf : public DistributedInverse<dim> {
   }
 
  private:
+  using Cell = typename DoFHandler<dim>::active_cell_iterator;
+
+  // Calls f(i, cell, xi) for each point at[i] whose cell this rank owns and that lies in it (reference
+  // point xi), in order.
+  template <class F>
+  void for_each_owned_point(const std::vector<std::pair<long, Point<dim>>>& at, const F& f) const {
+    for (std::size_t i = 0; i < at.size(); ++i) {
+      if (at[i].first < 0) continue;
+      const auto cell = owned_cell_.find(static_cast<types::material_id>(at[i].first));
+      if (cell == owned_cell_.end()) continue;
+      if (const auto xi = reference_point<dim>(*m_.mapping, cell->second, at[i].second))
+        f(i, cell->second, *xi);
+    }
+  }
+
   // The entries of a complete vector at this rank's owned DoFs, as a distributed vector.
   TrilinosWrappers::MPI::Vector owned_part(const Vector<double>& complete) const {
     TrilinosWrappers::MPI::Vector v(sys_.owned, comm_);
@@ -588,7 +594,7 @@ class DistributedInverseOf : public DistributedInverse<dim> {
   DistributedSystem<dim> sys_;
   TrilinosWrappers::PreconditionAMG amg_;
   // the locally owned cells by material id (input cell / voxel index)
-  std::unordered_map<types::material_id, typename DoFHandler<dim>::active_cell_iterator> owned_cell_;
+  std::unordered_map<types::material_id, Cell> owned_cell_;
 };
 
 }  // namespace

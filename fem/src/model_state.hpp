@@ -101,7 +101,7 @@ struct StencilDof {
   std::vector<std::pair<dealii::types::global_dof_index, double>> entries;
 };
 
-// What a constraint row or a sample needs of a point: the DoFs of its cell with their shape values
+// What a constraint row needs of a point: the DoFs of its cell with their shape values
 // there (empty, inside == false, for a point outside the mesh).
 struct PointStencil {
   bool inside = false;
