@@ -23,8 +23,8 @@
 #include <vim/fem/haptic_needle.hpp>
 #include <vim/fem/needle_band.hpp>
 #include <vim/initial_mesh.hpp>
-#include <vim/pipeline/progress.hpp>
-#include <vim/pipeline/simulation.hpp>
+#include <vim/pipeline/common/progress.hpp>
+#include <vim/pipeline/simulation/simulation.hpp>
 
 using namespace vim;
 using namespace vim::pipeline;

@@ -6,8 +6,6 @@
 //   scaling_vs_voxels.png:   log10(s/iteration) vs log10(voxels), one series per node budget;
 //   scaling_vs_elements.png: log10(s/iteration) vs log10(elements), one series per image size.
 // ROW n voxels nodes elements setup_s iter_mean_s iterations converged vmhwm_MB cpu_per_wall
-#include <vim/pipeline/figures.hpp>
-
 #include <cmath>
 #include <cstdio>
 #include <exception>
@@ -18,12 +16,14 @@
 #include <sstream>
 #include <string>
 #include <vector>
+#include <vim/pipeline/output/figures.hpp>
 
 namespace {
 
 using Series = std::map<long, std::map<double, double>>;  // key -> (log10 x -> log10 s/iteration)
 
-void write(const std::filesystem::path& path, const Series& series, const char* key_name, const char* x_name) {
+void write(const std::filesystem::path& path, const Series& series, const char* key_name,
+           const char* x_name) {
   std::set<double> xs;
   for (const auto& [key, s] : series)
     for (const auto& [x, y] : s) xs.insert(x);
@@ -41,10 +41,10 @@ void write(const std::filesystem::path& path, const Series& series, const char* 
     names.push_back(std::string(key_name) + " " + std::to_string(key));
   }
   const auto info = vim::pipeline::write_line_plot(path, x, ys, names, std::string("log10 ") + x_name,
-                                                    "log10 seconds per iteration");
-  std::printf("wrote %s: x = log10 %s, y = log10 s/iteration, x axis %s, y axis %s, series %s\n", path.c_str(),
-              x_name, info["x_range"].dump().c_str(),
-              info["y_range"].dump().c_str(), info["series"].dump().c_str());
+                                                   "log10 seconds per iteration");
+  std::printf("wrote %s: x = log10 %s, y = log10 s/iteration, x axis %s, y axis %s, series %s\n",
+              path.c_str(), x_name, info["x_range"].dump().c_str(), info["y_range"].dump().c_str(),
+              info["series"].dump().c_str());
 }
 
 }  // namespace
@@ -63,7 +63,8 @@ int main(int argc, char** argv) try {
     std::string tag;
     long n = 0, nodes = 0, elements = 0;
     double voxels = 0, setup = 0, iter = 0;
-    if (!(ss >> tag >> n >> voxels >> nodes >> elements >> setup >> iter) || tag != "ROW" || !(iter > 0)) continue;
+    if (!(ss >> tag >> n >> voxels >> nodes >> elements >> setup >> iter) || tag != "ROW" || !(iter > 0))
+      continue;
     by_budget[nodes][std::log10(voxels)] = std::log10(iter);
     by_image[n][std::log10(static_cast<double>(elements))] = std::log10(iter);
   }

@@ -40,10 +40,10 @@
 #include <vector>
 #include <vim/fem/elasticity.hpp>
 #include <vim/initial_mesh.hpp>
-#include <vim/pipeline/figures.hpp>
-#include <vim/pipeline/phantoms.hpp>
-#include <vim/pipeline/scenario.hpp>
-#include <vim/pipeline/simulation.hpp>
+#include <vim/pipeline/image/phantoms.hpp>
+#include <vim/pipeline/output/figures.hpp>
+#include <vim/pipeline/scenario/scenario.hpp>
+#include <vim/pipeline/simulation/simulation.hpp>
 #include <vim/quality.hpp>
 #include <vim/sizing.hpp>
 #include <vim/vim.hpp>

@@ -8,8 +8,6 @@
 // Writes, when the data is present (line colours: series_color(k) of png.hpp):
 //   validation_sphere.png, validation_inclusions_2d.png: relL2 vs nodes, blue = VIM, red = grid;
 //   validation_table1_tf.png: TF% vs nodes, blue = VIM (ours), red = VIM (paper), green = grid.
-#include <vim/pipeline/figures.hpp>
-
 #include <cmath>
 #include <cstdio>
 #include <exception>
@@ -19,6 +17,7 @@
 #include <sstream>
 #include <string>
 #include <vector>
+#include <vim/pipeline/output/figures.hpp>
 
 namespace {
 
@@ -68,8 +67,8 @@ void write(const std::filesystem::path& path, const std::vector<const std::map<d
     }
   }
   const auto info = vim::pipeline::write_line_plot(path, x, ys, names, "nodes", y_label);
-  std::printf("wrote %s (%zu node counts; x axis %s, y axis %s)\n", path.c_str(), x.size(), info["x_range"].dump().c_str(),
-              info["y_range"].dump().c_str());
+  std::printf("wrote %s (%zu node counts; x axis %s, y axis %s)\n", path.c_str(), x.size(),
+              info["x_range"].dump().c_str(), info["y_range"].dump().c_str());
 }
 
 }  // namespace
@@ -93,7 +92,9 @@ int main(int argc, char** argv) try {
       if (line.rfind("|", 0) == 0) {
         const auto c = cells(line);
         if (has(line, "relL2 grid") && has(line, "relL2 VIM") && !has(line, "gland")) {
-          table = has(heading, "phere compression") ? "sphere" : has(heading, "two-inclusion") ? "inclusions" : "";
+          table = has(heading, "phere compression") ? "sphere"
+                  : has(heading, "two-inclusion")   ? "inclusions"
+                                                    : "";
           col.clear();
           for (std::size_t k = 0; k < c.size(); ++k) col[c[k]] = k;
           continue;
@@ -117,9 +118,12 @@ int main(int argc, char** argv) try {
           const double tf = number(c[col["TF"]]);
           Curve& t = curves["table1"];
           const std::string m = c[0];
-          if (has(m, "paper")) t.paper[nodes] = tf;
-          else if (has(m, "ours")) t.vim[nodes] = tf;
-          else if (has(m, "grid")) t.grid[nodes] = tf;
+          if (has(m, "paper"))
+            t.paper[nodes] = tf;
+          else if (has(m, "ours"))
+            t.vim[nodes] = tf;
+          else if (has(m, "grid"))
+            t.grid[nodes] = tf;
         } else if (col.count("relL2 grid") && col.count("relL2 VIM") && col["relL2 grid"] < c.size() &&
                    col["relL2 VIM"] < c.size()) {
           Curve& t = curves[table];
@@ -144,12 +148,14 @@ int main(int argc, char** argv) try {
   std::filesystem::create_directories(dir);
   const std::string rel_l2 = "relative L2 displacement error vs the voxel reference";
   if (curves.count("sphere"))
-    write(dir / "validation_sphere.png", {&curves["sphere"].vim, &curves["sphere"].grid}, {"VIM", "grid"}, rel_l2);
+    write(dir / "validation_sphere.png", {&curves["sphere"].vim, &curves["sphere"].grid}, {"VIM", "grid"},
+          rel_l2);
   if (curves.count("inclusions"))
     write(dir / "validation_inclusions_2d.png", {&curves["inclusions"].vim, &curves["inclusions"].grid},
           {"VIM", "grid"}, rel_l2);
   if (curves.count("table1"))
-    write(dir / "validation_table1_tf.png", {&curves["table1"].vim, &curves["table1"].paper, &curves["table1"].grid},
+    write(dir / "validation_table1_tf.png",
+          {&curves["table1"].vim, &curves["table1"].paper, &curves["table1"].grid},
           {"VIM (ours)", "VIM (paper)", "grid"}, "misclassified voxels TF [%]");
   return 0;
 } catch (const std::exception& e) {

@@ -1,12 +1,10 @@
 // vim-make-phantom: writes the synthetic phantoms of phantoms.hpp (the paper's Table I sphere, its
 // 2D diamond and two-circle images, a 2D two-inclusion and a 3D prostate elastogram) as images.
-#include <vim/pipeline/image_io.hpp>
-#include <vim/pipeline/phantoms.hpp>
-#include <vim/version.hpp>
-
 #include <CLI/CLI.hpp>
-
 #include <iostream>
+#include <vim/pipeline/image/image_io.hpp>
+#include <vim/pipeline/image/phantoms.hpp>
+#include <vim/version.hpp>
 
 using namespace vim::pipeline;
 
@@ -31,9 +29,10 @@ int main(int argc, char** argv) {
       ->type_name("N")
       ->check(CLI::Range(8, 2000));
   app.add_option("--seed", seed, "Noise seed for the prostate phantom (default 1)")->type_name("S");
-  app.footer("Phantoms:\n" + kinds +
-             "\nExamples:\n  vim-make-phantom table1 table1.mha\n  vim-make-phantom prostate prostate.mha --seed 7\n"
-             "  vim-make-phantom two-circles circles.nrrd --size 100");
+  app.footer(
+      "Phantoms:\n" + kinds +
+      "\nExamples:\n  vim-make-phantom table1 table1.mha\n  vim-make-phantom prostate prostate.mha --seed 7\n"
+      "  vim-make-phantom two-circles circles.nrrd --size 100");
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

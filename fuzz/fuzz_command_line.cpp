@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <string>
 #include <vector>
-#include <vim/pipeline/cli.hpp>
+#include <vim/pipeline/app/cli.hpp>
 
 namespace {
 

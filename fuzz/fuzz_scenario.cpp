@@ -1,11 +1,10 @@
 // libFuzzer target for the needle-scenario YAML parser (scenario.hpp, parse_scenario_text): any
 // byte string must either parse or throw ScenarioError/InputError with a message; any other
 // exception, crash, leak or sanitizer report is a bug. Built by scripts/fuzz.sh (fuzz/CMakeLists.txt).
-#include <vim/pipeline/scenario.hpp>
-
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <vim/pipeline/scenario/scenario.hpp>
 
 // The image dimension the scenario is checked against follows the input's length parity (even: 3D,
 // odd: 2D), so every input is parsed once and the mutator reaches both paths without a prefix byte

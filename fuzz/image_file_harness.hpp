@@ -11,7 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
-#include <vim/pipeline/image_io.hpp>
+#include <vim/pipeline/image/image_io.hpp>
 
 namespace vim::fuzz {
 

@@ -7,10 +7,10 @@
 #include <string>
 #include <utility>
 #include <vim/initial_mesh.hpp>
-#include <vim/pipeline/image_io.hpp>
-#include <vim/pipeline/model.hpp>
-#include <vim/pipeline/scenario.hpp>
-#include <vim/pipeline/simulation.hpp>
+#include <vim/pipeline/common/model.hpp>
+#include <vim/pipeline/image/image_io.hpp>
+#include <vim/pipeline/scenario/scenario.hpp>
+#include <vim/pipeline/simulation/simulation.hpp>
 #include <vim/version.hpp>
 #include <vim/vim.hpp>
 

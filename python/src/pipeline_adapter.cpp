@@ -1,5 +1,5 @@
 // Every call of the Python module into the mesher and the pipeline (pipeline_adapter.hpp). The work is
-// the CLI's own driver, MeshingRun (vim/pipeline/meshing_run.hpp), given the inputs in memory and
+// the CLI's own driver, PipelineRun (vim/pipeline/run/pipeline_run.hpp), given the inputs in memory and
 // called stage by stage, so that a mesh made here is the CLI's mesh.vtu bit for bit and a simulation
 // writes the CLI's files. What stays here: NumPy-side inputs checked and converted, the keyword
 // options turned into RunOptions, and the results read back.
@@ -13,12 +13,12 @@
 #include <sstream>
 #include <stdexcept>
 #include <vim/invariants.hpp>
-#include <vim/pipeline/image_arrays.hpp>
-#include <vim/pipeline/image_io.hpp>
-#include <vim/pipeline/meshing_run.hpp>
-#include <vim/pipeline/progress.hpp>
-#include <vim/pipeline/scenario.hpp>
-#include <vim/pipeline/vtk_output.hpp>
+#include <vim/pipeline/common/progress.hpp>
+#include <vim/pipeline/image/image_arrays.hpp>
+#include <vim/pipeline/image/image_io.hpp>
+#include <vim/pipeline/output/vtk_output.hpp>
+#include <vim/pipeline/run/pipeline_run.hpp>
+#include <vim/pipeline/scenario/scenario.hpp>
 #include <vim/version.hpp>
 
 namespace vim::python {
@@ -28,8 +28,8 @@ namespace vp = vim::pipeline;
 
 // A mesh of the module: the run that made it (meshed, or meshed and simulated).
 struct MeshState {
-  std::shared_ptr<const vp::MeshingRun<2>> two;
-  std::shared_ptr<const vp::MeshingRun<3>> three;
+  std::shared_ptr<const vp::PipelineRun<2>> two;
+  std::shared_ptr<const vp::PipelineRun<3>> three;
 };
 
 namespace {
@@ -175,11 +175,11 @@ vp::RunInputs<dim> run_inputs(vp::OrientedImage<dim> image, const MeshSettings& 
 
 // A run on `image` up to its mesh (read_inputs, make_mesh); files go to `out` if given.
 template <int dim>
-std::shared_ptr<vp::MeshingRun<dim>> meshed_run(const ImageData& image, const MeshSettings& s,
-                                                std::optional<vp::Scenario> scenario, const fs::path& out,
-                                                const ProgressFunction& progress) {
+std::shared_ptr<vp::PipelineRun<dim>> meshed_run(const ImageData& image, const MeshSettings& s,
+                                                 std::optional<vp::Scenario> scenario, const fs::path& out,
+                                                 const ProgressFunction& progress) {
   check_settings(s);
-  auto run = std::make_shared<vp::MeshingRun<dim>>(
+  auto run = std::make_shared<vp::PipelineRun<dim>>(
       run_options(s, image.source, out),
       run_inputs<dim>(to_oriented<dim>(image), s, std::move(scenario), progress));
   run->read_inputs();
@@ -188,7 +188,7 @@ std::shared_ptr<vp::MeshingRun<dim>> meshed_run(const ImageData& image, const Me
 }
 
 template <int dim>
-MeshData mesh_data(std::shared_ptr<const vp::MeshingRun<dim>> run) {
+MeshData mesh_data(std::shared_ptr<const vp::PipelineRun<dim>> run) {
   MeshData d;
   d.dim = dim;
   const vp::UnstructuredGrid grid = run->mesh_vtu_grid();
@@ -237,7 +237,7 @@ NeedleData needle_data(const vp::NeedleRun<dim>& run) {
 
 // The stages after the mesh: the model, the needle insertion, the CLI's files and report.json.
 template <int dim>
-SimulationData simulate_run(std::shared_ptr<vp::MeshingRun<dim>> run, const ProgressFunction& progress) {
+SimulationData simulate_run(std::shared_ptr<vp::PipelineRun<dim>> run, const ProgressFunction& progress) {
   progress({"simulate", 0, 0, 0, 0, 0, 0, 0, 0});
   run->build_model();  // validates the scenario against the mesh first
   run->simulate();
@@ -262,7 +262,7 @@ SimulationData simulate_image(const ImageData& image, const MeshSettings& s, vp:
 
 // A simulation on the mesh of an earlier run: its options, with `s.degree` if set.
 template <int dim>
-SimulationData simulate_mesh(const vp::MeshingRun<dim>& meshed, const MeshSettings& s, vp::Scenario scenario,
+SimulationData simulate_mesh(const vp::PipelineRun<dim>& meshed, const MeshSettings& s, vp::Scenario scenario,
                              const fs::path& dir, const ProgressFunction& progress) {
   check_settings(s);
   vp::RunOptions o = meshed.options();
@@ -273,7 +273,7 @@ SimulationData simulate_mesh(const vp::MeshingRun<dim>& meshed, const MeshSettin
   }
   vp::RunInputs<dim> in = run_inputs<dim>(meshed.image(), MeshSettings{}, std::move(scenario), progress);
   o.sizing.clear();  // the mesh is made
-  auto run = std::make_shared<vp::MeshingRun<dim>>(o, std::move(in));
+  auto run = std::make_shared<vp::PipelineRun<dim>>(o, std::move(in));
   run->read_inputs();
   run->reuse_mesh(meshed);
   return simulate_run<dim>(std::move(run), progress);

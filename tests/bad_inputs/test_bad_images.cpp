@@ -1,16 +1,15 @@
 // Bad input images through the real vim-pipeline executable: each case must exit with 1, print
 // exactly one `vim-pipeline: error:` line naming the file and the problem, and leave no file in
 // --out (the folder is not created, or is empty).
-#include <vim/pipeline/image_io.hpp>
-#include <vim/pipeline/phantoms.hpp>
-
-#include "run_cli.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdint>
 #include <fstream>
+#include <vim/pipeline/image/image_io.hpp>
+#include <vim/pipeline/image/phantoms.hpp>
+
+#include "run_cli.hpp"
 
 using namespace vim;
 using namespace vim::pipeline;
@@ -32,8 +31,8 @@ void PrintTo(const BadImage& c, std::ostream* os) { *os << c.file << ": " << c.p
 std::function<void(const std::string&)> mha(const std::string& header, std::size_t bytes) {
   return [=](const std::string& path) {
     std::ofstream f(path, std::ios::binary);
-    f << "ObjectType = Image\nBinaryData = True\nBinaryDataByteOrderMSB = False\n" << header
-      << "ElementDataFile = LOCAL\n";
+    f << "ObjectType = Image\nBinaryData = True\nBinaryDataByteOrderMSB = False\n"
+      << header << "ElementDataFile = LOCAL\n";
     for (std::size_t i = 0; i < bytes; ++i) f.put('\x01');
   };
 }
@@ -51,7 +50,8 @@ std::vector<BadImage> cases() {
   return {
       {"Missing", "missing.mha", "file does not exist", [](const std::string&) {}},
       {"EmptyFile", "empty.mha", "file is empty", [](const std::string& p) { std::ofstream f(p); }},
-      {"Directory", "dir.mha", "is a directory", [](const std::string& p) { std::filesystem::create_directory(p); }},
+      {"Directory", "dir.mha", "is a directory",
+       [](const std::string& p) { std::filesystem::create_directory(p); }},
       {"NotAnImage", "text.mha", "not a readable image",
        [](const std::string& p) { std::ofstream(p) << "hello, I am not an image\n"; }},
       {"UnknownExtension", "data.xyz", "not a readable image",
@@ -59,7 +59,8 @@ std::vector<BadImage> cases() {
       {"Truncated", "trunc.mha", "cannot read the voxel data",
        mha("NDims = 3\nDimSize = 10 10 10\nElementSpacing = 1 1 1\nElementType = MET_FLOAT\n", 1000)},
       {"VectorPixels", "rgb.mha", "3 components",
-       mha("NDims = 2\nDimSize = 4 4\nElementSpacing = 1 1\nElementNumberOfChannels = 3\nElementType = MET_UCHAR\n",
+       mha("NDims = 2\nDimSize = 4 4\nElementSpacing = 1 1\nElementNumberOfChannels = 3\nElementType = "
+           "MET_UCHAR\n",
            48)},
       {"FourDimensions", "four.mha", "4 dimensions; expected 2 or 3",
        mha("NDims = 4\nDimSize = 2 2 2 2\nElementSpacing = 1 1 1 1\nElementType = MET_UCHAR\n", 16)},
@@ -74,8 +75,10 @@ std::vector<BadImage> cases() {
          for (int i = 0; i < 16; ++i) f.put('\x02');
        }},
       {"HugeHeader", "huge.mha", "header declares",
-       mha("NDims = 3\nDimSize = 100000 100000 100000\nElementSpacing = 1 1 1\nElementType = MET_FLOAT\n", 64)},
-      {"NaNVoxels", "nan.mha", "2 voxels are NaN or Inf (first at index (3,4,5))", image_with(std::nanf(""), 3, 4, 5)},
+       mha("NDims = 3\nDimSize = 100000 100000 100000\nElementSpacing = 1 1 1\nElementType = MET_FLOAT\n",
+           64)},
+      {"NaNVoxels", "nan.mha", "2 voxels are NaN or Inf (first at index (3,4,5))",
+       image_with(std::nanf(""), 3, 4, 5)},
       {"InfVoxels", "inf.nrrd", "2 voxels are NaN or Inf (first at index (0,0,1))",
        image_with(-std::numeric_limits<float>::infinity(), 0, 0, 1)},
       {"OneVoxelThick", "thin.mha", "1 voxel thick along axis 2",
@@ -108,8 +111,9 @@ TEST_P(BadImages, OneLineNamingFileExitOneNothingWritten) {
     const auto sp = extra.find(' ');
     extra = extra.substr(0, sp + 1) + vim::test::quote(dir / extra.substr(sp + 1));
   }
-  const auto r = vim::test::run_pipeline(vim::test::quote(path) + " " + extra + " --nodes 27 --max-iterations 1 --out " +
-                                         vim::test::quote(out.string()));
+  const auto r =
+      vim::test::run_pipeline(vim::test::quote(path) + " " + extra + " --nodes 27 --max-iterations 1 --out " +
+                              vim::test::quote(out.string()));
   EXPECT_EQ(r.code, 1) << r.err;
   EXPECT_EQ(r.err.rfind("vim-pipeline: error: ", 0), 0u) << r.err;
   EXPECT_EQ(vim::test::count_lines(r.err), 1) << r.err;

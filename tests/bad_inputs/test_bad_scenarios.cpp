@@ -1,9 +1,8 @@
 // Bad --simulate scenarios through the real CLI: exit code 1, one `vim-pipeline: error:`
 // line naming the key/value, and nothing left in --out. The unmodified base scenario must succeed,
 // so every failure below is caused by its one change.
-#include <vim/pipeline/image_io.hpp>
-
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -11,8 +10,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
-
-#include <unistd.h>
+#include <vim/pipeline/image/image_io.hpp>
 
 using namespace vim;
 using namespace vim::pipeline;
@@ -65,8 +63,9 @@ class BadScenario : public ::testing::Test {
     const fs::path scen = dir_ / "s.yaml", out = dir_ / "out", err = dir_ / "err.txt";
     fs::remove_all(out);
     std::ofstream(scen) << yaml;
-    const std::string cmd = std::string(VIM_PIPELINE_EXE) + " " + (image.empty() ? image_ : image) + " --simulate " +
-                            scen.string() + " --mesher grid --nodes 300 --export none -q --out " + out.string() + " 2> " +
+    const std::string cmd = std::string(VIM_PIPELINE_EXE) + " " + (image.empty() ? image_ : image) +
+                            " --simulate " + scen.string() +
+                            " --mesher grid --nodes 300 --export none -q --out " + out.string() + " 2> " +
                             err.string() + " > /dev/null";
     CliRun r;
     const int s = std::system(cmd.c_str());
@@ -83,12 +82,14 @@ class BadScenario : public ::testing::Test {
     return !fs::exists(out) || fs::is_empty(out);
   }
 
-  void expect_error(const std::string& yaml, const std::vector<std::string>& parts, const std::string& image = "") {
+  void expect_error(const std::string& yaml, const std::vector<std::string>& parts,
+                    const std::string& image = "") {
     const CliRun r = run(yaml, image);
     EXPECT_EQ(r.code, 1) << r.err;
     EXPECT_EQ(r.err.rfind("vim-pipeline: error: ", 0), 0u) << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line only: " << r.err;
-    for (const auto& p : parts) EXPECT_NE(r.err.find(p), std::string::npos) << "message lacks '" << p << "': " << r.err;
+    for (const auto& p : parts)
+      EXPECT_NE(r.err.find(p), std::string::npos) << "message lacks '" << p << "': " << r.err;
     EXPECT_TRUE(out_is_empty()) << "files left in --out";
   }
 
@@ -113,49 +114,74 @@ TEST_F(BadScenario, BaseScenarioRuns) {
     EXPECT_TRUE(fs::exists(dir_ / "out" / f)) << f;
 }
 
-TEST_F(BadScenario, MissingKey) { expect_error(with("  diameter: 1\n", ""), {"s.yaml", "missing key 'needle.diameter'"}); }
+TEST_F(BadScenario, MissingKey) {
+  expect_error(with("  diameter: 1\n", ""), {"s.yaml", "missing key 'needle.diameter'"});
+}
 TEST_F(BadScenario, UnknownKey) {
-  expect_error(with("  steps: 2\n", "  steps: 2\n  speed: 3\n"), {"s.yaml:10:", "unknown key 'needle.speed'", "valid keys", "direction"});
+  expect_error(with("  steps: 2\n", "  steps: 2\n  speed: 3\n"),
+               {"s.yaml:10:", "unknown key 'needle.speed'", "valid keys", "direction"});
 }
-TEST_F(BadScenario, WrongType) { expect_error(with("depth: 8", "depth: deep"), {"s.yaml:8:", "needle.depth must be a number", "'deep'"}); }
+TEST_F(BadScenario, WrongType) {
+  expect_error(with("depth: 8", "depth: deep"), {"s.yaml:8:", "needle.depth must be a number", "'deep'"});
+}
 TEST_F(BadScenario, EntryOutsideTheImageBox) {
-  expect_error(with("entry: [-8, 0, 1]", "entry: [-12, 0, 1]"), {"needle.entry [-12, 0, 1] is outside the image box", "[-8, -6, -6] .. [8, 6, 6]"});
+  expect_error(with("entry: [-8, 0, 1]", "entry: [-12, 0, 1]"),
+               {"needle.entry [-12, 0, 1] is outside the image box", "[-8, -6, -6] .. [8, 6, 6]"});
 }
-TEST_F(BadScenario, ZeroDirection) { expect_error(with("direction: [1, 0, 0]", "direction: [0, 0, 0]"), {"needle.direction must be a non-zero vector"}); }
-TEST_F(BadScenario, NonPositiveDepth) { expect_error(with("depth: 8", "depth: 0"), {"needle.depth must be > 0, got 0"}); }
-TEST_F(BadScenario, NonPositiveSteps) { expect_error(with("steps: 2", "steps: -3"), {"needle.steps must be > 0, got -3"}); }
-TEST_F(BadScenario, NonPositiveDiameter) { expect_error(with("diameter: 1", "diameter: 0"), {"needle.diameter must be > 0, got 0"}); }
+TEST_F(BadScenario, ZeroDirection) {
+  expect_error(with("direction: [1, 0, 0]", "direction: [0, 0, 0]"),
+               {"needle.direction must be a non-zero vector"});
+}
+TEST_F(BadScenario, NonPositiveDepth) {
+  expect_error(with("depth: 8", "depth: 0"), {"needle.depth must be > 0, got 0"});
+}
+TEST_F(BadScenario, NonPositiveSteps) {
+  expect_error(with("steps: 2", "steps: -3"), {"needle.steps must be > 0, got -3"});
+}
+TEST_F(BadScenario, NonPositiveDiameter) {
+  expect_error(with("diameter: 1", "diameter: 0"), {"needle.diameter must be > 0, got 0"});
+}
 TEST_F(BadScenario, DiameterLargerThanTheImageBox) {
   // The needle runs along x through a 16 x 12 x 12 mm box: 12 mm across it.
   expect_error(with("diameter: 1", "diameter: 13"),
-               {"s.yaml:6:", "needle.diameter = 13 is larger than the image box", "narrowest width perpendicular to the needle's direction is 12"});
+               {"s.yaml:6:", "needle.diameter = 13 is larger than the image box",
+                "narrowest width perpendicular to the needle's direction is 12"});
 }
 TEST_F(BadScenario, NegativeCuttingForce) {
-  expect_error(with("  diameter: 1\n", "  diameter: 1\n  cutting_force: -2\n"), {"s.yaml:11:", "needle.cutting_force must be a finite force >= 0, got -2"});
+  expect_error(with("  diameter: 1\n", "  diameter: 1\n  cutting_force: -2\n"),
+               {"s.yaml:11:", "needle.cutting_force must be a finite force >= 0, got -2"});
 }
 TEST_F(BadScenario, StickSlipLimitMissing) {
   // Stick-slip is the default friction and its limit has no default.
-  expect_error(with("  friction: {model: stick}\n", ""), {"s.yaml:6:", "missing key 'needle.friction.max_shear_per_length'", "stick-slip is the default"});
+  expect_error(
+      with("  friction: {model: stick}\n", ""),
+      {"s.yaml:6:", "missing key 'needle.friction.max_shear_per_length'", "stick-slip is the default"});
 }
 TEST_F(BadScenario, NeedleFreeScenarioWithoutLoad) {
   // Without its needle the base scenario only holds the model: a static load case in which nothing moves.
   std::string yaml = kBase;
   yaml.erase(yaml.find("needle:"), yaml.find("targets:") - yaml.find("needle:"));
-  expect_error(yaml, {"s.yaml:3:", "boundary_conditions: a scenario without 'needle' or 'needles' is a static load case", "pressure"});
+  expect_error(yaml, {"s.yaml:3:",
+                      "boundary_conditions: a scenario without 'needle' or 'needles' is a static load case",
+                      "pressure"});
 }
 TEST_F(BadScenario, BoxFaceThatDoesNotExist) {
-  expect_error(with("box_face: x_max", "box_face: top"), {"s.yaml:3:", "box_face = 'top'", "x_min, x_max, y_min, y_max, z_min, z_max"});
+  expect_error(with("box_face: x_max", "box_face: top"),
+               {"s.yaml:3:", "box_face = 'top'", "x_min, x_max, y_min, y_max, z_min, z_max"});
 }
 TEST_F(BadScenario, TargetOutsideTheDomain) {
-  expect_error(with("position: [2, 0, 1]", "position: [2, 0, 9]"), {"target 'lesion' position [2, 0, 9] is outside the image box"});
+  expect_error(with("position: [2, 0, 1]", "position: [2, 0, 9]"),
+               {"target 'lesion' position [2, 0, 9] is outside the image box"});
 }
 TEST_F(BadScenario, NoFixedBoundaryIsSingular) {
-  expect_error(with("  - {type: fixed, region: {box_face: x_max}}\n  - {type: fixed, region: {cylinder: {center: [0, -6, 0], axis: [1, 0, 0], radius: 2}}}\n",
+  expect_error(with("  - {type: fixed, region: {box_face: x_max}}\n  - {type: fixed, region: {cylinder: "
+                    "{center: [0, -6, 0], axis: [1, 0, 0], radius: 2}}}\n",
                     "  - {type: pressure, region: {box_face: x_max}, value: 1}\n"),
                {"boundary_conditions has no 'fixed' or 'displacement' condition", "singular"});
 }
 TEST_F(BadScenario, PoissonRatioHalf) {
-  expect_error(with("poisson_ratio: 0.45", "poisson_ratio: 0.5"), {"s.yaml:1:", "material.poisson_ratio = 0.5", "< 0.5"});
+  expect_error(with("poisson_ratio: 0.45", "poisson_ratio: 0.5"),
+               {"s.yaml:1:", "material.poisson_ratio = 0.5", "< 0.5"});
 }
 TEST_F(BadScenario, NegativeModulusImageWithoutClamp) {
   const std::string img = (dir_ / "negative.mha").string();
@@ -171,31 +197,37 @@ TEST_F(BadScenario, NaNModulusImage) {
   expect_error(kBase, {"nan.mha"}, img);  // refused when the image is read (image_io), with or without clamp
 }
 TEST_F(BadScenario, RegionThatSelectsNoNode) {
-  expect_error(with("center: [0, -6, 0], axis: [1, 0, 0], radius: 2", "center: [0, -30, 0], axis: [1, 0, 0], radius: 2"),
+  expect_error(with("center: [0, -6, 0], axis: [1, 0, 0], radius: 2",
+                    "center: [0, -30, 0], axis: [1, 0, 0], radius: 2"),
                {"s.yaml:4:", "boundary_conditions[1]", "selects no mesh node"});
 }
 TEST_F(BadScenario, MissingScenarioFile) {
   const fs::path out = dir_ / "out";
-  const std::string cmd = std::string(VIM_PIPELINE_EXE) + " " + image_ + " --simulate " + (dir_ / "nope.yaml").string() +
-                          " --out " + out.string() + " 2> /dev/null > /dev/null";
+  const std::string cmd = std::string(VIM_PIPELINE_EXE) + " " + image_ + " --simulate " +
+                          (dir_ / "nope.yaml").string() + " --out " + out.string() +
+                          " 2> /dev/null > /dev/null";
   const int s = std::system(cmd.c_str());
   EXPECT_EQ(WIFEXITED(s) ? WEXITSTATUS(s) : -1, 1);
   EXPECT_TRUE(out_is_empty());
 }
 TEST_F(BadScenario, DuplicateKey) {
-  expect_error(std::string(kBase) + "material: {youngs_modulus: 99}\n", {"s.yaml:15:", "duplicate key 'material' (first given on line 1)"});
-  expect_error(with("  depth: 8\n", "  depth: 8\n  depth: 5\n"), {"s.yaml:9:", "duplicate key 'needle.depth' (first given on line 8)"});
+  expect_error(std::string(kBase) + "material: {youngs_modulus: 99}\n",
+               {"s.yaml:15:", "duplicate key 'material' (first given on line 1)"});
+  expect_error(with("  depth: 8\n", "  depth: 8\n  depth: 5\n"),
+               {"s.yaml:9:", "duplicate key 'needle.depth' (first given on line 8)"});
 }
 TEST_F(BadScenario, FrictionWithTheForceModel) {
   expect_error(with("  diameter: 1\n", "  diameter: 1\n  model: force\n  tip_force: 5\n"),
                {"needle.friction applies only to needle model 'kinematic'"});
 }
 TEST_F(BadScenario, SampleSpacingTooSmall) {
-  expect_error(with("  diameter: 1\n", "  diameter: 1\n  sample_spacing: 1.0e-8\n"), {"needle.sample_spacing", "more than 100000 shaft points"});
+  expect_error(with("  diameter: 1\n", "  diameter: 1\n  sample_spacing: 1.0e-8\n"),
+               {"needle.sample_spacing", "more than 100000 shaft points"});
 }
 TEST_F(BadScenario, ConditionsThatLeaveARigidMotionFree) {
   // Only the x component of one face held: the body can still slide along y and z and rotate about x.
-  expect_error(with("  - {type: fixed, region: {box_face: x_max}}\n  - {type: fixed, region: {cylinder: {center: [0, -6, 0], axis: [1, 0, 0], radius: 2}}}\n",
+  expect_error(with("  - {type: fixed, region: {box_face: x_max}}\n  - {type: fixed, region: {cylinder: "
+                    "{center: [0, -6, 0], axis: [1, 0, 0], radius: 2}}}\n",
                     "  - {type: fixed, region: {box_face: x_max}, components: [x]}\n"),
                {"s.yaml:3:", "boundary_conditions:", "rigid-body motion free"});
 }
@@ -205,8 +237,8 @@ TEST_F(BadScenario, VoxelModelWarnsThatDegreeTwoDoesNotApply) {
   const fs::path scen = dir_ / "s.yaml", out = dir_ / "out", err = dir_ / "err.txt";
   std::ofstream(scen) << kBase;
   const std::string cmd = std::string(VIM_PIPELINE_EXE) + " " + image_ + " --simulate " + scen.string() +
-                          " --mesher voxel --degree 2 --export none --out " + out.string() + " 2> " + err.string() +
-                          " > /dev/null";
+                          " --mesher voxel --degree 2 --export none --out " + out.string() + " 2> " +
+                          err.string() + " > /dev/null";
   const int s = std::system(cmd.c_str());
   ASSERT_EQ(WIFEXITED(s) ? WEXITSTATUS(s) : -1, 0);
   std::ifstream in(out / "report.json");

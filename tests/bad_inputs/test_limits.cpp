@@ -8,7 +8,7 @@
 #include <cmath>
 #include <string>
 #include <vector>
-#include <vim/pipeline/memory_limit.hpp>
+#include <vim/pipeline/common/memory_limit.hpp>
 
 #include "run_cli.hpp"
 

@@ -2,16 +2,15 @@
 // values out of range are usage errors naming the option, hand-written broken MetaImage files fail
 // with one line naming the file, and SIGKILL during a run never leaves an incomplete file under a
 // final name (every file is written to a hidden temporary name and renamed, atomic_file.hpp).
-#include <vim/pipeline/image_io.hpp>
-
-#include "process_output.hpp"
-
+#include <fcntl.h>
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
-
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 #include <vtkNew.h>
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLUnstructuredGridReader.h>
+#include <zlib.h>
 
 #include <algorithm>
 #include <chrono>
@@ -20,17 +19,14 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
+#include <vim/pipeline/image/image_io.hpp>
 
-#include <zlib.h>
-
-#include <fcntl.h>
-#include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
+#include "process_output.hpp"
 
 using namespace vim;
 using namespace vim::pipeline;
@@ -39,20 +35,23 @@ namespace fs = std::filesystem;
 
 namespace {
 
-
 // Hand-written MetaImage: `header` lines (without ElementDataFile) then raw float data.
 void write_mha(const fs::path& path, const std::string& header, const std::vector<float>& data) {
   std::ofstream out(path, std::ios::binary);
   out << header << "ElementDataFile = LOCAL\n";
-  out.write(reinterpret_cast<const char*>(data.data()), static_cast<std::streamsize>(data.size() * sizeof(float)));
+  out.write(reinterpret_cast<const char*>(data.data()),
+            static_cast<std::streamsize>(data.size() * sizeof(float)));
 }
 
-std::string mha_header(const std::string& dims, const std::string& spacing = "1 1 1", const std::string& extra = "") {
+std::string mha_header(const std::string& dims, const std::string& spacing = "1 1 1",
+                       const std::string& extra = "") {
   const int n = static_cast<int>(std::count(dims.begin(), dims.end(), ' ')) + 1;
   std::string origin = "0";
   for (int a = 1; a < n; ++a) origin += " 0";
-  return "ObjectType = Image\nNDims = " + std::to_string(n) + "\nBinaryData = True\nBinaryDataByteOrderMSB = False\n"
-         "DimSize = " + dims + "\nElementSpacing = " + spacing + "\nOffset = " + origin + "\n" + extra +
+  return "ObjectType = Image\nNDims = " + std::to_string(n) +
+         "\nBinaryData = True\nBinaryDataByteOrderMSB = False\n"
+         "DimSize = " +
+         dims + "\nElementSpacing = " + spacing + "\nOffset = " + origin + "\n" + extra +
          "ElementType = MET_FLOAT\n";
 }
 
@@ -73,9 +72,8 @@ void write_sphere_block(const fs::path& path, int n) {
 class Robustness : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("vim_robust_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() / ("vim_robust_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     out_ = dir_ / "out";
@@ -100,7 +98,8 @@ class Robustness : public ::testing::Test {
     EXPECT_EQ(r.code, code) << r.err;
     EXPECT_EQ(r.err.rfind("vim-pipeline: error: ", 0), 0u) << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line only: " << r.err;
-    for (const auto& p : parts) EXPECT_NE(r.err.find(p), std::string::npos) << "message lacks '" << p << "': " << r.err;
+    for (const auto& p : parts)
+      EXPECT_NE(r.err.find(p), std::string::npos) << "message lacks '" << p << "': " << r.err;
   }
 
   bool out_is_empty() const { return !fs::exists(out_) || fs::is_empty(out_); }
@@ -124,7 +123,8 @@ class Robustness : public ::testing::Test {
 
 TEST_F(Robustness, RerunIntoNonEmptyOutRefusesUnlessOverwrite) {
   const std::string img = small_image();
-  const std::vector<std::string> args{img, "--nodes", "64", "--max-iterations", "2", "--export", "none", "--out", out_.string()};
+  const std::vector<std::string> args{img,        "--nodes", "64",    "--max-iterations", "2",
+                                      "--export", "none",    "--out", out_.string()};
   ProcessResult r = run(args);
   ASSERT_EQ(r.code, 0) << r.err;
   ASSERT_TRUE(fs::exists(out_ / "report.json"));
@@ -182,7 +182,8 @@ TEST_F(Robustness, FailedOverwriteRunLeavesNoStaleReport) {
   ASSERT_TRUE(fs::exists(out_ / "figures" / "energy.png"));
   fs::remove(out_ / "figures" / "energy.png");
   fs::create_directories(out_ / "figures" / "energy.png" / "blocker");  // the rename onto it must fail
-  const ProcessResult r = run({img, "--nodes", "64", "--export", "none", "--overwrite", "--out", out_.string(), "-q"});
+  const ProcessResult r =
+      run({img, "--nodes", "64", "--export", "none", "--overwrite", "--out", out_.string(), "-q"});
   EXPECT_EQ(r.code, 1) << r.err;
   EXPECT_FALSE(fs::exists(out_ / "report.json")) << "a stale report.json survived";
   EXPECT_FALSE(fs::exists(out_ / "mesh.vtu"));
@@ -205,15 +206,24 @@ struct BadOption {
 
 TEST_F(Robustness, OptionValuesOutOfRange) {
   const std::vector<BadOption> cases = {
-      {{"--lambda", "1.5"}, "--lambda"},           {{"--lambda", "-0.1"}, "--lambda"},
-      {{"--lambda", "nan"}, "--lambda"},           {{"--lambda", "0.5x"}, "--lambda"},
-      {{"--max-dihedral", "80"}, "--max-dihedral"}, {{"--max-dihedral", "180"}, "--max-dihedral"},
-      {{"--nodes", "3"}, "--nodes"},               {{"--nodes", "1000000000"}, "--nodes"},
-      {{"--nodes", "many"}, "--nodes"},            {{"--threads", "-1"}, "--threads"},
-      {{"--threads", "5000"}, "--threads"},        {{"--degree", "3"}, "--degree"},
-      {{"--degree", "0"}, "--degree"},             {{"--max-iterations", "-1"}, "--max-iterations"},
-      {{"--spacing", "0"}, "--spacing"},           {{"--spacing", "-2"}, "--spacing"},
-      {{"--mesher", "delaunay"}, "--mesher"},      {{"--export", "stl"}, "--export"},
+      {{"--lambda", "1.5"}, "--lambda"},
+      {{"--lambda", "-0.1"}, "--lambda"},
+      {{"--lambda", "nan"}, "--lambda"},
+      {{"--lambda", "0.5x"}, "--lambda"},
+      {{"--max-dihedral", "80"}, "--max-dihedral"},
+      {{"--max-dihedral", "180"}, "--max-dihedral"},
+      {{"--nodes", "3"}, "--nodes"},
+      {{"--nodes", "1000000000"}, "--nodes"},
+      {{"--nodes", "many"}, "--nodes"},
+      {{"--threads", "-1"}, "--threads"},
+      {{"--threads", "5000"}, "--threads"},
+      {{"--degree", "3"}, "--degree"},
+      {{"--degree", "0"}, "--degree"},
+      {{"--max-iterations", "-1"}, "--max-iterations"},
+      {{"--spacing", "0"}, "--spacing"},
+      {{"--spacing", "-2"}, "--spacing"},
+      {{"--mesher", "delaunay"}, "--mesher"},
+      {{"--export", "stl"}, "--export"},
       {{"--nodes", "100", "--spacing", "1"}, "--spacing"},
   };
   const std::string img = small_image();
@@ -248,8 +258,9 @@ TEST_F(Robustness, MhaTruncatedVoxelData) {
 // refused before ITK allocates the declared 4 GB (fuzz_image_header: regress_mha_ascii_huge_oom).
 TEST_F(Robustness, MhaAsciiDataFarShorterThanDeclared) {
   const fs::path p = dir_ / "ascii_huge.mha";
-  std::ofstream(p, std::ios::binary) << "ObjectType = Image\nNDims = 3\nBinaryData = False\nDimSize = 1000 1000 1000\n"
-                                        "ElementType = MET_FLOAT\nElementDataFile = LOCAL\n1 2 3 4 5 6 7 8\n";
+  std::ofstream(p, std::ios::binary)
+      << "ObjectType = Image\nNDims = 3\nBinaryData = False\nDimSize = 1000 1000 1000\n"
+         "ElementType = MET_FLOAT\nElementDataFile = LOCAL\n1 2 3 4 5 6 7 8\n";
   const auto t0 = std::chrono::steady_clock::now();
   expect_bad_image(p, {"truncated", "ASCII", "1000000000 voxels"});
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 10.0);
@@ -268,7 +279,8 @@ TEST_F(Robustness, MhaCompressedDataShorterThanDeflateAllows) {
 TEST_F(Robustness, NrrdGzipDataShorterThanDeflateAllows) {
   const fs::path p = dir_ / "gz_huge.nrrd";
   std::ofstream out(p, std::ios::binary);
-  out << "NRRD0004\ntype: float\ndimension: 3\nsizes: 1000 1000 1000\nspacings: 1 1 1\nendian: little\nencoding: gzip\n\n"
+  out << "NRRD0004\ntype: float\ndimension: 3\nsizes: 1000 1000 1000\nspacings: 1 1 1\nendian: "
+         "little\nencoding: gzip\n\n"
       << std::string(64, 'x');
   out.close();
   expect_bad_image(p, {"truncated", "gzip"});
@@ -291,15 +303,17 @@ std::vector<unsigned char> zlib_compress(const std::vector<float>& v) {
 
 void write_compressed_mha(const fs::path& p, const std::string& dims, const std::vector<unsigned char>& z) {
   std::ofstream out(p, std::ios::binary);
-  out << "ObjectType = Image\nNDims = 3\nBinaryData = True\nCompressedData = True\nCompressedDataSize = " << z.size()
-      << "\nDimSize = " << dims << "\nElementSpacing = 1 1 1\nElementType = MET_FLOAT\nElementDataFile = LOCAL\n";
+  out << "ObjectType = Image\nNDims = 3\nBinaryData = True\nCompressedData = True\nCompressedDataSize = "
+      << z.size() << "\nDimSize = " << dims
+      << "\nElementSpacing = 1 1 1\nElementType = MET_FLOAT\nElementDataFile = LOCAL\n";
   out.write(reinterpret_cast<const char*>(z.data()), static_cast<std::streamsize>(z.size()));
 }
 
 void write_ascii_mha(const fs::path& p, const std::string& dims, const std::string& values) {
-  std::ofstream(p, std::ios::binary) << "ObjectType = Image\nNDims = 3\nBinaryData = False\nDimSize = " << dims
-                                     << "\nElementSpacing = 1 1 1\nElementType = MET_FLOAT\nElementDataFile = LOCAL\n"
-                                     << values;
+  std::ofstream(p, std::ios::binary)
+      << "ObjectType = Image\nNDims = 3\nBinaryData = False\nDimSize = " << dims
+      << "\nElementSpacing = 1 1 1\nElementType = MET_FLOAT\nElementDataFile = LOCAL\n"
+      << values;
 }
 
 std::vector<float> ramp(int n) {
@@ -346,7 +360,8 @@ TEST_F(Robustness, MhaAsciiDataMustHoldTheDeclaredNumbers) {
   write_ascii_mha(good, "6 6 6", all.str());
   const auto img = read_image<3>(good.string());
   ASSERT_EQ(img.image.data.size(), 216u);
-  for (int k = 0; k < 216; ++k) EXPECT_EQ(img.image.data[static_cast<std::size_t>(k)], 0.5f * static_cast<float>(k));
+  for (int k = 0; k < 216; ++k)
+    EXPECT_EQ(img.image.data[static_cast<std::size_t>(k)], 0.5f * static_cast<float>(k));
 
   write_ascii_mha(dir_ / "ashort.mha", "6 6 6", shorter.str());
   expect_bad_image(dir_ / "ashort.mha", {"truncated", "216 ASCII values; the file holds 150"});
@@ -368,7 +383,8 @@ TEST_F(Robustness, NiftiShorterThanItsHeaderDeclaresIsTruncated) {
 
   const fs::path cut = dir_ / "cut.nii";  // the last 100 bytes (25 voxels) missing
   std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() - 100);
-  expect_bad_image(cut, {"truncated", "1000 voxels, 4000 bytes", "holds only " + std::to_string(bytes.size() - 100)});
+  expect_bad_image(
+      cut, {"truncated", "1000 voxels, 4000 bytes", "holds only " + std::to_string(bytes.size() - 100)});
 
   // Cut inside the 348-byte header itself (ITK would read the missing bytes as geometry).
   const fs::path header_cut = dir_ / "header_cut.nii";
@@ -406,16 +422,20 @@ TEST_F(Robustness, DoubleVoxelsBeyondFloatRangeAreNamedAsSuch) {
 // heap-buffer-overflow in MetaImage::M_ReadElementData); such lines are refused first.
 TEST_F(Robustness, MhaMalformedHeaderLinesAreRefusedByLine) {
   const fs::path p = dir_ / "malformed.mha";
-  write_mha(p, "ObjectType = Image\nNDims = 3\nDimSize 4 4 4\nElementType = MET_FLOAT\n", std::vector<float>(64, 1.0f));
+  write_mha(p, "ObjectType = Image\nNDims = 3\nDimSize 4 4 4\nElementType = MET_FLOAT\n",
+            std::vector<float>(64, 1.0f));
   expect_bad_image(p, {"corrupt MetaImage header", "line 3", "Key = value"});
   const fs::path q = dir_ / "badkey.mha";
-  write_mha(q, "ObjectType = Image\nND\xaeims = 3\nDimSize = 4 4 4\nElementType = MET_FLOAT\n", std::vector<float>(64, 1.0f));
+  write_mha(q, "ObjectType = Image\nND\xaeims = 3\nDimSize = 4 4 4\nElementType = MET_FLOAT\n",
+            std::vector<float>(64, 1.0f));
   expect_bad_image(q, {"corrupt MetaImage header", "line 2", "key"});
   const fs::path r = dir_ / "ctrl.mha";
   write_mha(r, mha_header("4 4 4", "1 1\x01 1"), std::vector<float>(64, 1.0f));
   expect_bad_image(r, {"corrupt MetaImage header", "ElementSpacing", "control character"});
   const fs::path v = dir_ / "longvalue.mha";
-  write_mha(v, "ObjectType = Image" + std::string(300, '6') + "\nNDims = 3\nDimSize = 4 4 4\nElementType = MET_FLOAT\n",
+  write_mha(v,
+            "ObjectType = Image" + std::string(300, '6') +
+                "\nNDims = 3\nDimSize = 4 4 4\nElementType = MET_FLOAT\n",
             std::vector<float>(64, 1.0f));
   expect_bad_image(v, {"corrupt MetaImage header", "ObjectType", "longer than 250"});
 }
@@ -425,15 +445,18 @@ TEST_F(Robustness, MhaMalformedHeaderLinesAreRefusedByLine) {
 TEST_F(Robustness, NrrdMalformedHeaderLineIsRefusedByLine) {
   const fs::path p = dir_ / "garbage_line.nrrd";
   std::ofstream out(p, std::ios::binary);
-  out << "NRRD0004\ntype: short\n" << std::string(400, '6') << "\nsizes: 4 3 4\nencoding: raw\nendian: little\n\n"
+  out << "NRRD0004\ntype: short\n"
+      << std::string(400, '6') << "\nsizes: 4 3 4\nencoding: raw\nendian: little\n\n"
       << std::string(96, '\0');
   out.close();
   expect_bad_image(p, {"corrupt NRRD header", "line 3"});
   // A long line with a ':' (teem's error message about it overflowed a stack buffer).
   const fs::path q = dir_ / "long_line.nrrd";
   std::ofstream o(q, std::ios::binary);
-  o << "NRRD0004\ntype: short\ndimension: 3\n" << std::string(14, '6') << ":" << std::string(600, '6')
-    << "\nsizes: 4 3 4\nencoding: raw\nendian: little\n\n" << std::string(96, '\0');
+  o << "NRRD0004\ntype: short\ndimension: 3\n"
+    << std::string(14, '6') << ":" << std::string(600, '6')
+    << "\nsizes: 4 3 4\nencoding: raw\nendian: little\n\n"
+    << std::string(96, '\0');
   o.close();
   expect_bad_image(q, {"corrupt NRRD header", "line 4", "longer than 500"});
 }
@@ -472,7 +495,8 @@ TEST_F(Robustness, MhaNegativeSpacing) {
 
 TEST_F(Robustness, MhaVectorPixels) {
   const fs::path p = dir_ / "rgb.mha";
-  write_mha(p, mha_header("4 4 4", "1 1 1", "ElementNumberOfChannels = 3\n"), std::vector<float>(3 * 64, 1.0f));
+  write_mha(p, mha_header("4 4 4", "1 1 1", "ElementNumberOfChannels = 3\n"),
+            std::vector<float>(3 * 64, 1.0f));
   expect_bad_image(p, {"3 components"});
 }
 
@@ -520,8 +544,8 @@ TEST_F(Robustness, MhaTwoByTwoByTwoMeshesOrFailsCleanly) {
 TEST_F(Robustness, SigkillNeverLeavesAnIncompleteFinalFile) {
   const fs::path img = dir_ / "sphere.mha";
   write_sphere_block(img, 24);
-  const std::vector<std::string> base{img.string(), "--nodes", "1500", "--max-iterations", "6", "--threshold", "20",
-                                      "--threads", "1"};
+  const std::vector<std::string> base{
+      img.string(), "--nodes", "1500", "--max-iterations", "6", "--threshold", "20", "--threads", "1"};
 
   // Uninterrupted run: measures the duration and checks the checker accepts a complete output.
   auto args = base;
@@ -554,6 +578,6 @@ TEST_F(Robustness, SigkillNeverLeavesAnIncompleteFinalFile) {
     }
     (void)r;
   }
-  std::cout << "[ info ] run " << duration << " s; " << left_files << " final-named files left by " << fractions.size()
-            << " killed runs, all complete\n";
+  std::cout << "[ info ] run " << duration << " s; " << left_files << " final-named files left by "
+            << fractions.size() << " killed runs, all complete\n";
 }

@@ -12,7 +12,7 @@
 #include <tuple>
 #include <vector>
 #include <vim/initial_mesh.hpp>
-#include <vim/pipeline/simulation.hpp>
+#include <vim/pipeline/simulation/simulation.hpp>
 
 namespace vim::pipeline::simulation_test {
 

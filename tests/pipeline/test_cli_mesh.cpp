@@ -2,17 +2,7 @@
 // with anisotropic spacing and an oblique direction: mesh.vtu read back with VTK (world
 // coordinates, cell data, conservation of voxels and of the image's integral), report.json fields,
 // usage errors (exit 2), refusal of a non-empty --out, --help/--version/--info.
-#include <vim/pipeline/image_io.hpp>
-#include <vim/pipeline/phantoms.hpp>
-#include <vim/vim.hpp>
-
-#include "mesh_angles.hpp"
-#include "run_cli.hpp"
-
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
-
 #include <vtkCellData.h>
 #include <vtkDataArray.h>
 #include <vtkIdList.h>
@@ -21,9 +11,17 @@
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLUnstructuredGridReader.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <nlohmann/json.hpp>
+#include <vim/pipeline/image/image_io.hpp>
+#include <vim/pipeline/image/phantoms.hpp>
+#include <vim/vim.hpp>
+
+#include "mesh_angles.hpp"
+#include "run_cli.hpp"
 
 using namespace vim;
 using namespace vim::pipeline;
@@ -50,7 +48,8 @@ vtkSmartPointer<vtkUnstructuredGrid> read_vtu(const std::string& path) {
 // World position of continuous index `idx` (voxel centres at integers), computed from the
 // definition world = origin + D·(idx ⊙ spacing), independently of the pipeline's transform code.
 template <int dim>
-Eigen::Matrix<double, dim, 1> world_of_index(const OrientedImage<dim>& im, const Eigen::Matrix<double, dim, 1>& idx) {
+Eigen::Matrix<double, dim, 1> world_of_index(const OrientedImage<dim>& im,
+                                             const Eigen::Matrix<double, dim, 1>& idx) {
   Eigen::Matrix<double, dim, 1> o, s;
   for (int a = 0; a < dim; ++a) o[a] = im.image.origin[a], s[a] = im.image.spacing[a];
   return o + im.direction * idx.cwiseProduct(s);
@@ -179,7 +178,8 @@ void check_mesh_output(const OrientedImage<dim>& im, const std::filesystem::path
   EXPECT_TRUE(report["options"].contains("lambda"));
   const auto& h = report["optimization"]["history"];
   ASSERT_GE(h.size(), 1u);
-  for (const char* k : {"E", "E_G", "E_D", "v", "moves", "evaluations", "swaps"}) EXPECT_TRUE(h[0].contains(k)) << k;
+  for (const char* k : {"E", "E_G", "E_D", "v", "moves", "evaluations", "swaps"})
+    EXPECT_TRUE(h[0].contains(k)) << k;
   if (h.size() > 1) {
     EXPECT_GT(h[1]["evaluations"].get<long>(), 0);  // iteration 1 searched every node
   }
@@ -203,8 +203,8 @@ TEST(CliMesh, TwoDimensionalObliqueAnisotropic) {
   im.direction << std::cos(t), -std::sin(t), std::sin(t), std::cos(t);
   write_image(im, dir / "in.nrrd");
   const auto out = dir.path / "out";
-  const auto r = run_pipeline(quote(dir / "in.nrrd") + " --nodes 60 --max-iterations 3 --threshold 40 --out " +
-                              quote(out.string()));
+  const auto r = run_pipeline(quote(dir / "in.nrrd") +
+                              " --nodes 60 --max-iterations 3 --threshold 40 --out " + quote(out.string()));
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.err.find("iteration"), std::string::npos) << "no progress lines: " << r.err;
   EXPECT_NE(r.out.find("summary"), std::string::npos) << r.out;
@@ -215,8 +215,10 @@ TEST(CliMesh, TwoDimensionalObliqueAnisotropic) {
   const auto g = run_pipeline(quote(dir / "in.nrrd") + " --nodes 60 --mesher grid -q --export all --out " +
                               quote(grid_out.string()));
   ASSERT_EQ(g.code, 0) << g.err;
-  for (const char* f : {"mesh.vtk", "mesh.msh", "mesh.inp"}) EXPECT_TRUE(std::filesystem::exists(grid_out / f)) << f;  // feb: 3D only
-  EXPECT_NE(vim::test::slurp(grid_out / "mesh.inp").find("CPE3"), std::string::npos);  // plane strain, as the FEM
+  for (const char* f : {"mesh.vtk", "mesh.msh", "mesh.inp"})
+    EXPECT_TRUE(std::filesystem::exists(grid_out / f)) << f;  // feb: 3D only
+  EXPECT_NE(vim::test::slurp(grid_out / "mesh.inp").find("CPE3"),
+            std::string::npos);  // plane strain, as the FEM
   EXPECT_TRUE(g.err.empty()) << "--quiet printed: " << g.err;
   check_mesh_output(im, grid_out, false);
   const auto a = nlohmann::json::parse(vim::test::slurp(out / "report.json"));
@@ -226,7 +228,8 @@ TEST(CliMesh, TwoDimensionalObliqueAnisotropic) {
 
   // --spacing sets the grid instead of the node budget: the report does not claim the default budget.
   const auto spaced_out = dir.path / "spaced";
-  const auto s = run_pipeline(quote(dir / "in.nrrd") + " --spacing 10 --mesher grid -q --out " + quote(spaced_out.string()));
+  const auto s = run_pipeline(quote(dir / "in.nrrd") + " --spacing 10 --mesher grid -q --out " +
+                              quote(spaced_out.string()));
   ASSERT_EQ(s.code, 0) << s.err;
   const auto c = nlohmann::json::parse(vim::test::slurp(spaced_out / "report.json"));
   EXPECT_TRUE(c["options"]["nodes"].is_null()) << c["options"];
@@ -241,11 +244,13 @@ TEST(CliMesh, CheckInvariantsFlagChecksWithoutChangingTheMesh) {
   im.image.spacing = {{1.5, 1.1}};
   write_image(im, dir / "in.mha");
   const auto checked = dir.path / "checked", plain = dir.path / "plain";
-  const auto a = run_pipeline(quote(dir / "in.mha") + " --nodes 80 --max-iterations 4 --check-invariants -q --export none --out " +
+  const auto a = run_pipeline(quote(dir / "in.mha") +
+                              " --nodes 80 --max-iterations 4 --check-invariants -q --export none --out " +
                               quote(checked.string()));
   ASSERT_EQ(a.code, 0) << a.err;
-  const auto b = run_pipeline(quote(dir / "in.mha") + " --nodes 80 --max-iterations 4 -q --export none --out " +
-                              quote(plain.string()));
+  const auto b =
+      run_pipeline(quote(dir / "in.mha") + " --nodes 80 --max-iterations 4 -q --export none --out " +
+                   quote(plain.string()));
   ASSERT_EQ(b.code, 0) << b.err;
   const auto ra = nlohmann::json::parse(vim::test::slurp(checked / "report.json"));
   const auto rb = nlohmann::json::parse(vim::test::slurp(plain / "report.json"));
@@ -266,8 +271,8 @@ TEST(CliMesh, ThreeDimensionalObliqueAnisotropic) {
   im.direction = rotation3();
   write_image(im, dir / "in.mha");
   const auto out = dir.path / "out";
-  const auto r = run_pipeline(quote(dir / "in.mha") + " --nodes 64 --max-iterations 2 --threshold 1.5 --out " +
-                              quote(out.string()));
+  const auto r = run_pipeline(quote(dir / "in.mha") +
+                              " --nodes 64 --max-iterations 2 --threshold 1.5 --out " + quote(out.string()));
   ASSERT_EQ(r.code, 0) << r.err;
   check_mesh_output(im, out, true);
 
@@ -309,11 +314,13 @@ TEST(CliMesh, MirroredDirectionKeepsWorldCellsPositive) {
   write_image(im2, dir / "m2.mha");
   for (const char* mesher : {"vim", "grid", "voxel"}) {
     const auto o3 = dir.path / (std::string("o3_") + mesher), o2 = dir.path / (std::string("o2_") + mesher);
-    const auto r3 = run_pipeline(quote(dir / "m3.mha") + " --nodes 40 --max-iterations 2 -q --export none --mesher " +
-                                 mesher + " --out " + quote(o3.string()));
+    const auto r3 =
+        run_pipeline(quote(dir / "m3.mha") + " --nodes 40 --max-iterations 2 -q --export none --mesher " +
+                     mesher + " --out " + quote(o3.string()));
     ASSERT_EQ(r3.code, 0) << r3.err;
-    const auto r2 = run_pipeline(quote(dir / "m2.mha") + " --nodes 40 --max-iterations 2 -q --export none --mesher " +
-                                 mesher + " --out " + quote(o2.string()));
+    const auto r2 =
+        run_pipeline(quote(dir / "m2.mha") + " --nodes 40 --max-iterations 2 -q --export none --mesher " +
+                     mesher + " --out " + quote(o2.string()));
     ASSERT_EQ(r2.code, 0) << r2.err;
     const auto g3 = read_vtu((o3 / "mesh.vtu").string()), g2 = read_vtu((o2 / "mesh.vtu").string());
     ASSERT_GT(g3->GetNumberOfCells(), 0);
@@ -361,7 +368,8 @@ TEST(CliMesh, MinimumDihedralBoundHoldsOnEveryElement) {
     ASSERT_EQ(b.code, 0) << b.err;
     EXPECT_TRUE(b.err.empty()) << b.err;
     const double free_min = vim::test::smallest_angle_deg(read_vtu((free_out / "mesh.vtu").string()), c.dim);
-    const double bounded_min = vim::test::smallest_angle_deg(read_vtu((bounded_out / "mesh.vtu").string()), c.dim);
+    const double bounded_min =
+        vim::test::smallest_angle_deg(read_vtu((bounded_out / "mesh.vtu").string()), c.dim);
     EXPECT_LT(free_min, c.bound) << c.image << ": the bound would not be active";
     EXPECT_GE(bounded_min, c.bound - 1e-9) << c.image;
     const auto rep = nlohmann::json::parse(vim::test::slurp(bounded_out / "report.json"));
@@ -375,10 +383,12 @@ TEST(CliMesh, MinimumDihedralBoundHoldsOnEveryElement) {
   const auto r = run_pipeline(quote(dir / "d.mha") + " --nodes 80 --min-dihedral 50 --export none --out " +
                               quote(out.string()));
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_NE(r.err.find("warning: vim: 98 of 98 elements are below --min-dihedral 50"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("warning: vim: 98 of 98 elements are below --min-dihedral 50"), std::string::npos)
+      << r.err;
   const auto rep = nlohmann::json::parse(vim::test::slurp(out / "report.json"));
   ASSERT_EQ(rep["warnings"].size(), 1u);
-  EXPECT_NE(rep["warnings"][0].get<std::string>().find("smallest angle 45 deg"), std::string::npos) << rep["warnings"];
+  EXPECT_NE(rep["warnings"][0].get<std::string>().find("smallest angle 45 deg"), std::string::npos)
+      << rep["warnings"];
   EXPECT_NEAR(vim::test::smallest_angle_deg(read_vtu((out / "mesh.vtu").string()), 2), 45.0, 1e-9);
 }
 
@@ -390,7 +400,8 @@ TEST(CliMesh, UsageErrorsExitWithTwo) {
   struct Case {
     std::string args, needle;
   };
-  for (const Case& c : {Case{img + out + " --lambda 1", "--lambda"}, Case{img + out + " --lambda -0.1", "--lambda"},
+  for (const Case& c : {Case{img + out + " --lambda 1", "--lambda"},
+                        Case{img + out + " --lambda -0.1", "--lambda"},
                         Case{img + out + " --max-dihedral 90", "--max-dihedral"},
                         Case{img + out + " --max-dihedral 200", "--max-dihedral"},
                         Case{img + out + " --min-dihedral 60", "--min-dihedral"},
@@ -398,13 +409,19 @@ TEST(CliMesh, UsageErrorsExitWithTwo) {
                         Case{img + out + " --min-radius-ratio 1", "--min-radius-ratio"},
                         Case{img + out + " --convergence 0", "--convergence"},
                         Case{img + out + " --energy-convergence 1", "--energy-convergence"},
-                        Case{img + out + " --nodes 2", "--nodes"}, Case{img + out + " --mesher tetgen", "--mesher"},
-                        Case{img + out + " --degree 3", "--degree"}, Case{img + out + " --export stl", "--export"},
+                        Case{img + out + " --nodes 2", "--nodes"},
+                        Case{img + out + " --mesher tetgen", "--mesher"},
+                        Case{img + out + " --degree 3", "--degree"},
+                        Case{img + out + " --export stl", "--export"},
                         Case{img + out + " --export vtk,none", "--export"},
-                        Case{img, "--out"}, Case{out, "image"}, Case{img + out + " --bogus", "--bogus"},
+                        Case{img, "--out"},
+                        Case{out, "image"},
+                        Case{img + out + " --bogus", "--bogus"},
                         Case{img + out + " --nodes 10 --spacing 2", "--spacing"},
-                        Case{img + out + " --spacing nan", "--spacing"}, Case{img + out + " --spacing inf", "--spacing"},
-                        Case{img + out + " --spacing 0", "--spacing"}, Case{img + out + " --threshold nan", "--threshold"},
+                        Case{img + out + " --spacing nan", "--spacing"},
+                        Case{img + out + " --spacing inf", "--spacing"},
+                        Case{img + out + " --spacing 0", "--spacing"},
+                        Case{img + out + " --threshold nan", "--threshold"},
                         Case{img + out + " --threshold inf", "--threshold"}}) {
     const auto r = run_pipeline(c.args);
     EXPECT_EQ(r.code, 2) << c.args << "\n" << r.err;
@@ -418,10 +435,31 @@ TEST(CliMesh, UsageErrorsExitWithTwo) {
 TEST(CliMesh, HelpVersionInfo) {
   const auto h = run_pipeline("--help");
   EXPECT_EQ(h.code, 0);
-  for (const char* opt : {"--out", "--nodes", "--spacing", "--lambda", "--max-dihedral", "--min-dihedral",
-                          "--min-radius-ratio", "--max-iterations", "--convergence", "--energy-convergence",
-                          "--search-width", "--threads", "--seed", "--sizing", "--threshold", "--mesher", "--degree", "--simulate",
-                          "--export", "--overwrite", "--quiet", "--verbose", "--version", "--info", "Examples:"})
+  for (const char* opt : {"--out",
+                          "--nodes",
+                          "--spacing",
+                          "--lambda",
+                          "--max-dihedral",
+                          "--min-dihedral",
+                          "--min-radius-ratio",
+                          "--max-iterations",
+                          "--convergence",
+                          "--energy-convergence",
+                          "--search-width",
+                          "--threads",
+                          "--seed",
+                          "--sizing",
+                          "--threshold",
+                          "--mesher",
+                          "--degree",
+                          "--simulate",
+                          "--export",
+                          "--overwrite",
+                          "--quiet",
+                          "--verbose",
+                          "--version",
+                          "--info",
+                          "Examples:"})
     EXPECT_NE(h.out.find(opt), std::string::npos) << opt;
   char lambda[64];
   std::snprintf(lambda, sizeof lambda, "default %g;", vim::VimOptions{}.lambda);
@@ -438,7 +476,8 @@ TEST(CliMesh, HelpVersionInfo) {
   EXPECT_NE(i.out.find("10 x 10 x 10"), std::string::npos) << i.out;
   EXPECT_NE(i.out.find("extent:     3 x 3 x 3"), std::string::npos) << i.out;
   EXPECT_NE(i.out.find("min 1  max 2"), std::string::npos) << i.out;
-  EXPECT_NE(i.out.find("centre:     1.5 x 1.5 x 1.5  (world, centre of the voxel box)"), std::string::npos) << i.out;
+  EXPECT_NE(i.out.find("centre:     1.5 x 1.5 x 1.5  (world, centre of the voxel box)"), std::string::npos)
+      << i.out;
   EXPECT_NE(i.out.find("direction:  identity"), std::string::npos) << i.out;
   // Flipped axes (a NIfTI's usual LPS flips) are axis-aligned, a rotation is oblique.
   auto flipped = phantoms::table1(10);
@@ -469,8 +508,8 @@ TEST(CliMesh, ImageTermOffWarningNamesItsCause) {
   write_image(flat, dir / "flat.mha");
   auto warnings = [&](const std::string& image, const std::string& args) {
     const auto out = dir.path / ("o_" + std::to_string(vim::test::count_files(dir.path)));
-    const auto r = run_pipeline(quote(dir / image) + " " + args + " --max-iterations 1 -q --export none --out " +
-                                quote(out.string()));
+    const auto r = run_pipeline(quote(dir / image) + " " + args +
+                                " --max-iterations 1 -q --export none --out " + quote(out.string()));
     EXPECT_EQ(r.code, 0) << r.err;
     std::string all;
     const auto report = nlohmann::json::parse(vim::test::slurp(out / "report.json"));
@@ -497,14 +536,17 @@ TEST(CliMesh, ImageTermOffWarningNamesItsCause) {
 TEST(CliMesh, VerboseAddsDetailQuietPrintsNothing) {
   vim::test::TempDir dir("cli_verbose");
   write_image(phantoms::two_inclusions(40), dir / "in.mha");
-  const auto normal = run_pipeline(quote(dir / "in.mha") + " --nodes 60 --max-iterations 2 --export none --out " +
-                                   quote((dir.path / "n").string()));
+  const auto normal =
+      run_pipeline(quote(dir / "in.mha") + " --nodes 60 --max-iterations 2 --export none --out " +
+                   quote((dir.path / "n").string()));
   ASSERT_EQ(normal.code, 0) << normal.err;
-  const auto verbose = run_pipeline(quote(dir / "in.mha") + " --nodes 60 --max-iterations 2 --export none -v --out " +
-                                    quote((dir.path / "v").string()));
+  const auto verbose =
+      run_pipeline(quote(dir / "in.mha") + " --nodes 60 --max-iterations 2 --export none -v --out " +
+                   quote((dir.path / "v").string()));
   ASSERT_EQ(verbose.code, 0) << verbose.err;
-  const auto quiet = run_pipeline(quote(dir / "in.mha") + " --nodes 60 --max-iterations 2 --export none -q --out " +
-                                  quote((dir.path / "q").string()));
+  const auto quiet =
+      run_pipeline(quote(dir / "in.mha") + " --nodes 60 --max-iterations 2 --export none -q --out " +
+                   quote((dir.path / "q").string()));
   ASSERT_EQ(quiet.code, 0) << quiet.err;
   EXPECT_EQ(normal.err.find("candidate positions evaluated"), std::string::npos) << normal.err;
   EXPECT_NE(verbose.err.find("iteration 1: "), std::string::npos) << verbose.err;
@@ -526,7 +568,8 @@ TEST(CliMesh, HugeValueRangeIsWarnedAbout) {
   write_image(im, dir / "plain.mha");
   auto warnings = [&](const char* name) {
     const auto out = dir.path / (std::string("o_") + name);
-    const auto r = run_pipeline(quote(dir / name) + " --nodes 27 --max-iterations 1 -q --export none --out " + quote(out.string()));
+    const auto r = run_pipeline(quote(dir / name) + " --nodes 27 --max-iterations 1 -q --export none --out " +
+                                quote(out.string()));
     EXPECT_EQ(r.code, 0) << r.err;
     const auto report = nlohmann::json::parse(vim::test::slurp(out / "report.json"));
     return report.contains("warnings") ? report["warnings"].dump() : std::string();

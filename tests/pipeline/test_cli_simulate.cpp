@@ -3,17 +3,7 @@
 // coordinates computed here from the image header (independently of the pipeline's transform code);
 // figures are checked for content. Also: the README's option and scenario references agree with
 // the program (--help, the scenario parser).
-#include <vim/pipeline/image_io.hpp>
-#include <vim/pipeline/phantoms.hpp>
-#include <vim/pipeline/png.hpp>
-#include <vim/pipeline/scenario.hpp>
-
-#include "mesh_angles.hpp"
-#include "run_cli.hpp"
-
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 #include <vtkCell.h>
 #include <vtkCellData.h>
 #include <vtkDataArray.h>
@@ -23,13 +13,22 @@
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLUnstructuredGridReader.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <regex>
 #include <set>
 #include <sstream>
+#include <vim/pipeline/image/image_io.hpp>
+#include <vim/pipeline/image/phantoms.hpp>
+#include <vim/pipeline/output/png.hpp>
+#include <vim/pipeline/scenario/scenario.hpp>
+
+#include "mesh_angles.hpp"
+#include "run_cli.hpp"
 
 using namespace vim;
 using namespace vim::pipeline;
@@ -124,7 +123,8 @@ TEST(CliSimulate, ObliqueAnisotropicNeedleRunWritesWorldResultsAndFigures) {
   // (The force's growth with depth is tested on refined meshes in test_simulation.cpp.)
   const Eigen::Vector3d entry_idx(-0.5, 5.5, 5.5), target_idx(8.0, 5.5, 5.5), fixed_idx(11.5, 1.0, 2.0);
   const Eigen::Vector3d entry = world_of_index(im, entry_idx);
-  const Eigen::Vector3d dir_w = (world_of_index(im, entry_idx + Eigen::Vector3d::UnitX()) - entry).normalized();
+  const Eigen::Vector3d dir_w =
+      (world_of_index(im, entry_idx + Eigen::Vector3d::UnitX()) - entry).normalized();
   const double extent_x = 12 * 2.0, depth = 0.55 * extent_x;
   const int steps = 6;
   {
@@ -139,16 +139,17 @@ TEST(CliSimulate, ObliqueAnisotropicNeedleRunWritesWorldResultsAndFigures) {
       << "\n  steps: " << steps
       << "\n  diameter: 1.27\n  model: kinematic\n  friction: {model: stick}\n"
          "targets:\n  - {name: ahead, position: "
-      << yaml_vec(world_of_index(im, target_idx)) << "}\n  - {name: corner, position: "
-      << yaml_vec(world_of_index(im, fixed_idx)) << "}\noutput: {every: 2}\n";
+      << yaml_vec(world_of_index(im, target_idx))
+      << "}\n  - {name: corner, position: " << yaml_vec(world_of_index(im, fixed_idx))
+      << "}\noutput: {every: 2}\n";
   }
   const fs::path out = dir.path / "out";
   const auto r = run_pipeline(quote(dir / "in.mha") + " --nodes 100 --max-iterations 3 --simulate " +
                               quote(dir / "needle.yaml") + " --out " + quote(out.string()));
   ASSERT_EQ(r.code, 0) << r.err;
 
-  for (const char* f : {"mesh.vtu", "mesh.vtk", "mesh.msh", "mesh.inp", "mesh.feb", "simulation.pvd", "needle.csv",
-                        "report.json", "steps/step_0000.vtu", "steps/step_0006.vtu"})
+  for (const char* f : {"mesh.vtu", "mesh.vtk", "mesh.msh", "mesh.inp", "mesh.feb", "simulation.pvd",
+                        "needle.csv", "report.json", "steps/step_0000.vtu", "steps/step_0006.vtu"})
     EXPECT_TRUE(fs::is_regular_file(out / f)) << f;
 
   // Figures: present, of a plausible size, not blank.
@@ -186,7 +187,8 @@ TEST(CliSimulate, ObliqueAnisotropicNeedleRunWritesWorldResultsAndFigures) {
   // The target ahead of the tip is pushed forward along the needle (world axes); a point on the
   // fixed face (x_max) does not move.
   const auto& final_row = csv.back();
-  const Eigen::Vector3d u_ahead(std::stod(final_row[cad]), std::stod(final_row[cad + 1]), std::stod(final_row[cad + 2]));
+  const Eigen::Vector3d u_ahead(std::stod(final_row[cad]), std::stod(final_row[cad + 1]),
+                                std::stod(final_row[cad + 2]));
   EXPECT_GT(u_ahead.dot(dir_w), 0.7 * u_ahead.norm()) << u_ahead.transpose();
   EXPECT_GT(u_ahead.norm(), 1e-3);
   EXPECT_LT(std::stod(final_row[cn]), 1e-9 * u_ahead.norm() + 1e-12);
@@ -220,13 +222,15 @@ TEST(CliSimulate, ObliqueAnisotropicNeedleRunWritesWorldResultsAndFigures) {
   const auto rep = nlohmann::json::parse(vim::test::slurp(out / "report.json"));
   EXPECT_TRUE(rep.contains("simulation"));
   EXPECT_TRUE(rep["timing"].contains("simulate"));
-  for (const char* f : {"vtk", "msh", "inp", "feb"}) EXPECT_EQ(rep["exports"]["files"][f], std::string("mesh.") + f);
+  for (const char* f : {"vtk", "msh", "inp", "feb"})
+    EXPECT_EQ(rep["exports"]["files"][f], std::string("mesh.") + f);
   // The exports carry the scenario's Poisson ratio (they wrote 0.49 whatever the scenario said).
   EXPECT_EQ(rep["exports"]["poisson_ratio"].get<double>(), 0.45);
   const std::string inp = vim::test::slurp(out / "mesh.inp");
   EXPECT_NE(inp.find("*Elastic\n"), std::string::npos);
   std::size_t elastic = 0;
-  for (std::size_t at = inp.find("*Elastic\n"); at != std::string::npos; at = inp.find("*Elastic\n", at + 1)) {
+  for (std::size_t at = inp.find("*Elastic\n"); at != std::string::npos;
+       at = inp.find("*Elastic\n", at + 1)) {
     const std::size_t line = at + 9, comma = inp.find(", ", line);
     EXPECT_EQ(std::stod(inp.substr(comma + 2)), 0.45) << inp.substr(line, 60);  // "E, nu"
     ++elastic;
@@ -252,8 +256,10 @@ TEST(CliSimulate, ReadmeOptionTableMatchesHelp) {
   const std::string help = h.out.substr(0, h.out.find("Outputs ("));  // the option list only
   const auto in_readme = long_options(table), in_help = long_options(help);
   EXPECT_GE(in_help.size(), 15u);
-  for (const auto& o : in_help) EXPECT_TRUE(in_readme.count(o)) << o << " is in --help but not in README's Options";
-  for (const auto& o : in_readme) EXPECT_TRUE(in_help.count(o)) << o << " is in README's Options but not in --help";
+  for (const auto& o : in_help)
+    EXPECT_TRUE(in_readme.count(o)) << o << " is in --help but not in README's Options";
+  for (const auto& o : in_readme)
+    EXPECT_TRUE(in_help.count(o)) << o << " is in README's Options but not in --help";
 }
 
 TEST(CliSimulate, ReadmeScenarioReferenceParses) {
@@ -273,7 +279,8 @@ TEST(CliSimulate, ReadmeScenarioReferenceParses) {
   EXPECT_EQ(sc.solver_type, "auto");
   // Every top-level key of the reference is one the parser knows (it would have thrown otherwise);
   // and the shipped example parses too.
-  EXPECT_NO_THROW(read_scenario((fs::path(VIM_SOURCE_DIR) / "examples" / "prostate_needle.yaml").string(), 3));
+  EXPECT_NO_THROW(
+      read_scenario((fs::path(VIM_SOURCE_DIR) / "examples" / "prostate_needle.yaml").string(), 3));
 }
 
 // The AMG solver uses Trilinos, which needs MPI initialised even on one process. The CLI runs without
@@ -283,7 +290,8 @@ TEST(CliSimulate, ReadmeScenarioReferenceParses) {
 TEST(CliSimulate, AmgSolverRunsWithoutAnMpiLauncher) {
   vim::test::TempDir dir("cliamg");
   const fs::path image = dir.path / "prostate.mha";
-  const auto made = vim::test::run_command(VIM_PHANTOM_EXE, "prostate " + quote(image.string()) + " --size 16");
+  const auto made =
+      vim::test::run_command(VIM_PHANTOM_EXE, "prostate " + quote(image.string()) + " --size 16");
   ASSERT_EQ(made.code, 0) << made.err;
   std::string yaml = vim::test::slurp(fs::path(VIM_SOURCE_DIR) / "examples" / "prostate_needle.yaml");
   auto replace = [&](const std::string& from, const std::string& to) {
@@ -334,42 +342,50 @@ TEST(CliSimulate, NeedleRefinementRefinesTheMeshAlongThePath) {
   write_image(im, dir / "in.mha");
   const Eigen::Vector3d entry_idx(-0.5, 4.0, 11.0);
   const Eigen::Vector3d entry = world_of_index(im, entry_idx);
-  const Eigen::Vector3d dir_w = (world_of_index(im, entry_idx + Eigen::Vector3d::UnitX()) - entry).normalized();
+  const Eigen::Vector3d dir_w =
+      (world_of_index(im, entry_idx + Eigen::Vector3d::UnitX()) - entry).normalized();
   const double depth = 15.0, radius = 4.0;
   auto scenario = [&](const std::string& mesh_line) {
     std::ostringstream f;
-    f << "material: {youngs_modulus: image, scale: 10.0, poisson_ratio: 0.3}\n" << mesh_line
+    f << "material: {youngs_modulus: image, scale: 10.0, poisson_ratio: 0.3}\n"
+      << mesh_line
       << "boundary_conditions:\n  - {type: fixed, region: {box_face: x_max}}\n"
-         "needle: {entry: " << yaml_vec(entry) << ", direction: " << yaml_vec(dir_w) << ", depth: " << depth
+         "needle: {entry: "
+      << yaml_vec(entry) << ", direction: " << yaml_vec(dir_w) << ", depth: " << depth
       << ", steps: 1, diameter: 1.27, friction: {model: stick}}\noutput: {every: 0}\n";
     return f.str();
   };
-  auto near_far_volume = [&](const fs::path& out) {  // mean tet volume within `radius` of the path / elsewhere
-    const auto g = read_vtu(out / "mesh.vtu");
-    double near = 0, far = 0;
-    int nn = 0, nf = 0;
-    for (vtkIdType c = 0; c < g->GetNumberOfCells(); ++c) {
-      vtkCell* cell = g->GetCell(c);
-      std::array<Eigen::Vector3d, 4> x;
-      for (int k = 0; k < 4; ++k) g->GetPoint(cell->GetPointId(k), x[k].data());
-      const double v = std::abs((x[1] - x[0]).cross(x[2] - x[0]).dot(x[3] - x[0])) / 6.0;
-      const Eigen::Vector3d m = (x[0] + x[1] + x[2] + x[3]) / 4.0;
-      const double s = std::clamp((m - entry).dot(dir_w), 0.0, depth);
-      if ((m - entry - s * dir_w).norm() < radius) near += v, ++nn;
-      else far += v, ++nf;
-    }
-    EXPECT_GT(nn, 0);
-    return (near / std::max(nn, 1)) / (far / std::max(nf, 1));
-  };
+  auto near_far_volume =
+      [&](const fs::path& out) {  // mean tet volume within `radius` of the path / elsewhere
+        const auto g = read_vtu(out / "mesh.vtu");
+        double near = 0, far = 0;
+        int nn = 0, nf = 0;
+        for (vtkIdType c = 0; c < g->GetNumberOfCells(); ++c) {
+          vtkCell* cell = g->GetCell(c);
+          std::array<Eigen::Vector3d, 4> x;
+          for (int k = 0; k < 4; ++k) g->GetPoint(cell->GetPointId(k), x[k].data());
+          const double v = std::abs((x[1] - x[0]).cross(x[2] - x[0]).dot(x[3] - x[0])) / 6.0;
+          const Eigen::Vector3d m = (x[0] + x[1] + x[2] + x[3]) / 4.0;
+          const double s = std::clamp((m - entry).dot(dir_w), 0.0, depth);
+          if ((m - entry - s * dir_w).norm() < radius)
+            near += v, ++nn;
+          else
+            far += v, ++nf;
+        }
+        EXPECT_GT(nn, 0);
+        return (near / std::max(nn, 1)) / (far / std::max(nf, 1));
+      };
   std::ofstream(dir / "plain.yaml") << scenario("");
   std::ofstream(dir / "refined.yaml")
       << scenario("mesh: {needle_refinement: {size_ratio: 0.5, radius: " + std::to_string(radius) + "}}\n");
   const std::string common = quote(dir / "in.mha") + " --nodes 400 --max-iterations 8 --simulate ";
   const auto plain = run_pipeline(common + quote(dir / "plain.yaml") + " --out " + quote(dir / "plain"));
   ASSERT_EQ(plain.code, 0) << plain.err;
-  const auto refined = run_pipeline(common + quote(dir / "refined.yaml") + " --out " + quote(dir / "refined"));
+  const auto refined =
+      run_pipeline(common + quote(dir / "refined.yaml") + " --out " + quote(dir / "refined"));
   ASSERT_EQ(refined.code, 0) << refined.err;
-  const double r_plain = near_far_volume(dir.path / "plain"), r_refined = near_far_volume(dir.path / "refined");
+  const double r_plain = near_far_volume(dir.path / "plain"),
+               r_refined = near_far_volume(dir.path / "refined");
   std::printf("near/far mean tet volume: plain VIM %.3f, needle refinement %.3f\n", r_plain, r_refined);
   EXPECT_LT(r_refined, 0.7 * r_plain);
   EXPECT_LT(r_refined, 0.7);
@@ -379,8 +395,8 @@ TEST(CliSimulate, NeedleRefinementRefinesTheMeshAlongThePath) {
   EXPECT_TRUE(rep["timing"].contains("sizing"));
 
   write_image(im, dir / "density.mha");
-  const auto both = run_pipeline(common + quote(dir / "refined.yaml") + " --sizing " + quote(dir / "density.mha") +
-                                 " --out " + quote(dir / "both"));
+  const auto both = run_pipeline(common + quote(dir / "refined.yaml") + " --sizing " +
+                                 quote(dir / "density.mha") + " --out " + quote(dir / "both"));
   EXPECT_NE(both.code, 0);
   EXPECT_NE(both.err.find("mesh.needle_refinement"), std::string::npos) << both.err;
   EXPECT_FALSE(fs::exists(dir.path / "both" / "mesh.vtu"));
@@ -396,7 +412,8 @@ TEST(CliSimulate, LinearElementsWarnAboutLockingForNearlyIncompressibleTissue) {
   auto scenario = [&](const std::string& name, double nu) {
     std::ofstream(dir / name) << "material: {youngs_modulus: image, poisson_ratio: " << nu
                               << "}\nboundary_conditions:\n  - {type: fixed, region: {box_face: z_max}}\n"
-                                 "needle: {entry: [1.5, 1.5, 0], direction: [0, 0, 1], depth: 1.0, steps: 1, diameter: 0.1, friction: {model: stick}}\n"
+                                 "needle: {entry: [1.5, 1.5, 0], direction: [0, 0, 1], depth: 1.0, steps: 1, "
+                                 "diameter: 0.1, friction: {model: stick}}\n"
                                  "output: {every: 0}\n";
     return quote(dir / name);
   };
@@ -411,17 +428,19 @@ TEST(CliSimulate, LinearElementsWarnAboutLockingForNearlyIncompressibleTissue) {
                                    {"--simulate " + compressible, "p1nu03", false},
                                    {"--simulate " + nearly + " --mesher voxel", "voxel", false}};
   for (const Case& c : cases) {
-    const auto r = run_pipeline(quote(dir / "in.mha") + " --nodes 64 --max-iterations 2 --export none " + c.args +
-                                " --out " + quote(dir / c.out));
+    const auto r = run_pipeline(quote(dir / "in.mha") + " --nodes 64 --max-iterations 2 --export none " +
+                                c.args + " --out " + quote(dir / c.out));
     ASSERT_EQ(r.code, 0) << c.out << ": " << r.err;
     const auto rep = nlohmann::json::parse(vim::test::slurp(dir.path / c.out / "report.json"));
     const bool in_stderr = r.err.find("P1 tetrahedra lock for poisson_ratio >= 0.4") != std::string::npos;
     EXPECT_EQ(in_stderr, c.warns) << c.out << ": " << r.err;
-    // The needle also strains the tissue beyond 10% (the small-strain warning): only the locking warning counts.
+    // The needle also strains the tissue beyond 10% (the small-strain warning): only the locking warning
+    // counts.
     std::vector<std::string> locking;
     if (rep.contains("warnings"))
       for (const auto& w : rep["warnings"])
-        if (w.get<std::string>().find("lock for poisson_ratio") != std::string::npos) locking.push_back(w.get<std::string>());
+        if (w.get<std::string>().find("lock for poisson_ratio") != std::string::npos)
+          locking.push_back(w.get<std::string>());
     ASSERT_EQ(!locking.empty(), c.warns) << c.out;
     if (c.warns) {
       ASSERT_EQ(locking.size(), 1u) << c.out;
@@ -431,22 +450,29 @@ TEST(CliSimulate, LinearElementsWarnAboutLockingForNearlyIncompressibleTissue) {
     }
   }
   // --quiet keeps stderr free of it, the report still records it.
-  const auto q = run_pipeline(quote(dir / "in.mha") + " --nodes 64 --max-iterations 2 --export none --quiet --simulate " +
-                              nearly + " --out " + quote(dir / "quiet"));
+  const auto q = run_pipeline(quote(dir / "in.mha") +
+                              " --nodes 64 --max-iterations 2 --export none --quiet --simulate " + nearly +
+                              " --out " + quote(dir / "quiet"));
   ASSERT_EQ(q.code, 0) << q.err;
   EXPECT_EQ(q.err.find("lock"), std::string::npos) << q.err;
-  EXPECT_NE(nlohmann::json::parse(vim::test::slurp(dir.path / "quiet" / "report.json"))["warnings"].dump().find("lock for poisson_ratio"),
-            std::string::npos);
+  EXPECT_NE(
+      nlohmann::json::parse(vim::test::slurp(dir.path / "quiet" / "report.json"))["warnings"].dump().find(
+          "lock for poisson_ratio"),
+      std::string::npos);
   // A 2D run names the element it means: plane-strain P1 triangles.
   write_image(phantoms::two_inclusions(30), dir / "in2.mha");
-  std::ofstream(dir / "nu045_2d.yaml") << "material: {youngs_modulus: image, poisson_ratio: 0.45}\n"
-                                          "boundary_conditions:\n  - {type: fixed, region: {box_face: x_max}}\n"
-                                          "needle: {entry: [-30, 3], direction: [1, 0], depth: 10, steps: 1, diameter: 1, friction: {model: stick}}\n"
-                                          "output: {every: 0}\n";
-  const auto two = run_pipeline(quote(dir / "in2.mha") + " --nodes 64 --max-iterations 2 --export none --simulate " +
-                                quote(dir / "nu045_2d.yaml") + " --out " + quote(dir / "p1_2d"));
+  std::ofstream(dir / "nu045_2d.yaml")
+      << "material: {youngs_modulus: image, poisson_ratio: 0.45}\n"
+         "boundary_conditions:\n  - {type: fixed, region: {box_face: x_max}}\n"
+         "needle: {entry: [-30, 3], direction: [1, 0], depth: 10, steps: 1, diameter: 1, friction: {model: "
+         "stick}}\n"
+         "output: {every: 0}\n";
+  const auto two =
+      run_pipeline(quote(dir / "in2.mha") + " --nodes 64 --max-iterations 2 --export none --simulate " +
+                   quote(dir / "nu045_2d.yaml") + " --out " + quote(dir / "p1_2d"));
   ASSERT_EQ(two.code, 0) << two.err;
-  EXPECT_NE(two.err.find("P1 triangles (plane strain) lock for poisson_ratio >= 0.4"), std::string::npos) << two.err;
+  EXPECT_NE(two.err.find("P1 triangles (plane strain) lock for poisson_ratio >= 0.4"), std::string::npos)
+      << two.err;
   EXPECT_EQ(two.err.find("tetrahedra"), std::string::npos) << two.err;
 }
 
@@ -459,9 +485,11 @@ TEST(CliSimulate, ScenarioMeshKeysApplyUnlessGivenOnTheCommandLine) {
   std::ofstream(dir / "s.yaml") << "material: {youngs_modulus: image, poisson_ratio: 0.3}\n"
                                    "mesh: {nodes: 343, lambda: 0.6, min_dihedral: 20}\n"
                                    "boundary_conditions:\n  - {type: fixed, region: {box_face: z_max}}\n"
-                                   "needle: {entry: [1.5, 1.5, 0], direction: [0, 0, 1], depth: 1.0, steps: 1, diameter: 0.1, friction: {model: stick}}\n"
+                                   "needle: {entry: [1.5, 1.5, 0], direction: [0, 0, 1], depth: 1.0, steps: "
+                                   "1, diameter: 0.1, friction: {model: stick}}\n"
                                    "output: {every: 0}\n";
-  const std::string common = quote(dir / "in.mha") + " --max-iterations 4 --export none -q --simulate " + quote(dir / "s.yaml");
+  const std::string common =
+      quote(dir / "in.mha") + " --max-iterations 4 --export none -q --simulate " + quote(dir / "s.yaml");
   const auto a = run_pipeline(common + " --out " + quote(dir / "scenario"));
   ASSERT_EQ(a.code, 0) << a.err;
   const auto b = run_pipeline(common + " --min-dihedral 0 --lambda 0.5 --out " + quote(dir / "cli"));
@@ -474,5 +502,6 @@ TEST(CliSimulate, ScenarioMeshKeysApplyUnlessGivenOnTheCommandLine) {
   EXPECT_EQ(rb["options"]["min_dihedral_deg"].get<double>(), 0.0);
   EXPECT_EQ(rb["options"]["lambda"].get<double>(), 0.5);
   EXPECT_GE(vim::test::smallest_angle_deg(read_vtu(dir.path / "scenario" / "mesh.vtu"), 3), 20.0 - 1e-9);
-  EXPECT_LT(vim::test::smallest_angle_deg(read_vtu(dir.path / "cli" / "mesh.vtu"), 3), 20.0) << "the bound would not be active";
+  EXPECT_LT(vim::test::smallest_angle_deg(read_vtu(dir.path / "cli" / "mesh.vtu"), 3), 20.0)
+      << "the bound would not be active";
 }

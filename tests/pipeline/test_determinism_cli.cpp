@@ -7,7 +7,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <string>
-#include <vim/pipeline/image_io.hpp>
+#include <vim/pipeline/image/image_io.hpp>
 
 #include "run_cli.hpp"
 

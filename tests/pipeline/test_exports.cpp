@@ -18,7 +18,7 @@
 #include <set>
 #include <sstream>
 #include <vim/initial_mesh.hpp>
-#include <vim/pipeline/exports.hpp>
+#include <vim/pipeline/output/exports.hpp>
 
 #include "oblique_grid.hpp"
 #include "scratch_dir.hpp"

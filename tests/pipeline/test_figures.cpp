@@ -4,17 +4,16 @@
 // anti-aliased: a pixel a line crosses carries the line's colour in proportion to the share of the
 // pixel the line covers, and that share is what the outline checks measure (the files are decoded by
 // ITK's PNG reader, not by the encoder).
-#include <vim/initial_mesh.hpp>
-#include <vim/pipeline/figures.hpp>
-
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <random>
-#include <unistd.h>
+#include <vim/initial_mesh.hpp>
+#include <vim/pipeline/output/figures.hpp>
 
 #include "scratch_dir.hpp"
 
@@ -188,11 +187,13 @@ TEST(Canvas, TextIsDrawnInsideItsAlignedBox) {
   EXPECT_EQ(out, 0);
   long dark = 0;  // the font is antialiased: count pixels mostly covered
   for (int y = 0; y < a.height(); ++y)
-    for (int x = 0; x < a.width(); ++x) dark += a.at(x, y).r < 100 && a.at(x, y).g < 100 && a.at(x, y).b < 100;
+    for (int x = 0; x < a.width(); ++x)
+      dark += a.at(x, y).r < 100 && a.at(x, y).g < 100 && a.at(x, y).b < 100;
   EXPECT_GT(dark, 40);
 
   Canvas b(200, 60);
-  const auto right = b.text(190, 30, "depth 123 [mm]", colors::black, 14, Canvas::Align::end, Canvas::Align::centre);
+  const auto right =
+      b.text(190, 30, "depth 123 [mm]", colors::black, 14, Canvas::Align::end, Canvas::Align::centre);
   EXPECT_EQ(right[0] + right[2], 190);
   EXPECT_EQ(right[2], box[2]);
   EXPECT_NEAR(right[1] + right[3] / 2.0, 30, 1);
@@ -200,7 +201,8 @@ TEST(Canvas, TextIsDrawnInsideItsAlignedBox) {
   EXPECT_GT(b.text(0, 0, "depth 123 [mm] and more", colors::black, 14)[2], box[2]);
 
   Canvas v(60, 200);
-  const auto up = v.text(5, 100, "depth 123 [mm]", colors::black, 14, Canvas::Align::start, Canvas::Align::centre, true);
+  const auto up =
+      v.text(5, 100, "depth 123 [mm]", colors::black, 14, Canvas::Align::start, Canvas::Align::centre, true);
   EXPECT_EQ(up[2], box[3]);
   EXPECT_EQ(up[3], box[2]);
   const auto [vin, vout] = inked(v, up);
@@ -244,7 +246,8 @@ TEST(Figures, ThreeSlicesShowImageAndMeshCrossSection) {
     const auto bmin = im.image.box_min(), bmax = im.image.box_max();
     const double eu = bmax[u] - bmin[u], ev = bmax[v] - bmin[v];
     const double scale = 360.0 / std::max(eu, ev);
-    const int w = static_cast<int>(std::ceil(eu * scale - 1e-9)), h = static_cast<int>(std::ceil(ev * scale - 1e-9));
+    const int w = static_cast<int>(std::ceil(eu * scale - 1e-9)),
+              h = static_cast<int>(std::ceil(ev * scale - 1e-9));
     const int right_x0 = 24 + w;
     EXPECT_EQ(c.width(), right_x0 + w + 12);
     EXPECT_EQ(c.height(), h + 3 * 12 + 14 + 18);  // + the colour bar's text row
@@ -269,15 +272,18 @@ TEST(Figures, ThreeSlicesShowImageAndMeshCrossSection) {
       for (const auto& p : pts) {
         const Eigen::Vector2d q = left_px(p);
         const std::string what = std::string(names[axis]) + " cell " + std::to_string(cell);
-        expect_line_through(q.x(), q.y(), [&](int x, int y) { return red_share(c.at(x, y)); }, what);
-        expect_line_through(q.x() + right_x0 - 12, q.y(), [&](int x, int y) { return black_share(c, x, y); }, what);
+        expect_line_through(
+            q.x(), q.y(), [&](int x, int y) { return red_share(c.at(x, y)); }, what);
+        expect_line_through(
+            q.x() + right_x0 - 12, q.y(), [&](int x, int y) { return black_share(c, x, y); }, what);
         centre += p / static_cast<double>(pts.size());
         ++checked;
       }
       // Inside the section (away from outlines) the right panel shows the element mean.
       // (A thin section's centre may lie on its outline: then the pixel is darkened by the black line.)
       const Eigen::Vector2d q = left_px(centre);
-      const int qx = static_cast<int>(std::floor(q.x())) + right_x0 - 12, qy = static_cast<int>(std::floor(q.y()));
+      const int qx = static_cast<int>(std::floor(q.x())) + right_x0 - 12,
+                qy = static_cast<int>(std::floor(q.y()));
       const Rgb inside = c.at(qx, qy);
       const Rgb expected = viridis((model.values[cell].mean - lo) / (hi - lo));
       EXPECT_TRUE(inside == expected || black_share(c, qx, qy) > 0.1);
@@ -341,7 +347,9 @@ TEST(Figures, TwoDimensionalOverlayAndDiscretizedImage) {
     EXPECT_EQ(c->at(12, bar_row), grey(0.0));
     EXPECT_EQ(c->at(12 + w - 1, bar_row), grey(1.0));
   }
-  auto px = [&](const Eigen::Vector2d& p) { return Eigen::Vector2d(12 + (p[0] - bmin[0]) * scale, 12 + (p[1] - bmin[1]) * scale); };
+  auto px = [&](const Eigen::Vector2d& p) {
+    return Eigen::Vector2d(12 + (p[0] - bmin[0]) * scale, 12 + (p[1] - bmin[1]) * scale);
+  };
   const double lo = 0.0, hi = 23 + 2 * 17;
   long red = 0;
   for (int y = 12; y < 12 + h; ++y)
@@ -353,7 +361,8 @@ TEST(Figures, TwoDimensionalOverlayAndDiscretizedImage) {
       const Eigen::Vector2d a = px(x[k]), b = px(x[(k + 1) % 3]);
       auto red = [&](int x, int y) { return red_share(overlay.at(x, y)); };
       expect_line_through(a.x(), a.y(), red, "vertex of cell " + std::to_string(cell));
-      expect_line_through(0.5 * (a.x() + b.x()), 0.5 * (a.y() + b.y()), red, "edge of cell " + std::to_string(cell));
+      expect_line_through(0.5 * (a.x() + b.x()), 0.5 * (a.y() + b.y()), red,
+                          "edge of cell " + std::to_string(cell));
     }
     const Eigen::Vector2d m = px(centroid<2>(x));
     EXPECT_EQ(disc.at(static_cast<int>(std::floor(m.x())), static_cast<int>(std::floor(m.y()))),
@@ -366,7 +375,8 @@ TEST(Figures, EnergyPlotIsNormalisedToTheFirstIteration) {
   const auto dir = fresh_dir("energy");
   std::vector<IterationRecord> h(4);
   const double e[] = {2.0, 1.6, 1.4, 1.3}, g[] = {10, 9, 8.5, 8.4}, d[] = {5, 3, 2, 1.5};
-  for (int k = 0; k < 4; ++k) h[k].iteration = k, h[k].energy = e[k], h[k].geometric = g[k], h[k].discretization = d[k];
+  for (int k = 0; k < 4; ++k)
+    h[k].iteration = k, h[k].energy = e[k], h[k].geometric = g[k], h[k].discretization = d[k];
   const auto j = write_energy_plot(h, dir / "energy.png");
   const Canvas c = Canvas::read_png(dir / "energy.png");
   EXPECT_EQ(c.width(), 700);
@@ -405,8 +415,10 @@ TEST(Figures, LinePlotSkipsNonFiniteValues) {
 // ink in those margins, none where a plot without text leaves them white.
 TEST(Figures, LinePlotHasTickValuesTitlesAndLegend) {
   const auto dir = fresh_dir("labels");
-  auto plot = [&](const std::string& name, std::vector<std::string> names, const std::string& xl, const std::string& yl) {
-    const auto j = write_line_plot(dir / name, {0, 10, 20}, {{0.0, 5.0, 40.0}, {1.0, 2.0, 3.0}}, names, xl, yl);
+  auto plot = [&](const std::string& name, std::vector<std::string> names, const std::string& xl,
+                  const std::string& yl) {
+    const auto j =
+        write_line_plot(dir / name, {0, 10, 20}, {{0.0, 5.0, 40.0}, {1.0, 2.0, 3.0}}, names, xl, yl);
     return std::make_pair(j, Canvas::read_png(dir / name));
   };
   const auto [j, c] = plot("with.png", {"axial force", "lateral force"}, "needle depth [mm]", "force [mN]");
@@ -460,7 +472,8 @@ TEST(Figures, DeformedSliceFollowsTheDisplacement) {
     for (auto& p : x) p += shift;
     for (const auto& p : crossings(x, 2, slice[2])) {
       const double px = 12 + (p[0] - lo[0] + pad) * scale, py = 12 + (p[1] - lo[1] + pad) * scale;
-      expect_line_through(px, py, [&](int x, int y) { return black_share(c, x, y); }, "cell " + std::to_string(cell));
+      expect_line_through(
+          px, py, [&](int x, int y) { return black_share(c, x, y); }, "cell " + std::to_string(cell));
       ++checked;
     }
   }

@@ -6,7 +6,7 @@
 
 #include <cmath>
 #include <memory>
-#include <vim/pipeline/needle_coupling.hpp>
+#include <vim/pipeline/simulation/needle_coupling.hpp>
 
 using namespace vim;
 using namespace vim::pipeline;

@@ -1,15 +1,14 @@
-// Image IO (pipeline/include/vim/pipeline/image_io.hpp): round trips through .mha/.nrrd/.nii.gz with
+// Image IO (pipeline/include/vim/pipeline/image/image_io.hpp): round trips through .mha/.nrrd/.nii.gz with
 // anisotropic spacing, a non-zero origin and an oblique direction in 2D and 3D, and integer files
 // written by hand (independent of our writer) read back as float with their geometry.
-#include <vim/pipeline/image_io.hpp>
-
-#include "run_cli.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdint>
 #include <fstream>
+#include <vim/pipeline/image/image_io.hpp>
+
+#include "run_cli.hpp"
 
 using namespace vim;
 using namespace vim::pipeline;
@@ -38,9 +37,9 @@ OrientedImage<dim> test_image() {
   std::array<long, dim> size{};
   std::array<double, dim> spacing{}, origin{};
   for (int a = 0; a < dim; ++a) {
-    size[a] = 5 + 2 * a;            // 5, 7, 9
-    spacing[a] = 0.5 + 0.75 * a;    // anisotropic
-    origin[a] = -12.5 + 3.25 * a;   // non-zero
+    size[a] = 5 + 2 * a;           // 5, 7, 9
+    spacing[a] = 0.5 + 0.75 * a;   // anisotropic
+    origin[a] = -12.5 + 3.25 * a;  // non-zero
   }
   im.image = Image<dim>(size, spacing, origin);
   for (std::size_t k = 0; k < im.image.voxel_count(); ++k)
@@ -58,10 +57,12 @@ void expect_same(const OrientedImage<dim>& a, const OrientedImage<dim>& b, doubl
     EXPECT_EQ(a.image.size[d], b.image.size[d]);
     EXPECT_NEAR(a.image.spacing[d], b.image.spacing[d], geometry_tol * std::abs(a.image.spacing[d]));
     EXPECT_NEAR(a.image.origin[d], b.image.origin[d], geometry_tol * 20.0);
-    for (int e = 0; e < dim; ++e) EXPECT_NEAR(a.direction(d, e), b.direction(d, e), geometry_tol) << d << "," << e;
+    for (int e = 0; e < dim; ++e)
+      EXPECT_NEAR(a.direction(d, e), b.direction(d, e), geometry_tol) << d << "," << e;
   }
   ASSERT_EQ(a.image.data.size(), b.image.data.size());
-  for (std::size_t k = 0; k < a.image.data.size(); ++k) ASSERT_EQ(a.image.data[k], b.image.data[k]) << "voxel " << k;
+  for (std::size_t k = 0; k < a.image.data.size(); ++k)
+    ASSERT_EQ(a.image.data[k], b.image.data[k]) << "voxel " << k;
 }
 
 }  // namespace
@@ -126,8 +127,8 @@ TEST(ImageRead, HandWrittenNrrdUint8Oblique) {
   EXPECT_DOUBLE_EQ(im.image.origin[2], 7.0);
   for (int k = 0; k < 24; ++k) EXPECT_EQ(im.image.data[k], static_cast<float>(10 * k + 3));
   // Index (2,3,1) → world = origin + Σ_a i_a · spacing_a · column_a of the file.
-  const Eigen::Vector3d expected = Eigen::Vector3d(10.5, -3.25, 7) + 2 * sp[0] * R.col(0) + 3 * sp[1] * R.col(1) +
-                                   1 * sp[2] * R.col(2);
+  const Eigen::Vector3d expected =
+      Eigen::Vector3d(10.5, -3.25, 7) + 2 * sp[0] * R.col(0) + 3 * sp[1] * R.col(1) + 1 * sp[2] * R.col(2);
   const Eigen::Vector3d got = im.to_world(im.image.point_of({{2, 3, 1}}));
   EXPECT_NEAR((got - expected).norm(), 0.0, 1e-12);
 }
@@ -169,7 +170,8 @@ TEST(ImageRead, HandWrittenMetaImageObliqueDirection) {
   {
     std::ofstream f(path, std::ios::binary);
     f.precision(17);
-    f << "ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = False\nTransformMatrix =";
+    f << "ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = False\nTransformMatrix "
+         "=";
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b) f << " " << R(b, a);
     f << "\nOffset = 1 2 3\nElementSpacing = 0.5 0.5 2\nDimSize = 2 2 2\nElementType = MET_UCHAR\n"
@@ -197,7 +199,8 @@ TEST(ImageRead, ErrorsNameTheFileAndProblem) {
     return std::string("no InputError");
   };
   const std::string missing = dir / "nope.mha";
-  EXPECT_NE(message([&] { read_image<3>(missing); }).find(missing + ": file does not exist"), std::string::npos);
+  EXPECT_NE(message([&] { read_image<3>(missing); }).find(missing + ": file does not exist"),
+            std::string::npos);
   // 3D file read as 2D names both dimensions.
   write_image(test_image<3>(), dir / "three.mha");
   const std::string m = message([&] { read_image<2>(dir / "three.mha"); });
@@ -224,8 +227,10 @@ TEST(ImageFrames, InFrameOfMapsThroughWorldCoordinates) {
   other.direction = oblique3();
   for (std::size_t k = 0; k < other.image.data.size(); ++k) other.image.data[k] = static_cast<float>(k);
   const Image<3> moved = in_frame_of(ref, other);
-  for (const Eigen::Vector3d& p : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(3.3, -1.2, 5.0), Eigen::Vector3d(9, 9, 6)}) {
-    const Eigen::Vector3d q = other.to_frame(ref.to_world(p));  // other's own frame point of the same world point
+  for (const Eigen::Vector3d& p :
+       {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(3.3, -1.2, 5.0), Eigen::Vector3d(9, 9, 6)}) {
+    const Eigen::Vector3d q =
+        other.to_frame(ref.to_world(p));  // other's own frame point of the same world point
     for (int a = 0; a < 3; ++a) EXPECT_NEAR(q[a] - other.image.origin[a], p[a] - moved.origin[a], 1e-9) << a;
   }
   // Same direction and origin: nothing moves. Different directions: refused.

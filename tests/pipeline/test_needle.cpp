@@ -1,13 +1,12 @@
 // Needle geometry (needle.hpp): point location against independent barycentric tests, shaft
 // sampling invariants, and the conjugate-gradient force control against a direct linear solve.
-#include <vim/initial_mesh.hpp>
-#include <vim/pipeline/needle.hpp>
-
-#include <Eigen/Dense>
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <random>
+#include <vim/initial_mesh.hpp>
+#include <vim/pipeline/simulation/needle.hpp>
 
 using namespace vim;
 using namespace vim::pipeline;
@@ -137,7 +136,13 @@ TEST(AxialMap, ProbedMapAndForceControlMatchADirectSolve) {
   Eigen::VectorXd c(m);
   for (int i = 0; i < m; ++i) c[i] = n01(rng);
   int calls = 0;
-  const AxialMap map = AxialMap::probe(m, [&](const Eigen::VectorXd& w) { ++calls; return Eigen::VectorXd(M * w + c); }, 0.5);
+  const AxialMap map = AxialMap::probe(
+      m,
+      [&](const Eigen::VectorXd& w) {
+        ++calls;
+        return Eigen::VectorXd(M * w + c);
+      },
+      0.5);
   EXPECT_EQ(calls, m + 1);
   EXPECT_LT((map.K - M).norm(), 1e-12 * M.norm());
   EXPECT_LT((map.c - c).norm(), 1e-14);
@@ -174,7 +179,8 @@ TEST(NeedleDensity, ProfileAroundThePathsAndBadParameters) {
     // Brute force: nearest of many points sampled on each segment.
     double d = 1e300;
     for (const auto* path : {&a, &b})
-      for (int i = 0; i <= 12000; ++i) d = std::min(d, (p - path->entry - (path->depth * i / 12000.0) * path->axis).norm());
+      for (int i = 0; i <= 12000; ++i)
+        d = std::min(d, (p - path->entry - (path->depth * i / 12000.0) * path->axis).norm());
     const double expect = 1.0 + (peak - 1.0) * std::exp(-(d / radius) * (d / radius));
     ASSERT_NEAR(rho.data[k], expect, 2e-3 * expect) << "voxel " << k;
     on_path = std::max(on_path, static_cast<double>(rho.data[k]));
@@ -192,7 +198,8 @@ TEST(NeedleDensity, ProfileAroundThePathsAndBadParameters) {
 // with lengths that still add up to the depth.
 TEST(ShaftSampling, SnapToVerticesAlongMeshEdges) {
   using V2 = Eigen::Vector2d;
-  const SimplexMesh<2> mesh = regular_grid_mesh<2>(V2(-30, -30), V2(30, 30), {{28, 28}});  // 27 cells per axis
+  const SimplexMesh<2> mesh =
+      regular_grid_mesh<2>(V2(-30, -30), V2(30, 30), {{28, 28}});  // 27 cells per axis
   const auto loc = CellLocator<2>::simplex(mesh);
   const double h = 60.0 / 27.0, pitch = 0.546 * h, depth = 50.0;
   for (double y : {-30.0 + 18 * h, 30.0}) {  // grid line 18, and the box edge
@@ -230,7 +237,8 @@ TEST(ShaftSampling, SnapToVerticesAlongMeshEdges) {
   // A path that crosses the cells is not changed by it.
   const V2 entry(-30, 0.37), axis = V2(1, 0.2).normalized();
   const auto a = sample_shaft<2>(loc, entry, axis, depth, pitch, std::vector<bool>(mesh.n_points(), false));
-  const auto b = sample_shaft<2>(loc, entry, axis, depth, pitch, std::vector<bool>(mesh.n_points(), false), true);
+  const auto b =
+      sample_shaft<2>(loc, entry, axis, depth, pitch, std::vector<bool>(mesh.n_points(), false), true);
   ASSERT_EQ(a.size(), b.size());
   for (std::size_t k = 0; k < a.size(); ++k) EXPECT_EQ(a[k].s, b[k].s);
 }

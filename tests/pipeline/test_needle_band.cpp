@@ -10,8 +10,8 @@
 #include <cmath>
 #include <vim/image.hpp>
 #include <vim/initial_mesh.hpp>
-#include <vim/pipeline/scenario.hpp>
-#include <vim/pipeline/simulation.hpp>
+#include <vim/pipeline/scenario/scenario.hpp>
+#include <vim/pipeline/simulation/simulation.hpp>
 #include <vim/vim.hpp>
 #include <vim/voxel_statistics.hpp>
 

@@ -1,13 +1,12 @@
-// Phantoms (pipeline/include/vim/pipeline/phantoms.hpp): geometry recomputed here in floating
+// Phantoms (pipeline/include/vim/pipeline/image/phantoms.hpp): geometry recomputed here in floating
 // point from the stated definitions, the paper's Table I count, the prostate phantom's values at
 // known anatomical points, and the vim-make-phantom executable.
-#include <vim/pipeline/phantoms.hpp>
-
-#include "run_cli.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vim/pipeline/image/phantoms.hpp>
+
+#include "run_cli.hpp"
 
 using namespace vim;
 using namespace vim::pipeline;
@@ -71,15 +70,15 @@ TEST(ProstatePhantom, GeometryAndValuesAtKnownPoints) {
     return im.at({{std::lround(c[0]), std::lround(c[1]), std::lround(c[2])}});
   };
   // 3 % noise: ±5 σ.
-  EXPECT_NEAR(at(-28, -23, -23), 15.0, 15.0 * 0.15);   // tissue corner
-  EXPECT_NEAR(at(25, 0, 0), 15.0, 15.0 * 0.15);        // outside the gland along x (semi-axis 20)
-  EXPECT_NEAR(at(-10, -3, -5), 60.0, 60.0 * 0.15);     // gland
-  EXPECT_NEAR(at(0, -10, 0), 60.0, 60.0 * 0.15);       // gland, below the urethra
-  EXPECT_NEAR(at(6, -5, 3), 150.0, 150.0 * 0.15);      // lesion centre
-  EXPECT_NEAR(at(6, -5, 5.5), 150.0, 150.0 * 0.15);    // inside the 4 mm lesion radius
-  EXPECT_NEAR(at(-8, 4, 0), 5.0, 5.0 * 0.15);          // urethra along the long (x) axis
+  EXPECT_NEAR(at(-28, -23, -23), 15.0, 15.0 * 0.15);  // tissue corner
+  EXPECT_NEAR(at(25, 0, 0), 15.0, 15.0 * 0.15);       // outside the gland along x (semi-axis 20)
+  EXPECT_NEAR(at(-10, -3, -5), 60.0, 60.0 * 0.15);    // gland
+  EXPECT_NEAR(at(0, -10, 0), 60.0, 60.0 * 0.15);      // gland, below the urethra
+  EXPECT_NEAR(at(6, -5, 3), 150.0, 150.0 * 0.15);     // lesion centre
+  EXPECT_NEAR(at(6, -5, 5.5), 150.0, 150.0 * 0.15);   // inside the 4 mm lesion radius
+  EXPECT_NEAR(at(-8, 4, 0), 5.0, 5.0 * 0.15);         // urethra along the long (x) axis
   EXPECT_NEAR(at(15, 4, 0), 5.0, 5.0 * 0.15);
-  EXPECT_NEAR(at(0, 14, 0), 60.0, 60.0 * 0.15);        // gland edge along y is at 15 mm
+  EXPECT_NEAR(at(0, 14, 0), 60.0, 60.0 * 0.15);  // gland edge along y is at 15 mm
   EXPECT_NEAR(at(0, 17, 0), 15.0, 15.0 * 0.15);
   // Overall: everything positive and within the physical range.
   float lo = 1e30f, hi = -1e30f;
@@ -118,9 +117,9 @@ TEST(Phantoms2D, DiamondAndCircles) {
   EXPECT_EQ(val(d, 70.5, 70.5), 1.0f);  // |20|+|20| > 30
   EXPECT_EQ(val(d, 5.5, 5.5), 1.0f);
   const auto t = phantoms::two_circles(200);
-  EXPECT_EQ(val(t, 50.25, 50.25), 2.0f);   // small circle
-  EXPECT_EQ(val(t, 56.25, 50.25), 1.0f);   // just outside r = 5
-  EXPECT_EQ(val(t, 28.25, 70.25), 2.0f);   // big circle
+  EXPECT_EQ(val(t, 50.25, 50.25), 2.0f);  // small circle
+  EXPECT_EQ(val(t, 56.25, 50.25), 1.0f);  // just outside r = 5
+  EXPECT_EQ(val(t, 28.25, 70.25), 2.0f);  // big circle
   EXPECT_EQ(val(t, 28.25, 89.25), 2.0f);
   EXPECT_EQ(val(t, 28.25, 91.25), 1.0f);
   // Two features of different sizes: pixel areas ≈ π·20² and π·5² (mm², 0.5 mm pixels).
@@ -136,7 +135,8 @@ TEST(Phantoms2D, DiamondAndCircles) {
 
 TEST(MakePhantomExe, WritesReadableImagesAndRejectsBadKinds) {
   vim::test::TempDir dir("mkph");
-  const auto ok = vim::test::run_command(VIM_PHANTOM_EXE, "table1 " + vim::test::quote(dir / "t.mha") + " --size 20");
+  const auto ok =
+      vim::test::run_command(VIM_PHANTOM_EXE, "table1 " + vim::test::quote(dir / "t.mha") + " --size 20");
   ASSERT_EQ(ok.code, 0) << ok.err;
   const auto im = read_image<3>(dir / "t.mha");
   EXPECT_EQ(im.image.size[0], 20);

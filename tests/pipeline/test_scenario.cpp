@@ -7,7 +7,7 @@
 #include <cmath>
 #include <string>
 #include <utility>
-#include <vim/pipeline/scenario.hpp>
+#include <vim/pipeline/scenario/scenario.hpp>
 
 using namespace vim;
 using namespace vim::pipeline;

@@ -17,7 +17,7 @@
 #include <map>
 #include <sstream>
 #include <vim/initial_mesh.hpp>
-#include <vim/pipeline/simulation.hpp>
+#include <vim/pipeline/simulation/simulation.hpp>
 
 #include "simulation_test_util.hpp"
 

@@ -11,7 +11,7 @@
 #include <vector>
 #include <vim/fem/needle_band.hpp>
 #include <vim/initial_mesh.hpp>
-#include <vim/pipeline/simulation.hpp>
+#include <vim/pipeline/simulation/simulation.hpp>
 #include <vim/voxel_statistics.hpp>
 
 #include "simulation_test_util.hpp"

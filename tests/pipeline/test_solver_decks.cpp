@@ -20,8 +20,8 @@
 #include <map>
 #include <set>
 #include <sstream>
-#include <vim/pipeline/exports.hpp>
-#include <vim/pipeline/simulation.hpp>
+#include <vim/pipeline/output/exports.hpp>
+#include <vim/pipeline/simulation/simulation.hpp>
 
 #include "oblique_grid.hpp"
 #include "run_cli.hpp"

@@ -21,7 +21,7 @@
 #include <sstream>
 #include <string>
 #include <vector>
-#include <vim/pipeline/image_io.hpp>
+#include <vim/pipeline/image/image_io.hpp>
 
 #include "run_cli.hpp"
 

@@ -8,7 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <nlohmann/json.hpp>
-#include <vim/pipeline/study.hpp>
+#include <vim/pipeline/study/study.hpp>
 
 #include "run_cli.hpp"
 #include "study_inputs.hpp"

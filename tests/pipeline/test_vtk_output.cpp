@@ -1,13 +1,8 @@
-// VTK output (pipeline/include/vim/pipeline/vtk_output.hpp): a mesh written in world coordinates
+// VTK output (pipeline/include/vim/pipeline/output/vtk_output.hpp): a mesh written in world coordinates
 // is read back with VTK's own reader — points, connectivity, cell types, point/cell fields — and
 // the .pvd collection is well-formed XML listing the given steps.
-#include <vim/pipeline/png.hpp>
-#include <vim/pipeline/vtk_output.hpp>
-
-#include "run_cli.hpp"
-
 #include <gtest/gtest.h>
-
+#include <sys/resource.h>
 #include <vtkCellData.h>
 #include <vtkDataArray.h>
 #include <vtkIdList.h>
@@ -19,7 +14,10 @@
 #include <cmath>
 #include <csignal>
 #include <random>
-#include <sys/resource.h>
+#include <vim/pipeline/output/png.hpp>
+#include <vim/pipeline/output/vtk_output.hpp>
+
+#include "run_cli.hpp"
 
 using namespace vim;
 using namespace vim::pipeline;
@@ -27,8 +25,8 @@ using namespace vim::pipeline;
 TEST(VtkOutput, TetMeshRoundTripInWorldCoordinates) {
   vim::test::TempDir dir("vtu");
   SimplexMesh<3> m;
-  m.points = {Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(2, 2, 3), Eigen::Vector3d(1, 3, 3), Eigen::Vector3d(1, 2, 4),
-              Eigen::Vector3d(2, 3, 4)};
+  m.points = {Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(2, 2, 3), Eigen::Vector3d(1, 3, 3),
+              Eigen::Vector3d(1, 2, 4), Eigen::Vector3d(2, 3, 4)};
   m.cells = {{{0, 1, 2, 3}}, {{1, 2, 3, 4}}};
   WorldTransform<3> t;
   t.origin = Eigen::Vector3d(1, 2, 3);
@@ -121,8 +119,10 @@ TEST(VtkOutput, FailedWritesAreErrorsAndLeaveNoFile) {
   Canvas canvas(300, 200);
   for (int y = 0; y < 200; ++y)
     for (int x = 0; x < 300; ++x)
-      canvas.fill_polygon({{double(x), double(y)}, {x + 1.0, double(y)}, {x + 1.0, y + 1.0}, {double(x), y + 1.0}},
-                          {static_cast<std::uint8_t>(rng()), static_cast<std::uint8_t>(rng()), static_cast<std::uint8_t>(rng())});
+      canvas.fill_polygon(
+          {{double(x), double(y)}, {x + 1.0, double(y)}, {x + 1.0, y + 1.0}, {double(x), y + 1.0}},
+          {static_cast<std::uint8_t>(rng()), static_cast<std::uint8_t>(rng()),
+           static_cast<std::uint8_t>(rng())});
 
   struct Limit {  // RLIMIT_FSIZE for this scope; SIGXFSZ ignored so that write() fails with EFBIG
     rlimit old{};
@@ -143,8 +143,10 @@ TEST(VtkOutput, FailedWritesAreErrorsAndLeaveNoFile) {
     Limit limit(4096);
     for (const char* name : {"mesh.vtu", "slice.png"}) {
       try {
-        if (std::string(name) == "mesh.vtu") write_vtu(dir.path / name, g);
-        else canvas.write_png(dir.path / name);
+        if (std::string(name) == "mesh.vtu")
+          write_vtu(dir.path / name, g);
+        else
+          canvas.write_png(dir.path / name);
         ADD_FAILURE() << name << ": the write past the limit did not throw";
       } catch (const std::runtime_error& e) {
         EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();

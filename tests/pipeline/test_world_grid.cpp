@@ -2,7 +2,7 @@
 // (vtk_output.hpp): the voxel grid against the FEM voxel model's own vertices (deal.II's numbering, which
 // fem checks against subdivided_hyper_rectangle) and against the voxel box computed by hand; the grid of
 // a world mesh against the grid of the frame mesh with the transform applied, on a mirroring image;
-// MeshingRun called stage by stage: the world grid is the mesh transformed, and the files appear only
+// PipelineRun called stage by stage: the world grid is the mesh transformed, and the files appear only
 // at the writing stages.
 #include <gtest/gtest.h>
 
@@ -10,10 +10,10 @@
 #include <cmath>
 #include <vim/fem/elasticity.hpp>
 #include <vim/initial_mesh.hpp>
-#include <vim/pipeline/exports.hpp>
-#include <vim/pipeline/meshing_run.hpp>
-#include <vim/pipeline/phantoms.hpp>
-#include <vim/pipeline/vtk_output.hpp>
+#include <vim/pipeline/image/phantoms.hpp>
+#include <vim/pipeline/output/exports.hpp>
+#include <vim/pipeline/output/vtk_output.hpp>
+#include <vim/pipeline/run/pipeline_run.hpp>
 
 #include "run_cli.hpp"
 
@@ -89,7 +89,7 @@ TEST(WorldGrid, GridOfTheWorldMeshIsTheFrameMeshTransformed) {
   }
 }
 
-TEST(MeshingRun, StagesOneByOne) {
+TEST(PipelineRun, StagesOneByOne) {
   vim::test::TempDir dir("meshing_run");
   const Verbosity verbosity = Log::verbosity();
   Log::set_verbosity(Verbosity::quiet);
@@ -105,7 +105,7 @@ TEST(MeshingRun, StagesOneByOne) {
   o.max_iterations = 3;
   o.exports = {"msh"};
   o.verbosity = Verbosity::quiet;
-  MeshingRun<2> run(o, ImageFile(file));
+  PipelineRun<2> run(o, ImageFile(file));
   run.read_inputs();
   run.make_mesh();
   const auto& mesh = run.model().mesh;

@@ -6,7 +6,7 @@
 #include <Eigen/Geometry>
 #include <array>
 #include <vim/initial_mesh.hpp>
-#include <vim/pipeline/model.hpp>
+#include <vim/pipeline/common/model.hpp>
 
 namespace vim::test {
 

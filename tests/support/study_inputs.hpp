@@ -8,8 +8,8 @@
 #include <sstream>
 #include <string>
 #include <vector>
-#include <vim/pipeline/image_io.hpp>
-#include <vim/pipeline/phantoms.hpp>
+#include <vim/pipeline/image/image_io.hpp>
+#include <vim/pipeline/image/phantoms.hpp>
 
 #include "run_cli.hpp"
 

@@ -20,8 +20,8 @@
 #include <string>
 #include <vector>
 #include <vim/initial_mesh.hpp>
-#include <vim/pipeline/scenario.hpp>
-#include <vim/pipeline/simulation.hpp>
+#include <vim/pipeline/scenario/scenario.hpp>
+#include <vim/pipeline/simulation/simulation.hpp>
 #include <vim/vim.hpp>
 #include <vim/voxel_statistics.hpp>
 
@@ -74,7 +74,8 @@ std::string needle_text(const Image<dim>& img) {  // a short needle from the box
     entry += (a ? ", " : "") + std::to_string(c[a]);
     dir += a == dim - 1 ? "1" : "0, ";
   }
-  return "needle: {entry: " + entry + "], direction: " + dir + "], depth: 0.5, steps: 1, diameter: 0.2, friction: {model: stick}}\n";
+  return "needle: {entry: " + entry + "], direction: " + dir +
+         "], depth: 0.5, steps: 1, diameter: 0.2, friction: {model: stick}}\n";
 }
 
 struct EnergyErrors {

@@ -16,20 +16,19 @@
 // is an elastic support over its cylinder (the same on every mesh and on the reference; clamping the
 // nodes that fall in the cylinder gave the grid and VIM different supports) and the needle cuts at one
 // diameter behind the tip (no shaft point picked up at the tip sticks short of the friction limit).
-#include <vim/fem/elasticity.hpp>
-#include <vim/initial_mesh.hpp>
-#include <vim/sizing.hpp>
-#include <vim/pipeline/phantoms.hpp>
-#include <vim/pipeline/scenario.hpp>
-#include <vim/pipeline/simulation.hpp>
-#include <vim/vim.hpp>
-#include <vim/voxel_statistics.hpp>
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
 #include <vector>
+#include <vim/fem/elasticity.hpp>
+#include <vim/initial_mesh.hpp>
+#include <vim/pipeline/image/phantoms.hpp>
+#include <vim/pipeline/scenario/scenario.hpp>
+#include <vim/pipeline/simulation/simulation.hpp>
+#include <vim/sizing.hpp>
+#include <vim/vim.hpp>
+#include <vim/voxel_statistics.hpp>
 
 namespace {
 
@@ -50,26 +49,30 @@ void add_compression(vim::fem::ElasticModel<3>& model, const V3& lo, const V3& h
 
 double relative_l2(const std::vector<V3>& u, const std::vector<V3>& ref) {
   double num = 0, den = 0;
-  for (std::size_t k = 0; k < ref.size(); ++k) num += (u[k] - ref[k]).squaredNorm(), den += ref[k].squaredNorm();
+  for (std::size_t k = 0; k < ref.size(); ++k)
+    num += (u[k] - ref[k]).squaredNorm(), den += ref[k].squaredNorm();
   return std::sqrt(num / den);
 }
 
 struct Prostate {
-  Scenario sc = vim::pipeline::read_scenario(std::string(VIM_SOURCE_DIR) + "/examples/prostate_needle.yaml", 3);
+  Scenario sc =
+      vim::pipeline::read_scenario(std::string(VIM_SOURCE_DIR) + "/examples/prostate_needle.yaml", 3);
   vim::pipeline::OrientedImage<3> img = vim::pipeline::phantoms::prostate(30);
   V3 lo = img.image.box_min(), hi = img.image.box_max();
   std::vector<V3> points, ref;
   Prostate() {
-    for (std::size_t k = 0; k < img.image.voxel_count(); ++k) points.push_back(img.image.point_of(img.image.index_of(k)));
+    for (std::size_t k = 0; k < img.image.voxel_count(); ++k)
+      points.push_back(img.image.point_of(img.image.index_of(k)));
     std::vector<double> e(img.image.data.begin(), img.image.data.end());
-    auto model = vim::fem::ElasticModel<3>::voxel_grid(img.image.size, lo, hi, vim::pipeline::scenario_modulus(sc, e),
-                                                       sc.poisson_ratio);
+    auto model = vim::fem::ElasticModel<3>::voxel_grid(
+        img.image.size, lo, hi, vim::pipeline::scenario_modulus(sc, e), sc.poisson_ratio);
     add_compression(model, lo, hi);
     model.solve();
     ref = model.sample(points);
   }
   double error(const vim::SimplexMesh<3>& mesh, const std::vector<double>& mean, unsigned degree) const {
-    vim::fem::ElasticModel<3> model(mesh, vim::pipeline::scenario_modulus(sc, mean), sc.poisson_ratio, degree);
+    vim::fem::ElasticModel<3> model(mesh, vim::pipeline::scenario_modulus(sc, mean), sc.poisson_ratio,
+                                    degree);
     add_compression(model, lo, hi);
     model.solve();
     return relative_l2(model.sample(points), ref);
@@ -86,7 +89,8 @@ Row row(const Prostate& s, long budget) {
   const auto grid = vim::regular_grid_mesh<3>(s.lo, s.hi, axis);
   const vim::VoxelStatistics<3> stats(s.img.image);
   std::vector<double> grid_mean;
-  for (std::size_t c = 0; c < grid.n_cells(); ++c) grid_mean.push_back(stats.value(vim::cell_points(grid, c)).mean);
+  for (std::size_t c = 0; c < grid.n_cells(); ++c)
+    grid_mean.push_back(stats.value(vim::cell_points(grid, c)).mean);
   const vim::VimOptions vo = vim::pipeline::scenario_vim_options(s.sc);  // as the CLI applies them
   const auto r = vim::optimize<3>(s.img.image, grid, vo);
   std::vector<double> vim_mean;
@@ -95,8 +99,8 @@ Row row(const Prostate& s, long budget) {
   for (unsigned p : {1u, 2u}) {
     out.grid[p] = s.error(grid, grid_mean, p);
     out.vim[p] = s.error(r.mesh, vim_mean, p);
-    std::printf("nodes %zu, P%u: relL2 grid %.4f, VIM %.4f, ratio %.3f\n", out.nodes, p, out.grid[p], out.vim[p],
-                out.vim[p] / out.grid[p]);
+    std::printf("nodes %zu, P%u: relL2 grid %.4f, VIM %.4f, ratio %.3f\n", out.nodes, p, out.grid[p],
+                out.vim[p], out.vim[p] / out.grid[p]);
   }
   return out;
 }
@@ -120,7 +124,8 @@ TEST(ProstateCompression, VimBeatsGridAt252And891NodesAndConverges) {
 
 TEST(ProstateNeedle, VimBelowGridAt252And891NodesP2WithTheScenariosNeedleRefinement) {
   Prostate s;
-  ASSERT_TRUE(s.sc.needle_refinement.has_value()) << "examples/prostate_needle.yaml lost mesh.needle_refinement";
+  ASSERT_TRUE(s.sc.needle_refinement.has_value())
+      << "examples/prostate_needle.yaml lost mesh.needle_refinement";
   // One coupling radius for the reference and both meshes (the default follows each mesh's element size
   // near the path): the comparison then measures the meshes, not their needle bands.
   for (auto& nd : s.sc.needles) nd.steps = 2, nd.coupling_radius = 3.0;
@@ -152,7 +157,8 @@ TEST(ProstateNeedle, VimBelowGridAt252And891NodesP2WithTheScenariosNeedleRefinem
     grid.transform = vim.transform = tf;
     grid.mesh = vim::regular_grid_mesh<3>(s.lo, s.hi, axis);
     ASSERT_EQ(grid.mesh.n_points(), c.nodes);
-    for (std::size_t k = 0; k < grid.mesh.n_cells(); ++k) grid.values.push_back(stats.value(vim::cell_points(grid.mesh, k)));
+    for (std::size_t k = 0; k < grid.mesh.n_cells(); ++k)
+      grid.values.push_back(stats.value(vim::cell_points(grid.mesh, k)));
     const vim::VimOptions vo = vim::pipeline::scenario_vim_options(s.sc);  // as the CLI applies them
     auto r = vim::optimize_sized<3>(s.img.image, *density, grid.mesh, vo);
     ASSERT_EQ(r.mesh.n_points(), c.nodes);
@@ -165,7 +171,8 @@ TEST(ProstateNeedle, VimBelowGridAt252And891NodesP2WithTheScenariosNeedleRefinem
         vim::pipeline::NeedleSimulation<3> sim(*m, s.sc, opt);
         const auto run = sim.run();
         // Every shaft point slides at its friction limit at the end, as in the reference: the same load.
-        EXPECT_NEAR(run.needles[0].axial_force.back(), limit, 1e-6 * limit) << "P" << p << (k ? " VIM" : " grid");
+        EXPECT_NEAR(run.needles[0].axial_force.back(), limit, 1e-6 * limit)
+            << "P" << p << (k ? " VIM" : " grid");
         c.err[p][k++] = relative_l2(sim.model().sample(s.points), ref);
       }
       std::printf("needle, %zu nodes, P%u: relL2 grid %.4f, VIM %.4f, ratio %.3f\n", c.nodes, p, c.err[p][0],

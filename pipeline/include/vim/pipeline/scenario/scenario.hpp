@@ -1,0 +1,176 @@
+// Needle-insertion scenario (docs/architecture.md): the YAML file given to `--simulate`, parsed
+// and validated in one place. Every error is a ScenarioError whose message names the file, the
+// YAML line, the key and the value, and says what is valid.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+#include <vim/image.hpp>
+#include <vim/pipeline/common/model.hpp>
+#include <vim/pipeline/image/image_io.hpp>
+#include <vim/pipeline/simulation/needle.hpp>
+
+namespace vim::pipeline {
+
+struct ScenarioError : InputError {
+  using InputError::InputError;
+};
+
+// A region in WORLD coordinates (ITK physical points), except box faces, which name a face of the
+// image box: x_min/x_max are the faces normal to the image's first index axis (i), y_* to j, z_* to k
+// (for an identity direction matrix these are the world x/y/z faces).
+struct RegionSpec {
+  enum class Kind { box_face, box, sphere, cylinder } kind = Kind::box_face;
+  int axis = 0;                                     // box_face: 0..dim-1
+  bool upper = false;                               // box_face: *_max
+  std::string face;                                 // box_face name as written
+  std::vector<double> center, axis_vector, lo, hi;  // dim values each (world)
+  double radius = 0.0;
+  std::string describe() const;
+};
+
+struct BoundaryConditionSpec {
+  enum class Type { fixed, displacement, pressure, traction } type = Type::fixed;
+  RegionSpec region;
+  std::vector<double> value;     // displacement / traction: dim values (world axes); pressure: 1 value
+  std::vector<bool> components;  // fixed/displacement: which world components (default all)
+  int line = 0;                  // YAML line (1-based) of the list entry
+  // How a `fixed` condition on a volume region (box, sphere, cylinder) holds the tissue:
+  //  * nodes: the mesh nodes (support points) inside the region are clamped. On a coarse mesh the
+  //    support then depends on where the nodes happen to fall (a region may hold no node at all).
+  //  * elastic: an elastic foundation of stiffness k (modulus per length²) on a lattice of sample
+  //    points filling the region (pitch `spacing`, anchored at the region, weights spacing^dim): the
+  //    energy ½ ∫_R k |u|² dx, the same for every mesh and for the voxel reference
+  //    (fem::VolumeSupport). Box faces are always clamped node by node (every mesh has nodes on them).
+  enum class Support { nodes, elastic } support = Support::nodes;
+  double support_stiffness = 0.0;  // elastic: k
+  double support_spacing = 0.0;    // elastic: lattice pitch; 0 = automatic (region size / 6)
+  bool is_dirichlet() const { return type == Type::fixed || type == Type::displacement; }
+};
+
+struct NeedleSpec {
+  std::string name = "needle";
+  std::vector<double> entry, direction;  // world; direction normalised by the parser
+  double depth = 0.0;                    // travel after entry
+  int steps = 0;
+  double diameter = 0.0;
+  enum class Model { kinematic, force } model = Model::kinematic;
+  // The parser's default is stick-slip, whose limit has no default (the key is then required); stick is
+  // the no-slip limit.
+  enum class Friction { stick, stick_slip } friction = Friction::stick;
+  double max_shear_per_length = 0.0;  // stick-slip limit (force per unit length of shaft, e.g. mN/mm)
+  double sample_spacing = 0.0;        // distance between embedded shaft points; 0 = automatic
+  // Kinematic model: the tip cuts a material point (it joins the shaft) once the tip has passed the
+  // point's current position by this distance; until then it is tissue ahead of the tip (not held by
+  // the needle). 0 = as soon as the tip reaches it. A length of the needle (e.g. its bevel), the same
+  // for every mesh.
+  double cutting_distance = 0.0;
+  // Kinematic model: the tissue at the tip is pushed until its force reaches this cutting force, then
+  // it is cut and joins the shaft (force units: mN in 3D, mN/mm in 2D); 0 = the tip cuts without
+  // resistance.
+  double cutting_force = 0.0;
+  // 3D: radius of the cylinder whose band means the shaft stations hold (docs/needle-model.md);
+  // 0 = automatic (from the diameter and the element size near the path).
+  double coupling_radius = 0.0;
+  double tip_force = 0.0;  // force model: cutting force at the tip (modulus × length²: kPa·mm² = mN in
+                           // 3D; per unit thickness, mN/mm, in 2D)
+  double friction_per_length = 0.0;  // force model: friction force per unit shaft length
+  int line = 0;
+};
+
+struct TargetSpec {
+  std::string name;
+  std::vector<double> position;  // world
+  int line = 0;
+};
+
+struct Scenario {
+  std::string source;  // file name (for messages)
+  std::string text;    // the YAML as read (echoed into report.json)
+  int dim = 3;
+
+  std::string length_unit = "mm", modulus_unit = "kPa";  // labels only
+
+  // material
+  bool modulus_from_image = true;
+  double youngs_modulus = 0.0;  // when not from the image
+  double scale = 1.0;
+  std::optional<std::pair<double, double>> clamp;
+  double poisson_ratio = 0.49;
+
+  // mesh (the CLI options override these)
+  std::optional<long> nodes;
+  std::optional<double> lambda;
+  std::optional<unsigned> degree;
+  std::optional<double> min_dihedral;  // mesh.min_dihedral: VIM quality floor in degrees (--min-dihedral)
+  // mesh.needle_refinement: VIM keeps elements near the needle paths about size_ratio times the size
+  // of the others (a density-weighted E_G, paper §VI-E; pipeline::needle_density).
+  struct NeedleRefinement {
+    double size_ratio = 1.0;  // (0, 1]
+    double radius = 0.0;      // length units: the refined tube's 1/e radius around each path
+  };
+  std::optional<NeedleRefinement> needle_refinement;
+
+  std::vector<BoundaryConditionSpec> boundary_conditions;
+  std::vector<NeedleSpec> needles;  // empty: a static load case (the boundary conditions alone, step 0)
+  bool needle_list = false;         // `needles:` given: one sub-folder per needle + summary.csv
+
+  std::vector<TargetSpec> targets;
+
+  int output_every = 1;
+  std::vector<std::string> output_fields = {"displacement", "strain", "stress", "von_mises",
+                                            "youngs_modulus"};
+  bool wants(const std::string& field) const;
+
+  std::string solver_type = "auto";  // auto | direct | amg | multigrid (voxel model, matrix-free)
+  double solver_tolerance = 1e-10;
+
+  // "file.yaml:LINE: " prefix for messages (line <= 0: just "file.yaml: ").
+  std::string where(int line) const;
+};
+
+// Parses and validates a scenario for a `dim`-dimensional image (vectors must have dim values).
+// Throws ScenarioError for syntax errors, missing/unknown keys, wrong types and ranges.
+Scenario parse_scenario_text(const std::string& yaml_text, int dim,
+                             const std::string& source_name = "scenario");
+Scenario read_scenario(const std::string& path, int dim);
+
+// Checks the scenario against the image geometry (world = transform.to_world(frame)): needle entry
+// inside the image box (on its surface is fine, as for a transperineal entry at the skin), the whole
+// path inside the box, targets inside the box. box_min/box_max are the image box in the frame.
+template <int dim>
+void check_scenario_geometry(const Scenario& scenario, const Eigen::Matrix<double, dim, 1>& box_min,
+                             const Eigen::Matrix<double, dim, 1>& box_max,
+                             const WorldTransform<dim>& transform);
+
+// A needle's straight path (entry → entry + depth·direction) in frame coordinates; needle_paths: every
+// needle's.
+template <int dim>
+NeedlePath<dim> needle_path(const NeedleSpec& needle, const WorldTransform<dim>& transform);
+template <int dim>
+std::vector<NeedlePath<dim>> needle_paths(const Scenario& scenario, const WorldTransform<dim>& transform);
+
+// The mesh density of mesh.needle_refinement on the grid of `image` (needle_density over
+// needle_paths), or nothing when the scenario has no needle refinement.
+template <int dim>
+std::optional<Image<dim>> needle_refinement_density(const Scenario& scenario, const Image<dim>& image,
+                                                    const WorldTransform<dim>& transform);
+
+// A modulus image with negative, zero or NaN values (after `scale`) needs `material.clamp`.
+template <int dim>
+void check_modulus_image(const Scenario& scenario, const Image<dim>& image);
+
+// The scenario's mesher options (mesh.lambda, mesh.min_dihedral) over `base`: the VimOptions the CLI
+// runs when no command-line option overrides them (cli.cpp's with_scenario_mesh does the same on its
+// RunOptions, with the command line first).
+VimOptions scenario_vim_options(const Scenario& scenario, VimOptions base = {});
+
+// Per-cell Young's modulus for the scenario's material (Eq. 15 for `image`: scale·mean, clamped;
+// a constant for a number). Throws ScenarioError naming the element when the result is invalid.
+std::vector<double> scenario_modulus(const Scenario& scenario, const std::vector<double>& element_mean);
+
+}  // namespace vim::pipeline

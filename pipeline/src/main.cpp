@@ -1,4 +1,0 @@
-// vim-pipeline: the command-line tool (options and run order in cli.hpp / cli.cpp).
-#include <vim/pipeline/cli.hpp>
-
-int main(int argc, char** argv) { return vim::pipeline::main_cli(argc, argv); }

@@ -1,0 +1,176 @@
+// FEBio input (mesh.feb), febio_spec 4.0 (FEBio 4 user manual, chapter 3): Control (one static step),
+// Material (FEBio's "isotropic elastic", St Venant–Kirchhoff, whose small-strain limit is the linear
+// elasticity of the simulation; E is the per-element map E_map, each element's exact modulus), Mesh
+// (tet4, or tet10 for degree 2, nodes in world coordinates; node sets and surfaces of the image box
+// faces and of every scenario region), MeshDomains, MeshData, and with a scenario Boundary (zero and
+// prescribed displacement per world component), Loads (pressure and traction surface loads) and the
+// load controller they ramp with. `febio4 -i mesh.feb`.
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <map>
+#include <vim/pipeline/common/atomic_file.hpp>
+#include <vim/pipeline/output/exports.hpp>
+
+namespace vim::pipeline {
+
+namespace {
+
+const char* const dof_names[] = {"x", "y", "z"};
+
+// Held (node, component) pairs grouped by (component, value): one node set held_<k> and one bc each.
+std::map<std::pair<int, double>, std::vector<long>> held_groups(const SolverDeck<3>& deck) {
+  std::map<std::pair<int, double>, std::vector<long>> groups;
+  for (const auto& h : deck.held) groups[{h.component, h.value}].push_back(h.node);
+  return groups;
+}
+
+void write_list(std::ostream& out, const std::vector<long>& ids) {
+  for (std::size_t i = 0; i < ids.size(); ++i) out << (i ? "," : "") << ids[i] + 1;
+}
+
+// Surface facets with corners ordered so that the normal points out of the element (FEBio's pressure
+// acts against it), mid-edge nodes after the corners.
+void write_surface(std::ostream& out, const SolverDeck<3>& deck, const SolverDeck<3>::Set& s) {
+  out << "    <Surface name=\"S_" << s.name << "\">\n";
+  long id = 0;
+  for (const auto& f : s.faces) {
+    std::vector<long> n = deck.face_nodes(f);
+    const auto& cell = deck.cells[f.cell];
+    long opposite = cell[0];
+    for (int k = 0; k < 4; ++k)
+      if (std::find(n.begin(), n.begin() + 3, cell[k]) == n.begin() + 3) opposite = cell[k];
+    const Eigen::Vector3d normal =
+        (deck.nodes[n[1]] - deck.nodes[n[0]]).cross(deck.nodes[n[2]] - deck.nodes[n[0]]);
+    if (normal.dot(deck.nodes[opposite] - deck.nodes[n[0]]) > 0.0) {  // inward: reverse the facet
+      std::swap(n[1], n[2]);
+      if (n.size() == 6) std::swap(n[3], n[5]);  // edges (0,2), (2,1), (1,0) after the swap
+    }
+    out << "      <" << (deck.degree == 2 ? "tri6" : "tri3") << " id=\"" << ++id << "\">";
+    write_list(out, n);
+    out << "</" << (deck.degree == 2 ? "tri6" : "tri3") << ">\n";
+  }
+  out << "    </Surface>\n";
+}
+
+void write_boundary_and_loads(std::ostream& out, const SolverDeck<3>& deck) {
+  const auto groups = held_groups(deck);
+  out << "  <Boundary>\n";
+  int k = 0;
+  for (const auto& [key, nodes] : groups) {
+    const auto [c, value] = key;
+    const std::string set = "held_" + std::to_string(++k);
+    if (value == 0.0) {
+      out << "    <bc name=\"" << set << "\" node_set=\"" << set << "\" type=\"zero displacement\">\n";
+      for (int a = 0; a < 3; ++a)
+        out << "      <" << dof_names[a] << "_dof>" << (a == c ? 1 : 0) << "</" << dof_names[a] << "_dof>\n";
+    } else {
+      out << "    <bc name=\"" << set << "\" node_set=\"" << set << "\" type=\"prescribed displacement\">\n"
+          << "      <dof>" << dof_names[c] << "</dof>\n"
+          << "      <value lc=\"1\">" << value << "</value>\n"
+          << "      <relative>0</relative>\n";
+    }
+    out << "    </bc>\n";
+  }
+  out << "  </Boundary>\n  <Loads>\n";
+  for (const auto& load : deck.surface_loads) {
+    const auto& s = deck.regions[load.region];
+    if (s.faces.empty()) continue;
+    if (load.is_pressure) {
+      out << "    <surface_load name=\"" << s.name << "\" surface=\"S_" << s.name << "\" type=\"pressure\">\n"
+          << "      <pressure lc=\"1\">" << load.pressure << "</pressure>\n"
+          << "      <linear>1</linear>\n"
+          << "      <symmetric_stiffness>1</symmetric_stiffness>\n";
+    } else {
+      out << "    <surface_load name=\"" << s.name << "\" surface=\"S_" << s.name << "\" type=\"traction\">\n"
+          << "      <scale lc=\"1\">1</scale>\n"
+          << "      <traction>" << load.traction[0] << ',' << load.traction[1] << ',' << load.traction[2]
+          << "</traction>\n";
+    }
+    out << "    </surface_load>\n";
+  }
+  out << "  </Loads>\n"
+      << "  <LoadData>\n"
+      << "    <load_controller id=\"1\" name=\"LC1\" type=\"loadcurve\">\n"
+      << "      <interpolate>LINEAR</interpolate>\n"
+      << "      <points>\n        <pt>0,0</pt>\n        <pt>1,1</pt>\n      </points>\n"
+      << "    </load_controller>\n"
+      << "  </LoadData>\n";
+}
+
+void write_mesh(std::ostream& out, const SolverDeck<3>& deck) {
+  out << "  <Mesh>\n    <Nodes name=\"nodes\">\n";
+  for (std::size_t i = 0; i < deck.nodes.size(); ++i) {
+    const auto& p = deck.nodes[i];
+    out << "      <node id=\"" << i + 1 << "\">" << p[0] << ',' << p[1] << ',' << p[2] << "</node>\n";
+  }
+  const char* type = deck.degree == 2 ? "tet10" : "tet4";
+  out << "    </Nodes>\n    <Elements type=\"" << type << "\" name=\"Part1\">\n";
+  for (std::size_t c = 0; c < deck.cells.size(); ++c) {
+    out << "      <elem id=\"" << c + 1 << "\">";
+    write_list(out, deck.cells[c]);
+    out << "</elem>\n";
+  }
+  out << "    </Elements>\n";
+  auto sets = [&](const SolverDeck<3>::Set& s) {
+    if (!s.nodes.empty()) {
+      out << "    <NodeSet name=\"N_" << s.name << "\">";
+      write_list(out, s.nodes);
+      out << "</NodeSet>\n";
+    }
+    if (!s.faces.empty()) write_surface(out, deck, s);
+  };
+  for (const auto& s : deck.box_faces) sets(s);
+  for (const auto& s : deck.regions) sets(s);
+  int k = 0;
+  for (const auto& [key, nodes] : held_groups(deck)) {
+    out << "    <NodeSet name=\"held_" << ++k << "\">";
+    write_list(out, nodes);
+    out << "</NodeSet>\n";
+  }
+  out << "  </Mesh>\n";
+}
+
+}  // namespace
+
+void write_feb(const std::filesystem::path& path, const SolverDeck<3>& deck) {
+  write_text_atomically(path, [&](std::ostream& out) {
+    out << "<?xml version=\"1.0\" encoding=\"ISO-8859-1\"?>\n"
+        << "<!-- vim-pipeline model, world coordinates; E per element in MeshData/E_map (exact) -->\n"
+        << "<!-- Material: FEBio's isotropic elastic is St Venant-Kirchhoff, which equals the simulation's\n"
+        << "     small-strain linear elasticity at small strain (the first-order terms agree). -->\n";
+    if (!deck.has_conditions)
+      out << "<!-- Mesh and materials only: no conditions (run vim-pipeline with --simulate for a complete "
+             "model) -->\n";
+    for (const auto& what : deck.not_expressed) out << "<!-- Not in this model: " << what << " -->\n";
+    out << "<febio_spec version=\"4.0\">\n"
+        << "  <Module type=\"solid\"/>\n"
+        << "  <Control>\n"
+        << "    <analysis>STATIC</analysis>\n"
+        << "    <time_steps>1</time_steps>\n"
+        << "    <step_size>1</step_size>\n"
+        << "  </Control>\n"
+        << "  <Material>\n"
+        << "    <material id=\"1\" name=\"tissue\" type=\"isotropic elastic\">\n"
+        << "      <density>1</density>\n"
+        << "      <E type=\"map\">E_map</E>\n"
+        << "      <v>" << deck.poisson_ratio << "</v>\n"
+        << "    </material>\n"
+        << "  </Material>\n";
+    write_mesh(out, deck);
+    out << "  <MeshDomains>\n"
+        << "    <SolidDomain name=\"Part1\" mat=\"tissue\"/>\n"
+        << "  </MeshDomains>\n"
+        << "  <MeshData>\n"
+        << "    <ElementData type=\"scalar\" name=\"E_map\" elem_set=\"Part1\">\n";
+    for (std::size_t c = 0; c < deck.cells.size(); ++c)
+      out << "      <e lid=\"" << c + 1 << "\">" << deck.modulus[c] << "</e>\n";
+    out << "    </ElementData>\n"
+        << "  </MeshData>\n";
+    if (deck.has_conditions) write_boundary_and_loads(out, deck);
+    out << "  <Output>\n    <plotfile type=\"febio\">\n      <var type=\"displacement\"/>\n    </plotfile>\n "
+           " </Output>\n"
+        << "</febio_spec>\n";
+  });
+}
+
+}  // namespace vim::pipeline

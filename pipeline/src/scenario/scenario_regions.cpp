@@ -1,0 +1,40 @@
+// Scenario regions as frame predicates (scenario_regions.hpp).
+#include <vim/pipeline/scenario/scenario_regions.hpp>
+
+namespace vim::pipeline {
+
+namespace {
+template <int dim>
+Eigen::Matrix<double, dim, 1> vec(const std::vector<double>& x) {
+  Eigen::Matrix<double, dim, 1> v;
+  for (int a = 0; a < dim; ++a) v[a] = x[a];
+  return v;
+}
+}  // namespace
+
+template <int dim>
+fem::Region<dim> scenario_region(const RegionSpec& r, const Eigen::Matrix<double, dim, 1>& box_min,
+                                 const Eigen::Matrix<double, dim, 1>& box_max,
+                                 const WorldTransform<dim>& tf) {
+  using Vec = Eigen::Matrix<double, dim, 1>;
+  if (r.kind == RegionSpec::Kind::box_face) {
+    const double tol = 1e-6 * (box_max - box_min).norm();
+    return fem::box_face_region<dim>(box_min, box_max, r.axis, r.upper, tol);
+  }
+  std::function<bool(const Vec&)> world;
+  if (r.kind == RegionSpec::Kind::box) {
+    world = fem::box_region<dim>(vec<dim>(r.lo), vec<dim>(r.hi)).contains;
+  } else if (r.kind == RegionSpec::Kind::sphere) {
+    world = fem::sphere_region<dim>(vec<dim>(r.center), r.radius).contains;
+  } else {
+    world = fem::cylinder_region<dim>(vec<dim>(r.center), vec<dim>(r.axis_vector), r.radius).contains;
+  }
+  return {r.describe(), [world, tf](const Vec& x) { return world(tf.to_world(x)); }};
+}
+
+template fem::Region<2> scenario_region<2>(const RegionSpec&, const Eigen::Vector2d&, const Eigen::Vector2d&,
+                                           const WorldTransform<2>&);
+template fem::Region<3> scenario_region<3>(const RegionSpec&, const Eigen::Vector3d&, const Eigen::Vector3d&,
+                                           const WorldTransform<3>&);
+
+}  // namespace vim::pipeline

@@ -1,0 +1,516 @@
+// Needle-insertion simulation (simulation.hpp): the scenario's model in the image frame — per-cell
+// modulus (Eq. 15), boundary conditions with world regions mapped to the frame, elastic supports —
+// built once; then each needle of the scenario is inserted by NeedleInsertion (needle_insertion.hpp),
+// re-sampled where its shaft points turn out dependent, and checked for results not to take at face
+// value. The needle models are described in simulation.hpp.
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+#include <vim/fem/distributed.hpp>
+#include <vim/pipeline/output/vtk_output.hpp>
+#include <vim/pipeline/scenario/scenario_regions.hpp>
+#include <vim/pipeline/simulation/needle.hpp>
+#include <vim/pipeline/simulation/simulation.hpp>
+
+#include "simulation/largest_strain.hpp"
+#include "simulation/needle_insertion.hpp"
+#include "simulation/simulation_context.hpp"
+#include "simulation/simulation_output.hpp"
+#include "simulation/static_load.hpp"
+
+namespace vim::pipeline {
+
+using json = nlohmann::json;
+
+template <int dim>
+struct NeedleSimulation<dim>::Impl : SimulationContext<dim> {
+  using Base = SimulationContext<dim>;
+  using Base::blocked, Base::held_regions, Base::box_max, Base::box_min, Base::locator, Base::model,
+      Base::opt, Base::point_axes, Base::region, Base::sc, Base::solver, Base::tf;
+  void setup(const std::vector<Vec>& vertices);
+  fem::VolumeSupport<dim> volume_support(const BoundaryConditionSpec& bc, const std::string& where) const;
+  NeedleRun<dim> run_needle(const NeedleSpec& spec, const std::string& prefix, json& needle_report,
+                            bool snap_to_vertices = false) {
+    return NeedleInsertion<dim>(*this, spec, prefix, snap_to_vertices).run(needle_report);
+  }
+  std::vector<std::string> held_path_warnings(const NeedleSpec& spec) const;
+  NeedleRun<dim> insert_needle(const NeedleSpec& spec, const std::string& prefix, json& needle_report,
+                               std::vector<std::string>& warnings);
+  void check_axial_force(const NeedleSpec& spec, const NeedleRun<dim>& run, json& needle_report,
+                         std::vector<std::string>& warnings) const;
+};
+
+template <int dim>
+fem::Region<dim> SimulationContext<dim>::region(const RegionSpec& r) const {
+  return scenario_region<dim>(r, box_min, box_max, tf);
+}
+
+// Elastic support of a volume region: a lattice of pitch h anchored at the region (its centre; a box's
+// lower corner), points at anchor + (i + ½)·h along the world axes, kept when inside the region and
+// inside the model's box; weight h^dim each. The lattice depends only on the region, the pitch and the
+// box, so every mesh of the same image (and the voxel reference) gets the same points.
+template <int dim>
+fem::VolumeSupport<dim> NeedleSimulation<dim>::Impl::volume_support(const BoundaryConditionSpec& bc,
+                                                                    const std::string& where) const {
+  const RegionSpec& r = bc.region;
+  Vec anchor, lo, hi;
+  double size = 0.0;
+  // World bounding box of the model's box.
+  lo = hi = tf.to_world(box_min);
+  for (int corner = 0; corner < (1 << dim); ++corner) {
+    Vec x;
+    for (int d = 0; d < dim; ++d) x[d] = (corner >> d) & 1 ? box_max[d] : box_min[d];
+    const Vec w = tf.to_world(x);
+    lo = lo.cwiseMin(w), hi = hi.cwiseMax(w);
+  }
+  if (r.kind == RegionSpec::Kind::box) {
+    anchor = vec<dim>(r.lo);
+    lo = lo.cwiseMax(vec<dim>(r.lo)), hi = hi.cwiseMin(vec<dim>(r.hi));
+    size = (vec<dim>(r.hi) - vec<dim>(r.lo)).minCoeff();
+  } else {
+    anchor = vec<dim>(r.center);
+    size = r.radius;
+    if (r.kind == RegionSpec::Kind::sphere)
+      lo = lo.cwiseMax((anchor.array() - r.radius).matrix()),
+      hi = hi.cwiseMin((anchor.array() + r.radius).matrix());
+  }
+  const double h = bc.support_spacing > 0.0 ? bc.support_spacing : size / 6.0;
+  if (!(h > 0.0)) throw ScenarioError(where + ": the region has no extent for an elastic support");
+  std::array<long, dim> i0, i1;
+  double count = 1.0;
+  for (int d = 0; d < dim; ++d) {
+    i0[d] = static_cast<long>(std::floor((lo[d] - anchor[d]) / h - 0.5));
+    i1[d] = static_cast<long>(std::ceil((hi[d] - anchor[d]) / h - 0.5));
+    count *= std::max(0L, i1[d] - i0[d] + 1);
+  }
+  if (count > 5e7)
+    throw ScenarioError(where + ": the elastic support's spacing " + std::to_string(h) +
+                        " gives too many sample points; "
+                        "set a larger support.elastic.spacing");
+  const fem::Region<dim> reg = region(r);
+  fem::VolumeSupport<dim> sup;
+  sup.name = r.describe();
+  sup.stiffness = bc.support_stiffness;
+  const double weight = std::pow(h, dim);
+  const double tol = 1e-9 * (box_max - box_min).norm();
+  std::array<long, dim> i = i0;
+  while (true) {
+    Vec w;
+    for (int d = 0; d < dim; ++d) w[d] = anchor[d] + (static_cast<double>(i[d]) + 0.5) * h;
+    const Vec x = tf.to_frame(w);
+    bool in = reg.contains(x);
+    for (int d = 0; d < dim && in; ++d) in = x[d] >= box_min[d] - tol && x[d] <= box_max[d] + tol;
+    if (in) {
+      sup.points.push_back(x);
+      sup.weights.push_back(weight);
+    }
+    int d = 0;
+    while (d < dim && ++i[d] > i1[d]) i[d] = i0[d], ++d;
+    if (d == dim) break;
+  }
+  if (sup.points.empty())
+    throw ScenarioError(where + ": region " + r.describe() +
+                        " holds no sample point of the elastic support inside the image box");
+  return sup;
+}
+
+template <int dim>
+void NeedleSimulation<dim>::Impl::setup(const std::vector<Vec>& vertices) {
+  // Geometry checks against the model's box (the image box), then the boundary conditions.
+  if (!opt.scenario_checked) check_scenario_geometry<dim>(sc, box_min, box_max, tf);
+  solver.type = sc.solver_type == "direct" ? fem::SolverOptions::Type::direct
+                : sc.solver_type == "amg"  ? fem::SolverOptions::Type::amg
+                                           : fem::SolverOptions::Type::automatic;
+  solver.tolerance = sc.solver_tolerance;
+  // A 3D needle's precomputation needs one column K⁻¹cᵀ per coupling row (three per station, tens to
+  // hundreds): CHOLMOD's factorisation and one back-substitution per block of 32 rows beat one CG solve
+  // per row well beyond the single-solve limit (docs/performance.md, "Needle steps": 225k P2 DoFs
+  // factorised and 42 rows precomputed in 3.9 GB).
+  if (dim == 3 && !sc.needles.empty()) solver.direct_limit = kNeedleDirectLimit3D;
+  blocked.assign(vertices.size(), false);
+  for (std::size_t i = 0; i < sc.boundary_conditions.size(); ++i) {
+    const auto& bc = sc.boundary_conditions[i];
+    const std::string where = sc.where(bc.line) + "boundary_conditions[" + std::to_string(i) + "]";
+    if (bc.support == BoundaryConditionSpec::Support::elastic) {
+      model->add_volume_support(volume_support(bc, where));
+      held_regions.push_back(region(bc.region));
+      continue;
+    }
+    const fem::Region<dim> reg = region(bc.region);
+    std::size_t hits = 0;
+    for (const auto& v : vertices) hits += reg.contains(v) ? 1 : 0;
+    if (hits == 0)
+      throw ScenarioError(
+          where + ": region " + bc.region.describe() +
+          " selects no mesh node (regions are in world coordinates; box faces name the image box)");
+    if (bc.is_dirichlet()) {
+      fem::DirichletBC<dim> d;
+      d.region = reg;
+      const bool all = std::all_of(bc.components.begin(), bc.components.end(), [](bool b) { return b; });
+      if (bc.type == BoundaryConditionSpec::Type::displacement)
+        d.value = tf.vector_to_frame(vec<dim>(bc.value));
+      if (!all && tf.axis_aligned()) {
+        // Every image axis is a world axis: the world components are frame components.
+        for (int c = 0; c < dim; ++c) d.components[c] = bc.components[tf.world_axis_of(c)];
+      } else if (!all) {
+        // An oblique image: the world axes seen from the frame (columns of Dᵀ), values in world components.
+        d.axes = tf.direction.transpose();
+        point_axes = d.axes;
+        for (int c = 0; c < dim; ++c) d.components[c] = bc.components[c];
+        if (bc.type == BoundaryConditionSpec::Type::displacement) d.value = vec<dim>(bc.value);
+      }
+      model->add_dirichlet(d);
+      if (all) {
+        for (std::size_t v = 0; v < vertices.size(); ++v)
+          blocked[v] = blocked[v] || reg.contains(vertices[v]);
+        held_regions.push_back(reg);
+      }
+    } else {
+      fem::SurfaceLoad<dim> load;
+      load.region = reg;
+      if (bc.type == BoundaryConditionSpec::Type::pressure)
+        load.pressure = bc.value[0];
+      else
+        load.traction = tf.vector_to_frame(vec<dim>(bc.value));
+      model->add_surface_load(load);
+    }
+  }
+  for (const auto& t : sc.targets)
+    if (locator().locate(tf.to_frame(vec<dim>(t.position))) < 0)
+      throw ScenarioError(sc.where(t.line) + "target '" + t.name + "' is outside the meshed domain");
+}
+
+template <int dim>
+NeedleSimulation<dim>::NeedleSimulation() : impl_(std::make_unique<Impl>()) {}
+template <int dim>
+NeedleSimulation<dim>::~NeedleSimulation() = default;
+template <int dim>
+NeedleSimulation<dim>::NeedleSimulation(NeedleSimulation&&) noexcept = default;
+
+template <int dim>
+NeedleSimulation<dim>::NeedleSimulation(const MeshModel<dim>& mm, const Scenario& scenario,
+                                        SimulationOptions options)
+    : impl_(std::make_unique<Impl>()) {
+  Impl& m = *impl_;
+  const auto t0 = Clock::now();
+  m.sc = scenario;
+  m.opt = std::move(options);
+  m.tf = mm.transform;
+  if (scenario.dim != dim)
+    throw ScenarioError(scenario.where(0) + "scenario was parsed for a " + std::to_string(scenario.dim) +
+                        "D image");
+  if (mm.mesh.n_cells() == 0) throw std::invalid_argument("needle simulation: the mesh has no cells");
+  if (scenario.modulus_from_image && mm.values.size() != mm.mesh.n_cells())
+    throw std::invalid_argument("needle simulation: the mesh has no per-element values (voxel means)");
+  std::vector<double> mean(mm.mesh.n_cells(), 0.0);
+  if (scenario.modulus_from_image)
+    for (std::size_t c = 0; c < mean.size(); ++c) mean[c] = mm.values[c].mean;
+  m.E = scenario_modulus(scenario, mean);
+  m.degree = m.opt.degree ? *m.opt.degree : scenario.degree ? *scenario.degree : 1u;
+  m.box_min = mm.mesh.points[0];
+  m.box_max = mm.mesh.points[0];
+  for (const auto& p : mm.mesh.points) {
+    m.box_min = m.box_min.cwiseMin(p);
+    m.box_max = m.box_max.cwiseMax(p);
+  }
+  if (scenario.solver_type == "multigrid")
+    throw ScenarioError(
+        scenario.where(0) +
+        "solver.type multigrid is for the voxel model (--mesher voxel); use auto, direct or amg");
+  m.model.emplace(mm.mesh, m.E, scenario.poisson_ratio, m.degree);
+  if (m.opt.mpi_ranks > 1) fem::distribute_solves(*m.model, MPI_COMM_WORLD);
+  m.grid = m.opt.world_grid ? m.opt.world_grid
+                            : std::make_shared<const UnstructuredGrid>(simplex_grid(mm.mesh, mm.transform));
+  // P2: quadratic cells carry the mid-edge values (edges), so ParaView interpolates quadratically.
+  if (m.degree == 2)
+    m.grid = std::make_shared<const UnstructuredGrid>(quadratic_simplex_grid<dim>(*m.grid, &m.edges));
+  m.setup(m.model->vertices());
+  m.build_seconds = seconds_since(t0);
+}
+
+template <int dim>
+NeedleSimulation<dim> NeedleSimulation<dim>::voxel(const Image<dim>& image,
+                                                   const WorldTransform<dim>& transform,
+                                                   const Scenario& scenario, SimulationOptions options) {
+  NeedleSimulation sim;
+  Impl& m = *sim.impl_;
+  const auto t0 = Clock::now();
+  m.sc = scenario;
+  m.opt = std::move(options);
+  m.tf = transform;
+  m.voxel = true;
+  if (scenario.dim != dim)
+    throw ScenarioError(scenario.where(0) + "scenario was parsed for a " + std::to_string(scenario.dim) +
+                        "D image");
+  if (!m.opt.scenario_checked) check_modulus_image(scenario, image);
+  std::vector<double> values(image.data.begin(), image.data.end());
+  m.E = scenario_modulus(scenario, values);
+  m.box_min = image.box_min();
+  m.box_max = image.box_max();
+  m.model.emplace(
+      fem::ElasticModel<dim>::voxel_grid(image.size, m.box_min, m.box_max, m.E, scenario.poisson_ratio));
+  // multigrid: the p4est grid with its matrix-free multigrid, on one rank too
+  if (m.opt.mpi_ranks > 1 || scenario.solver_type == "multigrid")
+    fem::distribute_solves(*m.model, MPI_COMM_WORLD);
+  const auto& verts = m.model->vertices();
+  // One hexahedron (quad) per voxel on the lattice of corners, which is the model's vertex numbering.
+  m.grid = m.opt.world_grid ? m.opt.world_grid
+                            : std::make_shared<const UnstructuredGrid>(voxel_grid(image, transform));
+  if (m.grid->points.size() != verts.size())
+    throw std::logic_error("voxel model: the world grid does not have the model's vertices");
+  m.setup(verts);
+  m.build_seconds = seconds_since(t0);
+  return sim;
+}
+
+template <int dim>
+const std::vector<double>& NeedleSimulation<dim>::youngs_modulus() const {
+  return impl_->E;
+}
+template <int dim>
+fem::ElasticModel<dim>& NeedleSimulation<dim>::model() {
+  return *impl_->model;
+}
+
+// The needle's path through held tissue (a fixed or displacement condition, nodes or elastic support):
+// the tissue there cannot follow the needle, so the forces grow with the held length, far beyond those
+// of free tissue. Legitimate (a needle into a clamp) but rarely meant: one warning per condition crossed,
+// with the held length of the path, measured at 1/1000 of the depth.
+template <int dim>
+std::vector<std::string> NeedleSimulation<dim>::Impl::held_path_warnings(const NeedleSpec& spec) const {
+  std::vector<std::string> out;
+  const NeedlePath<dim> path = needle_path<dim>(spec, tf);
+  const int samples = 1000;
+  for (std::size_t i = 0; i < sc.boundary_conditions.size(); ++i) {
+    const auto& bc = sc.boundary_conditions[i];
+    if (!bc.is_dirichlet()) continue;
+    const fem::Region<dim> reg = region(bc.region);
+    int inside = 0;
+    for (int k = 0; k <= samples; ++k)
+      inside += reg.contains(path.entry + (spec.depth * k / samples) * path.axis) ? 1 : 0;
+    if (inside == 0) continue;
+    std::ostringstream w;
+    w << sc.where(bc.line) << (spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'");
+    if (bc.region.kind == RegionSpec::Kind::box_face)
+      w << " touches the held face " << bc.region.describe() << " of boundary_conditions[" << i << "]"
+        << (inside > 1                 ? " along its path"
+            : reg.contains(path.entry) ? " at its entry"
+                                       : " at the end of its path");
+    else
+      w << " runs through the held region " << bc.region.describe() << " of boundary_conditions[" << i
+        << "] over about " << std::setprecision(2) << spec.depth * inside / samples << std::setprecision(6)
+        << " " << sc.length_unit << " of its " << spec.depth << " " << sc.length_unit << " path";
+    w << ": tissue held there cannot follow the needle, so its forces are far larger than in free tissue";
+    out.push_back(w.str());
+  }
+  return out;
+}
+
+// Inserts one needle; where its shaft points turn out nearly dependent (a path along mesh edges or
+// through a row of vertices), runs it again with the shaft at the mesh vertices and, for the default
+// spacing, with a coarser one, saying so in `warnings`. Solver failures become ScenarioErrors naming
+// the scenario's line.
+template <int dim>
+NeedleRun<dim> NeedleSimulation<dim>::Impl::insert_needle(const NeedleSpec& spec, const std::string& prefix,
+                                                          json& nr, std::vector<std::string>& warnings) {
+  const std::string who = spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'";
+  const double edge = locator().mean_edge_length();
+  try {
+    try {
+      return run_needle(spec, prefix, nr);
+    } catch (const fem::DependentPointConstraints& e) {
+      // Shaft points inside a chain of collinear mesh edges (a path along a box edge or a grid line):
+      // run again with the points on those edges moved to the edges' vertices (sample_shaft).
+      std::ostringstream w;
+      w << sc.where(spec.line) << who << ": its shaft points along mesh edges were nearly dependent ("
+        << e.what() << "); ran it again with the shaft sampled at the mesh vertices on its path";
+      nr = json();
+      try {
+        NeedleRun<dim> run = run_needle(spec, prefix, nr, true);
+        warnings.push_back(w.str());
+        nr["shaft_sampled_at_vertices"] = true;
+        return run;
+      } catch (const fem::DependentPointConstraints&) {
+        // Still dependent: e.g. a path through cells that meet at single vertices (parallel to the
+        // diagonals of a grid, about halfway between them), where one point per cell at the default
+        // spacing (half the mean edge) made the constraints conflict. With the default spacing, try
+        // one and two mean element edges; an explicit sample_spacing is the user's choice (the
+        // error below suggests a value).
+        if (spec.sample_spacing > 0.0) throw;
+        NeedleSpec coarser = spec;
+        std::optional<NeedleRun<dim>> run;
+        for (const double factor : {1.0, 2.0}) {
+          coarser.sample_spacing = factor * edge;
+          nr = json();
+          try {
+            run = run_needle(coarser, prefix, nr, true);
+          } catch (const fem::DependentPointConstraints&) {
+            if (factor == 2.0) throw;
+            continue;
+          }
+          break;
+        }
+        if (!run) throw;
+        std::ostringstream c;
+        c << sc.where(spec.line) << who << ": its shaft points at the default spacing (" << 0.5 * edge
+          << ", half the mean element edge) were nearly dependent (" << e.what() << "); ran it again with "
+          << "sample_spacing = " << coarser.sample_spacing << " and the shaft at the mesh vertices where it "
+          << "runs along edges";
+        warnings.push_back(c.str());
+        nr["shaft_sampled_at_vertices"] = true;
+        nr["shaft_pitch_increased_from"] = 0.5 * edge;
+        return std::move(*run);
+      }
+    }
+  } catch (const fem::SingularConstraints& e) {  // the first solve: name the scenario's conditions
+    const int line = sc.boundary_conditions.empty() ? 0 : sc.boundary_conditions.front().line;
+    throw ScenarioError(sc.where(line) + "boundary_conditions: " + e.what());
+  } catch (const fem::DependentPointConstraints& e) {
+    // Shaft points closer together than the elements resolve: a path along element edges or through a
+    // row of vertices, or a sample_spacing below the element size.
+    std::ostringstream s;
+    s << sc.where(spec.line) << who << ": its embedded shaft points constrain nearly the same displacements ("
+      << e.what()
+      << "); this happens where shaft points are closer together than the elements can resolve: a path "
+      << "along element edges or through a row of mesh vertices";
+    if (spec.sample_spacing > 0.0 && spec.sample_spacing < edge)
+      s << ", or needle.sample_spacing = " << spec.sample_spacing << " below the mean element edge (" << edge
+        << ")";
+    s << "; set needle.sample_spacing to about the mean element edge (" << edge
+      << ") or more (the default is half of it), or move the path slightly";
+    throw ScenarioError(s.str());
+  }
+  throw std::logic_error("insert_needle: unreachable");
+}
+
+// Under a law whose axial force never falls (a stuck shaft pushing into linear elastic tissue), a force
+// that is negative or falls means the discretisation holds the tissue at the tip back (a shaft point
+// joins at rest, and P1 spreads that over its whole element): a warning with the remedies.
+template <int dim>
+void NeedleSimulation<dim>::Impl::check_axial_force(const NeedleSpec& spec, const NeedleRun<dim>& run,
+                                                    json& nr, std::vector<std::string>& warnings) const {
+  const std::string who = spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'";
+  const double edge = locator().mean_edge_length();
+  const std::vector<double>& f = run.axial_force;
+  double largest = 0.0;
+  std::vector<int> dips;
+  for (std::size_t k = 1; k < f.size(); ++k) {
+    largest = std::max(largest, std::abs(f[k]));
+    if (f[k] < 0.0 || f[k] < f[k - 1] - 0.05 * largest) dips.push_back(static_cast<int>(k));
+  }
+  if (!dips.empty()) {
+    const std::size_t k = static_cast<std::size_t>(dips.front());
+    std::ostringstream w;
+    w << sc.where(spec.line) << who << ": the axial force is negative or falls at " << dips.size() << " of "
+      << f.size() - 1 << " steps (first: step " << k << ", " << f[k - 1] << " -> " << f[k]
+      << "), which a stuck needle pushing into elastic tissue does not do: the shaft points that join at the "
+         "tip "
+      << "hold the tissue there at rest, and "
+      << (this->voxel || this->degree == 1 ? "linear elements spread that over"
+                                           : "the elements spread that over")
+      << " their whole size; " << (this->voxel || this->degree == 1 ? "use mesh.degree: 2, " : "")
+      << "refine along the path (mesh.needle_refinement, more nodes) or set needle.sample_spacing to about "
+         "the "
+      << "mean element edge (" << edge << ")";
+    warnings.push_back(w.str());
+    nr["axial_force_dips"] = dips;
+  }
+}
+
+template <int dim>
+SimulationResult<dim> NeedleSimulation<dim>::run() {
+  Impl& m = *impl_;
+  SimulationResult<dim> res;
+  json& rep = res.report;
+  rep["scenario"] = {{"file", m.sc.source}, {"yaml", m.sc.text}};
+  rep["units"] = {{"length", m.sc.length_unit}, {"modulus", m.sc.modulus_unit}};
+  for (const auto& t : m.sc.targets) res.target_names.push_back(t.name);
+  rep["model"] = model_report<dim>(m);
+  rep["boundary_conditions"] = m.sc.boundary_conditions.size();
+  json needles = json::array();
+  for (const auto& spec : m.sc.needles) {
+    json nr;
+    const std::string prefix = m.sc.needle_list ? spec.name + "/" : "";
+    const std::string who = spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'";
+    const double edge = m.locator().mean_edge_length();
+    if ((m.voxel || m.degree == 1) && spec.sample_spacing > 0.0 && spec.sample_spacing < 0.5 * edge) {
+      // Several joined points per linear element impose the linear field of their displacements on
+      // the whole element, also beyond the tip (a probe: 1 mm spacing on 6 mm tetrahedra moved the tissue
+      // 3 mm ahead of the tip 2.5 mm backwards, and the axial force went negative).
+      std::ostringstream w;
+      w << m.sc.where(spec.line) << who << ": needle.sample_spacing = " << spec.sample_spacing
+        << " is below half the mean element edge (" << edge
+        << "): linear elements impose the displacements of "
+        << "the shaft points in one element on all of it, also ahead of the tip, so the tissue there can be "
+           "pulled "
+        << "back and the forces can drop or change sign; leave sample_spacing out (half the mean edge) or "
+           "use degree 2";
+      res.warnings.push_back(w.str());
+    }
+    res.needles.push_back(m.insert_needle(spec, prefix, nr, res.warnings));
+    const std::string strain =
+        small_strain_warning(m.sc.where(spec.line), who, res.needles.back().max_strain);
+    if (!strain.empty()) res.warnings.push_back(strain);
+    if (make_friction_law(spec, 1)->axial_force_never_falls())
+      m.check_axial_force(spec, res.needles.back(), nr, res.warnings);
+    needles.push_back(nr);
+  }
+  rep["needles"] = needles;
+  if (m.sc.needles.empty()) {  // a static load case: step 0 only
+    json load;
+    res.static_load = run_static_load<dim>(m, load, res.warnings);
+    rep["static_load"] = load;
+    rep["max_displacement"] = res.static_load->max_displacement;
+    rep["max_strain"] = res.static_load->max_strain;
+    for (std::size_t t = 0; t < m.sc.targets.size(); ++t)
+      rep["final_displacement_" + m.sc.targets[t].name] = res.static_load->target_displacement[t].norm();
+  }
+  for (const auto& r : res.needles) {
+    if (r.unsettled_steps.empty()) continue;
+    std::ostringstream w;
+    w << (r.name.empty() ? std::string("the needle") : "needle '" + r.name + "'") << ": at "
+      << r.unsettled_steps.size() << " of " << r.depth.size() - 1 << " steps (first: step "
+      << r.unsettled_steps.front() << ") the stick-slip active set still changed after " << m.max_sweeps()
+      << (m.max_sweeps() > 1 ? " sweeps" : " sweep")
+      << "; those steps keep the last iterate, so a shaft load may exceed its friction limit (try more "
+         "steps)";
+    res.warnings.push_back(w.str());
+  }
+  for (const auto& spec : m.sc.needles)
+    for (auto& w : m.held_path_warnings(spec)) res.warnings.push_back(std::move(w));
+  if (!res.warnings.empty()) rep["warnings"] = res.warnings;
+  if (!res.needles.empty()) {
+    // The first needle's headline numbers at the top level (summary / README).
+    const auto& r = res.needles.front();
+    rep["final_axial_force"] = r.axial_force.back();
+    rep["final_lateral_force"] = r.lateral_force.back();
+    for (std::size_t t = 0; t < m.sc.targets.size(); ++t)
+      rep["final_displacement_" + m.sc.targets[t].name] = r.target_displacement.back()[t].norm();
+    rep["max_displacement"] = r.max_displacement;
+    rep["max_strain"] = *std::max_element(r.max_strain.begin(), r.max_strain.end());
+    rep["steps_per_second"] = r.steps_per_second;
+  }
+  rep["model"]["memory_bytes"] = m.model->memory_consumption();  // after the solves: with their caches
+  rep["model"]["cells_held"] = m.model->cells_held();  // by rank 0: serial mesh, or owned + ghost cells
+  rep["timing"] = {{"build_seconds", m.build_seconds}};
+  if (m.sc.needle_list && m.opt.output_file) {
+    write_summary_csv<dim>(m.opt.output_file("summary.csv"), res.needles, m.sc);
+  }
+  return res;
+}
+
+template <int dim>
+SimulationResult<dim> run_simulation(const MeshModel<dim>& model, const Scenario& scenario,
+                                     SimulationOptions options) {
+  NeedleSimulation<dim> sim(model, scenario, std::move(options));
+  return sim.run();
+}
+
+template class NeedleSimulation<2>;
+template class NeedleSimulation<3>;
+template SimulationResult<2> run_simulation<2>(const MeshModel<2>&, const Scenario&, SimulationOptions);
+template SimulationResult<3> run_simulation<3>(const MeshModel<3>&, const Scenario&, SimulationOptions);
+
+}  // namespace vim::pipeline

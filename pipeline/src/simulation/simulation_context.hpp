@@ -1,0 +1,60 @@
+// Private to the simulation sources: what NeedleSimulation (simulation.hpp) builds once and every
+// needle insertion reads — the scenario, the FEM model in the image frame, point location, the
+// boundary conditions' blocked vertices, the world grid of the output files (quadratic cells for P2).
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <memory>
+#include <optional>
+#include <vector>
+#include <vim/fem/elasticity.hpp>
+#include <vim/pipeline/simulation/needle.hpp>
+#include <vim/pipeline/simulation/simulation.hpp>
+
+namespace vim::pipeline {
+
+template <int dim>
+struct SimulationContext {
+  using Vec = Eigen::Matrix<double, dim, 1>;
+  using Mat = Eigen::Matrix<double, dim, dim>;
+  Scenario sc;
+  SimulationOptions opt;
+  WorldTransform<dim> tf;
+  std::optional<fem::ElasticModel<dim>> model;
+  std::vector<double> E;                         // per cell, as used
+  Vec box_min, box_max;                          // frame
+  std::shared_ptr<const UnstructuredGrid> grid;  // world, no fields; its points are the model's vertices
+  std::vector<std::array<int, 2>> edges;         // degree 2: vertex pairs of the grid's mid-edge points
+  std::vector<bool> blocked;                     // vertices held in every direction
+  std::vector<fem::Region<dim>> held_regions;    // regions held in every direction (clamped or supported)
+  // Axes of the needle's point constraints: the world axes seen from the frame when a support holds
+  // world components of an oblique image, so that a shaft point on such a node leaves the held
+  // directions to the support (as on an axis-aligned image); else the frame axes.
+  Mat point_axes = Mat::Identity();
+  bool voxel = false;
+  unsigned degree = 1;
+  double build_seconds = 0.0;
+  fem::SolverOptions solver;
+
+  // Point location in the model's cells (the model's own locator: its vertices are the supports' numbering).
+  const CellLocator<dim>& locator() const { return model->locator(); }
+  int max_sweeps() const { return std::max(1, opt.max_active_set_iterations); }  // stick-slip cap per step
+  // A scenario region in the frame (regions are given in world coordinates; box faces name the box).
+  fem::Region<dim> region(const RegionSpec& r) const;
+};
+
+using Clock = std::chrono::steady_clock;
+inline double seconds_since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+template <int dim>
+Eigen::Matrix<double, dim, 1> vec(const std::vector<double>& x) {
+  Eigen::Matrix<double, dim, 1> v;
+  for (int d = 0; d < dim; ++d) v[d] = x[d];
+  return v;
+}
+
+}  // namespace vim::pipeline

@@ -1,0 +1,262 @@
+// The files and report entries of a needle simulation (simulation_output.hpp).
+#include "simulation/simulation_output.hpp"
+
+#include <cstdio>
+#include <iomanip>
+#include <limits>
+#include <vim/fem/distributed.hpp>
+#include <vim/pipeline/common/atomic_file.hpp>
+#include <vim/pipeline/output/vtk_output.hpp>
+
+namespace vim::pipeline {
+
+using json = nlohmann::json;
+
+namespace {
+
+template <int dim>
+json to_json(const Eigen::Matrix<double, dim, 1>& v) {
+  json j = json::array();
+  for (int d = 0; d < dim; ++d) j.push_back(v[d]);
+  return j;
+}
+
+}  // namespace
+
+std::string step_file(int k, int mpi_ranks) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, mpi_ranks > 1 ? "step_%04d.pvtu" : "step_%04d.vtu", k);
+  return buf;
+}
+
+namespace {
+
+// The scenario's output fields of a solution (zero fields when null: rest) on `g`, whose points and
+// cells are the world grid's `points` and `cells` (null: all of them, in order).
+template <int dim>
+void add_step_fields(const SimulationContext<dim>& ctx, const fem::Solution<dim>* s, UnstructuredGrid& g,
+                     const std::vector<std::size_t>* points, const std::vector<std::size_t>* cells) {
+  using Vec = Eigen::Matrix<double, dim, 1>;
+  using Mat = Eigen::Matrix<double, dim, dim>;
+  const Scenario& sc = ctx.sc;
+  const Mat D = ctx.tf.direction;
+  const std::size_t np = g.points.size(), nc = g.n_cells();
+  const auto point = [points](std::size_t v) { return points ? (*points)[v] : v; };
+  const auto cell = [cells](std::size_t c) { return cells ? (*cells)[c] : c; };
+  if (sc.wants("displacement")) {
+    Field f{dim, {}};
+    f.values.reserve(np * dim);
+    // Degree 2: the grid's mid-edge points follow its vertices; their values are the P2 edge DoFs of the
+    // last solve (s is the model's last solution).
+    const std::size_t nv = ctx.grid->points.size() - ctx.edges.size();
+    const std::vector<Vec> mid =
+        s && !ctx.edges.empty() ? ctx.model->edge_midpoint_displacement(ctx.edges) : std::vector<Vec>{};
+    for (std::size_t k = 0; k < np; ++k) {
+      const std::size_t v = point(k);
+      const Vec u = !s ? Vec::Zero() : v < nv ? Vec(D * s->vertex_displacement[v]) : Vec(D * mid[v - nv]);
+      for (int d = 0; d < dim; ++d) f.values.push_back(u[d]);
+    }
+    g.point_data["displacement"] = std::move(f);
+  }
+  // 2D is plane strain: ε_zz = 0 and σ_zz = ν (σ_xx + σ_yy) (= λ tr ε), as von_mises includes it.
+  auto tensor = [&](const std::vector<Mat>* t, bool stress) {
+    Field f{9, {}};
+    f.values.reserve(nc * 9);
+    for (std::size_t k = 0; k < nc; ++k) {
+      const std::size_t c = cell(k);
+      Eigen::Matrix3d w = Eigen::Matrix3d::Zero();
+      if (t) w.topLeftCorner<dim, dim>() = D * (*t)[c] * D.transpose();
+      if (t && stress && dim == 2) w(2, 2) = sc.poisson_ratio * (*t)[c].trace();
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) f.values.push_back(w(a, b));
+    }
+    return f;
+  };
+  auto per_cell = [&](const std::vector<double>* values) {
+    Field f{1, {}};
+    f.values.reserve(nc);
+    for (std::size_t k = 0; k < nc; ++k) f.values.push_back(values ? (*values)[cell(k)] : 0.0);
+    return f;
+  };
+  if (sc.wants("strain")) g.cell_data["strain"] = tensor(s ? &s->cell_strain : nullptr, false);
+  if (sc.wants("stress")) g.cell_data["stress"] = tensor(s ? &s->cell_stress : nullptr, true);
+  if (sc.wants("von_mises")) g.cell_data["von_mises"] = per_cell(s ? &s->von_mises : nullptr);
+  if (sc.wants("youngs_modulus")) g.cell_data["youngs_modulus"] = per_cell(&ctx.E);
+}
+
+// A step of a run over MPI ranks, on every rank: its piece (the cells it owns in the distributed
+// solves) through a temporary name; rank 0, once every piece is in place, the .pvtu that names them,
+// so that a stopped run never leaves a .pvtu naming a missing piece.
+template <int dim>
+void write_step_pieces(const SimulationContext<dim>& ctx, const std::string& relative,
+                       const fem::Solution<dim>* s) {
+  int rank = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  const std::vector<std::size_t> cells = fem::owned_cells(*ctx.model, MPI_COMM_WORLD);
+  std::vector<std::size_t> points;
+  UnstructuredGrid piece = grid_cells(*ctx.grid, cells, &points);
+  add_step_fields<dim>(ctx, s, piece, &points, &cells);
+  const auto& file = rank == 0 ? ctx.opt.output_file : ctx.opt.piece_file;
+  // rank 0 registers every piece in the output folder (creating steps/) before any rank writes one
+  if (rank == 0)
+    for (int r = 0; r < ctx.opt.mpi_ranks; ++r) file(pvtu_piece(relative, r));
+  MPI_Barrier(MPI_COMM_WORLD);
+  write_vtu(file(pvtu_piece(relative, rank)), piece);
+  MPI_Barrier(MPI_COMM_WORLD);
+  if (rank == 0) write_pvtu(file(relative), ctx.opt.mpi_ranks, piece);
+}
+
+}  // namespace
+
+template <int dim>
+void write_step_vtu(const SimulationContext<dim>& ctx, const std::string& relative,
+                    const fem::Solution<dim>* s) {
+  if (ctx.opt.mpi_ranks > 1) return write_step_pieces<dim>(ctx, relative, s);
+  UnstructuredGrid g = *ctx.grid;
+  add_step_fields<dim>(ctx, s, g, nullptr, nullptr);
+  write_vtu(ctx.opt.output_file(relative), g);
+}
+
+template <int dim>
+void write_needle_csv(const std::filesystem::path& path, const NeedleRun<dim>& run, const Scenario& sc) {
+  write_text_atomically(path, [&](std::ostream& o) {
+    const char* axes = "xyz";
+    o << "step,depth";
+    for (int d = 0; d < dim; ++d) o << ",tip_" << axes[d];
+    o << ",axial_force,lateral_force,friction_force,tip_force,max_strain";
+    for (const auto& t : sc.targets) {
+      for (int d = 0; d < dim; ++d) o << "," << t.name << "_d" << axes[d];
+      o << "," << t.name << "_norm";
+    }
+    o << "\n" << std::setprecision(10);
+    for (std::size_t k = 0; k < run.depth.size(); ++k) {
+      o << k << "," << run.depth[k];
+      for (int d = 0; d < dim; ++d) o << "," << run.tip[k][d];
+      o << "," << run.axial_force[k] << "," << run.lateral_force[k] << "," << run.friction_force[k] << ","
+        << run.tip_force[k] << "," << run.max_strain[k];
+      for (const auto& u : run.target_displacement[k]) {
+        for (int d = 0; d < dim; ++d) o << "," << u[d];
+        o << "," << u.norm();
+      }
+      o << "\n";
+    }
+  });
+}
+
+template <int dim>
+void write_summary_csv(const std::filesystem::path& path, const std::vector<NeedleRun<dim>>& needles,
+                       const Scenario& sc) {
+  write_text_atomically(path, [&](std::ostream& o) {
+    o << "name,depth,steps,axial_force,lateral_force,max_displacement,steps_per_second";
+    for (const auto& t : sc.targets) o << "," << t.name << "_norm";
+    o << "\n" << std::setprecision(10);
+    for (const auto& r : needles) {
+      o << r.name << "," << r.depth.back() << "," << r.depth.size() - 1 << "," << r.axial_force.back() << ","
+        << r.lateral_force.back() << "," << r.max_displacement << "," << r.steps_per_second;
+      for (const auto& u : r.target_displacement.back()) o << "," << u.norm();
+      o << "\n";
+    }
+  });
+}
+
+template <int dim>
+json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const FrictionLaw& law, double pitch,
+                   const std::string& prefix, double run_seconds, int solves, bool monolithic,
+                   const Scenario& sc) {
+  json rep;
+  rep["name"] = spec.name;
+  rep["entry"] = spec.entry;
+  rep["direction"] = spec.direction;
+  rep["depth"] = spec.depth;
+  rep["steps"] = spec.steps;
+  rep["diameter"] = spec.diameter;
+  law.describe(rep);
+  rep["shaft_points"] = run.point_s.size();
+  rep["shaft_pitch"] = pitch;
+  if (!prefix.empty()) rep["folder"] = prefix;
+  json per = json::object();
+  per["depth"] = run.depth;
+  per["axial_force"] = run.axial_force;
+  per["lateral_force"] = run.lateral_force;
+  per["friction_force"] = run.friction_force;
+  per["tip_force"] = run.tip_force;
+  per["max_strain"] = run.max_strain;
+  per["active_points"] = run.active_points;
+  per["solves"] = run.solves;
+  if (law.has_active_set()) {
+    per["active_set_sweeps"] = run.active_set_sweeps;
+    rep["unsettled_steps"] = run.unsettled_steps;
+  }
+  json forces = json::array();
+  for (const auto& f : run.force) forces.push_back(to_json<dim>(f));
+  per["force"] = forces;
+  json targets = json::object();
+  for (std::size_t t = 0; t < sc.targets.size(); ++t) {
+    json arr = json::array();
+    for (const auto& step : run.target_displacement) arr.push_back(to_json<dim>(step[t]));
+    targets[sc.targets[t].name] = arr;
+  }
+  per["target_displacement"] = targets;
+  rep["per_step"] = per;
+  json final_targets = json::object();
+  for (std::size_t t = 0; t < sc.targets.size(); ++t) {
+    const auto u = run.target_displacement.back()[t];
+    final_targets[sc.targets[t].name] = {{"displacement", to_json<dim>(u)}, {"norm", u.norm()}};
+  }
+  rep["final"] = {{"axial_force", run.axial_force.back()},
+                  {"lateral_force", run.lateral_force.back()},
+                  {"friction_force", run.friction_force.back()},
+                  {"tip_force", run.tip_force.back()},
+                  {"force", to_json<dim>(run.force.back())},
+                  {"max_strain", run.max_strain.back()},
+                  {"targets", final_targets}};
+  rep["max_displacement"] = run.max_displacement;
+  rep["solver"] = {{"method", run.stats.method},
+                   {"n_dofs", run.stats.n_dofs},
+                   {"assemble_seconds", run.stats.assemble_seconds},
+                   {"solves", solves},
+                   {"monolithic", monolithic}};
+  rep["timing"] = {{"run_seconds", run_seconds},
+                   {"solve_seconds", run.solve_seconds},
+                   {"precompute_seconds", run.precompute_seconds},
+                   {"stepping_seconds", run.stepping_seconds},
+                   {"steps_per_second", run.steps_per_second}};
+  return rep;
+}
+
+template <int dim>
+json model_report(const SimulationContext<dim>& m) {
+  double emin = std::numeric_limits<double>::infinity(), emax = -emin, esum = 0.0;
+  for (double e : m.E) {
+    emin = std::min(emin, e);
+    emax = std::max(emax, e);
+    esum += e;
+  }
+  json model = {
+      {"kind", m.voxel ? "voxel" : "simplex"},
+      {"cells", m.E.size()},
+      {"vertices", m.model->vertices().size()},
+      {"dofs", m.model->n_dofs()},
+      {"degree", m.voxel ? 1u : m.degree},
+      {"poisson_ratio", m.sc.poisson_ratio},
+      {"youngs_modulus", {{"min", emin}, {"max", emax}, {"mean", esum / static_cast<double>(m.E.size())}}},
+      {"source", m.sc.modulus_from_image ? "image" : "constant"},
+      {"scale", m.sc.scale}};
+  if (m.sc.clamp) model["clamp"] = {m.sc.clamp->first, m.sc.clamp->second};
+  return model;
+}
+
+#define VIM_SIMULATION_OUTPUT(dim)                                                                           \
+  template void write_step_vtu<dim>(const SimulationContext<dim>&, const std::string&,                       \
+                                    const fem::Solution<dim>*);                                              \
+  template void write_needle_csv<dim>(const std::filesystem::path&, const NeedleRun<dim>&, const Scenario&); \
+  template void write_summary_csv<dim>(const std::filesystem::path&, const std::vector<NeedleRun<dim>>&,     \
+                                       const Scenario&);                                                     \
+  template json needle_report<dim>(const NeedleSpec&, const NeedleRun<dim>&, const FrictionLaw&, double,     \
+                                   const std::string&, double, int, bool, const Scenario&);                  \
+  template json model_report<dim>(const SimulationContext<dim>&);
+VIM_SIMULATION_OUTPUT(2)
+VIM_SIMULATION_OUTPUT(3)
+#undef VIM_SIMULATION_OUTPUT
+
+}  // namespace vim::pipeline

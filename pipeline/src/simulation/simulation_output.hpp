@@ -1,0 +1,52 @@
+// Private to the simulation sources: the files and report entries of a needle simulation, apart from
+// the physics — step VTUs (displacement, strain, stress, von Mises, modulus in world axes), needle.csv,
+// summary.csv and the report.json entries.
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vim/pipeline/simulation/needle_coupling.hpp>
+
+#include "simulation/simulation_context.hpp"
+
+namespace vim::pipeline {
+
+// "step_0007.vtu", or "step_0007.pvtu" for a run on several MPI ranks (its pieces: write_pvtu)
+std::string step_file(int k, int mpi_ranks = 1);
+
+// The world grid with the scenario's output fields of a solution (zero fields when null: rest), written
+// to ctx.opt.output_file(relative): a .vtu, or with ctx.opt.mpi_ranks > 1 a .pvtu with a piece per rank,
+// each written by its rank (the cells it owns in the distributed solves, through
+// ctx.opt.piece_file on the ranks other than 0): then collective over MPI_COMM_WORLD.
+template <int dim>
+void write_step_vtu(const SimulationContext<dim>& ctx, const std::string& relative,
+                    const fem::Solution<dim>* solution);
+
+// Whether this process writes step files: rank 0 of a run with an output folder (output_file), or
+// another rank of such a run over MPI ranks (piece_file: its pieces of the .pvtu).
+inline bool writes_steps(const SimulationOptions& o) {
+  return static_cast<bool>(o.output_file) || static_cast<bool>(o.piece_file);
+}
+
+// Per step: depth, tip, axial and lateral force, the axial force's friction and tip parts, the largest
+// strain (max_strain), each target's displacement and its norm.
+template <int dim>
+void write_needle_csv(const std::filesystem::path& path, const NeedleRun<dim>& run, const Scenario& sc);
+
+// One row per needle of a needle list: final numbers.
+template <int dim>
+void write_summary_csv(const std::filesystem::path& path, const std::vector<NeedleRun<dim>>& needles,
+                       const Scenario& sc);
+
+// The needle's entry of report.json["simulation"]["needles"].
+template <int dim>
+nlohmann::json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const FrictionLaw& law,
+                             double pitch, const std::string& prefix, double run_seconds, int solves,
+                             bool monolithic, const Scenario& sc);
+
+// The model part of report.json["simulation"]: scenario, units, model kind, size and modulus range.
+template <int dim>
+nlohmann::json model_report(const SimulationContext<dim>& ctx);
+
+}  // namespace vim::pipeline

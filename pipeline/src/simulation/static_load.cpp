@@ -1,0 +1,76 @@
+// The static load case of a scenario without a needle (static_load.hpp).
+#include "simulation/static_load.hpp"
+
+#include <vim/pipeline/output/vtk_output.hpp>
+
+#include "simulation/largest_strain.hpp"
+#include "simulation/simulation_output.hpp"
+
+namespace vim::pipeline {
+
+using json = nlohmann::json;
+
+template <int dim>
+StaticLoadRun<dim> run_static_load(SimulationContext<dim>& ctx, json& report,
+                                   std::vector<std::string>& warnings) {
+  using Vec = Eigen::Matrix<double, dim, 1>;
+  const auto start = Clock::now();
+  fem::Solution<dim> solution;
+  try {
+    solution = ctx.model->solve({}, ctx.solver);
+  } catch (const fem::SingularConstraints& e) {  // name the scenario's conditions, as a needle run does
+    const int line = ctx.sc.boundary_conditions.empty() ? 0 : ctx.sc.boundary_conditions.front().line;
+    throw ScenarioError(ctx.sc.where(line) + "boundary_conditions: " + e.what());
+  }
+  const double solve_seconds = seconds_since(start);
+  StaticLoadRun<dim> run;
+  run.stats = solution.stats;
+  for (const Vec& u : solution.vertex_displacement) {
+    run.vertex_displacement.push_back(ctx.tf.vector_to_world(u));
+    run.max_displacement = std::max(run.max_displacement, u.norm());
+  }
+  run.max_strain = largest_principal_strain<dim>(solution.cell_strain);
+  std::vector<Vec> targets;
+  for (const auto& t : ctx.sc.targets) targets.push_back(ctx.tf.to_frame(vec<dim>(t.position)));
+  if (!targets.empty())
+    for (const Vec& u : ctx.model->sample(targets))
+      run.target_displacement.push_back(ctx.tf.vector_to_world(u));
+
+  const bool write = writes_steps(ctx.opt) && ctx.sc.output_every > 0;
+  const std::string file = "steps/" + step_file(0, ctx.opt.mpi_ranks);
+  if (write) write_step_vtu<dim>(ctx, file, &solution);
+  if (write && ctx.opt.output_file) write_pvd(ctx.opt.output_file("simulation.pvd"), {{0.0, file}});
+  json final_targets = json::object();
+  for (std::size_t t = 0; t < run.target_displacement.size(); ++t) {
+    const Vec& u = run.target_displacement[t];
+    json d = json::array();
+    for (int c = 0; c < dim; ++c) d.push_back(u[c]);
+    final_targets[ctx.sc.targets[t].name] = {{"displacement", d}, {"norm", u.norm()}};
+  }
+  report = {{"steps", 1},
+            {"files", write ? json::array({file}) : json::array()},
+            {"max_displacement", run.max_displacement},
+            {"max_strain", run.max_strain},
+            {"targets", final_targets},
+            {"solver",
+             {{"method", run.stats.method},
+              {"n_dofs", run.stats.n_dofs},
+              {"solves", 1},
+              {"iterations", run.stats.iterations},
+              {"residual", run.stats.residual}}},
+            // the solve's parts (SolverStats): set-up and assembly, preconditioner set-up and CG within
+            {"timing",
+             {{"solve_seconds", solve_seconds},
+              {"setup_seconds", run.stats.setup_seconds},
+              {"assemble_seconds", run.stats.assemble_seconds},
+              {"precondition_seconds", run.stats.precondition_seconds},
+              {"cg_seconds", run.stats.solve_seconds - run.stats.precondition_seconds}}}};
+  const std::string w = small_strain_warning(ctx.sc.where(0), "the static load case", {run.max_strain});
+  if (!w.empty()) warnings.push_back(w);
+  return run;
+}
+
+template StaticLoadRun<2> run_static_load<2>(SimulationContext<2>&, json&, std::vector<std::string>&);
+template StaticLoadRun<3> run_static_load<3>(SimulationContext<3>&, json&, std::vector<std::string>&);
+
+}  // namespace vim::pipeline

@@ -1,0 +1,21 @@
+// Private to the simulation sources: a scenario without a needle is a static load case — the model
+// under its boundary conditions alone (prescribed displacements, pressures, tractions), solved once and
+// written as step 0, like the rest state of a needle run.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "simulation/simulation_context.hpp"
+
+namespace vim::pipeline {
+
+// Solves the loaded model once; writes steps/step_0000.vtu and simulation.pvd when the options name an
+// output folder; fills `report` (report.json["simulation"]["static_load"]) and adds the small-strain
+// warning to `warnings`.
+template <int dim>
+StaticLoadRun<dim> run_static_load(SimulationContext<dim>& ctx, nlohmann::json& report,
+                                   std::vector<std::string>& warnings);
+
+}  // namespace vim::pipeline

@@ -1,0 +1,136 @@
+// The outcomes of a study's cases and study.csv (study_table.hpp).
+#include "study/study_table.hpp"
+
+#include <vim/pipeline/common/atomic_file.hpp>
+
+namespace vim::pipeline {
+
+using nlohmann::json;
+
+json final_results(const json& report) {
+  json needles = json::array();
+  for (const json& n : report.at("simulation").at("needles")) {
+    const json& f = n.at("final");
+    json targets = json::object();
+    for (const auto& [name, t] : f.at("targets").items()) targets[name] = t.at("displacement");
+    needles.push_back({{"name", n.at("name")},
+                       {"axial_force", f.at("axial_force")},
+                       {"lateral_force", f.at("lateral_force")},
+                       {"targets", targets}});
+  }
+  return needles;
+}
+
+json to_json(const std::vector<CaseOutcome>& outcomes) {
+  json j = json::array();
+  for (const CaseOutcome& o : outcomes)
+    j.push_back({{"index", o.index},
+                 {"status", o.status},
+                 {"message", o.message},
+                 {"resumed", o.resumed},
+                 {"needles", o.needles}});
+  return j;
+}
+
+std::vector<CaseOutcome> outcomes_from_json(const json& j) {
+  std::vector<CaseOutcome> outcomes;
+  for (const json& o : j) {
+    CaseOutcome c;
+    c.index = o.at("index").get<std::size_t>();
+    c.status = o.at("status").get<std::string>();
+    c.message = o.at("message").get<std::string>();
+    c.resumed = o.at("resumed").get<bool>();
+    c.needles = o.at("needles");
+    outcomes.push_back(std::move(c));
+  }
+  return outcomes;
+}
+
+namespace {
+
+// The shortest text that reads back as the same double (JSON's number format).
+std::string number(double x) { return json(x).dump(); }
+
+std::string quoted(const std::string& s) {
+  std::string q = "\"";
+  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c == '\n' ? ' ' : c);
+  return q + "\"";
+}
+
+const char* const kAxes[] = {"_x", "_y", "_z"};
+
+// The columns of the varied inputs and the case's values for them.
+void input_columns(const Study& study, std::vector<std::string>& header) {
+  for (const std::string& key : study.varied) {
+    if (key == "entry" || key == "direction")
+      for (int a = 0; a < study.base.dim; ++a) header.push_back(key + kAxes[a]);
+    else
+      header.push_back(key);
+  }
+}
+
+void input_values(const Study& study, const Scenario& sc, std::vector<std::string>& row) {
+  const NeedleSpec* needle = sc.needles.empty() ? nullptr : &sc.needles.front();
+  for (const std::string& key : study.varied) {
+    if (key == "entry" || key == "direction") {
+      for (int a = 0; a < study.base.dim; ++a)
+        row.push_back(needle ? number((key == "entry" ? needle->entry : needle->direction)[a]) : "");
+    } else if (key == "depth") {
+      row.push_back(needle ? number(needle->depth) : "");
+    } else if (key == "scale") {
+      row.push_back(number(sc.scale));
+    } else if (key == "poisson_ratio") {
+      row.push_back(number(sc.poisson_ratio));
+    } else {  // max_shear_per_length
+      const bool slips = needle && needle->friction == NeedleSpec::Friction::stick_slip;
+      row.push_back(slips ? number(needle->max_shear_per_length) : "");
+    }
+  }
+}
+
+// Per needle of the base scenario: forces and target displacements (prefixed by the needle's name
+// when the scenario has several needles).
+void result_columns(const Study& study, std::vector<std::string>& header) {
+  for (const NeedleSpec& n : study.base.needles) {
+    const std::string p = study.base.needles.size() > 1 ? n.name + "_" : "";
+    header.push_back(p + "axial_force");
+    header.push_back(p + "lateral_force");
+    for (const TargetSpec& t : study.base.targets)
+      for (int a = 0; a < study.base.dim; ++a) header.push_back(p + t.name + kAxes[a]);
+  }
+}
+
+void result_values(const Study& study, const CaseOutcome& o, std::vector<std::string>& row) {
+  for (std::size_t k = 0; k < study.base.needles.size(); ++k) {
+    const bool have = o.status == "done" && k < o.needles.size();
+    row.push_back(have ? number(o.needles[k].at("axial_force").get<double>()) : "");
+    row.push_back(have ? number(o.needles[k].at("lateral_force").get<double>()) : "");
+    for (const TargetSpec& t : study.base.targets)
+      for (int a = 0; a < study.base.dim; ++a)
+        row.push_back(have ? number(o.needles[k].at("targets").at(t.name).at(a).get<double>()) : "");
+  }
+}
+
+}  // namespace
+
+void write_study_csv(const std::filesystem::path& path, const Study& study,
+                     const std::vector<CaseOutcome>& outcomes) {
+  std::vector<std::string> header = {"case", "status"};
+  input_columns(study, header);
+  result_columns(study, header);
+  header.push_back("message");
+  write_text_atomically(path, [&](std::ostream& s) {
+    for (std::size_t i = 0; i < header.size(); ++i) s << (i ? "," : "") << header[i];
+    s << "\n";
+    for (const CaseOutcome& o : outcomes) {
+      std::vector<std::string> row = {study.cases[o.index].name, o.status};
+      input_values(study, study.cases[o.index].scenario, row);
+      result_values(study, o, row);
+      row.push_back(o.message.empty() ? "" : quoted(o.message));
+      for (std::size_t i = 0; i < row.size(); ++i) s << (i ? "," : "") << row[i];
+      s << "\n";
+    }
+  });
+}
+
+}  // namespace vim::pipeline

@@ -1,0 +1,34 @@
+// Private to study.cpp: what became of each case of a study (CaseOutcome), its exchange between MPI
+// ranks as JSON, and study.csv (one row per case).
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+#include <vim/pipeline/study/study.hpp>
+
+namespace vim::pipeline {
+
+struct CaseOutcome {
+  std::size_t index = 0;  // in Study::cases
+  std::string status;     // "done" or "failed"
+  std::string message;    // why it failed
+  bool resumed = false;   // done by an earlier run (its folder was complete)
+  // Per needle of the case's report.json: {name, axial_force, lateral_force, targets: {name: [x, y, z]}}.
+  nlohmann::json needles = nlohmann::json::array();
+};
+
+// The final forces and target displacements of a case's report.json (as the report holds them).
+nlohmann::json final_results(const nlohmann::json& report);
+
+nlohmann::json to_json(const std::vector<CaseOutcome>& outcomes);
+std::vector<CaseOutcome> outcomes_from_json(const nlohmann::json& j);
+
+// study.csv (written under a temporary name, then renamed): a row per case in study order: case,
+// status, the varied inputs as the case's scenario reads them, per needle the final axial and lateral
+// force and each target's displacement (x, y[, z]), the message of a failed case.
+void write_study_csv(const std::filesystem::path& path, const Study& study,
+                     const std::vector<CaseOutcome>& outcomes);
+
+}  // namespace vim::pipeline
