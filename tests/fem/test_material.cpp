@@ -81,9 +81,10 @@ void stress_energy_and_tangent(double nu) {
         EXPECT_NEAR(v, truth(a, b), 1e-14 * scale);
       }
     // plane strain: σ_zz = ν (σ_xx + σ_yy) = λ tr ε
-    if (dim == 2)
+    if (dim == 2) {
       EXPECT_NEAR(LinearElasticMaterial<dim>::out_of_plane_stress(material.cell(j), eps), nu * truth.trace(),
                   1e-14 * scale);
+    }
   }
 }
 
