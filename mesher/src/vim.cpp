@@ -9,16 +9,13 @@
 #include <stdexcept>
 #include <vim/initial_mesh.hpp>
 #include <vim/optimizer.hpp>
+#include <vim/seconds_since.hpp>
 #include <vim/sizing.hpp>
 #include <vim/vim.hpp>
 
 namespace vim {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 template <int dim>
 void check_image(const Image<dim>& image) {

@@ -143,7 +143,7 @@ vp::RunOptions run_options(const MeshSettings& s, const std::string& image, cons
   o.threads = s.threads;
   if (s.sizing) o.sizing = s.sizing->source;
   o.threshold = s.threshold;
-  o.mesher = s.mesher == "grid" ? vp::MesherKind::grid : vp::MesherKind::vim;
+  o.mesher = *vp::mesher_kind(s.mesher);  // vim or grid (check_settings)
   o.verbosity = vp::Verbosity::quiet;
   return o;
 }

@@ -10,6 +10,7 @@
 #include <optional>
 #include <string>
 #include <vector>
+#include <vim/vim.hpp>
 
 namespace vim::python {
 
@@ -29,10 +30,10 @@ struct MeshSettings {
   std::optional<long> nodes;
   std::optional<double> spacing;  // initial grid edge length instead of nodes
   std::optional<double> lambda;
-  double max_dihedral = 150.0;
+  double max_dihedral = VimOptions{}.max_dihedral_deg;
   std::optional<double> min_dihedral;
   double min_radius_ratio = 0.0;
-  int max_iterations = 50;
+  int max_iterations = VimOptions{}.max_iterations;
   std::optional<double> convergence, energy_convergence;  // VimOptions' defaults when unset
   std::optional<int> search_width;
   std::uint64_t seed = 1;

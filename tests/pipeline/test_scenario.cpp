@@ -5,6 +5,8 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <utility>
 #include <vim/pipeline/scenario/scenario.hpp>
@@ -648,4 +650,13 @@ TEST(Scenario, KeysTheModelWouldIgnoreAreErrors) {
   const std::string clamp =
       error_of(std::string(kMinimal) + "material: {youngs_modulus: image, clamp: [1, 2, 3]}\n");
   EXPECT_NE(clamp.find("got a list of 3"), std::string::npos) << clamp;
+}
+
+TEST(Scenario, RegionTypesAreTheParsersTableAndDocumented) {
+  EXPECT_EQ(vim::pipeline::region_types(),
+            (std::vector<std::string>{"box_face", "box", "sphere", "cylinder"}));
+  std::ifstream in(std::string(VIM_SOURCE_DIR) + "/docs/architecture.md");
+  const std::string doc((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (const auto& name : vim::pipeline::region_types())
+    EXPECT_NE(doc.find("`" + name + "`"), std::string::npos) << name;
 }

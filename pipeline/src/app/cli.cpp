@@ -11,7 +11,7 @@
 #include <vim/pipeline/app/cli.hpp>
 #include <vim/pipeline/common/memory_limit.hpp>
 #include <vim/pipeline/image/image_io.hpp>
-#include <vim/pipeline/output/exports.hpp>
+#include <vim/pipeline/output/export_registry.hpp>
 #include <vim/pipeline/output/report.hpp>
 #include <vim/pipeline/run/pipeline_run.hpp>
 #include <vim/pipeline/study/study.hpp>
@@ -93,8 +93,7 @@ const char* kFooter =
   mesh.vtu     the mesh (image direction applied); cell data mean, variance, voxels, quality (3D: max
                dihedral angle, 2D: min angle, degrees), youngs_modulus with --simulate, with
                --threshold also segment and object; point data boundary (box faces a node lies on)
-  mesh.vtk mesh.feb mesh.msh mesh.inp
-               exports (--export): deal.II GridIn (legacy 3.0, MaterialID), FEBio, Gmsh 4.1, Abaqus
+%EXPORTS%
   figures/     PNG: image slices beside the mesh cross-section, energy history; with --simulate
                force and target displacement vs depth and the deformed mesh at the last step
   simulation.pvd, steps/step_NNNN.vtu, needle.csv   with --simulate (open the .pvd in ParaView)
@@ -116,6 +115,28 @@ Examples:
   vim-pipeline prostate.mha --study examples/prostate_study.yaml --out out/study
   mpirun -np 4 vim-pipeline prostate.mha --study examples/prostate_study.yaml --out out/study
 )";
+
+// The --help footer: kFooter with the export table's files in place of %EXPORTS%.
+std::string footer() {
+  std::string files = "  ", readers;
+  for (const auto& row : export_table()) {
+    files += (files.size() > 2 ? " mesh." : "mesh.") + row.name;
+    readers += (readers.empty() ? "" : ", ") + row.reader;
+  }
+  std::string text = kFooter;
+  return text.replace(text.find("%EXPORTS%"), 9, files + "\n               exports (--export): " + readers);
+}
+
+// --export's help: each format of the export table with its tool.
+std::string export_help() {
+  std::string list, names;
+  for (const auto& row : export_table()) {
+    list += row.name + " (" + row.option_help + "), ";
+    names += (names.empty() ? "" : ",") + row.name;
+  }
+  return "Extra mesh formats, comma-separated: " + list + "all, or none alone (default: all = " + names +
+         "; mesh.vtu is always written)";
+}
 
 // The options of the VIM mesher (--nodes ... --threshold), with their defaults and ranges.
 void add_mesh_options(CLI::App& app, RunOptions& o) {
@@ -224,7 +245,7 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
       "value unit (kPa for elastograms).",
       "vim-pipeline"};
   app.get_formatter()->column_width(34);
-  app.footer(kFooter);
+  app.footer(footer());
   app.set_version_flag("--version", std::string("vim-pipeline ") + VIM_VERSION_STRING);
 
   app.add_option("image", o.image,
@@ -238,12 +259,16 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
                "Print the image's size, spacing, extent, direction and value statistics, then exit");
 
   add_mesh_options(app, o);
-  std::string mesher = "vim";
-  app.add_option("--mesher", mesher,
-                 "vim = VIM optimisation; grid = the unoptimised initial grid with the same nodes; voxel = "
-                 "one cell per voxel (fine reference) (default vim)")
-      ->type_name("vim|grid|voxel")
-      ->check(CLI::IsMember({"vim", "grid", "voxel"}));
+  std::string mesher = to_string(o.mesher), mesher_help, mesher_names;
+  std::vector<std::string> mesher_values;
+  for (const Mesher& row : meshers()) {
+    mesher_help += (mesher_help.empty() ? "" : "; ") + row.name + " = " + row.help;
+    mesher_names += (mesher_names.empty() ? "" : "|") + row.name;
+    mesher_values.push_back(row.name);
+  }
+  app.add_option("--mesher", mesher, mesher_help + " (default " + mesher + ")")
+      ->type_name(mesher_names)
+      ->check(CLI::IsMember(mesher_values));
   app.add_option("--degree", o.degree,
                  "FEM polynomial degree for --simulate: 1 = linear (the paper's model), 2 = quadratic "
                  "(avoids locking for ν near 0.5) (default 1; range {1, 2})")
@@ -260,13 +285,12 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
       ->type_name("STUDY.yaml")
       ->excludes(simulate)
       ->excludes("--sizing");
-  app.add_option("--export", o.exports,
-                 "Extra mesh formats, comma-separated: vtk (legacy, deal.II GridIn), feb (FEBio), msh "
-                 "(Gmsh 4.1), inp (Abaqus), all, or none alone (default: all = vtk,feb,msh,inp; mesh.vtu is "
-                 "always written)")
+  std::vector<std::string> export_values = export_formats();
+  export_values.insert(export_values.end(), {"all", "none"});
+  app.add_option("--export", o.exports, export_help())
       ->type_name("LIST")
       ->delimiter(',')
-      ->check(CLI::IsMember({"vtk", "feb", "msh", "inp", "all", "none"}));
+      ->check(CLI::IsMember(export_values));
   app.add_flag("--overwrite", o.overwrite, "Write into a non-empty DIR, replacing files of the same name");
   bool quiet = false, verbose = false;
   auto* q = app.add_flag("-q,--quiet", quiet, "Only errors on stderr, no summary on stdout");
@@ -295,7 +319,7 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
     exit_code = 2;
     return std::nullopt;
   }
-  o.mesher = mesher == "grid" ? MesherKind::grid : mesher == "voxel" ? MesherKind::voxel : MesherKind::vim;
+  o.mesher = *mesher_kind(mesher);
   if (std::find(o.exports.begin(), o.exports.end(), "none") != o.exports.end()) o.exports.clear();
   if (std::find(o.exports.begin(), o.exports.end(), "all") != o.exports.end()) o.exports = export_formats();
   o.verbosity = quiet ? Verbosity::quiet : verbose ? Verbosity::verbose : Verbosity::normal;
@@ -336,12 +360,12 @@ std::string error_of_run(const std::function<void()>& work) {
   }
 }
 
-void run_image(const RunOptions& o) {
+void run_image(const RunOptions& o, const RunRanks& ranks = {}) {
   ImageFile image(o.image);
   if (image.dimension() == 2)
-    PipelineRun<2>(o, std::move(image)).run();
+    PipelineRun<2>(o, std::move(image), ranks).run();
   else
-    PipelineRun<3>(o, std::move(image)).run();
+    PipelineRun<3>(o, std::move(image), ranks).run();
 }
 
 // One simulation over the ranks of mpirun: every rank meshes and builds the model alike (the mesher is
@@ -355,14 +379,14 @@ int run_on_ranks(const RunOptions& o) {
     return 1;
   }
   RunOptions mine = o;
-  mine.mpi_ranks = ranks->size();
+  RunRanks run_ranks{ranks->size(), ranks->world(), {}};
   if (ranks->rank() != 0) {
-    mine.pieces_out = mine.out;
+    run_ranks.pieces_out = mine.out;
     mine.out.clear();
     mine.verbosity = Verbosity::quiet;
     Log::set_verbosity(Verbosity::quiet);
   }
-  return ranks->finish(error_of_run([&] { run_image(mine); }));
+  return ranks->finish(error_of_run([&] { run_image(mine, run_ranks); }));
 }
 
 }  // namespace

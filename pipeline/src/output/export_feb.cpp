@@ -12,6 +12,8 @@
 #include <vim/pipeline/common/atomic_file.hpp>
 #include <vim/pipeline/output/exports.hpp>
 
+#include "output/xml_text.hpp"
+
 namespace vim::pipeline {
 
 namespace {
@@ -136,13 +138,18 @@ void write_mesh(std::ostream& out, const SolverDeck<3>& deck) {
 void write_feb(const std::filesystem::path& path, const SolverDeck<3>& deck) {
   write_text_atomically(path, [&](std::ostream& out) {
     out << "<?xml version=\"1.0\" encoding=\"ISO-8859-1\"?>\n"
-        << "<!-- vim-pipeline model, world coordinates; E per element in MeshData/E_map (exact) -->\n"
-        << "<!-- Material: FEBio's isotropic elastic is St Venant-Kirchhoff, which equals the simulation's\n"
-        << "     small-strain linear elasticity at small strain (the first-order terms agree). -->\n";
+        << xml_comment("vim-pipeline model, world coordinates; E per element in MeshData/E_map (exact)")
+        << "\n"
+        << xml_comment(
+               "Material: FEBio's isotropic elastic is St Venant-Kirchhoff, which equals the simulation's\n"
+               "     small-strain linear elasticity at small strain (the first-order terms agree).")
+        << "\n";
     if (!deck.has_conditions)
-      out << "<!-- Mesh and materials only: no conditions (run vim-pipeline with --simulate for a complete "
-             "model) -->\n";
-    for (const auto& what : deck.not_expressed) out << "<!-- Not in this model: " << what << " -->\n";
+      out << xml_comment(
+                 "Mesh and materials only: no conditions (run vim-pipeline with a scenario, option simulate, "
+                 "for a complete model)")
+          << "\n";
+    for (const auto& what : deck.not_expressed) out << xml_comment("Not in this model: " + what) << "\n";
     out << "<febio_spec version=\"4.0\">\n"
         << "  <Module type=\"solid\"/>\n"
         << "  <Control>\n"

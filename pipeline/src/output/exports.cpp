@@ -1,35 +1,16 @@
-// Export dispatcher (exports.hpp): format list, material bins shared by every format, the world mesh,
-// and write_exports filling report["exports"].
+// Export dispatcher (exports.hpp): the --export list parsed, material bins shared by every format, the
+// world mesh, and write_exports running the export table's writers (export_registry.hpp) and filling
+// report["exports"].
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+#include <vim/pipeline/output/export_registry.hpp>
 #include <vim/pipeline/output/exports.hpp>
 
 namespace vim::pipeline {
 
 namespace fs = std::filesystem;
-
-const std::vector<std::string>& export_formats() {
-  static const std::vector<std::string> formats = {"vtk", "feb", "msh", "inp"};
-  return formats;
-}
-
-namespace {
-
-std::string valid_list() {
-  std::string s;
-  for (const auto& f : export_formats()) s += (s.empty() ? "" : ", ") + f;
-  return s;
-}
-
-void check_format(const std::string& f) {
-  const auto& all = export_formats();
-  if (std::find(all.begin(), all.end(), f) == all.end())
-    throw std::invalid_argument("unknown export format '" + f + "' (valid: " + valid_list() + ")");
-}
-
-}  // namespace
 
 std::vector<std::string> parse_export_formats(const std::string& comma_separated) {
   std::vector<std::string> out;
@@ -40,7 +21,7 @@ std::vector<std::string> parse_export_formats(const std::string& comma_separated
     item.erase(item.find_last_not_of(" \t") + 1);
     if (item.empty()) continue;
     if (item == "all") return export_formats();
-    check_format(item);
+    export_format(item);  // throws for an unknown name
     if (std::find(out.begin(), out.end(), item) == out.end()) out.push_back(item);
   }
   if (out.empty()) return export_formats();
@@ -129,7 +110,7 @@ void write_exports(const ExportInput<dim>& input, const fs::path& dir,
                    const std::vector<std::string>& formats, nlohmann::json& report) {
   const MeshModel<dim>& model = input.model;
   const ExportOptions& options = input.options;
-  for (const auto& f : formats) check_format(f);
+  for (const auto& f : formats) export_format(f);  // an unknown name throws before anything is written
   if (!(options.poisson_ratio > -1.0 && options.poisson_ratio < 0.5))
     throw std::invalid_argument("poisson_ratio must be in (-1, 0.5), got " +
                                 std::to_string(options.poisson_ratio));
@@ -170,27 +151,17 @@ void write_exports(const ExportInput<dim>& input, const fs::path& dir,
         "solved as they are. Use --simulate with a scenario whose material.scale maps the image "
         "to a modulus and material.clamp: [min, max] lifts values <= 0");
 
-  std::vector<std::string> done;
-  for (const auto& f : export_formats()) {
-    if (std::find(formats.begin(), formats.end(), f) == formats.end()) continue;
-    if (std::find(done.begin(), done.end(), f) != done.end()) continue;
-    done.push_back(f);
-    const fs::path path = dir / ("mesh." + f);
-    if (f == "vtk") {
-      write_vtk_legacy<dim>(path, world, bins);
-    } else if (f == "feb") {
-      if constexpr (dim == 3) {
-        write_feb(path, deck);
-      } else {
-        out["skipped"]["feb"] = "FEBio has no 2D solid elements; mesh.feb is written for 3D models only";
-        continue;
-      }
-    } else if (f == "msh") {
-      write_msh<dim>(path, deck, bins);
-    } else if (f == "inp") {
-      write_inp<dim>(path, deck);
+  const ExportData<dim> data{world, bins, deck};
+  for (const ExportFormat& row : export_table()) {
+    if (std::find(formats.begin(), formats.end(), row.name) == formats.end()) continue;
+    const ExportWriter<dim> write = row.writer<dim>();
+    if (!write) {
+      out["skipped"][row.name] = row.skipped_why;
+      continue;
     }
-    out["files"][f] = path.string();
+    const fs::path path = dir / ("mesh." + row.name);
+    write(path, data);
+    out["files"][row.name] = path.string();
   }
 }
 

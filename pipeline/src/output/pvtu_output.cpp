@@ -6,6 +6,8 @@
 #include <vim/pipeline/common/atomic_file.hpp>
 #include <vim/pipeline/output/vtk_output.hpp>
 
+#include "output/xml_text.hpp"
+
 namespace vim::pipeline {
 
 namespace fs = std::filesystem;
@@ -55,7 +57,7 @@ void write_pvtu(const fs::path& path, int pieces, const UnstructuredGrid& fields
   // Arrays as write_vtu writes them: Float64, 2-component vectors padded to 3.
   const auto arrays = [](std::ostream& out, const FieldMap& map) {
     for (const auto& [name, f] : map)
-      out << "      <PDataArray type=\"Float64\" Name=\"" << name << "\" NumberOfComponents=\""
+      out << "      <PDataArray type=\"Float64\" Name=\"" << xml_escape(name) << "\" NumberOfComponents=\""
           << (f.components == 2 ? 3 : f.components) << "\"/>\n";
   };
   const std::string stem = path.stem().string();
@@ -69,7 +71,8 @@ void write_pvtu(const fs::path& path, int pieces, const UnstructuredGrid& fields
     arrays(out, fields.cell_data);
     out << "    </PCellData>\n    <PPoints>\n      <PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n"
         << "    </PPoints>\n";
-    for (int r = 0; r < pieces; ++r) out << "    <Piece Source=\"" << stem << "_" << r << ".vtu\"/>\n";
+    for (int r = 0; r < pieces; ++r)
+      out << "    <Piece Source=\"" << xml_escape(stem + "_" + std::to_string(r) + ".vtu") << "\"/>\n";
     out << "  </PUnstructuredGrid>\n</VTKFile>\n";
   });
 }

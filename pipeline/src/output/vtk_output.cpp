@@ -23,6 +23,8 @@
 #include <vim/pipeline/output/quadratic_cells.hpp>
 #include <vim/pipeline/output/vtk_output.hpp>
 
+#include "output/xml_text.hpp"
+
 namespace vim::pipeline {
 
 namespace fs = std::filesystem;
@@ -249,34 +251,12 @@ void write_vtu(const fs::path& path, const UnstructuredGrid& grid) {
 }
 
 void write_pvd(const fs::path& path, const std::vector<std::pair<double, std::string>>& entries) {
-  auto escape = [](const std::string& s) {
-    std::string r;
-    for (char c : s) {
-      switch (c) {
-        case '&':
-          r += "&amp;";
-          break;
-        case '<':
-          r += "&lt;";
-          break;
-        case '>':
-          r += "&gt;";
-          break;
-        case '"':
-          r += "&quot;";
-          break;
-        default:
-          r += c;
-      }
-    }
-    return r;
-  };
   write_text_atomically(path, [&](std::ostream& out) {
     out << "<?xml version=\"1.0\"?>\n"
         << "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
         << "  <Collection>\n";
     for (const auto& [t, file] : entries)
-      out << "    <DataSet timestep=\"" << t << "\" group=\"\" part=\"0\" file=\"" << escape(file)
+      out << "    <DataSet timestep=\"" << t << "\" group=\"\" part=\"0\" file=\"" << xml_escape(file)
           << "\"/>\n";
     out << "  </Collection>\n</VTKFile>\n";
   });

@@ -106,10 +106,11 @@ std::optional<std::string> value_accuracy_warning(const Image<dim>& image, const
 }  // namespace
 
 template <int dim>
-PipelineRun<dim>::PipelineRun(const RunOptions& given, ImageFile image)
+PipelineRun<dim>::PipelineRun(const RunOptions& given, ImageFile image, RunRanks ranks)
     : scenario_(given.simulate.empty() ? std::nullopt
                                        : std::optional<Scenario>(read_scenario(given.simulate, dim))),
       options_(with_scenario_mesh(given, scenario_)),
+      ranks_(std::move(ranks)),
       image_file_(std::move(image)),
       report_({{"tool", {{"name", "vim-pipeline"}, {"version", VIM_VERSION_STRING}}},
                {"command_line", options_.command_line},
@@ -117,7 +118,7 @@ PipelineRun<dim>::PipelineRun(const RunOptions& given, ImageFile image)
                {"out", options_.out.string()}}),
       start_(std::chrono::steady_clock::now()),
       // refuses a non-empty DIR before any work; the ranks other than 0 of a run over MPI ranks have none
-      out_(options_.out.empty() && options_.mpi_ranks > 1
+      out_(options_.out.empty() && ranks_.size > 1
                ? nullptr
                : std::make_unique<OutputDirectory>(options_.out, options_.overwrite)) {
   if (image_file_->dimension() != dim)
@@ -126,9 +127,10 @@ PipelineRun<dim>::PipelineRun(const RunOptions& given, ImageFile image)
 }
 
 template <int dim>
-PipelineRun<dim>::PipelineRun(const RunOptions& given, RunInputs<dim> inputs)
+PipelineRun<dim>::PipelineRun(const RunOptions& given, RunInputs<dim> inputs, RunRanks ranks)
     : scenario_(std::move(inputs.scenario)),
       options_(with_scenario_mesh(given, scenario_)),
+      ranks_(std::move(ranks)),
       inputs_(std::move(inputs)),
       report_({{"tool", {{"name", inputs_->tool}, {"version", VIM_VERSION_STRING}}},
                {"command_line", options_.command_line},

@@ -5,18 +5,11 @@
 #include <vim/pipeline/output/figures.hpp>
 #include <vim/pipeline/output/report.hpp>
 #include <vim/pipeline/run/pipeline_run.hpp>
+#include <vim/seconds_since.hpp>
 
 namespace vim::pipeline {
 
 using nlohmann::json;
-
-namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
-
-}  // namespace
 
 template <int dim>
 void PipelineRun<dim>::build_model() {
@@ -24,13 +17,14 @@ void PipelineRun<dim>::build_model() {
   const auto start = std::chrono::steady_clock::now();
   SimulationOptions so;
   if (out_) so.output_file = [this](const std::string& rel) { return out().file(rel); };
-  if (!out_ && !options_.pieces_out.empty())
-    so.piece_file = [dir = options_.pieces_out](const std::string& rel) { return dir / rel; };
+  if (!out_ && !ranks_.pieces_out.empty())
+    so.piece_file = [dir = ranks_.pieces_out](const std::string& rel) { return dir / rel; };
   so.degree = static_cast<unsigned>(options_.degree);
   so.world_grid = world_grid_;  // the grid of mesh.vtu: the steps share its points and cells
   so.scenario_checked = true;   // read_inputs checked it against the image box
   so.keep_step_fields = inputs_ && inputs_->keep_step_fields;
-  so.mpi_ranks = options_.mpi_ranks;
+  so.mpi_ranks = ranks_.size;
+  so.mpi_comm = ranks_.comm;
   if (options_.mesher == MesherKind::voxel) {
     simulation_ = std::make_unique<NeedleSimulation<dim>>(
         NeedleSimulation<dim>::voxel(image_->image, model_.transform, *scenario_, std::move(so)));

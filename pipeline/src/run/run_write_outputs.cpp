@@ -64,8 +64,8 @@ void PipelineRun<dim>::write_outputs() {
   // Exports for other tools (world coordinates, material bins).
   if (!o.exports.empty()) {
     for (const auto& f : o.exports)
-      if (!(dim == 2 && f == "feb")) out().file("mesh." + f);
-    // .feb and .inp carry ν: the scenario's when there is one, else ExportOptions' default (0.49).
+      if (export_format(f).writes(dim)) out().file("mesh." + f);
+    // .feb and .inp carry ν: the scenario's when there is one, else kDefaultPoissonRatio (0.49).
     // With a scenario they are complete solver jobs: its conditions, ν and element degree (build_model
     // set model_.youngs_modulus to the modulus simulated).
     ExportOptions export_options;

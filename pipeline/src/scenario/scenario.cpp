@@ -18,47 +18,79 @@ namespace vim::pipeline {
 
 namespace {
 
+// A region type of the scenario: its key (`region: {KEY: …}`) and how its value is read.
+struct RegionType {
+  const char* name;
+  RegionSpec::Kind kind;
+  void (*read)(const Reader& r, const YAML::Node& v, const std::string& p, int dim, RegionSpec& reg);
+};
+
+void read_box_face(const Reader& r, const YAML::Node& v, const std::string& p, int dim, RegionSpec& reg) {
+  std::vector<std::string> valid(kFaceNames, kFaceNames + 2 * dim);
+  reg.face = r.string(v, p);
+  const auto it = std::find(valid.begin(), valid.end(), reg.face);
+  if (it == valid.end())
+    r.fail(v, p + " = '" + reg.face + "' is not a face of the " + std::to_string(dim) +
+                  "D image box; use one of: " + join(valid));
+  const int k = static_cast<int>(it - valid.begin());
+  reg.axis = k / 2;
+  reg.upper = (k % 2) == 1;
+}
+
+void read_box(const Reader& r, const YAML::Node& v, const std::string& p, int dim, RegionSpec& reg) {
+  const Fields f = r.check_keys(v, p, {"min", "max"});
+  reg.lo = r.vector(r.require(f, "min", p + ".min"), p + ".min", dim);
+  reg.hi = r.vector(r.require(f, "max", p + ".max"), p + ".max", dim);
+  for (int d = 0; d < dim; ++d)
+    if (!(reg.lo[d] <= reg.hi[d]))
+      r.fail(v, p + ": min must be <= max on every axis (axis " + std::to_string(d) + ")");
+}
+
+void read_sphere(const Reader& r, const YAML::Node& v, const std::string& p, int dim, RegionSpec& reg) {
+  const Fields f = r.check_keys(v, p, {"center", "radius"});
+  reg.center = r.vector(r.require(f, "center", p + ".center"), p + ".center", dim);
+  reg.radius = r.positive(r.require(f, "radius", p + ".radius"), p + ".radius");
+}
+
+void read_cylinder(const Reader& r, const YAML::Node& v, const std::string& p, int dim, RegionSpec& reg) {
+  const Fields f = r.check_keys(v, p, {"center", "axis", "radius"});
+  reg.center = r.vector(r.require(f, "center", p + ".center"), p + ".center", dim);
+  reg.axis_vector = r.nonzero_vector(r.require(f, "axis", p + ".axis"), p + ".axis", dim);
+  reg.radius = r.positive(r.require(f, "radius", p + ".radius"), p + ".radius");
+}
+
+// The region types, in the order messages list them (region_types() gives their names).
+const RegionType kRegionTypes[] = {
+    {"box_face", RegionSpec::Kind::box_face, read_box_face},
+    {"box", RegionSpec::Kind::box, read_box},
+    {"sphere", RegionSpec::Kind::sphere, read_sphere},
+    {"cylinder", RegionSpec::Kind::cylinder, read_cylinder},
+};
+
 RegionSpec parse_region(const Reader& r, const YAML::Node& n, const std::string& path, int dim) {
-  r.check_keys(n, path, {"box_face", "box", "sphere", "cylinder"});
-  if (n.size() != 1) r.fail(n, path + " must have exactly one of: box_face, box, sphere, cylinder");
+  const std::vector<std::string> names = region_types();
+  r.check_keys(n, path, names);
+  if (n.size() != 1) r.fail(n, path + " must have exactly one of: " + join(names));
   RegionSpec reg;
   const auto kv = *n.begin();
   const std::string kind = kv.first.Scalar();
-  const YAML::Node v = kv.second;
-  const std::string p = path + "." + kind;
-  if (kind == "box_face") {
-    std::vector<std::string> valid(kFaceNames, kFaceNames + 2 * dim);
-    reg.kind = RegionSpec::Kind::box_face;
-    reg.face = r.string(v, p);
-    const auto it = std::find(valid.begin(), valid.end(), reg.face);
-    if (it == valid.end())
-      r.fail(v, p + " = '" + reg.face + "' is not a face of the " + std::to_string(dim) +
-                    "D image box; use one of: " + join(valid));
-    const int k = static_cast<int>(it - valid.begin());
-    reg.axis = k / 2;
-    reg.upper = (k % 2) == 1;
-  } else if (kind == "box") {
-    const Fields f = r.check_keys(v, p, {"min", "max"});
-    reg.kind = RegionSpec::Kind::box;
-    reg.lo = r.vector(r.require(f, "min", p + ".min"), p + ".min", dim);
-    reg.hi = r.vector(r.require(f, "max", p + ".max"), p + ".max", dim);
-    for (int d = 0; d < dim; ++d)
-      if (!(reg.lo[d] <= reg.hi[d]))
-        r.fail(v, p + ": min must be <= max on every axis (axis " + std::to_string(d) + ")");
-  } else if (kind == "sphere") {
-    const Fields f = r.check_keys(v, p, {"center", "radius"});
-    reg.kind = RegionSpec::Kind::sphere;
-    reg.center = r.vector(r.require(f, "center", p + ".center"), p + ".center", dim);
-    reg.radius = r.positive(r.require(f, "radius", p + ".radius"), p + ".radius");
-  } else {
-    const Fields f = r.check_keys(v, p, {"center", "axis", "radius"});
-    reg.kind = RegionSpec::Kind::cylinder;
-    reg.center = r.vector(r.require(f, "center", p + ".center"), p + ".center", dim);
-    reg.axis_vector = r.nonzero_vector(r.require(f, "axis", p + ".axis"), p + ".axis", dim);
-    reg.radius = r.positive(r.require(f, "radius", p + ".radius"), p + ".radius");
-  }
+  for (const RegionType& type : kRegionTypes)
+    if (kind == type.name) {
+      reg.kind = type.kind;
+      type.read(r, kv.second, path + "." + kind, dim, reg);
+    }
   return reg;
 }
+
+}  // namespace
+
+std::vector<std::string> region_types() {
+  std::vector<std::string> names;
+  for (const RegionType& type : kRegionTypes) names.emplace_back(type.name);
+  return names;
+}
+
+namespace {
 
 // needle.friction of the kinematic model. Stick-slip is the default model (also when the key is
 // absent); its limit max_shear_per_length has no default and is then required: the friction per unit

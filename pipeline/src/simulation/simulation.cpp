@@ -18,6 +18,7 @@
 #include "simulation/needle_insertion.hpp"
 #include "simulation/simulation_context.hpp"
 #include "simulation/simulation_output.hpp"
+#include "simulation/solve_comm.hpp"
 #include "simulation/static_load.hpp"
 
 namespace vim::pipeline {
@@ -220,7 +221,7 @@ NeedleSimulation<dim>::NeedleSimulation(const MeshModel<dim>& mm, const Scenario
         scenario.where(0) +
         "solver.type multigrid is for the voxel model (--mesher voxel); use auto, direct or amg");
   m.model.emplace(mm.mesh, m.E, scenario.poisson_ratio, m.degree);
-  if (m.opt.mpi_ranks > 1) fem::distribute_solves(*m.model, MPI_COMM_WORLD);
+  if (m.opt.mpi_ranks > 1) fem::distribute_solves(*m.model, solve_comm(m.opt));
   m.grid = m.opt.world_grid ? m.opt.world_grid
                             : std::make_shared<const UnstructuredGrid>(simplex_grid(mm.mesh, mm.transform));
   // P2: quadratic cells carry the mid-edge values (edges), so ParaView interpolates quadratically.
@@ -253,7 +254,7 @@ NeedleSimulation<dim> NeedleSimulation<dim>::voxel(const Image<dim>& image,
       fem::ElasticModel<dim>::voxel_grid(image.size, m.box_min, m.box_max, m.E, scenario.poisson_ratio));
   // multigrid: the p4est grid with its matrix-free multigrid, on one rank too
   if (m.opt.mpi_ranks > 1 || scenario.solver_type == "multigrid")
-    fem::distribute_solves(*m.model, MPI_COMM_WORLD);
+    fem::distribute_solves(*m.model, solve_comm(m.opt));
   const auto& verts = m.model->vertices();
   // One hexahedron (quad) per voxel on the lattice of corners, which is the model's vertex numbering.
   m.grid = m.opt.world_grid ? m.opt.world_grid

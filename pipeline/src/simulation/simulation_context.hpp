@@ -12,6 +12,7 @@
 #include <vim/fem/elasticity.hpp>
 #include <vim/pipeline/simulation/needle.hpp>
 #include <vim/pipeline/simulation/simulation.hpp>
+#include <vim/seconds_since.hpp>
 
 namespace vim::pipeline {
 
@@ -44,11 +45,6 @@ struct SimulationContext {
   // A scenario region in the frame (regions are given in world coordinates; box faces name the box).
   fem::Region<dim> region(const RegionSpec& r) const;
 };
-
-using Clock = std::chrono::steady_clock;
-inline double seconds_since(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
 
 template <int dim>
 Eigen::Matrix<double, dim, 1> vec(const std::vector<double>& x) {

@@ -8,6 +8,8 @@
 #include <vim/pipeline/common/atomic_file.hpp>
 #include <vim/pipeline/output/vtk_output.hpp>
 
+#include "simulation/solve_comm.hpp"
+
 namespace vim::pipeline {
 
 using json = nlohmann::json;
@@ -91,8 +93,9 @@ template <int dim>
 void write_step_pieces(const SimulationContext<dim>& ctx, const std::string& relative,
                        const fem::Solution<dim>* s) {
   int rank = 0;
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  const std::vector<std::size_t> cells = fem::owned_cells(*ctx.model, MPI_COMM_WORLD);
+  const MPI_Comm comm = solve_comm(ctx.opt);
+  MPI_Comm_rank(comm, &rank);
+  const std::vector<std::size_t> cells = fem::owned_cells(*ctx.model, comm);
   std::vector<std::size_t> points;
   UnstructuredGrid piece = grid_cells(*ctx.grid, cells, &points);
   add_step_fields<dim>(ctx, s, piece, &points, &cells);
@@ -100,9 +103,9 @@ void write_step_pieces(const SimulationContext<dim>& ctx, const std::string& rel
   // rank 0 registers every piece in the output folder (creating steps/) before any rank writes one
   if (rank == 0)
     for (int r = 0; r < ctx.opt.mpi_ranks; ++r) file(pvtu_piece(relative, r));
-  MPI_Barrier(MPI_COMM_WORLD);
+  MPI_Barrier(comm);
   write_vtu(file(pvtu_piece(relative, rank)), piece);
-  MPI_Barrier(MPI_COMM_WORLD);
+  MPI_Barrier(comm);
   if (rank == 0) write_pvtu(file(relative), ctx.opt.mpi_ranks, piece);
 }
 

@@ -18,7 +18,7 @@ std::string step_file(int k, int mpi_ranks = 1);
 // The world grid with the scenario's output fields of a solution (zero fields when null: rest), written
 // to ctx.opt.output_file(relative): a .vtu, or with ctx.opt.mpi_ranks > 1 a .pvtu with a piece per rank,
 // each written by its rank (the cells it owns in the distributed solves, through
-// ctx.opt.piece_file on the ranks other than 0): then collective over MPI_COMM_WORLD.
+// ctx.opt.piece_file on the ranks other than 0): then collective over ctx.opt.mpi_comm.
 template <int dim>
 void write_step_vtu(const SimulationContext<dim>& ctx, const std::string& relative,
                     const fem::Solution<dim>* solution);

@@ -36,6 +36,11 @@ LauncherRanks launcher_ranks() {
   return r;
 }
 
+const void* StudyRanks::world() const {
+  static const MPI_Comm world = MPI_COMM_WORLD;
+  return &world;
+}
+
 StudyRanks::StudyRanks() {
   if (launcher_ranks().size == 1) return;
   int initialized = 0;

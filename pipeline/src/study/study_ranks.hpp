@@ -26,6 +26,9 @@ class StudyRanks {
 
   int rank() const { return rank_; }
   int size() const { return size_; }
+  // Every rank's communicator (MPI_COMM_WORLD) as an MPI_Comm*, for the solves of one simulation over
+  // the ranks (SimulationOptions::mpi_comm).
+  const void* world() const;
   // Collective: the largest / smallest of every rank's value.
   int max(int value) const;
   int min(int value) const;

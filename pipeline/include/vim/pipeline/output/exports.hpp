@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 #include <vim/pipeline/common/model.hpp>
+#include <vim/pipeline/output/export_registry.hpp>
 #include <vim/pipeline/output/solver_deck.hpp>
 #include <vim/pipeline/scenario/scenario.hpp>
 
@@ -20,7 +21,8 @@ namespace vim::pipeline {
 
 // How the files are written; the run fills it at the export call (run_write_outputs.cpp).
 struct ExportOptions {
-  double poisson_ratio = 0.49;  // ν written to .feb and .inp (nearly incompressible soft tissue)
+  double poisson_ratio =
+      kDefaultPoissonRatio;     // ν written to .feb and .inp (nearly incompressible soft tissue)
   int max_material_bins = 255;  // material ids of .vtk/.msh stay in 1..255 (8-bit safe for every reader)
   // --simulate: the scenario whose conditions mesh.inp / mesh.feb / mesh.msh carry (regions, held
   // components, pressures, tractions, a static step), and the FEM degree of their elements (2:
@@ -28,9 +30,6 @@ struct ExportOptions {
   const Scenario* scenario = nullptr;
   unsigned degree = 1;
 };
-
-// The valid --export names, in the order the files are written: vtk, feb, msh, inp.
-const std::vector<std::string>& export_formats();
 
 // "vtk,msh" -> {"vtk","msh"}; "all" or "" -> every format. Throws std::invalid_argument naming an
 // unknown entry and the valid list.
@@ -57,7 +56,8 @@ MaterialBins material_bins(const MeshModel<dim>& model, int max_bins = 255);
 template <int dim>
 SimplexMesh<dim> world_mesh(const MeshModel<dim>& model);
 
-// Single-format writers (world mesh + bins computed by the caller with the two functions above).
+// Single-format writers (world mesh + bins computed by the caller with the two functions above), run by
+// the rows of the export table (export_registry.cpp).
 template <int dim>
 void write_vtk_legacy(const std::filesystem::path& path, const SimplexMesh<dim>& world,
                       const MaterialBins& bins);
@@ -76,12 +76,13 @@ struct ExportInput {
   ExportOptions options = {};
 };
 
-// Writes dir/mesh.{vtk,feb,msh,inp} for the requested formats (subset of export_formats(); an
+// Writes dir/mesh.NAME for each requested format (names of export_table(), written in its order; an
 // unknown name throws std::invalid_argument before anything is written) and fills
-// report["exports"]: files written, skipped formats with the reason (FEBio has no 2D solid
-// elements), material_table [{id, E, E_min, E_max, elements}], element_modulus, poisson_ratio,
-// degree, not_expressed (scenario features the decks do not hold), and warnings: without a scenario, a
-// non-positive element modulus (an image that is not a modulus map) is warned about, naming the fix.
+// report["exports"]: files written, skipped formats with the reason (a row without a writer for the
+// dimension: FEBio has no 2D solid elements), material_table [{id, E, E_min, E_max, elements}],
+// element_modulus, poisson_ratio, degree, not_expressed (scenario features the decks do not hold), and
+// warnings: without a scenario, a non-positive element modulus (an image that is not a modulus map) is warned
+// about, naming the fix.
 template <int dim>
 void write_exports(const ExportInput<dim>& input, const std::filesystem::path& dir,
                    const std::vector<std::string>& formats, nlohmann::json& report);

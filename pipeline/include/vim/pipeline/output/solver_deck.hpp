@@ -25,7 +25,7 @@ struct SolverDeck {
   std::vector<std::vector<long>> cells;   // corners (positively oriented in the world), then mid-edge nodes
   std::vector<std::array<int, 2>> edges;  // degree 2: the vertices of mid-edge node n_vertices + e
   std::vector<double> modulus;            // per cell, exact
-  double poisson_ratio = 0.49;
+  double poisson_ratio = kDefaultPoissonRatio;
 
   // An element face: cell and face number 0..dim in the Abaqus/CalculiX numbering (S1..S4 of a
   // tetrahedron: corners 123, 142, 243, 341; of a triangle: 12, 23, 31).

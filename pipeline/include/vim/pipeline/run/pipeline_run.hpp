@@ -45,16 +45,27 @@ struct RunInputs {
   std::function<void(const std::string& stage, const IterationRecord&)> on_iteration;
 };
 
+// Where a run stands among MPI ranks: not an option, set by the entry point (cli.cpp's run_on_ranks for
+// one simulation over the ranks of mpirun; the default is one process).
+struct RunRanks {
+  // The ranks the simulation's FEM solves run over; more than 1: the step files are .pvtu with a .vtu
+  // piece per rank, and the ranks other than 0 have no output folder (options.out empty).
+  int size = 1;
+  const void* comm = nullptr;  // with size > 1: the MPI_Comm* of those ranks (SimulationOptions::mpi_comm)
+  // On the ranks other than 0: the --out folder, where the rank writes its pieces of the step files.
+  std::filesystem::path pieces_out;
+};
+
 template <int dim>
 class PipelineRun {
  public:
   // Reads the scenario (options.simulate) for this dimension, applies its mesh keys that the command
   // line does not set, and refuses a non-empty output folder: all before any work. `image` is the
   // input file whose header has been read (its dimension must be dim).
-  PipelineRun(const RunOptions& options, ImageFile image);
+  PipelineRun(const RunOptions& options, ImageFile image, RunRanks ranks = {});
   // The same from memory; without options.out the run only meshes (and simulates without files: no
   // write stages).
-  PipelineRun(const RunOptions& options, RunInputs<dim> inputs);
+  PipelineRun(const RunOptions& options, RunInputs<dim> inputs, RunRanks ranks = {});
   PipelineRun(const PipelineRun&) = delete;
   PipelineRun& operator=(const PipelineRun&) = delete;
   ~PipelineRun();
@@ -107,6 +118,7 @@ class PipelineRun {
 
   std::optional<Scenario> scenario_;
   RunOptions options_;  // the command line's, with the scenario's mesh keys
+  RunRanks ranks_;
   std::optional<ImageFile> image_file_;
   std::optional<RunInputs<dim>> inputs_;  // instead of image_file_
   nlohmann::json report_;

@@ -8,15 +8,27 @@
 #include <string>
 #include <vector>
 #include <vim/pipeline/common/progress.hpp>
+#include <vim/pipeline/output/export_registry.hpp>
 #include <vim/vim.hpp>
 
 namespace vim::pipeline {
 
 enum class MesherKind { vim, grid, voxel };
-std::string to_string(MesherKind m);
 
-// Every command-line option, with its default. The stages (meshing, simulation, exports, figures)
-// read what they need from here.
+// The mesher table: --mesher NAME (its check, help and value) and report.json's mesh.mesher read it.
+struct Mesher {
+  MesherKind kind;
+  std::string name;  // --mesher value
+  std::string help;  // --mesher's help: "NAME = help"
+};
+const std::vector<Mesher>& meshers();
+std::string to_string(MesherKind m);
+// The kind of a --mesher name; std::nullopt for an unknown one.
+std::optional<MesherKind> mesher_kind(const std::string& name);
+
+// Every command-line option, with its default, and nothing else (where a run stands among MPI ranks is
+// its RunRanks, pipeline_run.hpp). The stages (meshing, simulation, exports, figures) read what they
+// need from here.
 struct RunOptions {
   std::string image;          // input image (positional)
   std::filesystem::path out;  // --out DIR
@@ -46,17 +58,11 @@ struct RunOptions {
   int degree = 1;        // --degree: FEM polynomial degree (1 = P1, the paper's model; 2 = P2)
   std::string simulate;  // --simulate SCENARIO.yaml ("" = mesh only)
   std::string study;     // --study STUDY.yaml: many scenarios (study.hpp) instead of --simulate
-  std::vector<std::string> exports = {"vtk", "feb", "msh", "inp"};  // --export (mesh.vtu is always written)
+  std::vector<std::string> exports = export_formats();  // --export: every format (mesh.vtu is always written)
   bool overwrite = false;
   Verbosity verbosity = Verbosity::normal;
 
   std::vector<std::string> command_line;  // argv, for the report
-  // Not an option: the MPI ranks one simulation runs on (mpirun without --study); the FEM solves go
-  // over MPI_COMM_WORLD and the step files are written as .pvtu with a .vtu piece per rank.
-  int mpi_ranks = 1;
-  // Not an option: on the ranks other than 0 of such a run (whose `out` is empty: rank 0 alone owns the
-  // output folder), the --out folder, where the rank writes its pieces of the step files.
-  std::filesystem::path pieces_out;
 
   // The mesher's options (threads, seed, λ, quality bound, iterations) taken from this struct.
   VimOptions vim_options() const;

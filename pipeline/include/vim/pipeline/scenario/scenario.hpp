@@ -16,6 +16,10 @@
 
 namespace vim::pipeline {
 
+// ν of a scenario without material.poisson_ratio, and of the exports without a scenario: nearly
+// incompressible soft tissue.
+inline constexpr double kDefaultPoissonRatio = 0.49;
+
 struct ScenarioError : InputError {
   using InputError::InputError;
 };
@@ -23,6 +27,10 @@ struct ScenarioError : InputError {
 // A region in WORLD coordinates (ITK physical points), except box faces, which name a face of the
 // image box: x_min/x_max are the faces normal to the image's first index axis (i), y_* to j, z_* to k
 // (for an identity direction matrix these are the world x/y/z faces).
+// The region types a scenario's `region:` takes (box_face, box, sphere, cylinder), from the parser's
+// table (pipeline/src/scenario/scenario.cpp); README's scenario block and docs/architecture.md list them.
+std::vector<std::string> region_types();
+
 struct RegionSpec {
   enum class Kind { box_face, box, sphere, cylinder } kind = Kind::box_face;
   int axis = 0;                                     // box_face: 0..dim-1
@@ -100,7 +108,7 @@ struct Scenario {
   double youngs_modulus = 0.0;  // when not from the image
   double scale = 1.0;
   std::optional<std::pair<double, double>> clamp;
-  double poisson_ratio = 0.49;
+  double poisson_ratio = kDefaultPoissonRatio;
 
   // mesh (the CLI options override these)
   std::optional<long> nodes;

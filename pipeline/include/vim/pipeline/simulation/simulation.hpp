@@ -79,10 +79,13 @@ struct SimulationOptions {
   // The caller has checked the scenario against this image's box (check_scenario_geometry, and for
   // the voxel model check_modulus_image): the simulation does not check it again.
   bool scenario_checked = false;
-  // More than 1 (mpirun): every rank builds the same simulation, the FEM solves run over
-  // MPI_COMM_WORLD (fem::distribute_solves) and step files are .pvtu with this many .vtu pieces, each
-  // written by its rank.
+  // More than 1 (mpirun): every rank builds the same simulation, the FEM solves run over mpi_comm
+  // (fem::distribute_solves) and step files are .pvtu with this many .vtu pieces, each written by its rank.
   int mpi_ranks = 1;
+  // The MPI_Comm of those ranks, given by the entry point (an MPI_Comm*, so that <mpi.h> stays out of
+  // this header; cli.cpp takes it from StudyRanks). Null: one process (MPI_COMM_SELF, the voxel model's
+  // multigrid on one rank).
+  const void* mpi_comm = nullptr;
   // On the ranks other than 0 of such a run with an output folder (rank 0 alone has output_file and
   // writes every other file): the path of a file relative to that folder, for this rank's pieces of
   // the step files. Empty otherwise.
