@@ -14,7 +14,8 @@
 # CHECKED_TARGETS (default test_mesher; "" for none),
 # CONFIGURE_ONLY=1 to stop after cmake, GTEST_FILTER (a GoogleTest filter for every suite, turned into
 # ctest -R/-E), FILTER_<suite> (e.g. FILTER_test_pipeline: a filter for that suite alone),
-# VALIDATION_FILTER (the validation smoke; default below),
+# VALIDATION_FILTER (the validation smoke; default below), FAST_UNWIND (default 1: ASan's fast
+# unwinder for the stacks of allocations; 0: full stacks, several times slower per allocation),
 # CMAKE_ARGS added to the configure line (e.g. -DCMAKE_CXX_COMPILER_LAUNCHER=ccache), FEM_FROM (a
 # normal build dir of the same checkout: its vim_fem is brought up to date and linked uninstrumented
 # instead of compiling fem's deal.II units again; not with test_fem, which would then check nothing).
@@ -108,10 +109,11 @@ for t in $targets; do
   t0=$(date +%s)
   set +e
   # Every test in its own process (CTest runs the discovered tests), JOBS at a time. The stacks of
-  # allocations are the fast unwinder's (ASan's default): OpenMPI's plugins stay loaded until exit in
-  # a sanitizer build (cmake/keep_libraries_loaded.cpp), so the suppressions name them.
+  # allocations are the fast unwinder's (ASan's default; FAST_UNWIND=0 for full stacks): OpenMPI's
+  # plugins stay loaded until exit in a sanitizer build (cmake/keep_libraries_loaded.cpp), so the
+  # suppressions name them.
   (cd "${dir_of[$t]}" &&
-    ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:halt_on_error=1:log_path="$reports_dir/$t" \
+    ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:halt_on_error=1:fast_unwind_on_malloc=${FAST_UNWIND:-1}:log_path="$reports_dir/$t" \
     UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1:log_path="$reports_dir/$t" \
     env -u GTEST_FILTER ctest -j"$jobs" --no-tests=error --output-on-failure "${select[@]}") >"$log" 2>&1
   rc=$?
