@@ -1,17 +1,17 @@
 #!/usr/bin/env bash
 # Builds the test suites with -fsanitize=address,undefined (VIM_SANITIZE=ON: the project's own
 # code; deal.II, ITK and VTK are the uninstrumented system libraries) in a separate build dir and runs
-# them, timing the build and the run of each suite. The suites of CHECKED_TARGETS (default
-# test_mesher, whose truth the mesh invariants are) are built in BUILD_DIR-checked with the
-# mesh-invariant checks on (VIM_CHECKED=ON: every VIM stage of every test run is checked, about twice
-# the meshing time); the others in BUILD_DIR without them. The instrumented code is compiled at -O1 with
+# them, timing the build and the run of each suite. The suites of CHECKED_TARGETS (default: all) are
+# built with the mesh-invariant checks on (VIM_CHECKED=ON: every VIM stage of every test run is
+# checked) in BUILD_DIR; any others in BUILD_DIR-unchecked without them (the instrumented mesher is
+# then compiled twice). The instrumented code is compiled at -O1 with
 # line tables (-g1), enough for the sanitizers' stacks. Each suite runs through CTest, every test in
 # its own process, JOBS at a time. CI (scripts/test.sh) runs the mesher, pipeline and bad-input
 # suites this way (SANITIZE_TARGETS chooses); the fem suite and the validation smoke run from this
 # script (docs/robustness.md records the last run and its commit).
 #   scripts/sanitize.sh [BUILD_DIR]            (default: ../build-sanitize next to the checkout)
 # Environment: JOBS (default 1: build and test parallelism), TARGETS (default: every suite below),
-# CHECKED_TARGETS (default test_mesher; "" for none),
+# CHECKED_TARGETS (default: every suite of TARGETS),
 # CONFIGURE_ONLY=1 to stop after cmake, GTEST_FILTER (a GoogleTest filter for every suite, turned into
 # ctest -R/-E), FILTER_<suite> (e.g. FILTER_test_pipeline: a filter for that suite alone),
 # VALIDATION_FILTER (the validation smoke; default below), FAST_UNWIND (default 1: ASan's fast
@@ -40,19 +40,19 @@ if [ -n "${FEM_FROM:-}" ]; then
   fem_library="$FEM_FROM/fem/libvim_fem.a"
 fi
 
-checked_targets=${CHECKED_TARGETS-test_mesher}
-# The build dir of each suite: BUILD_DIR-checked for those of CHECKED_TARGETS, BUILD_DIR otherwise.
+checked_targets=${CHECKED_TARGETS-$targets}
+# The build dir of each suite: BUILD_DIR for those of CHECKED_TARGETS, BUILD_DIR-unchecked otherwise.
 declare -A dir_of
 dirs=()
 for t in $targets; do
-  case " $checked_targets " in *" $t "*) dir_of[$t]="$build-checked" ;; *) dir_of[$t]="$build" ;; esac
+  case " $checked_targets " in *" $t "*) dir_of[$t]="$build" ;; *) dir_of[$t]="$build-unchecked" ;; esac
   case " ${dirs[*]:-} " in *" ${dir_of[$t]} "*) ;; *) dirs+=("${dir_of[$t]}") ;; esac
 done
 # Release, not RelWithDebInfo: deal_ii_setup_target only knows Debug/Release; -O1 -g1 replace its
 # -O3 (CMakeLists.txt also drops the -g -O2 deal.II adds to the targets above fem).
 for d in "${dirs[@]}"; do
-  checked=OFF
-  [ "$d" = "$build-checked" ] && checked=ON
+  checked=ON
+  [ "$d" = "$build-unchecked" ] && checked=OFF
   cmake -S "$root" -B "$d" -DCMAKE_BUILD_TYPE=Release -DVIM_SANITIZE=ON -DVIM_CHECKED=$checked -DVIM_BUILD_BENCH=OFF \
     -DCMAKE_CXX_FLAGS="-g1" -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" -DVIM_FEM_LIBRARY="$fem_library" \
     ${CMAKE_ARGS:-} >/dev/null
