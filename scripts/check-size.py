@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Size limits of the C++ sources in mesher/, fem/ and pipeline/ (docs/architecture.md, "Small rooms").
+"""Size limits of the C++ sources in mesher/, fem/ and pipeline/ (run first by scripts/test.sh; docs/testing.md, "Running").
 
 Reports every source file over 700 lines and every function over 150 lines, and fails if more than
 3 functions exceed 100 lines. A function whose signature is directly preceded by a comment holding

@@ -6,6 +6,8 @@
 #include <string>
 #include <vim/fem/band_load_field.hpp>
 
+#include "linear_elastic_material.hpp"
+
 namespace vim::fem {
 
 namespace {
@@ -39,7 +41,8 @@ std::vector<std::array<double, 2>> gauss_legendre(int n) {
 
 Vec<3> kelvin_displacement(const Vec<3>& r, const Vec<3>& force, double youngs_modulus,
                            double poisson_ratio) {
-  const double g = youngs_modulus / (2.0 * (1.0 + poisson_ratio)), d2 = r.squaredNorm(), d = std::sqrt(d2);
+  const double g = LinearElasticMaterial<3>::shear_modulus(youngs_modulus, poisson_ratio),
+               d2 = r.squaredNorm(), d = std::sqrt(d2);
   if (d2 == 0.0) return Vec<3>::Zero();
   return ((3.0 - 4.0 * poisson_ratio) * force + (r.dot(force) / d2) * r) /
          (16.0 * pi * g * (1.0 - poisson_ratio) * d);

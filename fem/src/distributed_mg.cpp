@@ -1,5 +1,6 @@
 // The matrix-free geometric multigrid solve of 3D voxel models over MPI ranks (distributed_system.hpp),
-// after deal.II's step-37, for vector-valued linear elasticity with a Lamé pair per cell: no matrix
+// after deal.II's step-37, for vector-valued linear elasticity with the material's constants per cell
+// (fem/src/linear_elastic_material.hpp): no matrix
 // is stored (the 128³ voxel grid, 6.3 M DoFs, needs about 19 GB as a Trilinos matrix with its AMG
 // hierarchy), the operator is applied cell by cell with sum factorisation, and the p4est grid's
 // refinement levels carry the multigrid hierarchy. Levels run in single precision (the preconditioner),
@@ -26,9 +27,9 @@
 
 #include <sstream>
 #include <stdexcept>
-#include <vim/fem/material.hpp>
 
 #include "distributed_system.hpp"
+#include "linear_elastic_material.hpp"
 
 namespace vim::fem {
 
@@ -38,7 +39,7 @@ namespace {
 
 constexpr int kDim = 3;
 
-// −∇·σ(u) with σ = 2μ ε(u) + λ tr ε(u) I, Q1 (two Gauss points per axis), λ and μ per cell.
+// −∇·σ(u) with the material's stress law σ(ε(u)), Q1 (two Gauss points per axis), its constants per cell.
 template <typename Number>
 class ElasticityOperator
     : public MatrixFreeOperators::Base<kDim, LinearAlgebra::distributed::Vector<Number>> {
@@ -46,20 +47,16 @@ class ElasticityOperator
   using VectorType = LinearAlgebra::distributed::Vector<Number>;
   using Integrator = FEEvaluation<kDim, 1, 2, kDim, Number>;
 
-  // λ and μ of every cell batch of the operator's MatrixFree from the mean modulus of the voxels each
-  // cell covers (one voxel on the finest level).
-  void set_lame(const State<kDim>& m) {
+  // The material's constants of every cell batch of the operator's MatrixFree from the mean modulus of
+  // the voxels each cell covers (one voxel on the finest level).
+  void set_material(const State<kDim>& m) {
     const MatrixFree<kDim, Number>& mf = *this->data;
-    lambda_.resize(mf.n_cell_batches());
-    mu_.resize(mf.n_cell_batches());
+    const auto material = m.material();
+    law_.resize(mf.n_cell_batches());
     for (unsigned b = 0; b < mf.n_cell_batches(); ++b) {
-      lambda_[b] = Number(0);
-      mu_[b] = Number(0);
-      for (unsigned lane = 0; lane < mf.n_active_entries_per_cell_batch(b); ++lane) {
-        const auto [lambda, mu] = lame_parameters(mean_modulus(m, mf.get_cell_iterator(b, lane)), m.nu);
-        lambda_[b][lane] = Number(lambda);
-        mu_[b][lane] = Number(mu);
-      }
+      law_[b] = Lame<VectorizedArray<Number>>{VectorizedArray<Number>(0), VectorizedArray<Number>(0)};
+      for (unsigned lane = 0; lane < mf.n_active_entries_per_cell_batch(b); ++lane)
+        law_[b].set_lane(lane, material.of_modulus(mean_modulus(m, mf.get_cell_iterator(b, lane))));
     }
   }
 
@@ -92,14 +89,11 @@ class ElasticityOperator
   // by the caller).
   void cell_kernel(Integrator& phi) const {
     const unsigned cell = phi.get_current_cell_index();
-    const VectorizedArray<Number> lambda = lambda_[cell], two_mu = Number(2) * mu_[cell];
+    const Lame<VectorizedArray<Number>>& law = law_[cell];
     phi.evaluate(EvaluationFlags::gradients);
-    for (unsigned q = 0; q < phi.n_q_points; ++q) {
-      SymmetricTensor<2, kDim, VectorizedArray<Number>> sigma = two_mu * phi.get_symmetric_gradient(q);
-      const VectorizedArray<Number> pressure = lambda * phi.get_divergence(q);
-      for (int d = 0; d < kDim; ++d) sigma[d][d] += pressure;
-      phi.submit_symmetric_gradient(sigma, q);
-    }
+    for (unsigned q = 0; q < phi.n_q_points; ++q)
+      phi.submit_symmetric_gradient(
+          LinearElasticMaterial<kDim>::stress(law, phi.get_symmetric_gradient(q), phi.get_divergence(q)), q);
     phi.integrate(EvaluationFlags::gradients);
   }
 
@@ -120,7 +114,7 @@ class ElasticityOperator
     return n > 0 ? sum / static_cast<double>(n) : m.E[m.voxel_index(cell->center())];
   }
 
-  AlignedVector<VectorizedArray<Number>> lambda_, mu_;
+  AlignedVector<Lame<VectorizedArray<Number>>> law_;
 };
 
 using LevelVector = LinearAlgebra::distributed::Vector<float>;
@@ -165,7 +159,7 @@ void setup_levels(const State<kDim>& m, const DoFHandler<kDim>& dof, const MGCon
     auto mf = std::make_shared<MatrixFree<kDim, float>>();
     mf->reinit(*m.mapping, dof, level_constraints, QGauss<1>(2), data);
     ops[level].initialize(mf, mg, level);
-    ops[level].set_lame(m);
+    ops[level].set_material(m);
     ops[level].compute_diagonal();
   }
 }
@@ -195,7 +189,7 @@ TrilinosWrappers::MPI::Vector solve_voxel_multigrid(const State<kDim>& m, const 
   fine_mf->reinit(*m.mapping, sys.dof, zero, QGauss<1>(2), data);
   ElasticityOperator<double> fine;
   fine.initialize(fine_mf);
-  fine.set_lame(m);
+  fine.set_material(m);
 
   MGConstrainedDoFs mg_constrained;
   mg_constrained.initialize(sys.dof);

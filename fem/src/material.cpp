@@ -1,11 +1,14 @@
 // Material of the elastic model. Eq. 15 of the paper: each element's Young's modulus is the mean of the
 // image values whose voxel centres it encloses (computed by the mesher), scaled to the model's units and
-// optionally clamped. Also block means of a voxel image and the Lamé parameters.
+// optionally clamped. Also block means of a voxel image and the material cards of the solver decks
+// (vim/fem/material_description.hpp). deal.II-free (the fuzz targets compile it alone); the Lamé
+// parameters are fem/src/linear_elastic_material.hpp's (lame_parameters is in postprocess.cpp).
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
 #include <vim/fem/material.hpp>
+#include <vim/fem/material_description.hpp>
 
 #include "input_checks.hpp"
 
@@ -88,14 +91,17 @@ std::vector<double> block_mean(const std::array<long, dim>& dims, const std::vec
   return out;
 }
 
-std::pair<double, double> lame_parameters(double E, double nu) {
-  if (!std::isfinite(E) || !(E > 0.0)) {
-    std::ostringstream m;
-    m << "Young's modulus must be finite and > 0, got " << E;
-    throw std::invalid_argument(m.str());
-  }
-  check_poisson_ratio(nu);
-  return {E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)), E / (2.0 * (1.0 + nu))};
+void MaterialDescription::write_inp_card(std::ostream& out, double youngs_modulus) const {
+  out << "*Elastic\n" << youngs_modulus << ", " << poisson_ratio << '\n';
+}
+
+void MaterialDescription::write_feb_material(std::ostream& out, int id, const std::string& name,
+                                             const std::string& modulus_map) const {
+  out << "    <material id=\"" << id << "\" name=\"" << name << "\" type=\"isotropic elastic\">\n"
+      << "      <density>1</density>\n"
+      << "      <E type=\"map\">" << modulus_map << "</E>\n"
+      << "      <v>" << poisson_ratio << "</v>\n"
+      << "    </material>\n";
 }
 
 template std::vector<double> block_mean<2>(const std::array<long, 2>&, const std::vector<double>&, int,

@@ -20,9 +20,9 @@
 #include <limits>
 #include <sstream>
 #include <stdexcept>
-#include <vim/fem/material.hpp>
 
 #include "input_checks.hpp"
+#include "linear_elastic_material.hpp"
 #include "model_state.hpp"
 
 namespace vim::fem {
@@ -393,27 +393,26 @@ std::unique_ptr<FEFaceValues<dim>> ElasticModel<dim>::Impl::make_face_values() c
 template <int dim>
 void ElasticModel<dim>::Impl::local_system(const Cell& cell, FEValues<dim>& fv, FEFaceValues<dim>& ffv,
                                            FullMatrix<double>& Ke, Vector<double>& Fe) const {
-  const auto [lambda, mu] = lame_parameters(E[cell->material_id()], nu);
+  const Lame<> law = material().cell(cell->material_id());
   if (voxel)
-    local_voxel(cell, fv, lambda, mu, Ke, Fe);
+    local_voxel(cell, fv, law, Ke, Fe);
   else if (degree == 1)
-    local_p1(cell, lambda, mu, Ke, Fe);
+    local_p1(cell, law, Ke, Fe);
   else
-    local_quadrature(cell, fv, lambda, mu, Ke, Fe);
+    local_quadrature(cell, fv, law, Ke, Fe);
   if (!loads.empty()) add_surface_loads(cell, ffv, Fe);
 }
 
-// All voxel cells are the same axis-aligned box: K_e = λ Kλ + μ Kμ, the two reference matrices
-// integrated once on the first cell assembled.
+// All voxel cells are the same axis-aligned box: K_e is the material's combination of its two
+// reference matrices (stiffness_parts), integrated once on the first cell assembled.
 template <int dim>
-void ElasticModel<dim>::Impl::local_voxel(const Cell& cell, FEValues<dim>& fv, double lambda, double mu,
+void ElasticModel<dim>::Impl::local_voxel(const Cell& cell, FEValues<dim>& fv, const Lame<>& law,
                                           FullMatrix<double>& Ke, Vector<double>& Fe) const {
   const unsigned n = fe->n_dofs_per_cell();
   const bool body = body_force.squaredNorm() > 0.0;
   if (!voxel_reference_ready) {
     fv.reinit(cell);
-    voxel_K_lambda.reinit(n, n);
-    voxel_K_mu.reinit(n, n);
+    for (FullMatrix<double>& K : voxel_K_part) K.reinit(n, n);
     voxel_shape_integral.assign(n, 0.0);
     for (unsigned q = 0; q < fv.n_quadrature_points; ++q) {
       const double w = fv.JxW(q);
@@ -423,8 +422,9 @@ void ElasticModel<dim>::Impl::local_voxel(const Cell& cell, FEValues<dim>& fv, d
         for (unsigned j = 0; j < n; ++j) {
           const unsigned cj = fe->system_to_component_index(j).first;
           const Tensor<1, dim> gj = fv.shape_grad(j, q);
-          voxel_K_lambda(i, j) += gi[ci] * gj[cj] * w;
-          voxel_K_mu(i, j) += (gi[cj] * gj[ci] + (ci == cj ? gi * gj : 0.0)) * w;
+          const std::array<double, 2> part = Law::stiffness_parts(gi, ci, gj, cj);
+          voxel_K_part[0](i, j) += part[0] * w;
+          voxel_K_part[1](i, j) += part[1] * w;
         }
         voxel_shape_integral[i] += fv.shape_value(i, q) * w;
       }
@@ -432,7 +432,8 @@ void ElasticModel<dim>::Impl::local_voxel(const Cell& cell, FEValues<dim>& fv, d
     voxel_reference_ready = true;
   }
   for (unsigned i = 0; i < n; ++i) {
-    for (unsigned j = 0; j < n; ++j) Ke(i, j) = lambda * voxel_K_lambda(i, j) + mu * voxel_K_mu(i, j);
+    for (unsigned j = 0; j < n; ++j)
+      Ke(i, j) = Law::combine(law, voxel_K_part[0](i, j), voxel_K_part[1](i, j));
     Fe(i) = body ? body_force[fe->system_to_component_index(i).first] * voxel_shape_integral[i] : 0.0;
   }
 }
@@ -440,7 +441,7 @@ void ElasticModel<dim>::Impl::local_voxel(const Cell& cell, FEValues<dim>& fv, d
 // P1: constant strain in the cell, so K_e = |τ| Bᵀ C B exactly (the same matrix as the quadrature
 // of local_quadrature, without FEValues and its MappingFE).
 template <int dim>
-void ElasticModel<dim>::Impl::local_p1(const Cell& cell, double lambda, double mu, FullMatrix<double>& Ke,
+void ElasticModel<dim>::Impl::local_p1(const Cell& cell, const Lame<>& law, FullMatrix<double>& Ke,
                                        Vector<double>& Fe) const {
   const unsigned n = fe->n_dofs_per_cell();
   const bool body = body_force.squaredNorm() > 0.0;
@@ -452,16 +453,14 @@ void ElasticModel<dim>::Impl::local_p1(const Cell& cell, double lambda, double m
     for (unsigned j = i; j < n; ++j) {
       const auto [cj, vj] = fe->system_to_component_index(j);
       const Tensor<1, dim>& gj = g[vj];
-      double v = lambda * gi[ci] * gj[cj] + mu * gi[cj] * gj[ci];
-      if (ci == cj) v += mu * (gi * gj);
-      Ke(i, j) = Ke(j, i) = v * volume;
+      Ke(i, j) = Ke(j, i) = Law::stiffness(law, gi, ci, gj, cj) * volume;
     }
     Fe(i) = body ? body_force[ci] * volume / (dim + 1) : 0.0;
   }
 }
 
 template <int dim>
-void ElasticModel<dim>::Impl::local_quadrature(const Cell& cell, FEValues<dim>& fv, double lambda, double mu,
+void ElasticModel<dim>::Impl::local_quadrature(const Cell& cell, FEValues<dim>& fv, const Lame<>& law,
                                                FullMatrix<double>& Ke, Vector<double>& Fe) const {
   const unsigned n = fe->n_dofs_per_cell();
   const bool body = body_force.squaredNorm() > 0.0;
@@ -476,9 +475,7 @@ void ElasticModel<dim>::Impl::local_quadrature(const Cell& cell, FEValues<dim>& 
       for (unsigned j = i; j < n; ++j) {
         const unsigned cj = fe->system_to_component_index(j).first;
         const Tensor<1, dim> gj = fv.shape_grad(j, q);
-        double v = lambda * gi[ci] * gj[cj] + mu * gi[cj] * gj[ci];
-        if (ci == cj) v += mu * (gi * gj);
-        Ke(i, j) += v * w;
+        Ke(i, j) += Law::stiffness(law, gi, ci, gj, cj) * w;
       }
       if (body) Fe(i) += body_force[ci] * fv.shape_value(i, q) * w;
     }

@@ -38,6 +38,13 @@
 
 namespace vim::fem {
 
+// The material (linear_elastic_material.hpp, included by the translation units that assemble or
+// evaluate the law, so that only they are rebuilt when it changes).
+template <typename Number>
+struct Lame;
+template <int dim>
+class LinearElasticMaterial;
+
 // ---- conversions between the public Eigen types and deal.II's ------------------------------------
 template <int dim>
 dealii::Point<dim> to_point(const Vec<dim>& v) {
@@ -258,15 +265,19 @@ struct ElasticModel<dim>::Impl {
   std::array<long, dim> grid_cells{};
   dealii::Point<dim> grid_min, grid_max;
   bool mesh_built = false;  // the serial triangulation and its DoFs (ensure_mesh)
-  // Voxel cells are congruent boxes: K_e = λ_e Kλ + μ_e Kμ and ∫N_i from the first cell assembled.
+  // Voxel cells are congruent boxes: K_e combines the material's two reference matrices
+  // (Law::stiffness_parts) per cell, and ∫N_i, from the first cell assembled.
   mutable bool voxel_reference_ready = false;
-  mutable dealii::FullMatrix<double> voxel_K_lambda, voxel_K_mu;
+  mutable std::array<dealii::FullMatrix<double>, 2> voxel_K_part;
   mutable std::vector<double> voxel_shape_integral;
   std::vector<Vec<dim>> vertices;
   // simplex models: the input cells, each positively oriented (vertex order reversed if needed)
   std::vector<typename SimplexMesh<dim>::Cell> simplices;
   std::vector<double> E;  // per input cell (material_id of a deal.II cell = its input index)
   double nu = 0.3;
+  // The material of the cells (fem/src/linear_elastic_material.hpp): a view of E and ν.
+  using Law = LinearElasticMaterial<dim>;
+  Law material() const;
   unsigned degree = 1;
   std::vector<DirichletBC<dim>> bcs;
   std::vector<SurfaceLoad<dim>> loads;
@@ -409,11 +420,11 @@ struct ElasticModel<dim>::Impl {
                  Eigen::Matrix<double, dim, dim>& sigma, double& von_mises) const;
 
  private:
-  void local_voxel(const Cell& cell, dealii::FEValues<dim>& fv, double lambda, double mu,
+  void local_voxel(const Cell& cell, dealii::FEValues<dim>& fv, const Lame<double>& law,
                    dealii::FullMatrix<double>& Ke, dealii::Vector<double>& Fe) const;
-  void local_p1(const Cell& cell, double lambda, double mu, dealii::FullMatrix<double>& Ke,
+  void local_p1(const Cell& cell, const Lame<double>& law, dealii::FullMatrix<double>& Ke,
                 dealii::Vector<double>& Fe) const;
-  void local_quadrature(const Cell& cell, dealii::FEValues<dim>& fv, double lambda, double mu,
+  void local_quadrature(const Cell& cell, dealii::FEValues<dim>& fv, const Lame<double>& law,
                         dealii::FullMatrix<double>& Ke, dealii::Vector<double>& Fe) const;
   void add_surface_loads(const Cell& cell, dealii::FEFaceValues<dim>& ffv, dealii::Vector<double>& Fe) const;
   void find_support_points_and_components();

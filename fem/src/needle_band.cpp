@@ -9,6 +9,8 @@
 #include <vector>
 #include <vim/fem/needle_band.hpp>
 
+#include "linear_elastic_material.hpp"
+
 namespace vim::fem {
 
 namespace {
@@ -32,7 +34,7 @@ void check_band(double radius, double coupling_radius, double length) {
 }
 
 double shear_modulus(double youngs_modulus, double poisson_ratio) {
-  return youngs_modulus / (2.0 * (1.0 + poisson_ratio));
+  return LinearElasticMaterial<3>::shear_modulus(youngs_modulus, poisson_ratio);
 }
 
 // The rings of the band's cross-section: radius and weight (summing to 1).

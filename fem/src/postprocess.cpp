@@ -13,6 +13,7 @@
 #include <string>
 #include <vim/fem/material.hpp>
 
+#include "linear_elastic_material.hpp"
 #include "model_state.hpp"
 
 namespace vim::fem {
@@ -156,17 +157,25 @@ Eigen::Matrix<double, dim, dim> ElasticModel<dim>::Impl::centroid_strain(
   return 0.5 * (grad + grad.transpose());
 }
 
+std::pair<double, double> lame_parameters(double youngs_modulus, double poisson_ratio) {
+  const Lame<> c = LinearElasticMaterial<3>::lame(youngs_modulus, poisson_ratio);
+  return {c.lambda, c.mu};
+}
+
+template <int dim>
+LinearElasticMaterial<dim> ElasticModel<dim>::Impl::material() const {
+  return LinearElasticMaterial<dim>(E, nu);
+}
+
 template <int dim>
 void ElasticModel<dim>::Impl::stress_of(const Eigen::Matrix<double, dim, dim>& eps, double E_cell,
                                         Eigen::Matrix<double, dim, dim>& sigma, double& von_mises) const {
-  const auto [lambda, mu] = lame_parameters(E_cell, nu);
-  const double tr = eps.trace();
-  sigma = 2.0 * mu * eps;
-  for (int d = 0; d < dim; ++d) sigma(d, d) += lambda * tr;
-  // full 3×3 stress; in 2D (plane strain) σ_zz = λ tr ε
+  const Lame<> law = material().of_modulus(E_cell);
+  sigma = Law::stress(law, eps);
+  // full 3×3 stress; in 2D (plane strain) σ_zz from the material
   Eigen::Matrix3d s3 = Eigen::Matrix3d::Zero();
   s3.topLeftCorner<dim, dim>() = sigma;
-  if (dim == 2) s3(2, 2) = lambda * tr;
+  if (dim == 2) s3(2, 2) = Law::out_of_plane_stress(law, eps);
   const Eigen::Matrix3d dev = s3 - s3.trace() / 3.0 * Eigen::Matrix3d::Identity();
   von_mises = std::sqrt(1.5 * (dev.array() * dev.array()).sum());
 }
@@ -426,6 +435,7 @@ double ElasticModel<dim>::strain_energy_of(const std::vector<Vec<dim>>& U) const
   template void ElasticModel<dim>::Impl::postprocess_serial(Solution<dim>&);                                \
   template Eigen::Matrix<double, dim, dim> ElasticModel<dim>::Impl::centroid_strain(                        \
       const Cell&, FEValues<dim>&, const std::vector<double>&) const;                                       \
+  template LinearElasticMaterial<dim> ElasticModel<dim>::Impl::material() const;                            \
   template void ElasticModel<dim>::Impl::stress_of(const Eigen::Matrix<double, dim, dim>&, double,          \
                                                    Eigen::Matrix<double, dim, dim>&, double&) const;        \
   template std::vector<Vec<dim>> ElasticModel<dim>::sample(const std::vector<Vec<dim>>&, PointSample*)      \

@@ -87,7 +87,7 @@ TEST(Install, DownstreamProjectBuildsAndRunsAgainstTheInstalledTree) {
   for (const fs::path& f :
        {prefix / "bin" / "vim-pipeline", prefix / "bin" / "vim-make-phantom",
         prefix / "include" / "vim" / "vim.hpp", prefix / "include" / "vim" / "version.hpp",
-        prefix / "include" / "vim" / "pipeline" / "simulation.hpp", lib / "libvim_mesher.a",
+        prefix / "include" / "vim" / "pipeline" / "simulation" / "simulation.hpp", lib / "libvim_mesher.a",
         lib / "libvim_fem.a", lib / "libvim_pipeline.a",
         lib / "cmake" / "vim_pipeline" / "vim_pipelineConfig.cmake",
         lib / "cmake" / "vim_pipeline" / "vim_pipelineConfigVersion.cmake",

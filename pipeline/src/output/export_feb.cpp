@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <map>
+#include <vim/fem/material_description.hpp>
 #include <vim/pipeline/common/atomic_file.hpp>
 #include <vim/pipeline/output/exports.hpp>
 
@@ -149,13 +150,9 @@ void write_feb(const std::filesystem::path& path, const SolverDeck<3>& deck) {
         << "    <time_steps>1</time_steps>\n"
         << "    <step_size>1</step_size>\n"
         << "  </Control>\n"
-        << "  <Material>\n"
-        << "    <material id=\"1\" name=\"tissue\" type=\"isotropic elastic\">\n"
-        << "      <density>1</density>\n"
-        << "      <E type=\"map\">E_map</E>\n"
-        << "      <v>" << deck.poisson_ratio << "</v>\n"
-        << "    </material>\n"
-        << "  </Material>\n";
+        << "  <Material>\n";
+    fem::MaterialDescription{deck.poisson_ratio}.write_feb_material(out, 1, "tissue", "E_map");
+    out << "  </Material>\n";
     write_mesh(out, deck);
     out << "  <MeshDomains>\n"
         << "    <SolidDomain name=\"Part1\" mat=\"tissue\"/>\n"

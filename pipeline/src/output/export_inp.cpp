@@ -5,6 +5,7 @@
 // scenario one *STEP with *STATIC: *BOUNDARY per held node and world component, *DSLOAD pressures,
 // *CLOAD consistent nodal forces of the tractions, *NODE PRINT / *NODE FILE of U. `ccx -i mesh`.
 #include <map>
+#include <vim/fem/material_description.hpp>
 #include <vim/pipeline/common/atomic_file.hpp>
 #include <vim/pipeline/output/exports.hpp>
 
@@ -94,8 +95,11 @@ void write_inp(const std::filesystem::path& path, const SolverDeck<dim>& deck) {
           << (dim == 2 ? "1.0\n" : "\n");  // 2D: unit thickness
     }
     k = 0;
-    for (const auto& [E, members] : by_modulus)
-      out << "*Material, NAME=MATERIAL_" << ++k << "\n*Elastic\n" << E << ", " << deck.poisson_ratio << '\n';
+    const fem::MaterialDescription material{deck.poisson_ratio};
+    for (const auto& [E, members] : by_modulus) {
+      out << "*Material, NAME=MATERIAL_" << ++k << '\n';
+      material.write_inp_card(out, E);
+    }
     if (deck.has_conditions) write_step(out, deck);
   });
 }
