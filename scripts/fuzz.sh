@@ -3,7 +3,7 @@
 # and runs each for SECONDS seconds on a copy of the seed corpus fuzz/corpus/<target>/ (image_header:
 # corpus/image, nifti_header: corpus/nifti, scenario, command_line).
 #   scripts/fuzz.sh [SECONDS] [BUILD_DIR]      (defaults: 60, ../build-fuzz next to the checkout)
-# Environment: JOBS (build parallelism, default 1), FUZZ_TARGETS (default "scenario image_header
+# Environment: JOBS (build parallelism and the number of targets fuzzed at a time, default 1), FUZZ_TARGETS (default "scenario image_header
 # nifti_header command_line"), RUNS (stop each target after RUNS executions as well; the reference
 # run is `RUNS=1000000 scripts/fuzz.sh 100000`, docs/robustness.md), VIM_BUILD_DIR (a normal build
 # whose libraries fuzz_command_line links; default ./build of the checkout). SECONDS is bash's own
@@ -26,18 +26,13 @@ cmake -S "$root/fuzz" -B "$build" -DCMAKE_BUILD_TYPE=Release \
 for t in $targets; do cmake --build "$build" -j"$jobs" --target "fuzz_$t"; done
 
 mkdir -p "$build/artifacts"
-status=0
-summary=""
-for t in $targets; do
-  seeds="$root/fuzz/corpus/${t%_header}"
+# One target's run (a libFuzzer process is single-threaded): its exit status goes to BUILD_DIR/fuzz_T.rc.
+fuzz_one() {
+  local t=$1 seeds="$root/fuzz/corpus/${1%_header}" mask=0 corpus="$build/corpus/$1" log="$build/fuzz_$1.log" rc
   # The parser prints --help and usage errors: its stdout and stderr are closed (libFuzzer keeps its own).
-  mask=0
   [ "$t" = command_line ] && mask=3
-  corpus="$build/corpus/$t"
   mkdir -p "$corpus"
   cp -n "$seeds"/* "$corpus"/ 2>/dev/null || true
-  log="$build/fuzz_$t.log"
-  echo "== fuzz_$t for ${seconds}s (log: $log)"
   set +e
   LSAN_OPTIONS=suppressions="$root/fuzz/lsan.supp" \
   ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1:max_malloc_fill_size=0:quarantine_size_mb=16 \
@@ -45,7 +40,23 @@ for t in $targets; do
     "$build/fuzz_$t" -max_total_time="$seconds" ${RUNS:+-runs="$RUNS"} -timeout=20 -rss_limit_mb=2048 -max_len=4096 \
     -print_final_stats=1 -close_fd_mask=$mask -artifact_prefix="$build/artifacts/${t}-" "$corpus" >"$log" 2>&1
   rc=$?
-  set -e
+  echo "$rc" >"$build/fuzz_$t.rc"
+}
+# The targets run JOBS at a time, each for SECONDS.
+running=0
+for t in $targets; do
+  echo "== fuzz_$t for ${seconds}s (log: $build/fuzz_$t.log)"
+  rm -f "$build/fuzz_$t.rc"
+  fuzz_one "$t" &
+  running=$((running + 1))
+  if [ "$running" -ge "$jobs" ]; then wait -n || true; running=$((running - 1)); fi
+done
+wait
+status=0
+summary=""
+for t in $targets; do
+  log="$build/fuzz_$t.log"
+  rc=$(cat "$build/fuzz_$t.rc" 2>/dev/null || echo 1)
   execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")
   speed=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")
   crashes=$(ls "$build/artifacts" | grep -c "^${t}-" || true)

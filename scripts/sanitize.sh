@@ -1,17 +1,21 @@
 #!/usr/bin/env bash
 # Builds the test suites with -fsanitize=address,undefined (VIM_SANITIZE=ON: the project's own
-# code; deal.II, ITK and VTK are the uninstrumented system libraries) and the mesh-invariant checks
-# on (VIM_CHECKED=ON: every VIM stage of every test run is checked) in a separate build dir and runs
-# them, timing the build and the run of each suite. The instrumented code is compiled at -O1 with
+# code; deal.II, ITK and VTK are the uninstrumented system libraries) in a separate build dir and runs
+# them, timing the build and the run of each suite. The suites of CHECKED_TARGETS (default: all) are
+# built with the mesh-invariant checks on (VIM_CHECKED=ON: every VIM stage of every test run is
+# checked) in BUILD_DIR; any others in BUILD_DIR-unchecked without them (the instrumented mesher is
+# then compiled twice). The instrumented code is compiled at -O1 with
 # line tables (-g1), enough for the sanitizers' stacks. Each suite runs through CTest, every test in
 # its own process, JOBS at a time. CI (scripts/test.sh) runs the mesher, pipeline and bad-input
 # suites this way (SANITIZE_TARGETS chooses); the fem suite and the validation smoke run from this
 # script (docs/robustness.md records the last run and its commit).
 #   scripts/sanitize.sh [BUILD_DIR]            (default: ../build-sanitize next to the checkout)
 # Environment: JOBS (default 1: build and test parallelism), TARGETS (default: every suite below),
+# CHECKED_TARGETS (default: every suite of TARGETS),
 # CONFIGURE_ONLY=1 to stop after cmake, GTEST_FILTER (a GoogleTest filter for every suite, turned into
 # ctest -R/-E), FILTER_<suite> (e.g. FILTER_test_pipeline: a filter for that suite alone),
-# VALIDATION_FILTER (the validation smoke; default below),
+# VALIDATION_FILTER (the validation smoke; default below), FAST_UNWIND (default 1: ASan's fast
+# unwinder for the stacks of allocations; 0: full stacks, several times slower per allocation),
 # CMAKE_ARGS added to the configure line (e.g. -DCMAKE_CXX_COMPILER_LAUNCHER=ccache), FEM_FROM (a
 # normal build dir of the same checkout: its vim_fem is brought up to date and linked uninstrumented
 # instead of compiling fem's deal.II units again; not with test_fem, which would then check nothing).
@@ -36,17 +40,29 @@ if [ -n "${FEM_FROM:-}" ]; then
   fem_library="$FEM_FROM/fem/libvim_fem.a"
 fi
 
+checked_targets=${CHECKED_TARGETS-$targets}
+# The build dir of each suite: BUILD_DIR for those of CHECKED_TARGETS, BUILD_DIR-unchecked otherwise.
+declare -A dir_of
+dirs=()
+for t in $targets; do
+  case " $checked_targets " in *" $t "*) dir_of[$t]="$build" ;; *) dir_of[$t]="$build-unchecked" ;; esac
+  case " ${dirs[*]:-} " in *" ${dir_of[$t]} "*) ;; *) dirs+=("${dir_of[$t]}") ;; esac
+done
 # Release, not RelWithDebInfo: deal_ii_setup_target only knows Debug/Release; -O1 -g1 replace its
 # -O3 (CMakeLists.txt also drops the -g -O2 deal.II adds to the targets above fem).
-cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DVIM_SANITIZE=ON -DVIM_CHECKED=ON -DVIM_BUILD_BENCH=OFF \
-  -DCMAKE_CXX_FLAGS="-g1" -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" -DVIM_FEM_LIBRARY="$fem_library" \
-  ${CMAKE_ARGS:-} >/dev/null
-echo "configured $build (VIM_SANITIZE=ON, VIM_CHECKED=ON${fem_library:+, fem linked uninstrumented from $fem_library})"
+for d in "${dirs[@]}"; do
+  checked=ON
+  [ "$d" = "$build-unchecked" ] && checked=OFF
+  cmake -S "$root" -B "$d" -DCMAKE_BUILD_TYPE=Release -DVIM_SANITIZE=ON -DVIM_CHECKED=$checked -DVIM_BUILD_BENCH=OFF \
+    -DCMAKE_CXX_FLAGS="-g1" -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" -DVIM_FEM_LIBRARY="$fem_library" \
+    ${CMAKE_ARGS:-} >/dev/null
+  echo "configured $d (VIM_SANITIZE=ON, VIM_CHECKED=$checked${fem_library:+, fem linked uninstrumented from $fem_library})"
+done
 [ "${CONFIGURE_ONLY:-0}" = 1 ] && exit 0
 declare -A build_seconds
 for t in $targets; do
   t0=$(date +%s)
-  cmake --build "$build" -j"$jobs" --target "$t"
+  cmake --build "${dir_of[$t]}" -j"$jobs" --target "$t"
   build_seconds[$t]=$(( $(date +%s) - t0 ))
 done
 
@@ -64,22 +80,24 @@ filter_regex() {
 status=0
 summary=""
 # CTest lists the tests of every built suite (gtest_discover_tests, PRE_TEST) the first time it runs,
-# whichever suite it selects: list them all once here, with full stacks (the MPI suites, below).
-set +e
-(cd "$build" &&
-  ASAN_OPTIONS=detect_leaks=1:halt_on_error=1:fast_unwind_on_malloc=0:log_path="$reports_dir/discovery" \
-  UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1:log_path="$reports_dir/discovery" \
-  env -u GTEST_FILTER ctest -N) >"$build/discovery.sanitize.log" 2>&1
-rc=$?
-set -e
-reports=$(cat "$reports_dir"/discovery.* 2>/dev/null | grep -cE 'ERROR: AddressSanitizer|runtime error:|ERROR: LeakSanitizer' || true)
-if [ "$rc" -ne 0 ] || [ "$reports" -ne 0 ] || grep -q "Error running test executable" "$build/discovery.sanitize.log"; then
-  echo "sanitize.sh: listing the tests failed (log: $build/discovery.sanitize.log)" >&2
-  head -c 20000 "$build/discovery.sanitize.log" "$reports_dir"/discovery.* >&2 2>/dev/null || true
-  exit 1
-fi
+# whichever suite it selects: list them all once here, in each build dir.
+for d in "${dirs[@]}"; do
+  set +e
+  (cd "$d" &&
+    ASAN_OPTIONS=detect_leaks=1:halt_on_error=1:log_path="$reports_dir/discovery" \
+    UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1:log_path="$reports_dir/discovery" \
+    env -u GTEST_FILTER ctest -N) >"$d/discovery.sanitize.log" 2>&1
+  rc=$?
+  set -e
+  reports=$(cat "$reports_dir"/discovery.* 2>/dev/null | grep -cE 'ERROR: AddressSanitizer|runtime error:|ERROR: LeakSanitizer' || true)
+  if [ "$rc" -ne 0 ] || [ "$reports" -ne 0 ] || grep -q "Error running test executable" "$d/discovery.sanitize.log"; then
+    echo "sanitize.sh: listing the tests failed (log: $d/discovery.sanitize.log)" >&2
+    head -c 20000 "$d/discovery.sanitize.log" "$reports_dir"/discovery.* >&2 2>/dev/null || true
+    exit 1
+  fi
+done
 for t in $targets; do
-  log="$build/$t.sanitize.log"
+  log="${dir_of[$t]}/$t.sanitize.log"
   echo "== $t (log: $log)"
   suite_filter="FILTER_$t"
   filter=${GTEST_FILTER:-${!suite_filter:-*}}
@@ -90,13 +108,12 @@ for t in $targets; do
   case "$filter" in *-*) select+=(-E "$(filter_regex "${filter#*-}")") ;; esac
   t0=$(date +%s)
   set +e
-  # The suites with an MPI main: MPI_Finalize unloads OpenMPI's plugins, so the fast unwinder's stacks of
-  # their allocations end in an unknown module no suppression can name; full stacks reach libmpi.
-  fast_unwind=1
-  [ "$t" = test_mesher ] || fast_unwind=0
-  # Every test in its own process (CTest runs the discovered tests), JOBS at a time.
-  (cd "$build" &&
-    ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:halt_on_error=1:fast_unwind_on_malloc=$fast_unwind:log_path="$reports_dir/$t" \
+  # Every test in its own process (CTest runs the discovered tests), JOBS at a time. The stacks of
+  # allocations are the fast unwinder's (ASan's default; FAST_UNWIND=0 for full stacks): OpenMPI's
+  # plugins stay loaded until exit in a sanitizer build (cmake/keep_libraries_loaded.cpp), so the
+  # suppressions name them.
+  (cd "${dir_of[$t]}" &&
+    ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:halt_on_error=1:fast_unwind_on_malloc=${FAST_UNWIND:-1}:log_path="$reports_dir/$t" \
     UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1:log_path="$reports_dir/$t" \
     env -u GTEST_FILTER ctest -j"$jobs" --no-tests=error --output-on-failure "${select[@]}") >"$log" 2>&1
   rc=$?

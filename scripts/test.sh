@@ -23,7 +23,14 @@ BUILD_DIR="$BUILD_DIR" CMAKE_ARGS="-DVIM_WERROR=ON -DVIM_SKIP_SUITES=$skip ${CMA
   bash "$ROOT/scripts/build.sh"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 cd "$BUILD_DIR"
-ctest --output-on-failure --timeout 1800 "$@"
+# The full run: the tests JOBS at a time, except those labelled mpi (two ranks each, or a test program
+# that starts `mpirun -np 2`), which run after them one at a time.
+if [ $# -eq 0 ]; then
+  ctest --output-on-failure --timeout 1800 -j"${JOBS:-2}" -LE '^mpi$'
+  ctest --output-on-failure --timeout 1800 -L '^mpi$'
+else
+  ctest --output-on-failure --timeout 1800 "$@"
+fi
 # The sanitized suites (scripts/sanitize.sh): leak detection on (scripts/lsan.supp), every mesh
 # invariant checked, each test in its own process, two at a time. The mesher suite; the pipeline
 # suite, whose tests drive the instrumented vim-pipeline through meshing, simulation, exports, figures
