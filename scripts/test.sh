@@ -18,8 +18,11 @@ sanitize=0
 [ $# -eq 0 ] && [ "${SANITIZE:-1}" != 0 ] && sanitize=1
 skip=""
 [ $sanitize = 1 ] && skip=$(echo $sanitize_targets | tr ' ' ';')
-# Warnings are errors in CI (VIM_WERROR: -Werror on the project's own targets).
-BUILD_DIR="$BUILD_DIR" CMAKE_ARGS="-DVIM_WERROR=ON -DVIM_SKIP_SUITES=$skip ${CMAKE_ARGS:-}" \
+# Warnings are errors in CI (VIM_WERROR: -Werror on the project's own targets). The full run does not
+# build bench/ (no test runs a benchmark; bench/run.sh builds them), BENCH=1 builds them too.
+bench=ON
+[ $# -eq 0 ] && [ "${BENCH:-0}" != 1 ] && bench=OFF
+BUILD_DIR="$BUILD_DIR" CMAKE_ARGS="-DVIM_WERROR=ON -DVIM_BUILD_BENCH=$bench -DVIM_SKIP_SUITES=$skip ${CMAKE_ARGS:-}" \
   bash "$ROOT/scripts/build.sh"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 cd "$BUILD_DIR"
