@@ -1,4 +1,4 @@
-// Tests of the Kelvin field of a force spread over a needle band (vim/fem/band_load_field.hpp) against
+// Tests of the Kelvin field of a force spread over a needle band (vim/needle/band_load_field.hpp) against
 // independent truth: the point force's closed form far from the band, and plane theory along a long
 // band — there the field of the force on the needle's surface (radius a) minus its field spread over the
 // band (radius R) is the 2D annulus solution: axially f ln(R/a) / (2πGℓ), laterally

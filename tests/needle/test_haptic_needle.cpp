@@ -1,4 +1,4 @@
-// Tests for vim/fem/haptic_needle.hpp (a needle at haptic rate in a condensed region) against the
+// Tests for vim/needle/haptic_needle.hpp (a needle at haptic rate in a condensed region) against the
 // monolithic saddle-point solve [K Cᵀ; C −κ] (ElasticModel::solve_monolithic, UMFPACK) of the same band
 // constraints at every step — station forces and probe displacements — with stick and stick-slip
 // friction, P1 and P2, a pose that turns mid-way; the friction limit (sliding stations carry exactly

@@ -1,5 +1,5 @@
 // Tests of averaged, compliant point constraints (vim/fem/point_constraints.hpp) and of the needle band
-// rows (vim/fem/needle_band.hpp) against independent truth: a brute-force superposition of single-point
+// rows (vim/needle/needle_band.hpp) against independent truth: a brute-force superposition of single-point
 // constraints (the averaged row is the weighted mean of the point rows, its compliance a spring in
 // series), the monolithic saddle-point solve, the row's own invariant force = (g − ū)/κ with ū sampled
 // from the solution, and the same constraint with its outside samples removed by hand.

@@ -1,4 +1,4 @@
-// The finite-radius needle coupling (vim/fem/needle_band.hpp, docs/needle-model.md) against closed-form
+// The finite-radius needle coupling (vim/needle/needle_band.hpp, docs/needle-model.md) against closed-form
 // solutions of a rigid shaft of radius a in elastic tissue (shear modulus G, Poisson ratio ν):
 // - Antiplane shear: the shaft through the whole length L of a prism of square section s, its four long
 //   faces held, its end faces holding x and y only (the 3D field is then exactly the antiplane one),
@@ -196,7 +196,7 @@ TEST(NeedleCoupling, LateralShaftForceMatchesTheory) {
 }
 
 // The measurement behind default_needle_band (docs/needle-model.md), not run by CTest:
-//   build/tests/test_fem_coupling --gtest_also_run_disabled_tests --gtest_filter='*Study*'
+//   build/tests/test_needle_coupling --gtest_also_run_disabled_tests --gtest_filter='*Study*'
 // Force over theory for the old line coupling, one ring of radius max(a, c·h), the shell of
 // needle_band_for for several c, and the default band.
 void coupling_study(bool lateral) {
@@ -223,7 +223,7 @@ TEST(NeedleCoupling, DISABLED_LateralStudy) { coupling_study(true); }
 
 // The default band with stations of other lengths ℓ (the shafts' fields are uniform along the axis, so
 // the force per length must not depend on ℓ), not run by CTest:
-//   build/tests/test_fem_coupling --gtest_also_run_disabled_tests --gtest_filter='*StationLength*'
+//   build/tests/test_needle_coupling --gtest_also_run_disabled_tests --gtest_filter='*StationLength*'
 TEST(NeedleCoupling, DISABLED_StationLengthStudy) {
   std::printf("case degree a h | station length / h = 0.5 1 2 4\n");
   for (bool lateral : {false, true})
