@@ -1,5 +1,6 @@
 // The scenario against the image (scenario.hpp): needle entries, directions, depths and targets inside
 // the image box (in the frame of an oblique image), and the needle paths in that frame.
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <limits>
