@@ -5,8 +5,8 @@
 // point's rows computed in one batch (ElasticModel::precompute), so a step does dense work only.
 //
 // Needle models (all in the reference configuration, small strain). In 3D the "shaft points" below are
-// band stations of the needle of radius diameter/2 (needle::BandCoupling, vim/needle/band_coupling.hpp): the mean
-// displacement of a band of a cylinder around the shaft, held through the analytic annulus compliance,
+// band stations of the needle of radius diameter/2 (needle::BandCoupling, vim/needle/band_coupling.hpp): the
+// mean displacement of a band of a cylinder around the shaft, held through the analytic annulus compliance,
 // joining when the tip has passed its band; the tip pushes the station it is in until the cutting force
 // (docs/architecture.md, the needle model). In 2D they are points on the axis line.
 //  * kinematic / stick: shaft points s_j = entry + s·a are sampled along the path (about one per cell
