@@ -6,10 +6,9 @@
 // nothing.
 //   bench_needle [--steps N] [--mono-steps N] [--mono-max-dofs N] [--friction stick|stick-slip]
 //                [--sizes 1k,10k] [--degrees 1,2] [--solver auto|direct|amg] [--haptic 0|1]
-// --haptic 1 adds a table of fem::HapticNeedle (the real-time needle in a condensed region) on the same
-// blocks.
-// The monolithic solve of a ~10k-node P2 block factorises a ~280k-DoF saddle-point matrix per step
-// (minutes and many GB): it runs only up to --mono-max-dofs DoFs (default 100000).
+// --haptic 1 adds a table of vim::needle::HapticNeedle (the real-time needle in a condensed region) on the
+// same blocks. The monolithic solve of a ~10k-node P2 block factorises a ~280k-DoF saddle-point matrix per
+// step (minutes and many GB): it runs only up to --mono-max-dofs DoFs (default 100000).
 #include <mpi.h>
 
 #include <algorithm>
@@ -20,9 +19,9 @@
 #include <cstring>
 #include <string>
 #include <vector>
-#include <vim/fem/haptic_needle.hpp>
-#include <vim/fem/needle_band.hpp>
 #include <vim/initial_mesh.hpp>
+#include <vim/needle/haptic_needle.hpp>
+#include <vim/needle/needle_band.hpp>
 #include <vim/pipeline/common/progress.hpp>
 #include <vim/pipeline/simulation/simulation.hpp>
 
@@ -80,7 +79,7 @@ Timing time_run(const MeshModel<3>& model, unsigned degree, int steps, const std
   return t;
 }
 
-// fem::HapticNeedle on the same block (its model and conditions from a NeedleSimulation that does not
+// vim::needle::HapticNeedle on the same block (its model and conditions from a NeedleSimulation that does not
 // run): the region a cylinder of radius R + h around the path, one probe (the target), stick-slip at
 // 0.5 mN/mm, the tip advanced along the path in `steps` calls. Returns the precomputation (s), the
 // region's DoFs and the per-call times.
@@ -94,16 +93,16 @@ Timing time_haptic(const MeshModel<3>& model, unsigned degree, double h, int ste
   so.progress = false;
   so.degree = degree;
   NeedleSimulation<3> sim(model, parse_scenario_text(y, 3, "bench"), so);
-  fem::HapticNeedle::Options o;
+  vim::needle::HapticNeedle::Options o;
   o.radius = 0.635;
-  o.coupling_radius = fem::default_coupling_radius(o.radius, h, degree);
+  o.coupling_radius = vim::needle::default_coupling_radius(o.radius, h, degree);
   o.spacing = h;
   o.max_shear_per_length = 0.5;
   const double reach = o.coupling_radius + h;
   const fem::Region<3> region{
       "path", [reach](const fem::Vec<3>& x) { return std::hypot(x[0] - 0.3, x[1] + 0.2) < reach; }};
   const auto t0 = std::chrono::steady_clock::now();
-  fem::HapticNeedle needle(sim.model(), region, {fem::Vec<3>(0, 0, 45)}, o);
+  vim::needle::HapticNeedle needle(sim.model(), region, {fem::Vec<3>(0, 0, 45)}, o);
   Timing t;
   t.precompute = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   t.dofs = static_cast<unsigned>(needle.region_dofs());
@@ -192,7 +191,7 @@ int main(int argc, char** argv) {
     }
   }
   if (haptic) {
-    std::printf("\nreal-time needle (fem::HapticNeedle), stick-slip, %d calls over 40 mm\n", steps);
+    std::printf("\nreal-time needle (vim::needle::HapticNeedle), stick-slip, %d calls over 40 mm\n", steps);
     std::printf("%6s %3s %11s %9s %11s %10s %10s %10s %10s\n", "nodes", "P", "region_DoFs", "stations",
                 "precomp_s", "mean_st/s", "median_ms", "p99_ms", "force");
     for (const std::string& size : split(sizes)) {

@@ -53,6 +53,7 @@ namespace {
 
 using namespace vim;
 using namespace vim::pipeline;
+using vim::needle::NeedlePath;
 using V3 = Eigen::Vector3d;
 using Clock = std::chrono::steady_clock;
 

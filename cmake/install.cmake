@@ -1,5 +1,5 @@
 # Install rules and the CMake package `vim_pipeline` (find_package(vim_pipeline CONFIG) gives
-# vim::mesher, vim::fem, vim::pipeline), plus a pkg-config file for the mesher (Eigen + TBB only).
+# vim::mesher, vim::fem, vim::needle, vim::pipeline), plus a pkg-config file for the mesher (Eigen + TBB only).
 # Included by the top-level CMakeLists.txt after every target is defined.
 #
 # The package holds vim_pipeline and every library target of this project it links, directly or

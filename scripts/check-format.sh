@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# Checks that the C++ sources of mesher/, fem/ and pipeline/ follow the repository's .clang-format
+# Checks that the C++ sources of mesher/, fem/, needle/ and pipeline/ follow the repository's .clang-format
 # (Debian clang-format 14): `clang-format --dry-run --Werror` on each file; exits non-zero and lists
 # the places if any file would change. Fix with: clang-format -i <file>.
-#   scripts/check-format.sh [paths...]     (default: mesher fem pipeline)
+#   scripts/check-format.sh [paths...]     (default: mesher fem needle pipeline)
 # Environment: CLANG_FORMAT (default: clang-format-14 if present, else clang-format).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -18,7 +18,7 @@ case "$version" in
   *) echo "check-format: $clang_format is not clang-format 14 ($version); results would differ" >&2; exit 2 ;;
 esac
 paths=("$@")
-[ ${#paths[@]} -eq 0 ] && paths=(mesher fem pipeline)
+[ ${#paths[@]} -eq 0 ] && paths=(mesher fem needle pipeline)
 mapfile -t files < <(find "${paths[@]}" -type f \( -name '*.cpp' -o -name '*.hpp' -o -name '*.h' -o -name '*.cc' \) | sort)
 if [ ${#files[@]} -eq 0 ]; then
   echo "check-format: no C++ sources under ${paths[*]}" >&2

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Size limits of the C++ sources in mesher/, fem/ and pipeline/ (run first by scripts/test.sh; docs/testing.md, "Running").
+"""Size limits of the C++ sources in mesher/, fem/, needle/ and pipeline/ (run first by scripts/test.sh; docs/testing.md, "Running").
 
 Reports every source file over 700 lines and every function over 150 lines, and fails if more than
 3 functions exceed 100 lines. A function whose signature is directly preceded by a comment holding
@@ -12,7 +12,7 @@ initialiser list); lambdas and blocks inside a function count as part of it. Its
 first line of its head (template line included) to its closing brace. Comments, string and character
 literals and preprocessor lines are ignored.
 
-Usage: scripts/check-size.py [--list N] [paths...]   (default: mesher fem pipeline under the repo)
+Usage: scripts/check-size.py [--list N] [paths...]   (default: mesher fem needle pipeline under the repo)
 Exit status 0 when within the limits, 1 otherwise.
 """
 import argparse
@@ -180,10 +180,10 @@ def scan(path):
 def main():
     root = Path(__file__).resolve().parent.parent
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("paths", nargs="*", help="files or folders (default: mesher fem pipeline)")
+    parser.add_argument("paths", nargs="*", help="files or folders (default: mesher fem needle pipeline)")
     parser.add_argument("--list", type=int, default=0, metavar="N", help="also list functions over N lines")
     args = parser.parse_args()
-    paths = [Path(p) for p in args.paths] or [root / d for d in ("mesher", "fem", "pipeline")]
+    paths = [Path(p) for p in args.paths] or [root / d for d in ("mesher", "fem", "needle", "pipeline")]
     files = []
     for p in paths:
         if p.is_dir():

@@ -157,6 +157,10 @@ Eigen::Matrix<double, dim, dim> ElasticModel<dim>::Impl::centroid_strain(
   return 0.5 * (grad + grad.transpose());
 }
 
+double shear_modulus(double youngs_modulus, double poisson_ratio) {
+  return LinearElasticMaterial<3>::shear_modulus(youngs_modulus, poisson_ratio);
+}
+
 std::pair<double, double> lame_parameters(double youngs_modulus, double poisson_ratio) {
   const Lame<> c = LinearElasticMaterial<3>::lame(youngs_modulus, poisson_ratio);
   return {c.lambda, c.mu};

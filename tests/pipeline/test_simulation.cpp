@@ -632,7 +632,7 @@ TEST(Simulation, SampleSpacingBelowHalfTheElementSizeIsWarnedAbout) {
   // The tissue on the path 2 mm ahead of the tip (at x = -27).
   auto ahead = [&](const SimulationResult<2>& r) {
     const auto& u = r.needles[0].vertex_displacement.back();
-    CellLocator<2> loc = CellLocator<2>::simplex(m.mesh);
+    fem::CellLocator<2> loc = fem::CellLocator<2>::simplex(m.mesh);
     const Eigen::Vector2d p(-25.0, 1.3);
     const long c = loc.locate(p);
     EXPECT_GE(c, 0);

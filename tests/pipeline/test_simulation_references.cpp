@@ -9,8 +9,8 @@
 #include <string>
 #include <type_traits>
 #include <vector>
-#include <vim/fem/needle_band.hpp>
 #include <vim/initial_mesh.hpp>
+#include <vim/needle/needle_band.hpp>
 #include <vim/pipeline/simulation/simulation.hpp>
 #include <vim/voxel_statistics.hpp>
 
@@ -158,7 +158,7 @@ TEST(Simulation, ForcesOnlyStepsMatchMonolithicSolveAtEveryStep) {
 }
 
 // Truth: the force model's problem solved by the test itself — the condensed axial stiffness of the
-// active shaft stations (their band rows, fem::needle_band_constraint) measured with monolithic
+// active shaft stations (their band rows, vim::needle::needle_band_constraint) measured with monolithic
 // saddle-point solves (ElasticModel::solve_monolithic, one per station), the axial values that give the
 // prescribed forces (tip force on the last station, friction per length × the shaft length each carries,
 // as needle.hpp states) solved with Eigen, and the
@@ -184,9 +184,9 @@ TEST(Simulation, ForceModelStepsMatchAMonolithicSolveOfThePrescribedForces) {
   const std::size_t np = r.point_s.size();
   std::vector<double> start(np, 0.0);
   for (std::size_t j = 1; j < np; ++j) start[j] = start[j - 1] + r.point_length[j - 1];
-  // The stations' bands (fem::needle_band_constraint, the documented rows of the 3D needle) with the
+  // The stations' bands (vim::needle::needle_band_constraint, the documented rows of the 3D needle) with the
   // coupling radius the run reports.
-  fem::NeedleBand band;
+  vim::needle::NeedleBand band;
   band.radius = 0.5;
   band.coupling_radius = res.report["needles"][0]["coupling_radius"].get<double>();
   int steps_with_stations = 0;
@@ -202,8 +202,8 @@ TEST(Simulation, ForceModelStepsMatchAMonolithicSolveOfThePrescribedForces) {
       std::vector<fem::PointConstraint<3>> pts;
       for (std::size_t j = 0; j < n; ++j) {
         band.length = r.point_length[j];
-        pts.push_back(
-            fem::needle_band_constraint(entry + r.point_s[j] * a, a, band, V3(0, 0, w[j]), 10.0, 0.3));
+        pts.push_back(vim::needle::needle_band_constraint(entry + r.point_s[j] * a, a, band, V3(0, 0, w[j]),
+                                                          10.0, 0.3));
       }
       return model.solve_monolithic(pts);
     };

@@ -10,6 +10,7 @@
 #include <set>
 #include <sstream>
 #include <vim/fem/material.hpp>
+#include <vim/needle/friction_law.hpp>
 #include <vim/pipeline/scenario/scenario.hpp>
 
 #include "scenario/scenario_reader.hpp"
@@ -114,7 +115,7 @@ void parse_friction(const Reader& r, const Fields& f, const YAML::Node& needle, 
   if (!fn) r.fail(needle, "missing key '" + required);
   const Fields fr = r.check_keys(fn, fp, {"model", "max_shear_per_length"});
   if (fr["model"])
-    s.friction = r.choice(fr["model"], fp + ".model", {"stick", "stick-slip"}) == "stick"
+    s.friction = r.choice(fr["model"], fp + ".model", vim::needle::friction_law_names("kinematic")) == "stick"
                      ? NeedleSpec::Friction::stick
                      : NeedleSpec::Friction::stick_slip;
   else

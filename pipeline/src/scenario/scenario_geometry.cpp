@@ -1,5 +1,6 @@
 // The scenario against the image (scenario.hpp): needle entries, directions, depths and targets inside
 // the image box (in the frame of an oblique image), and the needle paths in that frame.
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -116,7 +117,7 @@ void check_scenario_geometry(const Scenario& s, const Eigen::Matrix<double, dim,
 }
 
 template <int dim>
-NeedlePath<dim> needle_path(const NeedleSpec& n, const WorldTransform<dim>& tf) {
+needle::NeedlePath<dim> needle_path(const NeedleSpec& n, const WorldTransform<dim>& tf) {
   Eigen::Matrix<double, dim, 1> entry, direction;
   for (int d = 0; d < dim; ++d) {
     entry[d] = n.entry[static_cast<std::size_t>(d)];
@@ -126,8 +127,8 @@ NeedlePath<dim> needle_path(const NeedleSpec& n, const WorldTransform<dim>& tf) 
 }
 
 template <int dim>
-std::vector<NeedlePath<dim>> needle_paths(const Scenario& s, const WorldTransform<dim>& tf) {
-  std::vector<NeedlePath<dim>> paths;
+std::vector<needle::NeedlePath<dim>> needle_paths(const Scenario& s, const WorldTransform<dim>& tf) {
+  std::vector<needle::NeedlePath<dim>> paths;
   for (const auto& n : s.needles) paths.push_back(needle_path<dim>(n, tf));
   return paths;
 }
@@ -136,18 +137,18 @@ template <int dim>
 std::optional<Image<dim>> needle_refinement_density(const Scenario& s, const Image<dim>& image,
                                                     const WorldTransform<dim>& tf) {
   if (!s.needle_refinement) return std::nullopt;
-  return needle_density<dim>(image, needle_paths<dim>(s, tf), s.needle_refinement->size_ratio,
-                             s.needle_refinement->radius);
+  return needle::needle_density<dim>(image, needle_paths<dim>(s, tf), s.needle_refinement->size_ratio,
+                                     s.needle_refinement->radius);
 }
 
 template std::optional<Image<2>> needle_refinement_density<2>(const Scenario&, const Image<2>&,
                                                               const WorldTransform<2>&);
 template std::optional<Image<3>> needle_refinement_density<3>(const Scenario&, const Image<3>&,
                                                               const WorldTransform<3>&);
-template NeedlePath<2> needle_path<2>(const NeedleSpec&, const WorldTransform<2>&);
-template NeedlePath<3> needle_path<3>(const NeedleSpec&, const WorldTransform<3>&);
-template std::vector<NeedlePath<2>> needle_paths<2>(const Scenario&, const WorldTransform<2>&);
-template std::vector<NeedlePath<3>> needle_paths<3>(const Scenario&, const WorldTransform<3>&);
+template needle::NeedlePath<2> needle_path<2>(const NeedleSpec&, const WorldTransform<2>&);
+template needle::NeedlePath<3> needle_path<3>(const NeedleSpec&, const WorldTransform<3>&);
+template std::vector<needle::NeedlePath<2>> needle_paths<2>(const Scenario&, const WorldTransform<2>&);
+template std::vector<needle::NeedlePath<3>> needle_paths<3>(const Scenario&, const WorldTransform<3>&);
 template void check_scenario_geometry<2>(const Scenario&, const Eigen::Matrix<double, 2, 1>&,
                                          const Eigen::Matrix<double, 2, 1>&, const WorldTransform<2>&);
 template void check_scenario_geometry<3>(const Scenario&, const Eigen::Matrix<double, 3, 1>&,

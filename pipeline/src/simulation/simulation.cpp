@@ -11,11 +11,11 @@
 #include <vim/fem/distributed.hpp>
 #include <vim/pipeline/output/vtk_output.hpp>
 #include <vim/pipeline/scenario/scenario_regions.hpp>
-#include <vim/pipeline/simulation/needle.hpp>
 #include <vim/pipeline/simulation/simulation.hpp>
 
 #include "simulation/largest_strain.hpp"
 #include "simulation/needle_insertion.hpp"
+#include "simulation/needle_options.hpp"
 #include "simulation/simulation_context.hpp"
 #include "simulation/simulation_output.hpp"
 #include "simulation/solve_comm.hpp"
@@ -282,7 +282,7 @@ fem::ElasticModel<dim>& NeedleSimulation<dim>::model() {
 template <int dim>
 std::vector<std::string> NeedleSimulation<dim>::Impl::held_path_warnings(const NeedleSpec& spec) const {
   std::vector<std::string> out;
-  const NeedlePath<dim> path = needle_path<dim>(spec, tf);
+  const needle::NeedlePath<dim> path = needle_path<dim>(spec, tf);
   const int samples = 1000;
   for (std::size_t i = 0; i < sc.boundary_conditions.size(); ++i) {
     const auto& bc = sc.boundary_conditions[i];
@@ -454,7 +454,7 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
     const std::string strain =
         small_strain_warning(m.sc.where(spec.line), who, res.needles.back().max_strain);
     if (!strain.empty()) res.warnings.push_back(strain);
-    if (make_friction_law(spec, 1)->axial_force_never_falls())
+    if (needle::make_friction_law(friction_options(spec, 1))->axial_force_never_falls())
       m.check_axial_force(spec, res.needles.back(), nr, res.warnings);
     needles.push_back(nr);
   }

@@ -10,7 +10,6 @@
 #include <optional>
 #include <vector>
 #include <vim/fem/elasticity.hpp>
-#include <vim/pipeline/simulation/needle.hpp>
 #include <vim/pipeline/simulation/simulation.hpp>
 #include <vim/seconds_since.hpp>
 
@@ -40,7 +39,7 @@ struct SimulationContext {
   fem::SolverOptions solver;
 
   // Point location in the model's cells (the model's own locator: its vertices are the supports' numbering).
-  const CellLocator<dim>& locator() const { return model->locator(); }
+  const fem::CellLocator<dim>& locator() const { return model->locator(); }
   int max_sweeps() const { return std::max(1, opt.max_active_set_iterations); }  // stick-slip cap per step
   // A scenario region in the frame (regions are given in world coordinates; box faces name the box).
   fem::Region<dim> region(const RegionSpec& r) const;

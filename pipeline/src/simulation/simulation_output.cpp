@@ -163,8 +163,8 @@ void write_summary_csv(const std::filesystem::path& path, const std::vector<Need
 }
 
 template <int dim>
-json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const FrictionLaw& law, double pitch,
-                   const std::string& prefix, double run_seconds, int solves, bool monolithic,
+json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const needle::FrictionLaw& law,
+                   double pitch, const std::string& prefix, double run_seconds, int solves, bool monolithic,
                    const Scenario& sc) {
   json rep;
   rep["name"] = spec.name;
@@ -173,7 +173,10 @@ json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const Fric
   rep["depth"] = spec.depth;
   rep["steps"] = spec.steps;
   rep["diameter"] = spec.diameter;
-  law.describe(rep);
+  const needle::LawDescription law_keys = law.describe();
+  rep["model"] = law_keys.model;
+  rep["friction"] = law_keys.friction;
+  for (const auto& [key, value] : law_keys.parameters) rep[key] = value;
   rep["shaft_points"] = run.point_s.size();
   rep["shaft_pitch"] = pitch;
   if (!prefix.empty()) rep["folder"] = prefix;
@@ -255,8 +258,8 @@ json model_report(const SimulationContext<dim>& m) {
   template void write_needle_csv<dim>(const std::filesystem::path&, const NeedleRun<dim>&, const Scenario&); \
   template void write_summary_csv<dim>(const std::filesystem::path&, const std::vector<NeedleRun<dim>>&,     \
                                        const Scenario&);                                                     \
-  template json needle_report<dim>(const NeedleSpec&, const NeedleRun<dim>&, const FrictionLaw&, double,     \
-                                   const std::string&, double, int, bool, const Scenario&);                  \
+  template json needle_report<dim>(const NeedleSpec&, const NeedleRun<dim>&, const needle::FrictionLaw&,     \
+                                   double, const std::string&, double, int, bool, const Scenario&);          \
   template json model_report<dim>(const SimulationContext<dim>&);
 VIM_SIMULATION_OUTPUT(2)
 VIM_SIMULATION_OUTPUT(3)

@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
-#include <vim/pipeline/simulation/needle_coupling.hpp>
+#include <vim/needle/friction_law.hpp>
 
 #include "simulation/simulation_context.hpp"
 
@@ -41,9 +41,9 @@ void write_summary_csv(const std::filesystem::path& path, const std::vector<Need
 
 // The needle's entry of report.json["simulation"]["needles"].
 template <int dim>
-nlohmann::json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const FrictionLaw& law,
-                             double pitch, const std::string& prefix, double run_seconds, int solves,
-                             bool monolithic, const Scenario& sc);
+nlohmann::json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run,
+                             const needle::FrictionLaw& law, double pitch, const std::string& prefix,
+                             double run_seconds, int solves, bool monolithic, const Scenario& sc);
 
 // The model part of report.json["simulation"]: scenario, units, model kind, size and modulus range.
 template <int dim>

@@ -25,4 +25,8 @@ std::vector<double> block_mean(const std::array<long, dim>& dims, const std::vec
 // Lamé parameters from (E, ν): {λ, μ}. 2D is plane strain everywhere in this module.
 std::pair<double, double> lame_parameters(double youngs_modulus, double poisson_ratio);
 
+// Shear modulus μ = E / (2(1 + ν)) of the linear elastic material, unchecked (for closed forms
+// outside fem, e.g. the needle band's annulus compliance and the Kelvin solution).
+double shear_modulus(double youngs_modulus, double poisson_ratio);
+
 }  // namespace vim::fem

@@ -10,9 +10,9 @@
 #include <utility>
 #include <vector>
 #include <vim/image.hpp>
+#include <vim/needle/needle_path.hpp>
 #include <vim/pipeline/common/model.hpp>
 #include <vim/pipeline/image/image_io.hpp>
-#include <vim/pipeline/simulation/needle.hpp>
 
 namespace vim::pipeline {
 
@@ -116,7 +116,7 @@ struct Scenario {
   std::optional<unsigned> degree;
   std::optional<double> min_dihedral;  // mesh.min_dihedral: VIM quality floor in degrees (--min-dihedral)
   // mesh.needle_refinement: VIM keeps elements near the needle paths about size_ratio times the size
-  // of the others (a density-weighted E_G, paper §VI-E; pipeline::needle_density).
+  // of the others (a density-weighted E_G, paper §VI-E; needle::needle_density).
   struct NeedleRefinement {
     double size_ratio = 1.0;  // (0, 1]
     double radius = 0.0;      // length units: the refined tube's 1/e radius around each path
@@ -158,9 +158,10 @@ void check_scenario_geometry(const Scenario& scenario, const Eigen::Matrix<doubl
 // A needle's straight path (entry → entry + depth·direction) in frame coordinates; needle_paths: every
 // needle's.
 template <int dim>
-NeedlePath<dim> needle_path(const NeedleSpec& needle, const WorldTransform<dim>& transform);
+needle::NeedlePath<dim> needle_path(const NeedleSpec& needle, const WorldTransform<dim>& transform);
 template <int dim>
-std::vector<NeedlePath<dim>> needle_paths(const Scenario& scenario, const WorldTransform<dim>& transform);
+std::vector<needle::NeedlePath<dim>> needle_paths(const Scenario& scenario,
+                                                  const WorldTransform<dim>& transform);
 
 // The mesh density of mesh.needle_refinement on the grid of `image` (needle_density over
 // needle_paths), or nothing when the scenario has no needle refinement.

@@ -5,8 +5,8 @@
 // point's rows computed in one batch (ElasticModel::precompute), so a step does dense work only.
 //
 // Needle models (all in the reference configuration, small strain). In 3D the "shaft points" below are
-// band stations of the needle of radius diameter/2 (BandCoupling, needle_coupling.hpp): the mean
-// displacement of a band of a cylinder around the shaft, held through the analytic annulus compliance,
+// band stations of the needle of radius diameter/2 (needle::BandCoupling, vim/needle/band_coupling.hpp): the
+// mean displacement of a band of a cylinder around the shaft, held through the analytic annulus compliance,
 // joining when the tip has passed its band; the tip pushes the station it is in until the cutting force
 // (docs/architecture.md, the needle model). In 2D they are points on the axis line.
 //  * kinematic / stick: shaft points s_j = entry + s·a are sampled along the path (about one per cell
@@ -33,10 +33,12 @@
 // axial = −F·a (insertion resistance, > 0 when the tissue resists) and lateral = |F − (F·a)a|. Forces
 // are in modulus × length² (kPa·mm² = mN) in 3D and per unit thickness (mN/mm) in 2D (plane strain).
 //
-// Code: NeedleSimulation builds the model once (simulation.cpp); each needle runs the stepping loop of
-// needle_insertion.cpp, which talks to the physics only through a FrictionLaw (friction_stick.cpp,
-// friction_stick_slip.cpp, friction_force.cpp) and a NeedleCoupling (needle_coupling.hpp); the files
-// and report entries are written by simulation_output.cpp.
+// Code: NeedleSimulation builds the model once (simulation.cpp); each needle runs in
+// needle_insertion.cpp, with the needle library's stepping (needle::Insertion), which talks to the
+// tissue only through needle::TissueResponse (here needle::ElasticTissue, the condensed model) and to
+// the contact through a needle::FrictionLaw and a needle::NeedleCoupling (vim/needle/); the needle is
+// translated from the scenario in needle_options.cpp; the files and report entries are written by
+// simulation_output.cpp.
 #pragma once
 
 #include <filesystem>

@@ -1,0 +1,26 @@
+// The active set of the kinematic friction laws (stick and stick-slip): which shaft points stick to
+// the needle and which slide at their friction limit.
+#pragma once
+
+#include <vector>
+#include <vim/needle/shaft_state.hpp>
+#include <vim/needle/tissue_response.hpp>
+
+namespace vim::needle {
+
+// What a law did at one step (stick-slip: the active-set sweeps and whether the set settled).
+struct FrictionStep {
+  int sweeps = 0;
+  bool settled = true;
+};
+
+// Every active point sticks (moves with the needle: state.stick) unless its axial load exceeds
+// limit[j] (per point; +∞: always sticks); then it slides, its value solved on the tissue's axial map
+// so that its load equals ±limit. A sliding point whose limit would need it to move ahead of the
+// needle sticks again. `sliding` and `sign` (per point) are kept between steps by the law; at most
+// max_sweeps sweeps (≥ 1). One solve when every point can stick; the map (m + 1 solves when m
+// changes) otherwise. Leaves the tissue solved with the final values.
+FrictionStep settle_active_set(ShaftState& state, TissueResponse& tissue, const std::vector<double>& limit,
+                               std::vector<bool>& sliding, std::vector<double>& sign, int max_sweeps);
+
+}  // namespace vim::needle

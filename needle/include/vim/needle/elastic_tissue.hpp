@@ -1,0 +1,64 @@
+// The linear elastic model behind the tissue interface (TissueResponse): the coupling rows of every
+// shaft point (and the probe points) condensed once (fem::CondensedConstraints), so that a solve of
+// the active points' axial values is the dense Schur system of their rows; the whole field only on
+// request. The monolithic saddle-point solve of the same rows is the reference.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <vector>
+#include <vim/fem/condensed_constraints.hpp>
+#include <vim/fem/model.hpp>
+#include <vim/needle/coupling.hpp>
+#include <vim/needle/tissue_response.hpp>
+
+namespace vim::needle {
+
+template <int dim>
+class ElasticTissue final : public TissueResponse {
+ public:
+  // `state` is the stepping's (its active points are the rows of each solve); `probe_step`: the axial
+  // value of the axial map's probes (the shaft pitch). monolithic: every solve with solve_monolithic.
+  ElasticTissue(fem::ElasticModel<dim>& model, const NeedleCoupling<dim>& coupling, const ShaftState& state,
+                std::size_t n_points, double probe_step, const fem::SolverOptions& solver, bool monolithic);
+  ~ElasticTissue() override;
+
+  // Before stepping: the rows of every shaft point and the probes, and their columns K⁻¹cᵀ in one
+  // batch, so that no step does a sparse solve (nothing with the monolithic reference).
+  void precompute(const std::vector<Vec<dim>>& probes);
+
+  std::vector<double> solve(const std::vector<double>& axial) override;
+  const AxialMap& axial_map() override;
+
+  // The whole field of the last solve into solution() (once per solve; the monolithic solve has it).
+  void form_field();
+  // No contact: an empty solution that counts as formed.
+  void clear();
+  fem::Solution<dim>& solution() { return solution_; }
+  // The displacement along `axis` that point j's rows hold in the last solution.
+  double held_axial(std::size_t j, const Vec<dim>& axis) const;
+  // The probes' displacements in the last solve (the model's samples with the monolithic reference).
+  std::vector<Vec<dim>> probe_displacements(const std::vector<Vec<dim>>& probes) const;
+
+  int solves() const { return solves_; }
+  double solve_seconds() const { return solve_seconds_; }
+
+ private:
+  fem::ElasticModel<dim>& model_;
+  const NeedleCoupling<dim>& coupling_;
+  const ShaftState& state_;
+  std::size_t n_points_;
+  double probe_step_;
+  fem::SolverOptions solver_;
+  bool monolithic_;
+  std::unique_ptr<fem::CondensedConstraints<dim>> condensed_;
+  std::vector<Vec<dim>> held_;  // the active rows' displacements of a solve
+  fem::Solution<dim> solution_;
+  bool field_ = false;  // solution_ holds the whole field of the last solve
+  AxialMap map_;
+  std::size_t map_size_ = 0;
+  int solves_ = 0;
+  double solve_seconds_ = 0.0;
+};
+
+}  // namespace vim::needle

@@ -1,0 +1,31 @@
+// The one interface between the needle and the tissue. The insertion stepping and the friction laws
+// see the tissue only through it: the condensed compliance of the coupling rows. A step sets the axial
+// value of every active shaft point (how far along the needle axis its tissue is moved) and asks the
+// tissue for the axial force each point's rows then carry; force control needs the affine map from
+// those values to those forces.
+//
+// Implementations: the linear elastic model condensed onto the needle's rows
+// (fem::CondensedConstraints, one dense Schur solve per call; pipeline's NeedleInsertion), or its
+// monolithic reference. A nonlinear tissue implements solve() with its own iteration and axial_map()
+// with the tangent at the current state; a flexible needle adds its own compliance to the rows behind
+// this interface. Neither touches the stepping nor the laws.
+#pragma once
+
+#include <vector>
+#include <vim/needle/axial_map.hpp>
+
+namespace vim::needle {
+
+class TissueResponse {
+ public:
+  virtual ~TissueResponse() = default;
+  // One tissue solve with the active points at `axial` (one entry per shaft point; only the active
+  // points' entries are read); the axial force on the body per shaft point (0 for points not active).
+  // The last call of a step is the step's solution.
+  virtual std::vector<double> solve(const std::vector<double>& axial) = 0;
+  // The affine map from the active points' axial values to their axial forces (axial_map.hpp), probed
+  // with m + 1 solves when the number of active points m has changed since the last probe.
+  virtual const AxialMap& axial_map() = 0;
+};
+
+}  // namespace vim::needle

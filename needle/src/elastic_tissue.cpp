@@ -1,0 +1,98 @@
+// The linear elastic model behind the tissue interface (vim/needle/elastic_tissue.hpp).
+#include <chrono>
+#include <vim/needle/elastic_tissue.hpp>
+
+namespace vim::needle {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+}  // namespace
+
+template <int dim>
+ElasticTissue<dim>::ElasticTissue(fem::ElasticModel<dim>& model, const NeedleCoupling<dim>& coupling,
+                                  const ShaftState& state, std::size_t n_points, double probe_step,
+                                  const fem::SolverOptions& solver, bool monolithic)
+    : model_(model),
+      coupling_(coupling),
+      state_(state),
+      n_points_(n_points),
+      probe_step_(probe_step),
+      solver_(solver),
+      monolithic_(monolithic) {}
+
+template <int dim>
+ElasticTissue<dim>::~ElasticTissue() = default;
+
+template <int dim>
+void ElasticTissue<dim>::precompute(const std::vector<Vec<dim>>& probes) {
+  if (monolithic_) return;
+  std::vector<fem::PointConstraint<dim>> rows;
+  for (std::size_t j = 0; j < n_points_; ++j) rows.push_back(coupling_.row_template(j));
+  condensed_ = std::make_unique<fem::CondensedConstraints<dim>>(model_, rows, probes, solver_);
+}
+
+// One solve of the step: the monolithic reference forms the whole field; the condensed rows give the
+// point forces (and the probes' displacements) only, the field is formed when a step needs it.
+template <int dim>
+std::vector<double> ElasticTissue<dim>::solve(const std::vector<double>& axial) {
+  const auto t = Clock::now();
+  if (monolithic_) {
+    solution_ = model_.solve_monolithic(coupling_.rows(state_.active, axial), solver_);
+  } else {
+    coupling_.held_values(state_.active, axial, held_);
+    condensed_->solve(state_.active, held_);
+    condensed_->point_forces(solution_.point_force);
+    solution_.stats = condensed_->stats();
+  }
+  field_ = monolithic_;
+  solve_seconds_ += seconds_since(t);
+  ++solves_;
+  return coupling_.axial_forces(state_.active, solution_);
+}
+
+template <int dim>
+void ElasticTissue<dim>::form_field() {
+  if (field_) return;
+  const auto t = Clock::now();
+  solution_ = condensed_->field();
+  solve_seconds_ += seconds_since(t);
+  field_ = true;
+}
+
+template <int dim>
+void ElasticTissue<dim>::clear() {
+  solution_ = fem::Solution<dim>{};
+  field_ = true;
+}
+
+template <int dim>
+const AxialMap& ElasticTissue<dim>::axial_map() {
+  if (map_size_ == state_.active.size()) return map_;
+  map_ = AxialMap::probe(
+      static_cast<Eigen::Index>(state_.active.size()),
+      [&](const Eigen::VectorXd& wc) {
+        std::vector<double> full(n_points_, 0.0);
+        state_.expand(wc, full);
+        return state_.compact(solve(full));
+      },
+      probe_step_);
+  map_size_ = state_.active.size();
+  return map_;
+}
+
+template <int dim>
+double ElasticTissue<dim>::held_axial(std::size_t j, const Vec<dim>& axis) const {
+  if (condensed_) return condensed_->held_displacement(j).dot(axis);
+  return coupling_.displacements({j}, model_)[0].dot(axis);
+}
+
+template <int dim>
+std::vector<Vec<dim>> ElasticTissue<dim>::probe_displacements(const std::vector<Vec<dim>>& probes) const {
+  return condensed_ ? condensed_->probe_displacements() : model_.sample(probes);
+}
+
+template class ElasticTissue<2>;
+template class ElasticTissue<3>;
+
+}  // namespace vim::needle

@@ -1,0 +1,49 @@
+// Kinematic needle, stick: every picked-up shaft point moves with the rigid needle, u_j = (d − s_j)·a
+// (δ behind the tip with a cutting distance δ). Pure stick drags the shaft's tissue along with the
+// needle: the no-slip limit of stick-slip and the upper bound of tissue drag. The point the tip pushes
+// (a cutting force F_c > 0) moves with the needle until its load reaches F_c, then is held at F_c.
+#include <limits>
+
+#include "friction_laws.hpp"
+
+namespace vim::needle {
+
+namespace {
+
+class StickLaw final : public FrictionLaw {
+ public:
+  StickLaw(double cutting_distance, double cutting_force, int max_sweeps)
+      : cutting_distance_(cutting_distance), cutting_force_(cutting_force), max_sweeps_(max_sweeps) {}
+  void start(std::size_t n) override {
+    sliding_.assign(n, false);
+    sign_.assign(n, 1.0);
+    limit_.assign(n, std::numeric_limits<double>::infinity());
+  }
+  FrictionStep update(ShaftState& state, TissueResponse& tissue) override {
+    for (std::size_t j : state.active)
+      limit_[j] = j == state.cutting ? cutting_force_ : std::numeric_limits<double>::infinity();
+    return settle_active_set(state, tissue, limit_, sliding_, sign_, max_sweeps_);
+  }
+  bool has_active_set() const override { return cutting_force_ > 0.0; }
+  // A stuck shaft advancing into linear elastic tissue pushes it: the axial force never falls.
+  bool axial_force_never_falls() const override { return true; }
+  bool tip_cuts() const override { return cutting_force_ > 0.0; }
+  LawDescription describe() const override {
+    return {
+        "kinematic", "stick", {{"cutting_distance", cutting_distance_}, {"cutting_force", cutting_force_}}};
+  }
+
+ private:
+  double cutting_distance_, cutting_force_;
+  int max_sweeps_;
+  std::vector<bool> sliding_;
+  std::vector<double> sign_, limit_;
+};
+
+}  // namespace
+
+std::unique_ptr<FrictionLaw> make_stick_law(const FrictionOptions& spec) {
+  return std::make_unique<StickLaw>(spec.cutting_distance, spec.cutting_force, spec.max_sweeps);
+}
+
+}  // namespace vim::needle
