@@ -10,6 +10,7 @@ bash "$ROOT/scripts/setup-deps.sh"
 # Source checks first: .clang-format and the size limits (files <= 700 lines, functions <= 150).
 bash "$ROOT/scripts/check-format.sh"
 /usr/bin/python3 "$ROOT/scripts/check-size.py"
+/usr/bin/python3 "$ROOT/scripts/check-layers.py"
 # The full run (no arguments) runs the suites of SANITIZE_TARGETS under ASan+UBSan after the normal
 # suite, and there only: the normal build neither compiles nor registers them (VIM_SKIP_SUITES); with
 # ctest arguments, or SANITIZE=0, every suite is built and run normally.
