@@ -185,14 +185,7 @@ void CondensedConstraints<dim>::Impl::check_conditioning() const {
   for (Eigen::Index a = 0; a < nk; ++a)
     for (Eigen::Index b = 0; b < nk; ++b)
       Sk(a, b) = S(kept[a], kept[b]) / std::sqrt(S(kept[a], kept[a]) * S(kept[b], kept[b]));
-  const Eigen::LLT<Eigen::MatrixXd> scaled(Sk);
-  const double rcond = scaled.info() == Eigen::Success ? scaled.rcond() : 0.0;
-  if (!(rcond >= 1e-14)) {
-    std::ostringstream s;
-    s << "the " << nk << " point-constraint rows are nearly dependent (reciprocal condition number " << rcond
-      << " of their Schur complement)";
-    throw DependentPointConstraints(s.str());
-  }
+  check_scaled_schur(Eigen::LLT<Eigen::MatrixXd>(Sk), nk);
 }
 
 // The value c·u of a row (the displacement it holds, Dirichlet part included) in the last solution.

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
+#include <vim/point_text.hpp>
 
 namespace vim::fem {
 
@@ -141,7 +142,7 @@ ConstraintRow constraint_row(const State<dim>& m, const PointConstraint<dim>& p,
     if (st[q].inside) inside += samples[q].second;
   if (!(inside > 0.0)) {
     std::ostringstream s;
-    s << "point constraint " << which << " at " << fmt_point(p.position.data(), dim)
+    s << "point constraint " << which << " at " << point_text(p.position.data(), dim)
       << (p.offsets.empty() ? " lies outside the mesh" : ": all its averaging samples lie outside the mesh");
     throw std::invalid_argument(s.str());
   }
@@ -156,13 +157,22 @@ ConstraintRow constraint_row(const State<dim>& m, const PointConstraint<dim>& p,
   if (!(free_scale > 1e-12 * scale)) {
     if (!evaluation && std::abs(row.g) > 1e-12 * (1.0 + std::abs(g))) {
       std::ostringstream s;
-      s << "point constraint " << which << " at " << fmt_point(p.position.data(), dim) << " (component " << c
+      s << "point constraint " << which << " at " << point_text(p.position.data(), dim) << " (component " << c
         << ") lies on Dirichlet-constrained nodes and asks for a different displacement";
       throw std::invalid_argument(s.str());
     }
     row.active = false;
   }
   return row;
+}
+
+void check_scaled_schur(const Eigen::LLT<Eigen::MatrixXd>& scaled, Eigen::Index n) {
+  const double rcond = scaled.info() == Eigen::Success ? scaled.rcond() : 0.0;
+  if (rcond >= 1e-14) return;
+  std::ostringstream s;
+  s << "the " << n << " point-constraint rows are nearly dependent (reciprocal condition number " << rcond
+    << " of their Schur complement)";
+  throw DependentPointConstraints(s.str());
 }
 
 template <int dim>
@@ -239,8 +249,8 @@ void saddle_point_system(const State<dim>& m, const std::vector<const Constraint
 template <int dim>
 Solution<dim> ElasticModel<dim>::solve_monolithic(const std::vector<PointConstraint<dim>>& points,
                                                   const SolverOptions& opt) {
-  Impl& m = *impl_;
   check_points(points);
+  Impl& m = *impl_;
   if (m.solves_over_ranks())
     throw std::invalid_argument(
         "solve_monolithic: the model's solves run over MPI ranks (distribute_solves); use solve()");

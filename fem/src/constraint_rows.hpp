@@ -5,6 +5,8 @@
 
 #include <deal.II/base/timer.h>
 
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
 #include <cmath>
 #include <cstddef>
 #include <sstream>
@@ -60,6 +62,11 @@ inline void check_void_row(double g, double displacement, std::size_t which, uns
     << ") lies on Dirichlet-constrained nodes and asks for a different displacement";
   throw std::invalid_argument(s.str());
 }
+
+// Throws DependentPointConstraints when the Cholesky factor `scaled` of the n point-constraint rows'
+// Schur complement scaled to a unit diagonal has a reciprocal condition number below 1e-14 (or failed):
+// the solve's error bound n·ε/rcond then exceeds 10% for a few dozen rows (solvers.cpp, solve_schur).
+void check_scaled_schur(const Eigen::LLT<Eigen::MatrixXd>& scaled, Eigen::Index n);
 
 // Throws std::invalid_argument for non-finite positions/displacements, negative compliances or axes
 // that are not orthonormal.

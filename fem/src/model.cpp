@@ -20,6 +20,7 @@
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <vim/point_text.hpp>
 
 #include "input_checks.hpp"
 #include "linear_elastic_material.hpp"
@@ -326,7 +327,7 @@ void ElasticModel<dim>::Impl::constrain_point(const Point<dim>& x,
     for (int c = 0; c < dim; ++c)
       if (bc.components[c] && !std::isfinite(value[c]))
         throw std::invalid_argument("Dirichlet condition on region '" + bc.region.name +
-                                    "' gives a non-finite value at " + fmt_point(xv.data(), dim));
+                                    "' gives a non-finite value at " + point_text(xv.data(), dim));
     if (model_axes) {
       for (int c = 0; c < dim; ++c) {
         if (!bc.components[c] || held[c]) continue;

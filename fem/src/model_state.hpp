@@ -58,13 +58,6 @@ Vec<dim> to_vec(const dealii::Point<dim>& p) {
   for (int d = 0; d < dim; ++d) v[d] = p[d];
   return v;
 }
-inline std::string fmt_point(const double* x, int dim) {
-  std::ostringstream s;
-  s << "(";
-  for (int d = 0; d < dim; ++d) s << (d ? ", " : "") << x[d];
-  s << ")";
-  return s.str();
-}
 
 // Columns are unit vectors, mutually orthogonal (within 1e-9), and finite.
 template <int dim>

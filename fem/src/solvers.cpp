@@ -358,14 +358,7 @@ Eigen::VectorXd solve_schur(const Eigen::MatrixXd& S, const Eigen::VectorXd& r) 
   const Eigen::Index nr = S.rows();
   Eigen::LLT<Eigen::MatrixXd> llt(S);
   const Eigen::VectorXd dinv = S.diagonal().cwiseSqrt().cwiseInverse();
-  const Eigen::LLT<Eigen::MatrixXd> scaled(dinv.asDiagonal() * S * dinv.asDiagonal());
-  const double rcond = scaled.info() == Eigen::Success ? scaled.rcond() : 0.0;
-  if (!(rcond >= 1e-14)) {
-    std::ostringstream s;
-    s << "the " << nr << " point-constraint rows are nearly dependent (reciprocal condition number " << rcond
-      << " of their Schur complement)";
-    throw DependentPointConstraints(s.str());
-  }
+  check_scaled_schur(Eigen::LLT<Eigen::MatrixXd>(dinv.asDiagonal() * S * dinv.asDiagonal()), nr);
   if (llt.info() != Eigen::Success) {
     std::ostringstream s;
     s << "the Schur complement of the " << nr

@@ -6,18 +6,10 @@
 #include <sstream>
 #include <vim/facets.hpp>
 #include <vim/invariants.hpp>
+#include <vim/point_text.hpp>
 
 namespace vim {
 namespace {
-
-template <int dim>
-std::string point_text(const Eigen::Matrix<double, dim, 1>& p) {
-  std::ostringstream s;
-  s << "(";
-  for (int a = 0; a < dim; ++a) s << (a ? ", " : "") << p[a];
-  s << ")";
-  return s.str();
-}
 
 // The first violated node invariant: in the box, on its box faces (fixed_axes). "" if none.
 template <int dim>
@@ -30,13 +22,14 @@ std::string node_violation(const SimplexMesh<dim>& mesh, const std::vector<std::
     const auto& p = mesh.points[i];
     for (int a = 0; a < dim; ++a) {
       if (!(p[a] >= box_min[a] - tol && p[a] <= box_max[a] + tol)) {
-        m << "node " << i << " at " << point_text<dim>(p) << " is outside the box along axis " << a << " ["
-          << box_min[a] << ", " << box_max[a] << "]";
+        m << "node " << i << " at " << point_text(p.data(), dim) << " is outside the box along axis " << a
+          << " [" << box_min[a] << ", " << box_max[a] << "]";
         return m.str();
       }
       if (!fixed_axes.empty() && (fixed_axes[i] >> a & 1u) && std::abs(p[a] - box_min[a]) > tol &&
           std::abs(p[a] - box_max[a]) > tol) {
-        m << "boundary node " << i << " at " << point_text<dim>(p) << " left its box face along axis " << a;
+        m << "boundary node " << i << " at " << point_text(p.data(), dim) << " left its box face along axis "
+          << a;
         return m.str();
       }
     }

@@ -93,45 +93,53 @@ bool VimOptimizer<dim>::try_replace(const int* old_cells, int n_old, const Cell*
   return true;
 }
 
+// The live cell `cell`'s neighbour nb across its facet opposite local vertex k, and nb's vertex off
+// that facet; false for a dead cell or a boundary facet.
 template <int dim>
-bool VimOptimizer<dim>::try_flip(int cell, int k) {
-  if constexpr (dim != 2) {
-    return false;
-  } else {
-    if (!alive_[cell]) return false;
-    const Cell v = mesh_.cells[cell];
-    const int nb = adj_.neighbor(cell, v, k);
-    if (nb < 0) return false;  // boundary edge
-    const int c = v[k], a = v[(k + 1) % 3], b = v[(k + 2) % 3];
-    int d = -1;
-    for (int w : mesh_.cells[nb])
-      if (w != a && w != b) d = w;
-    const int old[2] = {cell, nb};
-    const Cell alt[2] = {Cell{c, a, d}, Cell{c, d, b}};
-    return try_replace(old, 2, alt, 1, 2);
+static bool across_facet(const Adjacency<dim>& adj, const std::vector<std::array<int, dim + 1>>& cells,
+                         const std::vector<char>& alive, int cell, int k, int& nb, int& opposite) {
+  if (!alive[cell]) return false;
+  const std::array<int, dim + 1>& v = cells[cell];
+  nb = adj.neighbor(cell, v, k);
+  if (nb < 0) return false;
+  for (int w : cells[nb]) {
+    bool on_facet = false;
+    for (int j = 0; j <= dim; ++j) on_facet = on_facet || (j != k && w == v[j]);
+    if (!on_facet) opposite = w;
   }
+  return true;
 }
 
+// The 2D edge flip and the 3D 2-3 swap: the two cells across the facet opposite local vertex k become
+// the cells that join their two vertices off that facet to each vertex (2D) or edge (3D) of the facet.
 template <int dim>
-bool VimOptimizer<dim>::try_swap_23(int cell, int k) {
-  if constexpr (dim != 3) {
-    return false;
+bool VimOptimizer<dim>::try_facet_swap(int cell, int k) {
+  int nb = -1, e = -1;
+  if (!across_facet<dim>(adj_, mesh_.cells, alive_, cell, k, nb, e)) return false;
+  const Cell v = mesh_.cells[cell];
+  const int old[2] = {cell, nb};
+  if constexpr (dim == 2) {
+    const int c = v[k], a = v[(k + 1) % 3], b = v[(k + 2) % 3];
+    const Cell alt[2] = {Cell{c, a, e}, Cell{c, e, b}};
+    return try_replace(old, 2, alt, 1, 2);
   } else {
-    if (!alive_[cell]) return false;
-    const Cell v = mesh_.cells[cell];
-    const int nb = adj_.neighbor(cell, v, k);
-    if (nb < 0) return false;  // boundary facet
     std::array<int, 3> f;
     for (int j = 0, m = 0; j < 4; ++j)
       if (j != k) f[m++] = v[j];
     const int d = v[k];
-    int e = -1;
-    for (int w : mesh_.cells[nb])
-      if (w != f[0] && w != f[1] && w != f[2]) e = w;
-    const int old[2] = {cell, nb};
     const Cell alt[3] = {Cell{d, e, f[0], f[1]}, Cell{d, e, f[1], f[2]}, Cell{d, e, f[2], f[0]}};
     return try_replace(old, 2, alt, 1, 3);
   }
+}
+
+template <int dim>
+bool VimOptimizer<dim>::try_flip(int cell, int k) {
+  return dim == 2 && try_facet_swap(cell, k);
+}
+
+template <int dim>
+bool VimOptimizer<dim>::try_swap_23(int cell, int k) {
+  return dim == 3 && try_facet_swap(cell, k);
 }
 
 namespace {
@@ -177,32 +185,36 @@ static bool edge_ring(const Adjacency<dim>& adj, const std::vector<std::array<in
   return link_cycle(link, m, cycle);
 }
 
+// The 3-2 (m = 3) and 4-4 (m = 4) swaps of the interior edge (a, b) in 3D: its m cells become the
+// cells that join a and b to each triangle of its link polygon (3-2: the triangle; 4-4: the two
+// triangulations of the quadrilateral, tried in turn).
 template <int dim>
-bool VimOptimizer<dim>::try_swap_32(int a, int b) {
+bool VimOptimizer<dim>::try_ring_swap(int a, int b, std::size_t m) {
   if constexpr (dim != 3) {
     return false;
   } else {
     std::vector<int>& ring = swap_ring_;
     std::vector<int>& p = swap_cycle_;
-    if (!edge_ring<3>(adj_, mesh_.cells, a, b, 3, ring, p)) return false;
-    const Cell alt[2] = {Cell{p[0], p[1], p[2], a}, Cell{p[0], p[1], p[2], b}};
-    return try_replace(ring.data(), 3, alt, 1, 2);
-  }
-}
-
-template <int dim>
-bool VimOptimizer<dim>::try_swap_44(int a, int b) {
-  if constexpr (dim != 3) {
-    return false;
-  } else {
-    std::vector<int>& ring = swap_ring_;
-    std::vector<int>& p = swap_cycle_;
-    if (!edge_ring<3>(adj_, mesh_.cells, a, b, 4, ring, p)) return false;
+    if (!edge_ring<3>(adj_, mesh_.cells, a, b, m, ring, p)) return false;
+    if (m == 3) {
+      const Cell alt[2] = {Cell{p[0], p[1], p[2], a}, Cell{p[0], p[1], p[2], b}};
+      return try_replace(ring.data(), 3, alt, 1, 2);
+    }
     const Cell alt[8] = {Cell{p[0], p[2], p[1], a}, Cell{p[0], p[2], p[1], b}, Cell{p[0], p[2], p[3], a},
                          Cell{p[0], p[2], p[3], b}, Cell{p[1], p[3], p[0], a}, Cell{p[1], p[3], p[0], b},
                          Cell{p[1], p[3], p[2], a}, Cell{p[1], p[3], p[2], b}};
     return try_replace(ring.data(), 4, alt, 2, 4);
   }
+}
+
+template <int dim>
+bool VimOptimizer<dim>::try_swap_32(int a, int b) {
+  return try_ring_swap(a, b, 3);
+}
+
+template <int dim>
+bool VimOptimizer<dim>::try_swap_44(int a, int b) {
+  return try_ring_swap(a, b, 4);
 }
 
 // One sequential pass, in cell / node order (deterministic): facets (2D flips, 3D 2-3 swaps), then

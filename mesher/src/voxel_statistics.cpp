@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <vector>
 #include <vim/voxel_statistics.hpp>
 
@@ -378,6 +379,12 @@ void VoxelStatistics<dim>::clip_row(const Faces& f, const std::array<long, dim>&
   }
 }
 
+// Calls f(std::integral_constant<int, n>{}) for the n of the sequence equal to `value` (none if no n is).
+template <int... n, class F>
+static void with_constant(int value, std::integer_sequence<int, n...>, F&& f) {
+  (void)((value == n ? (f(std::integral_constant<int, n>{}), true) : false) || ...);
+}
+
 // long-function: the scanline hot loop; its row loops share the running sums (kept in registers),
 // and routing them through shared helpers measured 12% slower.
 template <int dim>
@@ -459,23 +466,7 @@ typename VoxelStatistics<dim>::Sums VoxelStatistics<dim>::scan(const Faces& f) c
         }
       }
     };
-    switch (lower_count) {
-      case 0:
-        rows(std::integral_constant<int, 0>{});
-        break;
-      case 1:
-        rows(std::integral_constant<int, 1>{});
-        break;
-      case 2:
-        rows(std::integral_constant<int, 2>{});
-        break;
-      case 3:
-        rows(std::integral_constant<int, 3>{});
-        break;
-      default:
-        rows(std::integral_constant<int, dim + 1>{});
-        break;
-    }
+    with_constant(lower_count, std::make_integer_sequence<int, dim + 2>{}, rows);  // 0 … dim + 1
   };
   if constexpr (dim == 2) {
     if (!f.slab_fast) {

@@ -257,24 +257,7 @@ TrilinosWrappers::MPI::Vector solve_cg(const DistributedSystem<dim>& sys,
                                        const TrilinosWrappers::PreconditionAMG& amg, const SolverOptions& opt,
                                        MPI_Comm comm, SolverStats& stats) {
   TrilinosWrappers::MPI::Vector u(sys.owned, comm);
-  const double bn = b.l2_norm();
-  stats.iterations = 0;
-  stats.residual = 0.0;
-  if (bn > 0.0) {
-    SolverControl control(opt.max_iterations, opt.tolerance * bn);
-    SolverCG<TrilinosWrappers::MPI::Vector> cg(control);
-    try {
-      cg.solve(sys.K, u, b, amg);
-    } catch (const SolverControl::NoConvergence& e) {
-      std::ostringstream s;
-      s << "solve_distributed: CG+AMG did not converge in " << e.last_step
-        << " iterations (relative residual " << e.last_residual / bn << ", tolerance " << opt.tolerance
-        << ")";
-      throw std::runtime_error(s.str());
-    }
-    stats.iterations = control.last_step();
-    stats.residual = control.last_value() / bn;
-  }
+  solve_cg_to_tolerance(sys.K, u, b, amg, opt, stats, "CG+AMG");
   return u;
 }
 

@@ -228,24 +228,7 @@ TrilinosWrappers::MPI::Vector solve_voxel_multigrid(const State<kDim>& m, const 
   fine_mf->initialize_dof_vector(b);
   for (const auto i : sys.owned) b(i) = sys.f(i);
   zero.set_zero(b);
-  const double bn = b.l2_norm();
-  stats.iterations = 0;
-  stats.residual = 0.0;
-  if (bn > 0.0) {
-    SolverControl control(opt.max_iterations, opt.tolerance * bn);
-    SolverCG<LinearAlgebra::distributed::Vector<double>> cg(control);
-    try {
-      cg.solve(fine, u, b, preconditioner);
-    } catch (const SolverControl::NoConvergence& e) {
-      std::ostringstream s;
-      s << "solve_distributed: CG with matrix-free multigrid did not converge in " << e.last_step
-        << " iterations (relative residual " << e.last_residual / bn << ", tolerance " << opt.tolerance
-        << ")";
-      throw std::runtime_error(s.str());
-    }
-    stats.iterations = control.last_step();
-    stats.residual = control.last_value() / bn;
-  }
+  solve_cg_to_tolerance(fine, u, b, preconditioner, opt, stats, "CG with matrix-free multigrid");
   TrilinosWrappers::MPI::Vector out(sys.owned, comm);
   for (const auto i : sys.owned) out(i) = u(i);
   out.compress(VectorOperation::insert);

@@ -5,10 +5,14 @@
 
 #include <deal.II/distributed/tria_base.h>
 #include <deal.II/grid/tria_description.h>
+#include <deal.II/lac/solver_cg.h>
+#include <deal.II/lac/solver_control.h>
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
 
 #include <memory>
+#include <sstream>
+#include <stdexcept>
 #include <unordered_map>
 #include <vector>
 
@@ -60,6 +64,30 @@ std::vector<unsigned> partition_cells(const std::vector<Vec<dim>>& vertices,
 template <int dim>
 SimplexPart<dim> simplex_part(const std::vector<Vec<dim>>& vertices,
                               const std::vector<std::array<int, dim + 1>>& cells, MPI_Comm comm);
+
+// u = A⁻¹ b by CG preconditioned with `preconditioner`, from u, to opt.tolerance relative to |b| (b = 0:
+// u is left as it is); fills the iterations and relative residual of `stats`. Throws
+// std::runtime_error naming `method` (the preconditioner, for the message) if CG does not converge.
+template <class Matrix, class Vector, class Preconditioner>
+void solve_cg_to_tolerance(const Matrix& A, Vector& u, const Vector& b, const Preconditioner& preconditioner,
+                           const SolverOptions& opt, SolverStats& stats, const char* method) {
+  const double bn = b.l2_norm();
+  stats.iterations = 0;
+  stats.residual = 0.0;
+  if (!(bn > 0.0)) return;
+  dealii::SolverControl control(opt.max_iterations, opt.tolerance * bn);
+  dealii::SolverCG<Vector> cg(control);
+  try {
+    cg.solve(A, u, b, preconditioner);
+  } catch (const dealii::SolverControl::NoConvergence& e) {
+    std::ostringstream s;
+    s << "solve_distributed: " << method << " did not converge in " << e.last_step
+      << " iterations (relative residual " << e.last_residual / bn << ", tolerance " << opt.tolerance << ")";
+    throw std::runtime_error(s.str());
+  }
+  stats.iterations = control.last_step();
+  stats.residual = control.last_value() / bn;
+}
 
 // Whether a voxel model's distributed solve can be matrix-free multigrid: 3D, and every Dirichlet
 // condition holds DoFs along the model's axes (constraint lines u_i = value, no oblique axes).

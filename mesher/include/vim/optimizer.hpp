@@ -146,6 +146,8 @@ class VimOptimizer {
   // a is the n_new vertex tuples alternatives[a·n_new ..]. Uses the swap_* scratch below, so that a
   // swap pass allocates nothing per candidate (only the adjacency's facet map, per accepted swap).
   bool try_replace(const int* old_cells, int n_old, const Cell* alternatives, int n_alt, int n_new);
+  bool try_facet_swap(int cell, int local_vertex);  // try_flip (2D) and try_swap_23 (3D)
+  bool try_ring_swap(int a, int b, std::size_t m);  // try_swap_32 (m = 3) and try_swap_44 (m = 4)
   std::vector<Cell> swap_cells_, swap_best_cells_;
   std::vector<CellCache> swap_caches_, swap_best_caches_;
   std::vector<Simplex> swap_simplices_;

@@ -563,12 +563,16 @@ VimOptions scenario_vim_options(const Scenario& scenario, VimOptions base) {
   return base;
 }
 
-Scenario read_scenario(const std::string& path, int dim) {
+std::string read_input_text(const std::string& path, const std::string& what) {
   std::ifstream in(path);
-  if (!in) throw ScenarioError(path + ": cannot open the scenario file");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parse_scenario_text(ss.str(), dim, path);
+  if (!in) throw ScenarioError(path + ": cannot open the " + what);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+Scenario read_scenario(const std::string& path, int dim) {
+  return parse_scenario_text(read_input_text(path, "scenario file"), dim, path);
 }
 
 template <int dim>

@@ -14,6 +14,10 @@
 
 namespace vim::pipeline {
 
+// The text of a YAML input file (a scenario or a study: `what`); ScenarioError "PATH: cannot open the WHAT"
+// if it cannot be read (scenario.cpp).
+std::string read_input_text(const std::string& path, const std::string& what);
+
 namespace {
 
 const char* const kFaceNames[] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};

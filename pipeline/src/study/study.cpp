@@ -214,7 +214,7 @@ std::vector<CaseOutcome> merge_and_write(const RunOptions& o, const Study& study
                                          const std::vector<std::string>& per_rank) {
   std::vector<CaseOutcome> all;
   for (const std::string& text : per_rank)
-    for (CaseOutcome& c : outcomes_from_json(json::parse(text))) all.push_back(std::move(c));
+    for (CaseOutcome& c : json::parse(text).get<std::vector<CaseOutcome>>()) all.push_back(std::move(c));
   std::sort(all.begin(), all.end(), [](const auto& a, const auto& b) { return a.index < b.index; });
   if (all.size() != study.cases.size()) throw std::logic_error("study: a rank lost the outcome of a case");
   fs::create_directories(o.out);
@@ -243,7 +243,7 @@ int run_study_in(const RunOptions& given, const StudyRanks& ranks, const ImageFi
     return 1;
   std::vector<CaseOutcome> mine;
   const std::string run_error = error_of([&] { mine = run_cases<dim>(o, study, ranks, image); });
-  const std::vector<std::string> per_rank = ranks.gather(to_json(mine).dump());
+  const std::vector<std::string> per_rank = ranks.gather(json(mine).dump());
   std::size_t failed = 0;
   std::string error = run_error;
   if (ranks.rank() == 0 && error.empty())

@@ -282,11 +282,7 @@ Study parse_study_text(const std::string& yaml_text, const std::string& source, 
 }
 
 Study read_study(const std::string& path, int dim) {
-  std::ifstream in(path);
-  if (!in) throw ScenarioError(path + ": cannot open the study file");
-  std::stringstream text;
-  text << in.rdbuf();
-  return parse_study_text(text.str(), path, dim);
+  return parse_study_text(read_input_text(path, "study file"), path, dim);
 }
 
 }  // namespace vim::pipeline

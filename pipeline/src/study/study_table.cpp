@@ -21,31 +21,6 @@ json final_results(const json& report) {
   return needles;
 }
 
-json to_json(const std::vector<CaseOutcome>& outcomes) {
-  json j = json::array();
-  for (const CaseOutcome& o : outcomes)
-    j.push_back({{"index", o.index},
-                 {"status", o.status},
-                 {"message", o.message},
-                 {"resumed", o.resumed},
-                 {"needles", o.needles}});
-  return j;
-}
-
-std::vector<CaseOutcome> outcomes_from_json(const json& j) {
-  std::vector<CaseOutcome> outcomes;
-  for (const json& o : j) {
-    CaseOutcome c;
-    c.index = o.at("index").get<std::size_t>();
-    c.status = o.at("status").get<std::string>();
-    c.message = o.at("message").get<std::string>();
-    c.resumed = o.at("resumed").get<bool>();
-    c.needles = o.at("needles");
-    outcomes.push_back(std::move(c));
-  }
-  return outcomes;
-}
-
 namespace {
 
 // The shortest text that reads back as the same double (JSON's number format).

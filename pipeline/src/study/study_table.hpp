@@ -22,8 +22,8 @@ struct CaseOutcome {
 // The final forces and target displacements of a case's report.json (as the report holds them).
 nlohmann::json final_results(const nlohmann::json& report);
 
-nlohmann::json to_json(const std::vector<CaseOutcome>& outcomes);
-std::vector<CaseOutcome> outcomes_from_json(const nlohmann::json& j);
+// Outcomes to and from JSON (the exchange between ranks): json(outcomes), j.get<std::vector<CaseOutcome>>().
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(CaseOutcome, index, status, message, resumed, needles)
 
 // study.csv (written under a temporary name, then renamed): a row per case in study order: case,
 // status, the varied inputs as the case's scenario reads them, per needle the final axial and lateral
