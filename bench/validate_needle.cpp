@@ -42,6 +42,7 @@
 #include <vim/initial_mesh.hpp>
 #include <vim/pipeline/image/phantoms.hpp>
 #include <vim/pipeline/output/figures.hpp>
+#include <vim/pipeline/scenario/mesh_options.hpp>
 #include <vim/pipeline/scenario/scenario.hpp>
 #include <vim/pipeline/simulation/simulation.hpp>
 #include <vim/quality.hpp>
@@ -432,9 +433,10 @@ int main(int argc, char** argv) try {
   }
   g_scenario = &sc;
   const std::string suffix = degree == 1 ? "" : "_p" + std::to_string(degree);  // plot file names
-  vo = scenario_vim_options(sc, vo);  // as the CLI, with the command line first
-  if (lambda_arg) vo.lambda = *lambda_arg;
-  if (min_dihedral_arg) vo.min_dihedral_deg = *min_dihedral_arg;
+  // The scenario's mesh.lambda and mesh.min_dihedral as the CLI applies them, with the command line first.
+  const MeshOptions scenario_mesh = with_scenario_mesh({}, sc);
+  vo.lambda = lambda_arg ? *lambda_arg : scenario_mesh.lambda;
+  vo.min_dihedral_deg = min_dihedral_arg ? *min_dihedral_arg : scenario_mesh.min_dihedral_deg;
   const double lambda = vo.lambda;
 
   const OrientedImage<3> img = phantoms::prostate(n);

@@ -7,6 +7,7 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <type_traits>
 
 #include "pipeline_adapter.hpp"
 
@@ -62,22 +63,14 @@ py::dict image_to(const ImageData& im) {
 MeshSettings settings_from(const py::dict& d) {
   MeshSettings s;
   auto has = [&](const char* k) { return d.contains(k) && !d[k].is_none(); };
-  if (has("nodes")) s.nodes = py::cast<long>(d["nodes"]);
-  if (has("spacing")) s.spacing = py::cast<double>(d["spacing"]);
-  if (has("lam")) s.lambda = py::cast<double>(d["lam"]);
-  if (has("max_dihedral")) s.max_dihedral = py::cast<double>(d["max_dihedral"]);
-  if (has("min_dihedral")) s.min_dihedral = py::cast<double>(d["min_dihedral"]);
-  if (has("min_radius_ratio")) s.min_radius_ratio = py::cast<double>(d["min_radius_ratio"]);
-  if (has("max_iterations")) s.max_iterations = py::cast<int>(d["max_iterations"]);
-  if (has("convergence")) s.convergence = py::cast<double>(d["convergence"]);
-  if (has("energy_convergence")) s.energy_convergence = py::cast<double>(d["energy_convergence"]);
-  if (has("search_width")) s.search_width = py::cast<int>(d["search_width"]);
-  if (has("seed")) s.seed = py::cast<std::uint64_t>(d["seed"]);
-  if (has("threads")) s.threads = py::cast<int>(d["threads"]);
+  for_each_mesh_keyword(s.options, [&](const char* k, auto& field) {
+    if (!has(k)) return;
+    field = py::cast<std::decay_t<decltype(field)>>(d[k]);
+    s.given.insert(k);
+  });
   if (has("sizing")) s.sizing = image_from(d["sizing"]);
   if (has("threshold")) s.threshold = py::cast<double>(d["threshold"]);
   if (has("mesher")) s.mesher = py::cast<std::string>(d["mesher"]);
-  if (has("degree")) s.degree = py::cast<int>(d["degree"]);
   return s;
 }
 
@@ -205,6 +198,13 @@ PYBIND11_MODULE(_core, m) {
   m.attr("__version__") = version();
   bind_mesh(m);
   bind_simulation(m);
+  // The mesh keywords' defaults: MeshOptions', the CLI's (vimpipeline.mesh's signature reads them).
+  m.def("mesh_defaults", [] {
+    const vp::MeshOptions defaults;
+    py::dict d;
+    for_each_mesh_keyword(defaults, [&](const char* k, const auto& value) { d[k] = value; });
+    return d;
+  });
   m.def("read_image", [](const std::string& path) {
     ImageData im;
     {

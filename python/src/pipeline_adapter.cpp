@@ -24,7 +24,6 @@
 namespace vim::python {
 
 namespace fs = std::filesystem;
-namespace vp = vim::pipeline;
 
 // A mesh of the module: the run that made it (meshed, or meshed and simulated).
 struct MeshState {
@@ -103,14 +102,15 @@ void check_settings(const MeshSettings& s) {
       throw vp::InputError(std::string(name) + " = " + std::to_string(v) + ": must be in [" +
                            std::to_string(lo) + ", " + std::to_string(hi) + "]");
   };
-  if (s.nodes) range("nodes", static_cast<double>(*s.nodes), 4, 1e8);
-  range("max_iterations", s.max_iterations, 0, 100000);
-  range("threads", s.threads, 0, 1024);
-  if (s.search_width) range("search_width", *s.search_width, 0, 1000);
-  if (s.degree) range("degree", *s.degree, 1, 2);
+  const vp::MeshOptions& o = s.options;
+  if (s.has("nodes")) range("nodes", static_cast<double>(o.nodes), 4, 1e8);
+  range("max_iterations", o.max_iterations, 0, 100000);
+  range("threads", o.threads, 0, 1024);
+  if (s.has("search_width")) range("search_width", o.search_width, 0, 1000);
+  if (s.has("degree")) range("degree", o.degree, 1, 2);
   if (s.threshold && !std::isfinite(*s.threshold)) throw vp::InputError("threshold: must be a finite number");
-  if (s.spacing && !(*s.spacing > 0.0 && std::isfinite(*s.spacing)))
-    throw vp::InputError("spacing = " + std::to_string(*s.spacing) + ": must be a finite number > 0");
+  if (s.has("spacing") && !(o.spacing > 0.0 && std::isfinite(o.spacing)))
+    throw vp::InputError("spacing = " + std::to_string(o.spacing) + ": must be a finite number > 0");
   if (s.mesher != "vim" && s.mesher != "grid")
     throw vp::InputError("mesher = " + s.mesher + ": must be vim or grid");
 }
@@ -128,19 +128,12 @@ vp::RunOptions run_options(const MeshSettings& s, const std::string& image, cons
     text << std::setprecision(17) << value;
     o.command_line.insert(o.command_line.end(), {flag, text.str()});
   };
-  if (s.nodes) given("--nodes", o.nodes = *s.nodes);
-  if (s.spacing) given("--spacing", o.spacing = *s.spacing);
-  if (s.lambda) given("--lambda", o.lambda = *s.lambda);
-  if (s.degree) given("--degree", o.degree = *s.degree);
-  if (s.min_dihedral) given("--min-dihedral", o.min_dihedral_deg = *s.min_dihedral);
-  o.max_dihedral_deg = s.max_dihedral;
-  o.min_radius_ratio = s.min_radius_ratio;
-  o.max_iterations = s.max_iterations;
-  o.convergence = s.convergence.value_or(o.convergence);
-  o.energy_convergence = s.energy_convergence.value_or(o.energy_convergence);
-  o.search_width = s.search_width.value_or(o.search_width);
-  o.seed = s.seed;
-  o.threads = s.threads;
+  static_cast<vp::MeshOptions&>(o) = s.options;
+  if (s.has("nodes")) given("--nodes", o.nodes);
+  if (s.has("spacing")) given("--spacing", o.spacing);
+  if (s.has("lam")) given("--lambda", o.lambda);
+  if (s.has("degree")) given("--degree", o.degree);
+  if (s.has("min_dihedral")) given("--min-dihedral", o.min_dihedral_deg);
   if (s.sizing) o.sizing = s.sizing->source;
   o.threshold = s.threshold;
   o.mesher = *vp::mesher_kind(s.mesher);  // vim or grid (check_settings)
@@ -199,8 +192,7 @@ MeshData mesh_data(std::shared_ptr<const vp::PipelineRun<dim>> run) {
   for (const auto& [name, field] : grid.point_data) d.point_data[name] = field.values;
   const std::string stage = vp::to_string(run->options().mesher);
   for (const auto& r : run->energy_history()) d.history.push_back(iteration_data(stage, r));
-  if (run->report().contains("warnings"))
-    for (const auto& w : run->report()["warnings"]) d.warnings.push_back(w.template get<std::string>());
+  d.warnings = run->warnings();
   auto state = std::make_shared<MeshState>();
   if constexpr (dim == 2)
     state->two = std::move(run);
@@ -242,12 +234,12 @@ SimulationData simulate_run(std::shared_ptr<vp::PipelineRun<dim>> run, const Pro
   run->build_model();  // validates the scenario against the mesh first
   run->simulate();
   run->write_outputs();
-  run->write_report();
+  const vp::ReportResult& written = run->write_report();
   SimulationData out;
   const vp::SimulationResult<dim>& result = *run->simulation_result();
   for (const auto& needle : result.needles) out.needles.push_back(needle_data(needle));
   out.target_names = result.target_names;
-  out.files = run->report()["outputs"].template get<std::vector<std::string>>();
+  out.files = written.outputs;
   out.report_json = run->report().dump(2);
   out.mesh = mesh_data<dim>(std::move(run));
   out.warnings = out.mesh.warnings;
@@ -260,16 +252,16 @@ SimulationData simulate_image(const ImageData& image, const MeshSettings& s, vp:
   return simulate_run<dim>(meshed_run<dim>(image, s, std::move(scenario), dir, progress), progress);
 }
 
-// A simulation on the mesh of an earlier run: its options, with `s.degree` if set.
+// A simulation on the mesh of an earlier run: its options, with the degree of `s` if given.
 template <int dim>
 SimulationData simulate_mesh(const vp::PipelineRun<dim>& meshed, const MeshSettings& s, vp::Scenario scenario,
                              const fs::path& dir, const ProgressFunction& progress) {
   check_settings(s);
   vp::RunOptions o = meshed.options();
   o.out = dir;
-  if (s.degree) {
-    o.degree = *s.degree;
-    o.command_line.insert(o.command_line.end(), {"--degree", std::to_string(*s.degree)});
+  if (s.has("degree")) {
+    o.degree = s.options.degree;
+    o.command_line.insert(o.command_line.end(), {"--degree", std::to_string(o.degree)});
   }
   vp::RunInputs<dim> in = run_inputs<dim>(meshed.image(), MeshSettings{}, std::move(scenario), progress);
   o.sizing.clear();  // the mesh is made

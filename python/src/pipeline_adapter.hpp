@@ -8,11 +8,15 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
+#include <vim/pipeline/scenario/mesh_options.hpp>
 #include <vim/vim.hpp>
 
 namespace vim::python {
+
+namespace vp = vim::pipeline;
 
 // A scalar image as ITK holds it: axis 0 (x) varies fastest in `values`.
 struct ImageData {
@@ -25,24 +29,35 @@ struct ImageData {
   std::string source = "array";  // file name, or "array" (names the image in error messages)
 };
 
-// vimpipeline.mesh's options; unset ones take the CLI's defaults, or the scenario's mesh keys in simulate().
+// vimpipeline.mesh's options: the keywords the caller gave over MeshOptions' defaults (the CLI's); in
+// simulate(), a scenario's mesh keys apply to those not given.
 struct MeshSettings {
-  std::optional<long> nodes;
-  std::optional<double> spacing;  // initial grid edge length instead of nodes
-  std::optional<double> lambda;
-  double max_dihedral = VimOptions{}.max_dihedral_deg;
-  std::optional<double> min_dihedral;
-  double min_radius_ratio = 0.0;
-  int max_iterations = VimOptions{}.max_iterations;
-  std::optional<double> convergence, energy_convergence;  // VimOptions' defaults when unset
-  std::optional<int> search_width;
-  std::uint64_t seed = 1;
-  int threads = 0;
+  vp::MeshOptions options;
+  std::set<std::string> given;  // the Python keywords set (names as in for_each_mesh_keyword)
   std::optional<ImageData> sizing;
   std::optional<double> threshold;
   std::string mesher = "vim";  // vim | grid
-  std::optional<int> degree;   // simulate(): FEM degree (1 | 2)
+  bool has(const std::string& keyword) const { return given.count(keyword) > 0; }
 };
+
+// Every numeric mesh keyword of the Python API with its MeshOptions field: f(keyword, field). One list
+// for reading the keywords and for the module's defaults (vimpipeline.mesh's signature reads them).
+template <class Options, class F>
+void for_each_mesh_keyword(Options& o, F&& f) {
+  f("nodes", o.nodes);
+  f("spacing", o.spacing);
+  f("lam", o.lambda);
+  f("max_dihedral", o.max_dihedral_deg);
+  f("min_dihedral", o.min_dihedral_deg);
+  f("min_radius_ratio", o.min_radius_ratio);
+  f("max_iterations", o.max_iterations);
+  f("convergence", o.convergence);
+  f("energy_convergence", o.energy_convergence);
+  f("search_width", o.search_width);
+  f("seed", o.seed);
+  f("threads", o.threads);
+  f("degree", o.degree);
+}
 
 // One line of the energy history (history[0] is the initial mesh), or one progress report.
 struct IterationData {

@@ -192,9 +192,15 @@ def _settings(nodes=None, spacing=None, lam=None, max_dihedral=None, min_dihedra
     return {k: v for k, v in s.items() if v is not None}
 
 
-def mesh(image_or_array, spacing=None, origin=None, direction=None, nodes=1000, lam=0.5, max_dihedral=150,
-         min_dihedral=0, max_iterations=50, threads=0, sizing=None, threshold=None, mesher="vim",
-         grid_spacing=None, progress=None, **options):
+# The defaults of the mesh keywords: the C++ MeshOptions' (vim/pipeline/scenario/mesh_options.hpp), the CLI's.
+_MESH_DEFAULTS = _core.mesh_defaults()
+
+
+def mesh(image_or_array, spacing=None, origin=None, direction=None, nodes=_MESH_DEFAULTS["nodes"],
+         lam=_MESH_DEFAULTS["lam"], max_dihedral=_MESH_DEFAULTS["max_dihedral"],
+         min_dihedral=_MESH_DEFAULTS["min_dihedral"], max_iterations=_MESH_DEFAULTS["max_iterations"],
+         threads=_MESH_DEFAULTS["threads"], sizing=None, threshold=None, mesher="vim", grid_spacing=None,
+         progress=None, **options):
     """Meshes an image (a path, an Image, or an array[z, y, x] with spacing/origin/direction) as
     ``vim-pipeline IMAGE --nodes ... --out DIR`` does; returns a Mesh. ``mesher``: "vim" or "grid";
     ``grid_spacing``: initial grid edge length instead of ``nodes``; ``options``: the CLI's

@@ -98,11 +98,11 @@ TEST_F(ExportRegistry, WriteExportsRunsTheRowsWriter) {
   const auto dir = vim::test::scratch_dir("export_registry", "write");
   nlohmann::json report;
   const MeshModel<3> m3 = model<3>({{3, 3, 3}});
-  write_exports(m3, dir / "3d", {"cells"}, report);
+  report["exports"] = write_exports(m3, dir / "3d", {"cells"});
   EXPECT_EQ(vim::test::slurp(dir / "3d" / "mesh.cells"), "cells " + std::to_string(m3.mesh.n_cells()) + "\n");
   EXPECT_TRUE(report["exports"]["files"].contains("cells"));
   nlohmann::json report2;
-  write_exports(model<2>({{3, 3}}), dir / "2d", {"cells", "vtk"}, report2);
+  report2["exports"] = write_exports(model<2>({{3, 3}}), dir / "2d", {"cells", "vtk"});
   EXPECT_FALSE(fs::exists(dir / "2d" / "mesh.cells"));
   EXPECT_EQ(report2["exports"]["skipped"]["cells"], "cells is written for 3D models only");
   EXPECT_TRUE(fs::exists(dir / "2d" / "mesh.vtk"));

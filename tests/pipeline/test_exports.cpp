@@ -310,7 +310,7 @@ TEST(Exports, UnknownFormatIsRejectedBeforeWriting) {
   const auto m = grid_model<3>({{2, 2, 2}}, false, false);
   nlohmann::json report;
   try {
-    write_exports(m, dir, {"vtk", "stl"}, report);
+    report["exports"] = write_exports(m, dir, {"vtk", "stl"});
     FAIL() << "expected std::invalid_argument";
   } catch (const std::invalid_argument& e) {
     const std::string msg = e.what();
@@ -327,7 +327,7 @@ TEST(Exports, RoundTrip3D) {
   const auto dir = fresh_dir("rt3");
   const auto m = grid_model<3>({{4, 3, 3}}, false, false);
   nlohmann::json report;
-  write_exports(m, dir, export_formats(), report);
+  report["exports"] = write_exports(m, dir, export_formats());
   const auto bins = material_bins(m);
   // World truth computed here: origin + D (p - origin).
   SimplexMesh<3> world = m.mesh;
@@ -401,7 +401,7 @@ TEST(Exports, RoundTrip2DAndFebSkipped) {
   const auto dir = fresh_dir("rt2");
   const auto m = grid_model<2>({{5, 4}}, false, false);
   nlohmann::json report;
-  write_exports(m, dir, {"vtk", "feb", "msh", "inp"}, report);
+  report["exports"] = write_exports(m, dir, {"vtk", "feb", "msh", "inp"});
   const auto bins = material_bins(m);
   SimplexMesh<2> world = m.mesh;
   for (auto& p : world.points) p = m.transform.origin + m.transform.direction * (p - m.transform.origin);
@@ -454,7 +454,7 @@ TEST(Exports, ObliqueAnisotropicVoxelCentreLandsOnWorldPoint) {
   const Eigen::Vector3d world = origin + D * spacing.asDiagonal() * idx_d;
 
   nlohmann::json report;
-  write_exports(m, dir, export_formats(), report);
+  report["exports"] = write_exports(m, dir, export_formats());
   for (const char* ext : {"vtk", "msh"}) {
     dealii::Triangulation<3> tria;
     read_with_dealii<3>(dir / (std::string("mesh.") + ext), tria);

@@ -231,7 +231,7 @@ TEST(Figures, ThreeSlicesShowImageAndMeshCrossSection) {
   const auto model = grid_model_over<3>(im.image, {{4, 4, 4}});
   const Eigen::Vector3d slice(7.0, 6.0, 10.0);  // voxel centre (7, 4, 5), off every node plane
   nlohmann::json report;
-  write_mesh_figures<3>(im, model, dir, &slice, report);
+  report["figures"]["mesh"] = write_mesh_figures<3>(im, model, dir, &slice);
   const auto& info = report["figures"]["mesh"];
   ASSERT_EQ(info["slices"].size(), 3u);
   const double lo = 0.0, hi = 19 + 2 * 15 + 3 * 11;  // image value range
@@ -318,7 +318,7 @@ TEST(Figures, DefaultSlicePointIsTheImageCentre) {
   const auto im = gradient_image<3>({{6, 5, 4}}, {{1.0, 1.0, 3.0}});
   const auto model = grid_model_over<3>(im.image, {{2, 2, 2}});
   nlohmann::json report;
-  write_mesh_figures<3>(im, model, dir, nullptr, report);
+  report["figures"]["mesh"] = write_mesh_figures<3>(im, model, dir, nullptr);
   const auto p = report["figures"]["mesh"]["slice_point_frame"].get<std::vector<double>>();
   ASSERT_EQ(p.size(), 3u);
   EXPECT_EQ(p[0], 3.0);  // voxel lround(2.5) = 3
@@ -331,7 +331,7 @@ TEST(Figures, TwoDimensionalOverlayAndDiscretizedImage) {
   const auto im = gradient_image<2>({{24, 18}}, {{1.0, 0.5}});
   const auto model = grid_model_over<2>(im.image, {{5, 4}});
   nlohmann::json report;
-  write_mesh_figures<2>(im, model, dir, nullptr, report);
+  report["figures"]["mesh"] = write_mesh_figures<2>(im, model, dir, nullptr);
   const Canvas overlay = Canvas::read_png(dir / "figures" / "mesh_overlay.png");
   const Canvas disc = Canvas::read_png(dir / "figures" / "discretized.png");
   const auto bmin = im.image.box_min(), bmax = im.image.box_max();

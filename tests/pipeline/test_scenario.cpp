@@ -9,6 +9,7 @@
 #include <iterator>
 #include <string>
 #include <utility>
+#include <vim/pipeline/scenario/mesh_options.hpp>
 #include <vim/pipeline/scenario/scenario.hpp>
 
 using namespace vim;
@@ -149,21 +150,21 @@ TEST(Scenario, EveryKeyIsParsed) {
 
 // The scenario's mesh keys reach the mesher's options; keys it does not give keep the base's values.
 TEST(Scenario, MeshKeysBecomeVimOptions) {
-  vim::VimOptions base;
+  vim::pipeline::MeshOptions base;
   base.lambda = 0.7;
   base.min_dihedral_deg = 3.0;
   base.max_iterations = 17;
   const vim::VimOptions full =
-      vim::pipeline::scenario_vim_options(parse_scenario_text(kFull, 3, "full.yaml"), base);
+      vim::pipeline::with_scenario_mesh(base, parse_scenario_text(kFull, 3, "full.yaml")).vim_options();
   EXPECT_DOUBLE_EQ(full.lambda, 0.3);
   EXPECT_DOUBLE_EQ(full.min_dihedral_deg, 12.5);
   EXPECT_EQ(full.max_iterations, 17);
   const vim::VimOptions minimal =
-      vim::pipeline::scenario_vim_options(parse_scenario_text(kMinimal, 3, "m.yaml"), base);
+      vim::pipeline::with_scenario_mesh(base, parse_scenario_text(kMinimal, 3, "m.yaml")).vim_options();
   EXPECT_DOUBLE_EQ(minimal.lambda, 0.7);
   EXPECT_DOUBLE_EQ(minimal.min_dihedral_deg, 3.0);
   const vim::VimOptions defaults =
-      vim::pipeline::scenario_vim_options(parse_scenario_text(kMinimal, 3, "m.yaml"));
+      vim::pipeline::with_scenario_mesh({}, parse_scenario_text(kMinimal, 3, "m.yaml")).vim_options();
   EXPECT_DOUBLE_EQ(defaults.lambda, vim::VimOptions{}.lambda);  // what the CLI runs without --lambda
 }
 

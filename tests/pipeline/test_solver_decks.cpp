@@ -152,7 +152,7 @@ void expect_calculix_agrees(unsigned degree, const std::array<int, dim>& nodes) 
   eo.scenario = &sc;
   eo.degree = degree;
   nlohmann::json report;
-  write_exports<dim>(m, dir, {"inp"}, report, eo);
+  report["exports"] = write_exports<dim>(m, dir, {"inp"}, eo);
   const SolverDeck<dim> deck = solver_deck(m, world_mesh(m), m.youngs_modulus, sc.poisson_ratio, degree, &sc);
   const OurSolution<dim> ours = our_solution(sim, m, deck);
   ASSERT_GT(ours.largest, 1e-3);
@@ -239,7 +239,7 @@ TEST(SolverDecks, GmshReadsQuadraticMeshWithEveryGroup) {
   eo.scenario = &sc;
   eo.degree = 2;
   nlohmann::json report;
-  write_exports<3>(m, dir, {"msh"}, report, eo);
+  report["exports"] = write_exports<3>(m, dir, {"msh"}, eo);
   GmshView g = gmsh_view(dir / "mesh.msh");
 
   // Independent counts of the Kuhn grid: vertices, distinct edges, cells, triangles per box face.
@@ -315,7 +315,7 @@ TEST(SolverDecks, FebioDeckHasTheRequiredStructure) {
     eo.degree = degree;
     eo.poisson_ratio = sc.poisson_ratio;
     nlohmann::json report;
-    write_exports<3>(m, dir, {"feb"}, report, eo);
+    report["exports"] = write_exports<3>(m, dir, {"feb"}, eo);
     EXPECT_EQ(feb_check(dir / "mesh.feb"), "OK") << "degree " << degree;
     std::ifstream in(dir / "mesh.feb");
     std::stringstream text;
@@ -399,14 +399,14 @@ TEST(SolverDecks, MeshOnlyExportsWarnOnNonPositiveModulusNamingTheFix) {
   MeshModel<3> m = oblique_model<3>({{3, 3, 3}});
   for (std::size_t c = 0; c < m.values.size(); c += 3) m.values[c].mean = -1000.0 + static_cast<double>(c);
   nlohmann::json report;
-  write_exports<3>(m, dir, {"inp", "feb"}, report);
+  report["exports"] = write_exports<3>(m, dir, {"inp", "feb"});
   ASSERT_TRUE(report["exports"].contains("warnings"));
   const std::string w = report["exports"]["warnings"][0];
   for (const char* needed : {"<= 0", "--simulate", "material.scale", "material.clamp"})
     EXPECT_NE(w.find(needed), std::string::npos) << needed << " missing in: " << w;
   nlohmann::json fine;
   m.youngs_modulus.assign(m.mesh.n_cells(), 5.0);
-  write_exports<3>(m, dir, {"inp"}, fine);
+  fine["exports"] = write_exports<3>(m, dir, {"inp"});
   EXPECT_FALSE(fine["exports"].contains("warnings"));
 }
 

@@ -24,6 +24,7 @@
 #include <vim/fem/elasticity.hpp>
 #include <vim/initial_mesh.hpp>
 #include <vim/pipeline/image/phantoms.hpp>
+#include <vim/pipeline/scenario/mesh_options.hpp>
 #include <vim/pipeline/scenario/scenario.hpp>
 #include <vim/pipeline/simulation/simulation.hpp>
 #include <vim/sizing.hpp>
@@ -91,7 +92,8 @@ Row row(const Prostate& s, long budget) {
   std::vector<double> grid_mean;
   for (std::size_t c = 0; c < grid.n_cells(); ++c)
     grid_mean.push_back(stats.value(vim::cell_points(grid, c)).mean);
-  const vim::VimOptions vo = vim::pipeline::scenario_vim_options(s.sc);  // as the CLI applies them
+  const vim::VimOptions vo =
+      vim::pipeline::with_scenario_mesh({}, s.sc).vim_options();  // as the CLI applies them
   const auto r = vim::optimize<3>(s.img.image, grid, vo);
   std::vector<double> vim_mean;
   for (const auto& v : r.values) vim_mean.push_back(v.mean);  // Eq. 15
@@ -159,7 +161,8 @@ TEST(ProstateNeedle, VimBelowGridAt252And891NodesP2WithTheScenariosNeedleRefinem
     ASSERT_EQ(grid.mesh.n_points(), c.nodes);
     for (std::size_t k = 0; k < grid.mesh.n_cells(); ++k)
       grid.values.push_back(stats.value(vim::cell_points(grid.mesh, k)));
-    const vim::VimOptions vo = vim::pipeline::scenario_vim_options(s.sc);  // as the CLI applies them
+    const vim::VimOptions vo =
+        vim::pipeline::with_scenario_mesh({}, s.sc).vim_options();  // as the CLI applies them
     auto r = vim::optimize_sized<3>(s.img.image, *density, grid.mesh, vo);
     ASSERT_EQ(r.mesh.n_points(), c.nodes);
     vim.mesh = std::move(r.mesh);

@@ -140,10 +140,11 @@ std::string export_help() {
 
 // The options of the VIM mesher (--nodes ... --threshold), with their defaults and ranges.
 void add_mesh_options(CLI::App& app, RunOptions& o) {
-  const VimOptions d;
+  const MeshOptions d;
   auto* nodes = app.add_option("-n,--nodes", o.nodes,
-                               "Node budget of the initial regular grid (default 1000; range [4, 10^8]; "
-                               "a 3D image needs >= 8); per-axis counts follow the box's aspect ratio")
+                               "Node budget of the initial regular grid (default " + std::to_string(d.nodes) +
+                                   "; range [4, 10^8]; a 3D image needs >= 8); per-axis counts follow the "
+                                   "box's aspect ratio")
                     ->type_name("N")
                     ->check(CLI::Range(4L, 100000000L));
   app.add_option("--spacing", o.spacing,

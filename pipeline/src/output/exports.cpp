@@ -106,8 +106,8 @@ SimplexMesh<dim> world_mesh(const MeshModel<dim>& model) {
 }
 
 template <int dim>
-void write_exports(const ExportInput<dim>& input, const fs::path& dir,
-                   const std::vector<std::string>& formats, nlohmann::json& report) {
+nlohmann::json write_exports(const ExportInput<dim>& input, const fs::path& dir,
+                             const std::vector<std::string>& formats) {
   const MeshModel<dim>& model = input.model;
   const ExportOptions& options = input.options;
   for (const auto& f : formats) export_format(f);  // an unknown name throws before anything is written
@@ -123,7 +123,7 @@ void write_exports(const ExportInput<dim>& input, const fs::path& dir,
                                            options.degree, options.scenario);
   fs::create_directories(dir);
 
-  nlohmann::json& out = report["exports"];
+  nlohmann::json out;
   out["coordinates"] = "world (origin + direction·(frame point − origin), the input image's physical space)";
   out["modulus_source"] = model.youngs_modulus.size() == model.mesh.n_cells() && model.mesh.n_cells() > 0
                               ? "youngs_modulus"
@@ -163,26 +163,27 @@ void write_exports(const ExportInput<dim>& input, const fs::path& dir,
     write(path, data);
     out["files"][row.name] = path.string();
   }
+  return out;
 }
 
 template <int dim>
-void write_exports(const MeshModel<dim>& model, const fs::path& dir, const std::vector<std::string>& formats,
-                   nlohmann::json& report, const ExportOptions& options) {
+nlohmann::json write_exports(const MeshModel<dim>& model, const fs::path& dir,
+                             const std::vector<std::string>& formats, const ExportOptions& options) {
   const SimplexMesh<dim> world = world_mesh(model);
-  write_exports<dim>(ExportInput<dim>{model, world, options}, dir, formats, report);
+  return write_exports<dim>(ExportInput<dim>{model, world, options}, dir, formats);
 }
 
-template void write_exports<2>(const ExportInput<2>&, const fs::path&, const std::vector<std::string>&,
-                               nlohmann::json&);
-template void write_exports<3>(const ExportInput<3>&, const fs::path&, const std::vector<std::string>&,
-                               nlohmann::json&);
+template nlohmann::json write_exports<2>(const ExportInput<2>&, const fs::path&,
+                                         const std::vector<std::string>&);
+template nlohmann::json write_exports<3>(const ExportInput<3>&, const fs::path&,
+                                         const std::vector<std::string>&);
 template MaterialBins material_bins<2>(const MeshModel<2>&, int);
 template MaterialBins material_bins<3>(const MeshModel<3>&, int);
 template SimplexMesh<2> world_mesh<2>(const MeshModel<2>&);
 template SimplexMesh<3> world_mesh<3>(const MeshModel<3>&);
-template void write_exports<2>(const MeshModel<2>&, const fs::path&, const std::vector<std::string>&,
-                               nlohmann::json&, const ExportOptions&);
-template void write_exports<3>(const MeshModel<3>&, const fs::path&, const std::vector<std::string>&,
-                               nlohmann::json&, const ExportOptions&);
+template nlohmann::json write_exports<2>(const MeshModel<2>&, const fs::path&,
+                                         const std::vector<std::string>&, const ExportOptions&);
+template nlohmann::json write_exports<3>(const MeshModel<3>&, const fs::path&,
+                                         const std::vector<std::string>&, const ExportOptions&);
 
 }  // namespace vim::pipeline

@@ -201,8 +201,8 @@ std::array<SliceView, 2> mesh_figure_views(const Image<dim>& image, int axis) {
 }
 
 template <int dim>
-void write_mesh_figures(const OrientedImage<dim>& oriented, const MeshModel<dim>& model, const fs::path& dir,
-                        const Eigen::Matrix<double, dim, 1>* slice_point, nlohmann::json& report) {
+nlohmann::json write_mesh_figures(const OrientedImage<dim>& oriented, const MeshModel<dim>& model,
+                                  const fs::path& dir, const Eigen::Matrix<double, dim, 1>* slice_point) {
   using Point = Eigen::Matrix<double, dim, 1>;
   const Image<dim>& image = oriented.image;
   if (image.data.empty()) throw std::invalid_argument("write_mesh_figures: empty image");
@@ -330,7 +330,7 @@ void write_mesh_figures(const OrientedImage<dim>& oriented, const MeshModel<dim>
     info["pixels_per_unit"] = view.scale;
     info["panel_pixels"] = {view.width, view.height};
   }
-  report["figures"]["mesh"] = info;
+  return info;
 }
 
 nlohmann::json write_line_plot(const fs::path& path, const std::vector<double>& x,
@@ -507,10 +507,10 @@ nlohmann::json write_deformed_slice(const MeshModel<dim>& model,
 
 template std::array<SliceView, 2> mesh_figure_views<2>(const Image<2>&, int);
 template std::array<SliceView, 2> mesh_figure_views<3>(const Image<3>&, int);
-template void write_mesh_figures<2>(const OrientedImage<2>&, const MeshModel<2>&, const fs::path&,
-                                    const Eigen::Matrix<double, 2, 1>*, nlohmann::json&);
-template void write_mesh_figures<3>(const OrientedImage<3>&, const MeshModel<3>&, const fs::path&,
-                                    const Eigen::Matrix<double, 3, 1>*, nlohmann::json&);
+template nlohmann::json write_mesh_figures<2>(const OrientedImage<2>&, const MeshModel<2>&, const fs::path&,
+                                              const Eigen::Matrix<double, 2, 1>*);
+template nlohmann::json write_mesh_figures<3>(const OrientedImage<3>&, const MeshModel<3>&, const fs::path&,
+                                              const Eigen::Matrix<double, 3, 1>*);
 template nlohmann::json write_deformed_slice<2>(const MeshModel<2>&,
                                                 const std::vector<Eigen::Matrix<double, 2, 1>>&,
                                                 const fs::path&, const Eigen::Matrix<double, 2, 1>&, int,

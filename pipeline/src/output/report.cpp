@@ -66,9 +66,7 @@ json image_json(const OrientedImage<dim>& image, const std::string& file) {
   return j;
 }
 
-template <int dim>
-json quality_json(const SimplexMesh<dim>& mesh) {
-  const MeshQuality q = mesh_quality(mesh);
+json quality_json(const MeshQuality& q) {
   return {{"min_dihedral_deg", q.min_dihedral_deg},
           {"max_dihedral_deg", q.max_dihedral_deg},
           {"min_nrr", q.min_nrr},
@@ -197,12 +195,12 @@ void print_summary(std::ostream& out, const json& r) {
   }
 }
 
-StageTimer::StageTimer(json& report, std::string stage)
-    : report_(report), stage_(std::move(stage)), start_(std::chrono::steady_clock::now()) {}
+StageTimer::StageTimer(std::vector<StageTime>& times, std::string stage)
+    : times_(times), stage_(std::move(stage)), start_(std::chrono::steady_clock::now()) {}
 
 double StageTimer::stop() {
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  report_["timing"][stage_] = s;
+  times_.push_back({stage_, s});
   return s;
 }
 
@@ -210,7 +208,5 @@ template ImageSummary summarize<2>(const Image<2>&);
 template ImageSummary summarize<3>(const Image<3>&);
 template json image_json<2>(const OrientedImage<2>&, const std::string&);
 template json image_json<3>(const OrientedImage<3>&, const std::string&);
-template json quality_json<2>(const SimplexMesh<2>&);
-template json quality_json<3>(const SimplexMesh<3>&);
 
 }  // namespace vim::pipeline

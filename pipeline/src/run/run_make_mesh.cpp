@@ -28,8 +28,7 @@ namespace {
 
 // Per-element values of a fixed mesh (the grid mesher) and its energies, as history[0].
 template <int dim>
-IterationRecord evaluate_fixed_mesh(const Image<dim>& image, MeshModel<dim>& model, const VimOptions& vo,
-                                    json& report) {
+IterationRecord evaluate_fixed_mesh(const Image<dim>& image, MeshModel<dim>& model, const VimOptions& vo) {
   const VoxelStatistics<dim> stats(image);
   model.values.resize(model.mesh.n_cells());
   double eg = 0.0, ed = 0.0;
@@ -43,8 +42,6 @@ IterationRecord evaluate_fixed_mesh(const Image<dim>& image, MeshModel<dim>& mod
   r.geometric = eg;
   r.discretization = ed;
   r.energy = EnergyNormalization{eg, ed, vo.lambda}.combined(eg, ed);
-  report["optimization"] = {
-      {"iterations", 0}, {"converged", false}, {"eg0", eg}, {"ed0", ed}, {"history", history_json({r})}};
   return r;
 }
 
@@ -115,23 +112,25 @@ void PipelineRun<dim>::check_node_limit(const std::array<int, dim>& n, double vo
 }
 
 template <int dim>
-void PipelineRun<dim>::make_mesh() {
+const MeshResult& PipelineRun<dim>::make_mesh() {
   const RunOptions& o = options_;
+  MeshResult& result = mesh_result_;
+  result.mesher = o.mesher;
   const Image<dim>& image = image_->image;
   const double voxels = static_cast<double>(image.voxel_count()) +
                         (sizing_ ? static_cast<double>(sizing_->image.voxel_count()) : 0.0);
   if (o.mesher == MesherKind::voxel) {
     check_memory_fits(voxels, static_cast<double>(image.voxel_count()), o.max_memory);  // a node per voxel
     // The fine voxel model: one quad/hexahedron per voxel.
-    StageTimer t(report_, "voxel_grid");
+    StageTimer t(result.timing, "voxel_grid");
     world_grid_ = std::make_shared<const UnstructuredGrid>(voxel_grid<dim>(image, model_.transform));
     t.stop();
-    report_["mesh"] = {
-        {"mesher", "voxel"}, {"nodes", world_grid_->points.size()}, {"elements", world_grid_->n_cells()}};
-    return;
+    result.nodes = world_grid_->points.size();
+    result.elements = world_grid_->n_cells();
+    return result;
   }
   // Initial mesh: Kuhn/Freudenthal grid with the node budget (or spacing).
-  StageTimer t_init(report_, "initial_mesh");
+  StageTimer t_init(result.timing, "initial_mesh");
   const auto bmin = image.box_min(), bmax = image.box_max();
   nodes_per_axis_ = o.spacing > 0.0 ? nodes_per_axis_for_spacing<dim>(bmin, bmax, o.spacing)
                                     : nodes_per_axis_for_budget<dim>(bmin, bmax, o.nodes);
@@ -143,22 +142,24 @@ void PipelineRun<dim>::make_mesh() {
   Log::info("mesh", fmt("initial grid %s: %zu nodes, %zu elements", axes.c_str(), initial.n_points(),
                         initial.n_cells()));
   if (o.mesher == MesherKind::grid) {
-    StageTimer t(report_, "voxel_statistics");
+    StageTimer t(result.timing, "voxel_statistics");
     model_.mesh = std::move(initial);
-    energy_history_ = {evaluate_fixed_mesh(image, model_, o.vim_options(), report_)};
+    const IterationRecord r = evaluate_fixed_mesh(image, model_, o.vim_options());
+    energy_history_ = {r};
+    result.optimization = OptimizationRecord{0, false, r.geometric, r.discretization, {r}};
     t.stop();
   } else {
     optimize_mesh(std::move(initial));
   }
   if (o.threshold) segment_mesh();
-  report_["mesh"] = {{"mesher", to_string(o.mesher)},
-                     {"nodes", model_.mesh.n_points()},
-                     {"elements", model_.mesh.n_cells()},
-                     {"nodes_per_axis", nodes_per_axis_},
-                     {"quality", quality_json(model_.mesh)}};
+  result.nodes = model_.mesh.n_points();
+  result.elements = model_.mesh.n_cells();
+  result.nodes_per_axis.assign(nodes_per_axis_.begin(), nodes_per_axis_.end());
+  result.quality = mesh_quality(model_.mesh);
   // The mesh in world coordinates, once: mesh.vtu, the exports and every simulation step use it.
   world_mesh_ = world_mesh<dim>(model_);
   world_grid_ = std::make_shared<const UnstructuredGrid>(simplex_grid<dim>(world_mesh_));
+  return result;
 }
 
 // VIM optimisation (paper §IV). The needle density is kept during VIM; a --sizing image only
@@ -171,7 +172,7 @@ void PipelineRun<dim>::optimize_mesh(SimplexMesh<dim> initial) {
   const Image<dim>* density = needle_density_ ? &*needle_density_ : nullptr;
   if (sizing_ || density) {
     // E_G-only initialisation weighted by the density image (§VI-E), then VIM from there.
-    StageTimer ts(report_, "sizing");
+    StageTimer ts(mesh_result_.timing, "sizing");
     const auto sizing_start = std::chrono::steady_clock::now();
     auto sizing_progress = [&](const IterationRecord& r) {
       if (inputs_ && inputs_->on_iteration) inputs_->on_iteration("sizing", r);
@@ -188,7 +189,7 @@ void PipelineRun<dim>::optimize_mesh(SimplexMesh<dim> initial) {
                             sizing_ ? o.sizing.c_str() : "mesh.needle_refinement"));
     ts.stop();
   }
-  StageTimer t(report_, "optimize");
+  StageTimer t(mesh_result_.timing, "optimize");
   const bool lower_bound = vo.min_dihedral_deg > 0.0 || vo.min_radius_ratio > 0.0;
   const MeshQuality initial_quality = lower_bound ? mesh_quality(initial) : MeshQuality{};
   VimResult<dim> result =
@@ -196,7 +197,7 @@ void PipelineRun<dim>::optimize_mesh(SimplexMesh<dim> initial) {
                     vim_progress(vo.max_iterations, inputs_ ? inputs_->on_iteration : nullptr), density);
   t.stop();
   if (result.ed0_estimated) {
-    warn("vim",
+    warn(mesh_result_.warnings, "vim",
          fmt("no element of the initial mesh holds voxel centres of different values (E_D = 0 at the start; "
              "%zu nodes for %zu voxels: the elements are about as small as the voxels or smaller, or their "
              "faces lie on the image's edges), so E_D0 is estimated as |box| var(image) m^(-1/%d) = %.4g for "
@@ -204,18 +205,17 @@ void PipelineRun<dim>::optimize_mesh(SimplexMesh<dim> initial) {
              "--nodes give the image more to shape",
              result.mesh.n_points(), image.voxel_count(), dim, result.ed0));
   } else if (result.ed0 == 0.0 && vo.lambda > 0.0) {
-    warn("vim", "the image is constant inside the box (E_D0 = 0): the mesh is optimised for E_G only");
+    warn(mesh_result_.warnings, "vim",
+         "the image is constant inside the box (E_D0 = 0): the mesh is optimised for E_G only");
   }
   model_.mesh = std::move(result.mesh);
   if (lower_bound)
-    if (const auto w = lower_bound_warning(model_.mesh, vo, initial_quality)) warn("vim", *w);
+    if (const auto w = lower_bound_warning(model_.mesh, vo, initial_quality))
+      warn(mesh_result_.warnings, "vim", *w);
   model_.values = std::move(result.values);
   energy_history_ = result.history;
-  report_["optimization"] = {{"iterations", result.history.empty() ? 0 : result.history.back().iteration},
-                             {"converged", result.converged},
-                             {"eg0", result.eg0},
-                             {"ed0", result.ed0},
-                             {"history", history_json(result.history)}};
+  mesh_result_.optimization = OptimizationRecord{result.history.empty() ? 0 : result.history.back().iteration,
+                                                 result.converged, result.eg0, result.ed0, result.history};
 }
 
 // Segmentation (§VI-B): face-connected components of the elements whose mean is above --threshold;
@@ -223,7 +223,7 @@ void PipelineRun<dim>::optimize_mesh(SimplexMesh<dim> initial) {
 template <int dim>
 void PipelineRun<dim>::segment_mesh() {
   const double threshold = *options_.threshold;
-  StageTimer t(report_, "segment");
+  StageTimer t(mesh_result_.timing, "segment");
   const Segmentation seg = segment<dim>(model_.mesh, model_.values, threshold);
   model_.segment = seg.component;
   model_.object.assign(seg.object.begin(), seg.object.end());
@@ -234,16 +234,13 @@ void PipelineRun<dim>::segment_mesh() {
       volume += std::abs(signed_volume(model_.mesh, c));
       voxels += model_.values[c].voxels;
     }
-  report_["segmentation"] = {{"threshold", threshold},
-                             {"components", seg.n_components},
-                             {"object_elements", seg.largest_size},
-                             {"object_volume", volume},
-                             {"object_voxels", voxels}};
+  mesh_result_.segmentation =
+      SegmentationRecord{threshold, seg.n_components, seg.largest_size, volume, voxels};
   t.stop();
 }
 
 template <int dim>
-void PipelineRun<dim>::reuse_mesh(const PipelineRun& meshed) {
+const MeshResult& PipelineRun<dim>::reuse_mesh(const PipelineRun& meshed) {
   if (options_.mesher == MesherKind::voxel || meshed.options_.mesher == MesherKind::voxel)
     throw std::invalid_argument("PipelineRun::reuse_mesh: the voxel model has no simplex mesh to reuse");
   model_ = meshed.model_;
@@ -252,25 +249,23 @@ void PipelineRun<dim>::reuse_mesh(const PipelineRun& meshed) {
   world_mesh_ = meshed.world_mesh_;
   world_grid_ = meshed.world_grid_;
   needle_density_.reset();  // the mesh is made: mesh.needle_refinement no longer applies
-  report_.erase("needle_refinement");
-  for (const char* key : {"mesh", "optimization", "segmentation", "sizing"})
-    if (meshed.report_.contains(key)) report_[key] = meshed.report_[key];
-  for (const char* stage : {"initial_mesh", "voxel_statistics", "sizing", "optimize", "segment"})
-    if (meshed.report_.contains("timing") && meshed.report_["timing"].contains(stage))
-      report_["timing"][stage] = meshed.report_["timing"][stage];
+  inputs_result_.needle_refinement.reset();
+  if (meshed.inputs_result_.sizing) inputs_result_.sizing = meshed.inputs_result_.sizing;
+  mesh_result_ = meshed.mesh_result_;  // its record and times
   // The meshing run's warnings that this run has not given again (read_inputs' repeat).
-  if (meshed.report_.contains("warnings"))
-    for (const auto& w : meshed.report_["warnings"]) {
-      const bool given =
-          report_.contains("warnings") &&
-          std::find(report_["warnings"].begin(), report_["warnings"].end(), w) != report_["warnings"].end();
-      if (!given) report_["warnings"].push_back(w);
-    }
+  mesh_result_.warnings.clear();
+  for (const std::string& w : meshed.warnings()) {
+    const auto given = [&](const std::vector<std::string>& list) {
+      return std::find(list.begin(), list.end(), w) != list.end();
+    };
+    if (!given(inputs_result_.warnings) && !given(mesh_result_.warnings)) mesh_result_.warnings.push_back(w);
+  }
+  return mesh_result_;
 }
 
-template void PipelineRun<2>::make_mesh();
-template void PipelineRun<3>::make_mesh();
-template void PipelineRun<2>::reuse_mesh(const PipelineRun<2>&);
-template void PipelineRun<3>::reuse_mesh(const PipelineRun<3>&);
+template const MeshResult& PipelineRun<2>::make_mesh();
+template const MeshResult& PipelineRun<3>::make_mesh();
+template const MeshResult& PipelineRun<2>::reuse_mesh(const PipelineRun<2>&);
+template const MeshResult& PipelineRun<3>::reuse_mesh(const PipelineRun<3>&);
 
 }  // namespace vim::pipeline

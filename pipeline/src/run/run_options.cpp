@@ -1,4 +1,4 @@
-// RunOptions (run_options.hpp): the mesher table and the mesher's options taken from the run's.
+// RunOptions (run_options.hpp): the mesher table.
 #include <vim/pipeline/run/run_options.hpp>
 
 namespace vim::pipeline {
@@ -22,22 +22,6 @@ std::optional<MesherKind> mesher_kind(const std::string& name) {
   for (const Mesher& row : meshers())
     if (row.name == name) return row.kind;
   return std::nullopt;
-}
-
-VimOptions RunOptions::vim_options() const {
-  VimOptions v;
-  v.lambda = lambda;
-  v.max_dihedral_deg = max_dihedral_deg;
-  v.min_dihedral_deg = min_dihedral_deg;
-  v.min_radius_ratio = min_radius_ratio;
-  v.max_iterations = max_iterations;
-  v.convergence = convergence;
-  v.energy_convergence = energy_convergence;
-  v.search_width = search_width;
-  v.threads = threads;
-  v.seed = seed;
-  v.check_invariants = check_invariants;
-  return v;
 }
 
 }  // namespace vim::pipeline

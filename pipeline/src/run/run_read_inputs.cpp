@@ -9,7 +9,6 @@
 #include <sstream>
 #include <vim/pipeline/output/report.hpp>
 #include <vim/pipeline/run/pipeline_run.hpp>
-#include <vim/version.hpp>
 
 #include "run/run_support.hpp"
 
@@ -55,20 +54,15 @@ json options_json(const RunOptions& o) {
 
 namespace {
 
-// Scenario mesh keys (nodes, lambda, degree, min_dihedral) apply unless the option was given on the
-// command line.
+// The scenario's mesh keys apply where the option was not given on the command line.
 RunOptions with_scenario_mesh(const RunOptions& given, const std::optional<Scenario>& sc) {
   if (!sc) return given;
-  auto on_command_line = [&](const std::string& flag) {
+  RunOptions o = given;
+  static_cast<MeshOptions&>(o) = with_scenario_mesh(given, *sc, [&](const std::string& flag) {
     for (const auto& a : given.command_line)
       if (a == flag || a.rfind(flag + "=", 0) == 0) return true;
     return false;
-  };
-  RunOptions o = given;
-  if (sc->nodes && !on_command_line("--nodes") && !on_command_line("--spacing")) o.nodes = *sc->nodes;
-  if (sc->lambda && !on_command_line("--lambda")) o.lambda = *sc->lambda;
-  if (sc->degree && !on_command_line("--degree")) o.degree = static_cast<int>(*sc->degree);
-  if (sc->min_dihedral && !on_command_line("--min-dihedral")) o.min_dihedral_deg = *sc->min_dihedral;
+  });
   return o;
 }
 
@@ -112,10 +106,6 @@ PipelineRun<dim>::PipelineRun(const RunOptions& given, ImageFile image, RunRanks
       options_(with_scenario_mesh(given, scenario_)),
       ranks_(std::move(ranks)),
       image_file_(std::move(image)),
-      report_({{"tool", {{"name", "vim-pipeline"}, {"version", VIM_VERSION_STRING}}},
-               {"command_line", options_.command_line},
-               {"options", options_json(options_)},
-               {"out", options_.out.string()}}),
       start_(std::chrono::steady_clock::now()),
       // refuses a non-empty DIR before any work; the ranks other than 0 of a run over MPI ranks have none
       out_(options_.out.empty() && ranks_.size > 1
@@ -132,10 +122,6 @@ PipelineRun<dim>::PipelineRun(const RunOptions& given, RunInputs<dim> inputs, Ru
       options_(with_scenario_mesh(given, scenario_)),
       ranks_(std::move(ranks)),
       inputs_(std::move(inputs)),
-      report_({{"tool", {{"name", inputs_->tool}, {"version", VIM_VERSION_STRING}}},
-               {"command_line", options_.command_line},
-               {"options", options_json(options_)},
-               {"out", options_.out.string()}}),
       start_(std::chrono::steady_clock::now()),
       out_(options_.out.empty() ? nullptr
                                 : std::make_unique<OutputDirectory>(options_.out, options_.overwrite)) {}
@@ -149,23 +135,26 @@ OutputDirectory& PipelineRun<dim>::out() {
   return *out_;
 }
 
-// A warning of the run: on stderr (unless --quiet) and in report.json "warnings".
+// A warning of the run: on stderr (unless --quiet) and in the warnings of the stage's result (report.json
+// "warnings").
 template <int dim>
-void PipelineRun<dim>::warn(const std::string& stage, const std::string& message) {
+void PipelineRun<dim>::warn(std::vector<std::string>& warnings, const std::string& stage,
+                            const std::string& message) {
   Log::warning(stage, message);
-  report_["warnings"].push_back(message);
+  warnings.push_back(message);
 }
 
 template <int dim>
-void PipelineRun<dim>::read_inputs() {
+const InputsResult& PipelineRun<dim>::read_inputs() {
   const RunOptions& o = options_;
-  StageTimer t_read(report_, "read_image");
+  InputsResult& result = inputs_result_;
+  StageTimer t_read(result.timing, "read_image");
   image_ = image_file_ ? image_file_->read<dim>() : std::move(inputs_->image);
   t_read.stop();
   const OrientedImage<dim>& img = *image_;
-  report_["input"] = image_json(img, o.image);
+  result.image = image_json(img, o.image);
   check_meshable(img, o.image);
-  if (const auto w = value_accuracy_warning(img.image, o.image)) warn("input", *w);
+  if (const auto w = value_accuracy_warning(img.image, o.image)) warn(result.warnings, "input", *w);
   if (o.mesher != MesherKind::voxel && o.spacing <= 0.0 && o.nodes < (1L << dim))
     throw InputError("--nodes " + std::to_string(o.nodes) + ": a " + std::to_string(dim) +
                      "D mesh needs at least " + std::to_string(1 << dim) + " nodes (2 per axis)");
@@ -176,8 +165,9 @@ void PipelineRun<dim>::read_inputs() {
   check_scenario();
   // Every input is checked; from here on progress goes to stderr.
   Log::info("image", fmt("%s: %dD, %zu voxels, values %.4g..%.4g", o.image.c_str(), dim,
-                         img.image.voxel_count(), report_["input"]["values"]["min"].template get<double>(),
-                         report_["input"]["values"]["max"].template get<double>()));
+                         img.image.voxel_count(), result.image["values"]["min"].template get<double>(),
+                         result.image["values"]["max"].template get<double>()));
+  return result;
 }
 
 // --sizing: a density image in IMAGE's frame (§VI-E), positive everywhere.
@@ -201,7 +191,7 @@ void PipelineRun<dim>::read_sizing_image() {
                      "); density must be positive everywhere");
   if (!sizing_->direction.isApprox(image_->direction, 1e-6))
     throw InputError(o.sizing + ": sizing image direction differs from IMAGE's; both must share one frame");
-  report_["sizing"] = image_json(*sizing_, o.sizing);
+  inputs_result_.sizing = image_json(*sizing_, o.sizing);
   sizing_->image = in_frame_of(*image_, *sizing_);
 }
 
@@ -215,7 +205,7 @@ void PipelineRun<dim>::check_scenario() {
   check_scenario_geometry<dim>(sc, image_->image.box_min(), image_->image.box_max(), model_.transform);
   check_modulus_image<dim>(sc, image_->image);
   if (o.degree == 2 && o.mesher == MesherKind::voxel)
-    warn("simulate",
+    warn(inputs_result_.warnings, "simulate",
          "--mesher voxel builds the voxel reference model of trilinear hexahedra (Q1) whatever the degree; "
          "--degree 2 applies to the simplex meshes (vim, grid)");
   if (o.degree == 1 && o.mesher != MesherKind::voxel && sc.poisson_ratio >= kLockingPoisson) {
@@ -229,7 +219,7 @@ void PipelineRun<dim>::check_scenario() {
          "be "
          "wildly wrong, even of the wrong sign); set mesh.degree: 2 in the scenario"
       << " (or --degree 2) for quadratic elements (about 5x the solve time)";
-    warn("simulate", m.str());
+    warn(inputs_result_.warnings, "simulate", m.str());
   }
   // mesh.needle_refinement: a density around the needle paths that VIM keeps in E_G (§VI-E).
   if (sc.needle_refinement && o.mesher == MesherKind::vim) {
@@ -238,9 +228,8 @@ void PipelineRun<dim>::check_scenario() {
                        ": mesh.needle_refinement both set the mesh density; give only one of them");
     const auto& nr = *sc.needle_refinement;
     needle_density_ = needle_refinement_density<dim>(sc, image_->image, model_.transform);
-    report_["needle_refinement"] = {{"size_ratio", nr.size_ratio},
-                                    {"radius", nr.radius},
-                                    {"peak_density", std::pow(nr.size_ratio, -static_cast<double>(dim + 2))}};
+    inputs_result_.needle_refinement = InputsResult::NeedleRefinement{
+        nr.size_ratio, nr.radius, std::pow(nr.size_ratio, -static_cast<double>(dim + 2))};
   }
 }
 

@@ -33,26 +33,28 @@ void PipelineRun<dim>::build_model() {
     simulation_ = std::make_unique<NeedleSimulation<dim>>(model_, *scenario_, std::move(so));
     model_.youngs_modulus = simulation_->youngs_modulus();  // mesh.vtu carries the modulus used
   }
-  simulate_seconds_ = seconds_since(start);
+  simulate_result_.seconds = seconds_since(start);
 }
 
 template <int dim>
-void PipelineRun<dim>::simulate() {
-  if (!simulation_) return;
+const SimulateResult& PipelineRun<dim>::simulate() {
+  if (!simulation_) return simulate_result_;
   const auto start = std::chrono::steady_clock::now();
   simulation_result_ = std::make_unique<const SimulationResult<dim>>(simulation_->run());
   const SimulationResult<dim>& result = *simulation_result_;
-  report_["simulation"] = result.report;
-  for (const auto& w : result.warnings) warn("simulate", w);
-  if (out_) write_simulation_figures(result);
-  report_["timing"]["simulate"] = simulate_seconds_ + seconds_since(start);
+  simulate_result_.simulation = result.report;
+  for (const auto& w : result.warnings) warn(simulate_result_.warnings, "simulate", w);
+  if (out_) simulate_result_.figures = write_simulation_figures(result);
+  simulate_result_.seconds += seconds_since(start);
+  return simulate_result_;
 }
 
 // Figures of a needle run: axial/lateral force against depth for every needle and, on a simplex
 // model, the deformed mesh at the last step cut through the final tip position; of a static load case
 // the deformed mesh cut through the model's centre (3D: normal to the first axis).
 template <int dim>
-void PipelineRun<dim>::write_simulation_figures(const SimulationResult<dim>& result) {
+json PipelineRun<dim>::write_simulation_figures(const SimulationResult<dim>& result) {
+  json figures = json::object();
   const MeshModel<dim>* model = options_.mesher == MesherKind::voxel ? nullptr : &model_;
   // Axis titles in the scenario's units: force = modulus × length² (kPa·mm² = mN; in 2D per unit
   // thickness).
@@ -69,7 +71,7 @@ void PipelineRun<dim>::write_simulation_figures(const SimulationResult<dim>& res
       u.push_back(model->transform.vector_to_frame(w));
     Eigen::Matrix<double, dim, 1> lo = model->mesh.points.front(), hi = lo;
     for (const auto& p : model->mesh.points) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
-    json& fig = report_["figures"]["simulation"]["static_load"];
+    json& fig = figures["static_load"];
     fig = write_deformed_slice<dim>(*model, u, out().file("figures/deformed.png"), 0.5 * (lo + hi), 0,
                                     "|u| [" + length + "]");
     fig["file"] = "figures/deformed.png";
@@ -77,7 +79,7 @@ void PipelineRun<dim>::write_simulation_figures(const SimulationResult<dim>& res
   for (const auto& run : result.needles) {
     if (run.depth.empty()) continue;
     const std::string prefix = result.needles.size() > 1 ? run.name + "_" : "";
-    json& fig = report_["figures"]["simulation"][run.name.empty() ? std::string("needle") : run.name];
+    json& fig = figures[run.name.empty() ? std::string("needle") : run.name];
     fig["force"] = write_line_plot(out().file("figures/" + prefix + "needle_force.png"), run.depth,
                                    {run.axial_force, run.lateral_force}, {"axial force", "lateral force"},
                                    "needle depth [" + length + "]", "force on the needle [" + force + "]");
@@ -109,11 +111,12 @@ void PipelineRun<dim>::write_simulation_figures(const SimulationResult<dim>& res
       fig["deformed"]["file"] = "figures/" + prefix + "deformed.png";
     }
   }
+  return figures;
 }
 
 template void PipelineRun<2>::build_model();
 template void PipelineRun<3>::build_model();
-template void PipelineRun<2>::simulate();
-template void PipelineRun<3>::simulate();
+template const SimulateResult& PipelineRun<2>::simulate();
+template const SimulateResult& PipelineRun<3>::simulate();
 
 }  // namespace vim::pipeline

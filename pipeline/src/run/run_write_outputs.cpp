@@ -45,21 +45,23 @@ UnstructuredGrid PipelineRun<dim>::mesh_vtu_grid() const {
 }
 
 template <int dim>
-void PipelineRun<dim>::write_outputs() {
+const OutputsResult& PipelineRun<dim>::write_outputs() {
   const RunOptions& o = options_;
-  StageTimer t_write(report_, "write");
+  OutputsResult& result = outputs_result_;
+  StageTimer t_write(result.timing, "write");
   write_vtu(out().file("mesh.vtu"), mesh_vtu_grid());
   if (o.mesher == MesherKind::voxel) {
     if (!o.exports.empty()) {
       // The exports and figures are for simplex meshes: say so instead of skipping them silently.
-      report_["exports"]["skipped"] =
-          "--mesher voxel writes its hexahedra to mesh.vtu only (no --export formats, no figures)";
+      result.exports = nlohmann::json{
+          {"skipped",
+           "--mesher voxel writes its hexahedra to mesh.vtu only (no --export formats, no figures)"}};
       Log::info(
           "write",
           "--mesher voxel: mesh.vtu only (the --export formats and figures are for the simplex meshes)");
     }
     t_write.stop();
-    return;
+    return result;
   }
   // Exports for other tools (world coordinates, material bins).
   if (!o.exports.empty()) {
@@ -74,11 +76,12 @@ void PipelineRun<dim>::write_outputs() {
       export_options.scenario = &*scenario_;
       export_options.degree = static_cast<unsigned>(o.degree);
     }
-    write_exports<dim>(ExportInput<dim>{model_, world_mesh_, export_options}, out().path(), o.exports,
-                       report_);
-    for (const auto& w : report_["exports"].value("warnings", nlohmann::json::array()))
-      warn("export", w.get<std::string>());
-    for (auto& [format, path] : report_["exports"]["files"].items()) path = "mesh." + format;
+    nlohmann::json exports =
+        write_exports<dim>(ExportInput<dim>{model_, world_mesh_, export_options}, out().path(), o.exports);
+    for (const auto& w : exports.value("warnings", nlohmann::json::array()))
+      warn(result.warnings, "export", w.get<std::string>());
+    for (auto& [format, path] : exports["files"].items()) path = "mesh." + format;
+    result.exports = std::move(exports);
   }
   if (dim == 3)
     for (const char* name : {"sagittal", "coronal", "axial"})
@@ -86,13 +89,13 @@ void PipelineRun<dim>::write_outputs() {
   else
     for (const char* name : {"mesh_overlay", "discretized"})
       out().file(std::string("figures/") + name + ".png");
-  write_mesh_figures<dim>(*image_, model_, out().path(), nullptr, report_);
-  if (report_.contains("optimization") && energy_history_.size() >= 2)
-    report_["figures"]["energy"] = write_energy_plot(energy_history_, out().file("figures/energy.png"));
+  result.mesh_figures = write_mesh_figures<dim>(*image_, model_, out().path());
+  if (mesh_result_.optimization && energy_history_.size() >= 2)
+    result.energy_figure = write_energy_plot(energy_history_, out().file("figures/energy.png"));
   t_write.stop();
+  return result;
 }
 
-template void PipelineRun<2>::write_outputs();
-template void PipelineRun<3>::write_outputs();
-
+template const OutputsResult& PipelineRun<2>::write_outputs();
+template const OutputsResult& PipelineRun<3>::write_outputs();
 }  // namespace vim::pipeline

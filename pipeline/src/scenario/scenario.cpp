@@ -557,12 +557,6 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
   return s;
 }
 
-VimOptions scenario_vim_options(const Scenario& scenario, VimOptions base) {
-  if (scenario.lambda) base.lambda = *scenario.lambda;
-  if (scenario.min_dihedral) base.min_dihedral_deg = *scenario.min_dihedral;
-  return base;
-}
-
 std::string read_input_text(const std::string& path, const std::string& what) {
   std::ifstream in(path);
   if (!in) throw ScenarioError(path + ": cannot open the " + what);

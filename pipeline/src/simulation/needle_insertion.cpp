@@ -97,7 +97,7 @@ std::vector<needle::ShaftPoint<dim>> NeedleInsertion<dim>::make_coupling(bool sn
 }
 
 template <int dim>
-NeedleRun<dim> NeedleInsertion<dim>::run(nlohmann::json &report) {
+NeedleOutcome<dim> NeedleInsertion<dim>::run() {
   Progress progress("needle " + spec_.name, needle_.steps);
   const auto t_run = Clock::now();
   if (!ctx_.opt.monolithic) {  // every shaft row's column K⁻¹cᵀ in one batch: no
@@ -128,10 +128,10 @@ NeedleRun<dim> NeedleInsertion<dim>::run(nlohmann::json &report) {
     if (write_) write_pvd(ctx_.opt.output_file(prefix_ + "simulation.pvd"), pvd_);
     write_needle_csv<dim>(ctx_.opt.output_file(prefix_ + "needle.csv"), run_, ctx_.sc);
   }
-  report = needle_report<dim>(spec_, run_, stepping_->law(), pitch_, prefix_, run_seconds, tissue_->solves(),
-                              ctx_.opt.monolithic, ctx_.sc);
+  nlohmann::json report = needle_report<dim>(spec_, run_, stepping_->law(), pitch_, prefix_, run_seconds,
+                                             tissue_->solves(), ctx_.opt.monolithic, ctx_.sc);
   if (dim == 3) report["coupling_radius"] = coupling_radius_;
-  return std::move(run_);
+  return {std::move(run_), std::move(report)};
 }
 
 // Step 0: rest, or the external loads alone; their displacement across the axis

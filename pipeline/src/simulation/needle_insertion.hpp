@@ -24,6 +24,7 @@
 #include <vim/pipeline/simulation/simulation.hpp>
 
 #include "simulation/simulation_context.hpp"
+#include "simulation/simulation_output.hpp"
 
 namespace vim::pipeline {
 
@@ -37,9 +38,9 @@ class NeedleInsertion {
   NeedleInsertion(SimulationContext<dim> &context, const NeedleSpec &spec, std::string prefix,
                   bool snap_to_vertices);
   // Rest (or the external loads alone), then every step; writes the step files,
-  // the .pvd and needle.csv when the options name an output folder, and fills
-  // the needle's report entry.
-  NeedleRun<dim> run(nlohmann::json &report);
+  // the .pvd and needle.csv when the options name an output folder; returns
+  // the run with the needle's report entry.
+  NeedleOutcome<dim> run();
 
  private:
   void rest();

@@ -32,14 +32,14 @@ struct NeedleSimulation<dim>::Impl : SimulationContext<dim> {
       Base::opt, Base::point_axes, Base::region, Base::sc, Base::solver, Base::tf;
   void setup(const std::vector<Vec>& vertices);
   fem::VolumeSupport<dim> volume_support(const BoundaryConditionSpec& bc, const std::string& where) const;
-  NeedleRun<dim> run_needle(const NeedleSpec& spec, const std::string& prefix, json& needle_report,
-                            bool snap_to_vertices = false) {
-    return NeedleInsertion<dim>(*this, spec, prefix, snap_to_vertices).run(needle_report);
+  NeedleOutcome<dim> run_needle(const NeedleSpec& spec, const std::string& prefix,
+                                bool snap_to_vertices = false) {
+    return NeedleInsertion<dim>(*this, spec, prefix, snap_to_vertices).run();
   }
   std::vector<std::string> held_path_warnings(const NeedleSpec& spec) const;
-  NeedleRun<dim> insert_needle(const NeedleSpec& spec, const std::string& prefix, json& needle_report,
-                               std::vector<std::string>& warnings);
-  void check_axial_force(const NeedleSpec& spec, const NeedleRun<dim>& run, json& needle_report,
+  NeedleOutcome<dim> insert_needle(const NeedleSpec& spec, const std::string& prefix,
+                                   std::vector<std::string>& warnings);
+  void check_axial_force(const NeedleSpec& spec, NeedleOutcome<dim>& needle,
                          std::vector<std::string>& warnings) const;
 };
 
@@ -314,25 +314,25 @@ std::vector<std::string> NeedleSimulation<dim>::Impl::held_path_warnings(const N
 // spacing, with a coarser one, saying so in `warnings`. Solver failures become ScenarioErrors naming
 // the scenario's line.
 template <int dim>
-NeedleRun<dim> NeedleSimulation<dim>::Impl::insert_needle(const NeedleSpec& spec, const std::string& prefix,
-                                                          json& nr, std::vector<std::string>& warnings) {
+NeedleOutcome<dim> NeedleSimulation<dim>::Impl::insert_needle(const NeedleSpec& spec,
+                                                              const std::string& prefix,
+                                                              std::vector<std::string>& warnings) {
   const std::string who = spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'";
   const double edge = locator().mean_edge_length();
   try {
     try {
-      return run_needle(spec, prefix, nr);
+      return run_needle(spec, prefix);
     } catch (const fem::DependentPointConstraints& e) {
       // Shaft points inside a chain of collinear mesh edges (a path along a box edge or a grid line):
       // run again with the points on those edges moved to the edges' vertices (sample_shaft).
       std::ostringstream w;
       w << sc.where(spec.line) << who << ": its shaft points along mesh edges were nearly dependent ("
         << e.what() << "); ran it again with the shaft sampled at the mesh vertices on its path";
-      nr = json();
       try {
-        NeedleRun<dim> run = run_needle(spec, prefix, nr, true);
+        NeedleOutcome<dim> needle = run_needle(spec, prefix, true);
         warnings.push_back(w.str());
-        nr["shaft_sampled_at_vertices"] = true;
-        return run;
+        needle.report["shaft_sampled_at_vertices"] = true;
+        return needle;
       } catch (const fem::DependentPointConstraints&) {
         // Still dependent: e.g. a path through cells that meet at single vertices (parallel to the
         // diagonals of a grid, about halfway between them), where one point per cell at the default
@@ -341,12 +341,11 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::insert_needle(const NeedleSpec& spec
         // error below suggests a value).
         if (spec.sample_spacing > 0.0) throw;
         NeedleSpec coarser = spec;
-        std::optional<NeedleRun<dim>> run;
+        std::optional<NeedleOutcome<dim>> run;
         for (const double factor : {1.0, 2.0}) {
           coarser.sample_spacing = factor * edge;
-          nr = json();
           try {
-            run = run_needle(coarser, prefix, nr, true);
+            run = run_needle(coarser, prefix, true);
           } catch (const fem::DependentPointConstraints&) {
             if (factor == 2.0) throw;
             continue;
@@ -360,8 +359,8 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::insert_needle(const NeedleSpec& spec
           << "sample_spacing = " << coarser.sample_spacing << " and the shaft at the mesh vertices where it "
           << "runs along edges";
         warnings.push_back(c.str());
-        nr["shaft_sampled_at_vertices"] = true;
-        nr["shaft_pitch_increased_from"] = 0.5 * edge;
+        run->report["shaft_sampled_at_vertices"] = true;
+        run->report["shaft_pitch_increased_from"] = 0.5 * edge;
         return std::move(*run);
       }
     }
@@ -390,11 +389,11 @@ NeedleRun<dim> NeedleSimulation<dim>::Impl::insert_needle(const NeedleSpec& spec
 // that is negative or falls means the discretisation holds the tissue at the tip back (a shaft point
 // joins at rest, and P1 spreads that over its whole element): a warning with the remedies.
 template <int dim>
-void NeedleSimulation<dim>::Impl::check_axial_force(const NeedleSpec& spec, const NeedleRun<dim>& run,
-                                                    json& nr, std::vector<std::string>& warnings) const {
+void NeedleSimulation<dim>::Impl::check_axial_force(const NeedleSpec& spec, NeedleOutcome<dim>& needle,
+                                                    std::vector<std::string>& warnings) const {
   const std::string who = spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'";
   const double edge = locator().mean_edge_length();
-  const std::vector<double>& f = run.axial_force;
+  const std::vector<double>& f = needle.run.axial_force;
   double largest = 0.0;
   std::vector<int> dips;
   for (std::size_t k = 1; k < f.size(); ++k) {
@@ -416,7 +415,7 @@ void NeedleSimulation<dim>::Impl::check_axial_force(const NeedleSpec& spec, cons
          "the "
       << "mean element edge (" << edge << ")";
     warnings.push_back(w.str());
-    nr["axial_force_dips"] = dips;
+    needle.report["axial_force_dips"] = dips;
   }
 }
 
@@ -432,7 +431,6 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
   rep["boundary_conditions"] = m.sc.boundary_conditions.size();
   json needles = json::array();
   for (const auto& spec : m.sc.needles) {
-    json nr;
     const std::string prefix = m.sc.needle_list ? spec.name + "/" : "";
     const std::string who = spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'";
     const double edge = m.locator().mean_edge_length();
@@ -450,19 +448,19 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
            "use degree 2";
       res.warnings.push_back(w.str());
     }
-    res.needles.push_back(m.insert_needle(spec, prefix, nr, res.warnings));
-    const std::string strain =
-        small_strain_warning(m.sc.where(spec.line), who, res.needles.back().max_strain);
+    NeedleOutcome<dim> needle = m.insert_needle(spec, prefix, res.warnings);
+    const std::string strain = small_strain_warning(m.sc.where(spec.line), who, needle.run.max_strain);
     if (!strain.empty()) res.warnings.push_back(strain);
     if (needle::make_friction_law(friction_options(spec, 1))->axial_force_never_falls())
-      m.check_axial_force(spec, res.needles.back(), nr, res.warnings);
-    needles.push_back(nr);
+      m.check_axial_force(spec, needle, res.warnings);
+    res.needles.push_back(std::move(needle.run));
+    needles.push_back(std::move(needle.report));
   }
   rep["needles"] = needles;
   if (m.sc.needles.empty()) {  // a static load case: step 0 only
-    json load;
-    res.static_load = run_static_load<dim>(m, load, res.warnings);
-    rep["static_load"] = load;
+    StaticLoadOutcome<dim> load = run_static_load<dim>(m, res.warnings);
+    res.static_load = std::move(load.run);
+    rep["static_load"] = std::move(load.report);
     rep["max_displacement"] = res.static_load->max_displacement;
     rep["max_strain"] = res.static_load->max_strain;
     for (std::size_t t = 0; t < m.sc.targets.size(); ++t)

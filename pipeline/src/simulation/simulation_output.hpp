@@ -39,6 +39,13 @@ template <int dim>
 void write_summary_csv(const std::filesystem::path& path, const std::vector<NeedleRun<dim>>& needles,
                        const Scenario& sc);
 
+// What one needle's insertion gives: its run and its entry of report.json["simulation"]["needles"].
+template <int dim>
+struct NeedleOutcome {
+  NeedleRun<dim> run;
+  nlohmann::json report;
+};
+
 // The needle's entry of report.json["simulation"]["needles"].
 template <int dim>
 nlohmann::json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run,

@@ -11,8 +11,7 @@ namespace vim::pipeline {
 using json = nlohmann::json;
 
 template <int dim>
-StaticLoadRun<dim> run_static_load(SimulationContext<dim>& ctx, json& report,
-                                   std::vector<std::string>& warnings) {
+StaticLoadOutcome<dim> run_static_load(SimulationContext<dim>& ctx, std::vector<std::string>& warnings) {
   using Vec = Eigen::Matrix<double, dim, 1>;
   const auto start = Clock::now();
   fem::Solution<dim> solution;
@@ -47,30 +46,30 @@ StaticLoadRun<dim> run_static_load(SimulationContext<dim>& ctx, json& report,
     for (int c = 0; c < dim; ++c) d.push_back(u[c]);
     final_targets[ctx.sc.targets[t].name] = {{"displacement", d}, {"norm", u.norm()}};
   }
-  report = {{"steps", 1},
-            {"files", write ? json::array({file}) : json::array()},
-            {"max_displacement", run.max_displacement},
-            {"max_strain", run.max_strain},
-            {"targets", final_targets},
-            {"solver",
-             {{"method", run.stats.method},
-              {"n_dofs", run.stats.n_dofs},
-              {"solves", 1},
-              {"iterations", run.stats.iterations},
-              {"residual", run.stats.residual}}},
-            // the solve's parts (SolverStats): set-up and assembly, preconditioner set-up and CG within
-            {"timing",
-             {{"solve_seconds", solve_seconds},
-              {"setup_seconds", run.stats.setup_seconds},
-              {"assemble_seconds", run.stats.assemble_seconds},
-              {"precondition_seconds", run.stats.precondition_seconds},
-              {"cg_seconds", run.stats.solve_seconds - run.stats.precondition_seconds}}}};
+  json report = {{"steps", 1},
+                 {"files", write ? json::array({file}) : json::array()},
+                 {"max_displacement", run.max_displacement},
+                 {"max_strain", run.max_strain},
+                 {"targets", final_targets},
+                 {"solver",
+                  {{"method", run.stats.method},
+                   {"n_dofs", run.stats.n_dofs},
+                   {"solves", 1},
+                   {"iterations", run.stats.iterations},
+                   {"residual", run.stats.residual}}},
+                 // the solve's parts (SolverStats): set-up and assembly, preconditioner set-up and CG within
+                 {"timing",
+                  {{"solve_seconds", solve_seconds},
+                   {"setup_seconds", run.stats.setup_seconds},
+                   {"assemble_seconds", run.stats.assemble_seconds},
+                   {"precondition_seconds", run.stats.precondition_seconds},
+                   {"cg_seconds", run.stats.solve_seconds - run.stats.precondition_seconds}}}};
   const std::string w = small_strain_warning(ctx.sc.where(0), "the static load case", {run.max_strain});
   if (!w.empty()) warnings.push_back(w);
-  return run;
+  return {std::move(run), std::move(report)};
 }
 
-template StaticLoadRun<2> run_static_load<2>(SimulationContext<2>&, json&, std::vector<std::string>&);
-template StaticLoadRun<3> run_static_load<3>(SimulationContext<3>&, json&, std::vector<std::string>&);
+template StaticLoadOutcome<2> run_static_load<2>(SimulationContext<2>&, std::vector<std::string>&);
+template StaticLoadOutcome<3> run_static_load<3>(SimulationContext<3>&, std::vector<std::string>&);
 
 }  // namespace vim::pipeline

@@ -12,10 +12,14 @@
 namespace vim::pipeline {
 
 // Solves the loaded model once; writes steps/step_0000.vtu and simulation.pvd when the options name an
-// output folder; fills `report` (report.json["simulation"]["static_load"]) and adds the small-strain
-// warning to `warnings`.
+// output folder; returns the run with its entry report.json["simulation"]["static_load"], and adds the
+// small-strain warning to `warnings`.
 template <int dim>
-StaticLoadRun<dim> run_static_load(SimulationContext<dim>& ctx, nlohmann::json& report,
-                                   std::vector<std::string>& warnings);
+struct StaticLoadOutcome {
+  StaticLoadRun<dim> run;
+  nlohmann::json report;
+};
+template <int dim>
+StaticLoadOutcome<dim> run_static_load(SimulationContext<dim>& ctx, std::vector<std::string>& warnings);
 
 }  // namespace vim::pipeline

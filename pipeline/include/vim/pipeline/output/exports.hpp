@@ -77,19 +77,18 @@ struct ExportInput {
 };
 
 // Writes dir/mesh.NAME for each requested format (names of export_table(), written in its order; an
-// unknown name throws std::invalid_argument before anything is written) and fills
-// report["exports"]: files written, skipped formats with the reason (a row without a writer for the
+// unknown name throws std::invalid_argument before anything is written) and returns report.json's
+// "exports": files written, skipped formats with the reason (a row without a writer for the
 // dimension: FEBio has no 2D solid elements), material_table [{id, E, E_min, E_max, elements}],
 // element_modulus, poisson_ratio, degree, not_expressed (scenario features the decks do not hold), and
 // warnings: without a scenario, a non-positive element modulus (an image that is not a modulus map) is warned
 // about, naming the fix.
 template <int dim>
-void write_exports(const ExportInput<dim>& input, const std::filesystem::path& dir,
-                   const std::vector<std::string>& formats, nlohmann::json& report);
+nlohmann::json write_exports(const ExportInput<dim>& input, const std::filesystem::path& dir,
+                             const std::vector<std::string>& formats);
 // The same, with the world mesh computed here.
 template <int dim>
-void write_exports(const MeshModel<dim>& model, const std::filesystem::path& dir,
-                   const std::vector<std::string>& formats, nlohmann::json& report,
-                   const ExportOptions& options = {});
+nlohmann::json write_exports(const MeshModel<dim>& model, const std::filesystem::path& dir,
+                             const std::vector<std::string>& formats, const ExportOptions& options = {});
 
 }  // namespace vim::pipeline

@@ -55,11 +55,12 @@ std::array<SliceView, 2> mesh_figure_views(const Image<dim>& image, int axis);
 
 // 3D: DIR/figures/slice_{sagittal,coronal,axial}.png through slice_point (frame coordinates;
 // default the image centre), each snapped to the nearest voxel-centre plane. 2D:
-// DIR/figures/mesh_overlay.png and DIR/figures/discretized.png. Fills report["figures"]["mesh"].
+// DIR/figures/mesh_overlay.png and DIR/figures/discretized.png. Returns report.json's
+// ["figures"]["mesh"]: the files, the slices and the pixel scale.
 template <int dim>
-void write_mesh_figures(const OrientedImage<dim>& image, const MeshModel<dim>& model,
-                        const std::filesystem::path& dir, const Eigen::Matrix<double, dim, 1>* slice_point,
-                        nlohmann::json& report);
+nlohmann::json write_mesh_figures(const OrientedImage<dim>& image, const MeshModel<dim>& model,
+                                  const std::filesystem::path& dir,
+                                  const Eigen::Matrix<double, dim, 1>* slice_point = nullptr);
 
 // Line chart with axes, ticks at 1-2-5 steps with their values, axis titles and a legend of `names`
 // (none if empty). Non-finite values break a series. Returns {x_range, y_range, x_ticks, y_ticks,

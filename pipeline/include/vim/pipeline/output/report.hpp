@@ -1,7 +1,6 @@
-// report.json and the end-of-run text summary. The report is one nlohmann::json object that each
-// stage fills under its own key ("input", "mesh", "optimization", "segmentation", "simulation",
-// "exports", "timing"); the README documents every field. Units: lengths in the image's unit,
-// values (moduli) in the image's unit, angles in degrees, times in seconds.
+// The pieces of report.json and the end-of-run text summary. PipelineRun makes the report once, at the
+// end, from the results of its stages (run_write_report.cpp); the README documents every field. Units:
+// lengths in the image's unit, values (moduli) in the image's unit, angles in degrees, times in seconds.
 #pragma once
 
 #include <chrono>
@@ -9,8 +8,10 @@
 #include <nlohmann/json.hpp>
 #include <ostream>
 #include <string>
+#include <vector>
 #include <vim/pipeline/common/model.hpp>
 #include <vim/pipeline/image/image_io.hpp>
+#include <vim/quality.hpp>
 #include <vim/vim.hpp>
 
 namespace vim::pipeline {
@@ -29,8 +30,7 @@ nlohmann::json image_json(const OrientedImage<dim>& image, const std::string& fi
 
 // {"min_dihedral_deg","max_dihedral_deg","min_nrr","inverted"}: in 2D the "dihedral" angles are the
 // triangles' interior angles.
-template <int dim>
-nlohmann::json quality_json(const SimplexMesh<dim>& mesh);
+nlohmann::json quality_json(const MeshQuality& quality);
 
 // [{"iteration","E","E_G","E_D","v","moves","swaps","seconds"}, ...]
 nlohmann::json history_json(const std::vector<IterationRecord>& history);
@@ -41,14 +41,20 @@ void print_image_info(std::ostream& out, const nlohmann::json& image);
 // One-screen summary of a finished run, built from the report (other stages' keys included).
 void print_summary(std::ostream& out, const nlohmann::json& report);
 
-// Wall time of a stage, stored as report["timing"][stage] (seconds) when stop() is called.
+// A stage's wall time, listed under its name in report.json's "timing".
+struct StageTime {
+  std::string stage;
+  double seconds = 0.0;
+};
+
+// Times a stage from its construction; stop() appends {stage, seconds} to `times` and returns the seconds.
 class StageTimer {
  public:
-  StageTimer(nlohmann::json& report, std::string stage);
+  StageTimer(std::vector<StageTime>& times, std::string stage);
   double stop();
 
  private:
-  nlohmann::json& report_;
+  std::vector<StageTime>& times_;
   std::string stage_;
   std::chrono::steady_clock::time_point start_;
 };

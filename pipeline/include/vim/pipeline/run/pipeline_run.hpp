@@ -11,8 +11,10 @@
 //
 // run() calls them in this order; a library user can call them one by one and read the state in
 // between (model(), world_grid(), report()). Each stage lives in its own source file
-// (pipeline/src/run/run_*.cpp). A library user with the inputs in memory (the Python module) gives them
-// as RunInputs instead of files, and may reuse the mesh of another run (reuse_mesh).
+// (pipeline/src/run/run_*.cpp) and returns what it produced (stage_results.hpp), which the run keeps;
+// report.json is made from those once, at the end (report()). A library user with the inputs in memory (the
+// Python module) gives them as RunInputs instead of files, and may reuse the mesh of another run
+// (reuse_mesh).
 #pragma once
 
 #include <array>
@@ -27,6 +29,7 @@
 #include <vim/pipeline/image/image_io.hpp>
 #include <vim/pipeline/output/vtk_output.hpp>
 #include <vim/pipeline/run/run_options.hpp>
+#include <vim/pipeline/run/stage_results.hpp>
 #include <vim/pipeline/scenario/scenario.hpp>
 #include <vim/pipeline/simulation/simulation.hpp>
 
@@ -81,15 +84,15 @@ class PipelineRun {
     write_report();
   }
 
-  void read_inputs();  // run_read_inputs.cpp
-  void make_mesh();    // run_make_mesh.cpp
-  // Instead of make_mesh: the mesh, energy history, report and warnings of `meshed`, a run on the same
-  // image that has made its mesh (a simplex mesher).
-  void reuse_mesh(const PipelineRun& meshed);  // run_make_mesh.cpp
-  void build_model();                          // run_simulate.cpp (nothing without a scenario)
-  void simulate();                             // run_simulate.cpp (nothing without a scenario)
-  void write_outputs();                        // run_write_outputs.cpp
-  void write_report();                         // run_write_report.cpp; commits the output folder
+  const InputsResult& read_inputs();  // run_read_inputs.cpp
+  const MeshResult& make_mesh();      // run_make_mesh.cpp
+  // Instead of make_mesh: the mesh, energy history, meshing record and warnings of `meshed`, a run on
+  // the same image that has made its mesh (a simplex mesher).
+  const MeshResult& reuse_mesh(const PipelineRun& meshed);  // run_make_mesh.cpp
+  void build_model();                                       // run_simulate.cpp (nothing without a scenario)
+  const SimulateResult& simulate();                         // run_simulate.cpp (nothing without a scenario)
+  const OutputsResult& write_outputs();                     // run_write_outputs.cpp
+  const ReportResult& write_report();                       // run_write_report.cpp; commits the output folder
 
   const RunOptions& options() const { return options_; }
   const std::optional<Scenario>& scenario() const { return scenario_; }
@@ -98,7 +101,11 @@ class PipelineRun {
   // The mesh in world coordinates (the voxel hexahedra for --mesher voxel), no fields: the geometry
   // of mesh.vtu and of every simulation step.
   const UnstructuredGrid& world_grid() const { return *world_grid_; }
-  const nlohmann::json& report() const { return report_; }
+  // report.json as it stands: made from the stages' results (run_write_report.cpp); complete after
+  // write_report.
+  nlohmann::json report() const;
+  // Every warning of the run so far, in the order given (report.json's "warnings").
+  std::vector<std::string> warnings() const;
   // The energy history of make_mesh (entry 0 the initial mesh; the grid mesher has only that one).
   const std::vector<IterationRecord>& energy_history() const { return energy_history_; }
   // mesh.vtu: world_grid() with the per-element and per-node fields (run_write_outputs.cpp).
@@ -107,13 +114,13 @@ class PipelineRun {
   const SimulationResult<dim>* simulation_result() const { return simulation_result_.get(); }
 
  private:
-  void warn(const std::string& stage, const std::string& message);
+  void warn(std::vector<std::string>& warnings, const std::string& stage, const std::string& message);
   void read_sizing_image();
   void check_scenario();
   void check_node_limit(const std::array<int, dim>& nodes_per_axis, double voxels) const;
   void optimize_mesh(SimplexMesh<dim> initial);
   void segment_mesh();
-  void write_simulation_figures(const SimulationResult<dim>& result);
+  nlohmann::json write_simulation_figures(const SimulationResult<dim>& result);
   OutputDirectory& out();
 
   std::optional<Scenario> scenario_;
@@ -121,8 +128,13 @@ class PipelineRun {
   RunRanks ranks_;
   std::optional<ImageFile> image_file_;
   std::optional<RunInputs<dim>> inputs_;  // instead of image_file_
-  nlohmann::json report_;
   std::chrono::steady_clock::time_point start_;
+  // What the stages produced (stage_results.hpp).
+  InputsResult inputs_result_;
+  MeshResult mesh_result_;
+  SimulateResult simulate_result_;
+  OutputsResult outputs_result_;
+  std::optional<ReportResult> report_result_;
   std::unique_ptr<OutputDirectory> out_;
 
   std::optional<OrientedImage<dim>> image_, sizing_;
@@ -134,7 +146,6 @@ class PipelineRun {
   std::shared_ptr<const UnstructuredGrid> world_grid_;
   std::unique_ptr<NeedleSimulation<dim>> simulation_;
   std::unique_ptr<const SimulationResult<dim>> simulation_result_;
-  double simulate_seconds_ = 0.0;
 };
 
 }  // namespace vim::pipeline

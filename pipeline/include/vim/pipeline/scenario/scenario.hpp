@@ -173,11 +173,6 @@ std::optional<Image<dim>> needle_refinement_density(const Scenario& scenario, co
 template <int dim>
 void check_modulus_image(const Scenario& scenario, const Image<dim>& image);
 
-// The scenario's mesher options (mesh.lambda, mesh.min_dihedral) over `base`: the VimOptions the CLI
-// runs when no command-line option overrides them (cli.cpp's with_scenario_mesh does the same on its
-// RunOptions, with the command line first).
-VimOptions scenario_vim_options(const Scenario& scenario, VimOptions base = {});
-
 // Per-cell Young's modulus for the scenario's material (Eq. 15 for `image`: scale·mean, clamped;
 // a constant for a number). Throws ScenarioError naming the element when the result is invalid.
 std::vector<double> scenario_modulus(const Scenario& scenario, const std::vector<double>& element_mean);
