@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -42,8 +43,9 @@ struct CliRun {
 class BadScenario : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("vim_bad_scen_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::string test = ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    std::replace(test.begin(), test.end(), '/', '_');  // a parameterized test's name holds '/'
+    dir_ = fs::temp_directory_path() / ("vim_bad_scen_" + std::to_string(::getpid()) + "_" + test);
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     image_ = (dir_ / "block.mha").string();
@@ -105,7 +107,95 @@ class BadScenario : public ::testing::Test {
   std::string image_;
 };
 
+// One edit of the base scenario each (from → to), and the words its one-line error must hold.
+struct Edit {
+  const char* name;
+  std::string from, to;
+  std::vector<std::string> expected;
+};
+
+const Edit kEdits[] = {
+    {"MissingKey", "  diameter: 1\n", "", {"s.yaml", "missing key 'needle.diameter'"}},
+    {"UnknownKey",
+     "  steps: 2\n",
+     "  steps: 2\n  speed: 3\n",
+     {"s.yaml:10:", "unknown key 'needle.speed'", "valid keys", "direction"}},
+    {"WrongType", "depth: 8", "depth: deep", {"s.yaml:8:", "needle.depth must be a number", "'deep'"}},
+    {"EntryOutsideTheImageBox",
+     "entry: [-8, 0, 1]",
+     "entry: [-12, 0, 1]",
+     {"needle.entry [-12, 0, 1] is outside the image box", "[-8, -6, -6] .. [8, 6, 6]"}},
+    {"ZeroDirection",
+     "direction: [1, 0, 0]",
+     "direction: [0, 0, 0]",
+     {"needle.direction must be a non-zero vector"}},
+    {"NonPositiveDepth", "depth: 8", "depth: 0", {"needle.depth must be > 0, got 0"}},
+    {"NonPositiveSteps", "steps: 2", "steps: -3", {"needle.steps must be > 0, got -3"}},
+    {"NonPositiveDiameter", "diameter: 1", "diameter: 0", {"needle.diameter must be > 0, got 0"}},
+    // The needle runs along x through a 16 x 12 x 12 mm box: 12 mm across it.
+    {"DiameterLargerThanTheImageBox",
+     "diameter: 1",
+     "diameter: 13",
+     {"s.yaml:6:", "needle.diameter = 13 is larger than the image box",
+      "narrowest width perpendicular to the needle's direction is 12"}},
+    {"NegativeCuttingForce",
+     "  diameter: 1\n",
+     "  diameter: 1\n  cutting_force: -2\n",
+     {"s.yaml:11:", "needle.cutting_force must be a finite force >= 0, got -2"}},
+    // Stick-slip is the default friction and its limit has no default.
+    {"StickSlipLimitMissing",
+     "  friction: {model: stick}\n",
+     "",
+     {"s.yaml:6:", "missing key 'needle.friction.max_shear_per_length'", "stick-slip is the default"}},
+    {"BoxFaceThatDoesNotExist",
+     "box_face: x_max",
+     "box_face: top",
+     {"s.yaml:3:", "box_face = 'top'", "x_min, x_max, y_min, y_max, z_min, z_max"}},
+    {"TargetOutsideTheDomain",
+     "position: [2, 0, 1]",
+     "position: [2, 0, 9]",
+     {"target 'lesion' position [2, 0, 9] is outside the image box"}},
+    {"NoFixedBoundaryIsSingular",
+     "  - {type: fixed, region: {box_face: x_max}}\n  - {type: fixed, region: {cylinder: "
+     "{center: [0, -6, 0], axis: [1, 0, 0], radius: 2}}}\n",
+     "  - {type: pressure, region: {box_face: x_max}, value: 1}\n",
+     {"boundary_conditions has no 'fixed' or 'displacement' condition", "singular"}},
+    {"PoissonRatioHalf",
+     "poisson_ratio: 0.45",
+     "poisson_ratio: 0.5",
+     {"s.yaml:1:", "material.poisson_ratio = 0.5", "< 0.5"}},
+    {"RegionThatSelectsNoNode",
+     "center: [0, -6, 0], axis: [1, 0, 0], radius: 2",
+     "center: [0, -30, 0], axis: [1, 0, 0], radius: 2",
+     {"s.yaml:4:", "boundary_conditions[1]", "selects no mesh node"}},
+    {"FrictionWithTheForceModel",
+     "  diameter: 1\n",
+     "  diameter: 1\n  model: force\n  tip_force: 5\n",
+     {"needle.friction applies only to needle model 'kinematic'"}},
+    {"SampleSpacingTooSmall",
+     "  diameter: 1\n",
+     "  diameter: 1\n  sample_spacing: 1.0e-8\n",
+     {"needle.sample_spacing", "more than 100000 shaft points"}},
+    // Only the x component of one face held: the body can still slide along y and z and rotate about x.
+    {"ConditionsThatLeaveARigidMotionFree",
+     "  - {type: fixed, region: {box_face: x_max}}\n  - {type: fixed, region: {cylinder: "
+     "{center: [0, -6, 0], axis: [1, 0, 0], radius: 2}}}\n",
+     "  - {type: fixed, region: {box_face: x_max}, components: [x]}\n",
+     {"s.yaml:3:", "boundary_conditions:", "rigid-body motion free"}},
+};
+
+class BadScenarioEdit : public BadScenario, public ::testing::WithParamInterface<Edit> {};
+
 }  // namespace
+
+TEST_P(BadScenarioEdit, IsRefused) {
+  expect_error(with(GetParam().from, GetParam().to), GetParam().expected);
+}
+
+INSTANTIATE_TEST_SUITE_P(BadScenario, BadScenarioEdit, ::testing::ValuesIn(kEdits),
+                         [](const ::testing::TestParamInfo<Edit>& info) {
+                           return std::string(info.param.name);
+                         });
 
 TEST_F(BadScenario, BaseScenarioRuns) {
   const CliRun r = run(kBase);
@@ -114,49 +204,6 @@ TEST_F(BadScenario, BaseScenarioRuns) {
     EXPECT_TRUE(fs::exists(dir_ / "out" / f)) << f;
 }
 
-TEST_F(BadScenario, MissingKey) {
-  expect_error(with("  diameter: 1\n", ""), {"s.yaml", "missing key 'needle.diameter'"});
-}
-TEST_F(BadScenario, UnknownKey) {
-  expect_error(with("  steps: 2\n", "  steps: 2\n  speed: 3\n"),
-               {"s.yaml:10:", "unknown key 'needle.speed'", "valid keys", "direction"});
-}
-TEST_F(BadScenario, WrongType) {
-  expect_error(with("depth: 8", "depth: deep"), {"s.yaml:8:", "needle.depth must be a number", "'deep'"});
-}
-TEST_F(BadScenario, EntryOutsideTheImageBox) {
-  expect_error(with("entry: [-8, 0, 1]", "entry: [-12, 0, 1]"),
-               {"needle.entry [-12, 0, 1] is outside the image box", "[-8, -6, -6] .. [8, 6, 6]"});
-}
-TEST_F(BadScenario, ZeroDirection) {
-  expect_error(with("direction: [1, 0, 0]", "direction: [0, 0, 0]"),
-               {"needle.direction must be a non-zero vector"});
-}
-TEST_F(BadScenario, NonPositiveDepth) {
-  expect_error(with("depth: 8", "depth: 0"), {"needle.depth must be > 0, got 0"});
-}
-TEST_F(BadScenario, NonPositiveSteps) {
-  expect_error(with("steps: 2", "steps: -3"), {"needle.steps must be > 0, got -3"});
-}
-TEST_F(BadScenario, NonPositiveDiameter) {
-  expect_error(with("diameter: 1", "diameter: 0"), {"needle.diameter must be > 0, got 0"});
-}
-TEST_F(BadScenario, DiameterLargerThanTheImageBox) {
-  // The needle runs along x through a 16 x 12 x 12 mm box: 12 mm across it.
-  expect_error(with("diameter: 1", "diameter: 13"),
-               {"s.yaml:6:", "needle.diameter = 13 is larger than the image box",
-                "narrowest width perpendicular to the needle's direction is 12"});
-}
-TEST_F(BadScenario, NegativeCuttingForce) {
-  expect_error(with("  diameter: 1\n", "  diameter: 1\n  cutting_force: -2\n"),
-               {"s.yaml:11:", "needle.cutting_force must be a finite force >= 0, got -2"});
-}
-TEST_F(BadScenario, StickSlipLimitMissing) {
-  // Stick-slip is the default friction and its limit has no default.
-  expect_error(
-      with("  friction: {model: stick}\n", ""),
-      {"s.yaml:6:", "missing key 'needle.friction.max_shear_per_length'", "stick-slip is the default"});
-}
 TEST_F(BadScenario, NeedleFreeScenarioWithoutLoad) {
   // Without its needle the base scenario only holds the model: a static load case in which nothing moves.
   std::string yaml = kBase;
@@ -164,24 +211,6 @@ TEST_F(BadScenario, NeedleFreeScenarioWithoutLoad) {
   expect_error(yaml, {"s.yaml:3:",
                       "boundary_conditions: a scenario without 'needle' or 'needles' is a static load case",
                       "pressure"});
-}
-TEST_F(BadScenario, BoxFaceThatDoesNotExist) {
-  expect_error(with("box_face: x_max", "box_face: top"),
-               {"s.yaml:3:", "box_face = 'top'", "x_min, x_max, y_min, y_max, z_min, z_max"});
-}
-TEST_F(BadScenario, TargetOutsideTheDomain) {
-  expect_error(with("position: [2, 0, 1]", "position: [2, 0, 9]"),
-               {"target 'lesion' position [2, 0, 9] is outside the image box"});
-}
-TEST_F(BadScenario, NoFixedBoundaryIsSingular) {
-  expect_error(with("  - {type: fixed, region: {box_face: x_max}}\n  - {type: fixed, region: {cylinder: "
-                    "{center: [0, -6, 0], axis: [1, 0, 0], radius: 2}}}\n",
-                    "  - {type: pressure, region: {box_face: x_max}, value: 1}\n"),
-               {"boundary_conditions has no 'fixed' or 'displacement' condition", "singular"});
-}
-TEST_F(BadScenario, PoissonRatioHalf) {
-  expect_error(with("poisson_ratio: 0.45", "poisson_ratio: 0.5"),
-               {"s.yaml:1:", "material.poisson_ratio = 0.5", "< 0.5"});
 }
 TEST_F(BadScenario, NegativeModulusImageWithoutClamp) {
   const std::string img = (dir_ / "negative.mha").string();
@@ -195,11 +224,6 @@ TEST_F(BadScenario, NaNModulusImage) {
   const std::string img = (dir_ / "nan.mha").string();
   write_block(img, 10.0f, std::nanf(""));
   expect_error(kBase, {"nan.mha"}, img);  // refused when the image is read (image_io), with or without clamp
-}
-TEST_F(BadScenario, RegionThatSelectsNoNode) {
-  expect_error(with("center: [0, -6, 0], axis: [1, 0, 0], radius: 2",
-                    "center: [0, -30, 0], axis: [1, 0, 0], radius: 2"),
-               {"s.yaml:4:", "boundary_conditions[1]", "selects no mesh node"});
 }
 TEST_F(BadScenario, MissingScenarioFile) {
   const fs::path out = dir_ / "out";
@@ -215,21 +239,6 @@ TEST_F(BadScenario, DuplicateKey) {
                {"s.yaml:15:", "duplicate key 'material' (first given on line 1)"});
   expect_error(with("  depth: 8\n", "  depth: 8\n  depth: 5\n"),
                {"s.yaml:9:", "duplicate key 'needle.depth' (first given on line 8)"});
-}
-TEST_F(BadScenario, FrictionWithTheForceModel) {
-  expect_error(with("  diameter: 1\n", "  diameter: 1\n  model: force\n  tip_force: 5\n"),
-               {"needle.friction applies only to needle model 'kinematic'"});
-}
-TEST_F(BadScenario, SampleSpacingTooSmall) {
-  expect_error(with("  diameter: 1\n", "  diameter: 1\n  sample_spacing: 1.0e-8\n"),
-               {"needle.sample_spacing", "more than 100000 shaft points"});
-}
-TEST_F(BadScenario, ConditionsThatLeaveARigidMotionFree) {
-  // Only the x component of one face held: the body can still slide along y and z and rotate about x.
-  expect_error(with("  - {type: fixed, region: {box_face: x_max}}\n  - {type: fixed, region: {cylinder: "
-                    "{center: [0, -6, 0], axis: [1, 0, 0], radius: 2}}}\n",
-                    "  - {type: fixed, region: {box_face: x_max}, components: [x]}\n"),
-               {"s.yaml:3:", "boundary_conditions:", "rigid-body motion free"});
 }
 // The voxel reference model is trilinear (Q1) whatever --degree says: a degree-2 request is warned about
 // (stderr and report.json), and the model's degree in the report is 1.

@@ -8,6 +8,7 @@
 #include <vim/fem/condensed_constraints.hpp>
 #include <vim/fem/elasticity.hpp>
 
+#include "box_conditions.hpp"
 #include "box_mesh.hpp"
 #include "needle_path_rows.hpp"
 
@@ -27,17 +28,7 @@ ElasticModel<dim> block(unsigned degree) {
   std::vector<double> E(mesh.n_cells());
   for (std::size_t j = 0; j < E.size(); ++j) E[j] = 1.0 + 3.0 * mesh.points[mesh.cells[j][0]][0];
   ElasticModel<dim> model(mesh, E, 0.45, degree);
-  const Vec<dim> vlo = Vec<dim>::Zero(), vhi = Vec<dim>::Ones();
-  DirichletBC<dim> fixed;
-  fixed.region = box_face_region<dim>(vlo, vhi, dim - 1, false, 1e-9);
-  model.add_dirichlet(fixed);
-  DirichletBC<dim> pushed;
-  pushed.region = box_face_region<dim>(vlo, vhi, 0, false, 1e-9);
-  pushed.components = DirichletBC<dim>::filled(false);
-  pushed.components[0] = true;
-  pushed.value[0] = 0.01;
-  model.add_dirichlet(pushed);
-  model.set_body_force(Vec<dim>::Constant(-0.1));
+  test::hold_and_push(model, false, 0.01);
   return model;
 }
 

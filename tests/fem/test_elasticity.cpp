@@ -10,8 +10,10 @@
 #include <vim/fem/distributed.hpp>
 #include <vim/fem/elasticity.hpp>
 
+#include "box_conditions.hpp"
 #include "box_mesh.hpp"
 #include "needle_path_rows.hpp"
+#include "solutions_agree.hpp"
 
 using namespace vim;
 using namespace vim::fem;
@@ -298,17 +300,7 @@ ElasticModel<dim> needle_block(unsigned degree, SimplexMesh<dim>* mesh_out = nul
   std::vector<double> E(mesh.n_cells());
   for (std::size_t j = 0; j < E.size(); ++j) E[j] = 1.0 + 3.0 * centroid<dim>(cell_points(mesh, j))[0];
   ElasticModel<dim> model(mesh, E, 0.45, degree);
-  DirichletBC<dim> fixed;
-  Vec<dim> vlo = Vec<dim>::Zero(), vhi = Vec<dim>::Ones();
-  fixed.region = box_face_region<dim>(vlo, vhi, dim - 1, false, 1e-9);
-  model.add_dirichlet(fixed);
-  DirichletBC<dim> pushed;  // an inhomogeneous condition too, so condensation into g is exercised
-  pushed.region = box_face_region<dim>(vlo, vhi, 0, false, 1e-9);
-  pushed.components = DirichletBC<dim>::filled(false);
-  pushed.components[0] = true;
-  pushed.value[0] = 0.01;
-  model.add_dirichlet(pushed);
-  model.set_body_force(Vec<dim>::Constant(-0.1));
+  vim::test::hold_and_push(model, false, 0.01);
   if (mesh_out) *mesh_out = mesh;
   return model;
 }
@@ -332,18 +324,10 @@ void fast_vs_monolithic(unsigned degree) {
       points.push_back({Vec<dim>::Constant(0.0), Vec<dim>::Constant(0.0)});  // on the fixed corner: void row
     const auto fast = model.solve(points);
     const auto ref = model.solve_monolithic(points);
-    double umax = 0, fmax = 0;
-    for (const auto& u : ref.vertex_displacement) umax = std::max(umax, u.norm());
+    vim::test::expect_solutions_agree<dim>(fast, ref, 1e-8, "step " + std::to_string(step));
+    if (::testing::Test::HasFatalFailure()) return;
+    double fmax = 0;
     for (const auto& f : ref.point_force) fmax = std::max(fmax, f.norm());
-    ASSERT_GT(umax, 0);
-    ASSERT_GT(fmax, 0);
-    for (std::size_t i = 0; i < ref.vertex_displacement.size(); ++i)
-      ASSERT_LT((fast.vertex_displacement[i] - ref.vertex_displacement[i]).norm(), 1e-8 * umax)
-          << "step " << step;
-    for (std::size_t k = 0; k < points.size(); ++k)
-      ASSERT_LT((fast.point_force[k] - ref.point_force[k]).norm(), 1e-8 * fmax)
-          << "step " << step << " point " << k;
-    EXPECT_NEAR(fast.strain_energy, ref.strain_energy, 1e-8 * ref.strain_energy);
     // the constraints hold at the embedded points
     std::vector<Vec<dim>> pos;
     for (const auto& q : points) pos.push_back(q.position);
@@ -382,18 +366,9 @@ void precomputed_vs_monolithic(unsigned degree) {
   for (std::size_t j = 0; j < path.size(); ++j) {
     active.push_back(path[j]);
     for (auto& q : active) q.displacement[dim - 1] -= 0.01;
-    const auto fast = model.solve(active);
-    const auto ref = model.solve_monolithic(active);
-    double umax = 0, fmax = 0;
-    for (const auto& u : ref.vertex_displacement) umax = std::max(umax, u.norm());
-    for (const auto& f : ref.point_force) fmax = std::max(fmax, f.norm());
-    ASSERT_GT(fmax, 0);
-    for (std::size_t i = 0; i < ref.vertex_displacement.size(); ++i)
-      ASSERT_LT((fast.vertex_displacement[i] - ref.vertex_displacement[i]).norm(), 1e-8 * umax)
-          << "step " << j;
-    for (std::size_t k = 0; k < active.size(); ++k)
-      ASSERT_LT((fast.point_force[k] - ref.point_force[k]).norm(), 1e-8 * fmax)
-          << "step " << j << " point " << k;
+    vim::test::expect_solutions_agree<dim>(model.solve(active), model.solve_monolithic(active), 1e-8,
+                                           "step " + std::to_string(j), false);
+    if (::testing::Test::HasFatalFailure()) return;
   }
   EXPECT_EQ(model.precompute(path), 0u);  // the solves added nothing
 }

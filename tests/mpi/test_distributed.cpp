@@ -12,6 +12,7 @@
 #include <vim/fem/elasticity.hpp>
 
 #include "../fem/box_mesh.hpp"
+#include "box_conditions.hpp"
 
 using namespace vim;
 using namespace vim::fem;
@@ -19,39 +20,32 @@ using namespace vim::fem;
 namespace {
 template <int dim>
 void add_conditions(ElasticModel<dim>& model) {
-  const Vec<dim> lo = Vec<dim>::Zero(), hi = Vec<dim>::Ones();
-  DirichletBC<dim> fixed;
-  fixed.region = box_face_region<dim>(lo, hi, dim - 1, false, 1e-9);
-  model.add_dirichlet(fixed);
-  DirichletBC<dim> pushed;
-  pushed.region = box_face_region<dim>(lo, hi, 0, true, 1e-9);
-  pushed.components = DirichletBC<dim>::filled(false);
-  pushed.components[0] = true;
-  pushed.value[0] = -0.01;
-  model.add_dirichlet(pushed);
+  test::hold_and_push(model, true, -0.01);
   SurfaceLoad<dim> load;
-  load.region = box_face_region<dim>(lo, hi, dim - 1, true, 1e-9);
+  load.region = box_face_region<dim>(Vec<dim>::Zero(), Vec<dim>::Ones(), dim - 1, true, 1e-9);
   load.pressure = 0.3;
   load.traction[0] = 0.05;
   model.add_surface_load(load);
-  model.set_body_force(Vec<dim>::Constant(-0.1));
+}
+
+// The largest |sol_i − ref_i| and the largest |ref_i| over two lists of vectors or tensors.
+template <class T>
+std::pair<double, double> largest_difference(const std::vector<T>& ref, const std::vector<T>& sol) {
+  double d = 0, s = 0;
+  for (std::size_t i = 0; i < ref.size(); ++i)
+    d = std::max(d, (sol[i] - ref[i]).norm()), s = std::max(s, ref[i].norm());
+  return {d, s};
 }
 
 // The vertex displacements (1e-8 of the largest), strain energy (1e-8), cell stresses (1e-7 of the
 // largest) and Dirichlet reactions (reaction_tol · (1 + |reaction|)) of `sol` against `ref`.
 template <int dim>
 void expect_same_fields(const Solution<dim>& ref, const Solution<dim>& sol, double reaction_tol) {
-  double d = 0, s = 0;
-  for (std::size_t i = 0; i < ref.vertex_displacement.size(); ++i)
-    d = std::max(d, (sol.vertex_displacement[i] - ref.vertex_displacement[i]).norm()),
-    s = std::max(s, ref.vertex_displacement[i].norm());
+  const auto [d, s] = largest_difference(ref.vertex_displacement, sol.vertex_displacement);
   ASSERT_GT(s, 0);
   EXPECT_LT(d / s, 1e-8);
   EXPECT_NEAR(sol.strain_energy, ref.strain_energy, 1e-8 * ref.strain_energy);
-  double sd = 0, ss = 0;
-  for (std::size_t j = 0; j < ref.cell_stress.size(); ++j)
-    sd = std::max(sd, (sol.cell_stress[j] - ref.cell_stress[j]).norm()),
-    ss = std::max(ss, ref.cell_stress[j].norm());
+  const auto [sd, ss] = largest_difference(ref.cell_stress, sol.cell_stress);
   ASSERT_GT(ss, 0);
   EXPECT_LT(sd / ss, 1e-7);
   for (std::size_t b = 0; b < ref.dirichlet_reaction.size(); ++b)
@@ -80,27 +74,57 @@ std::vector<double> random_moduli(std::size_t n) {
   for (auto& e : E) e = U(rng);
   return E;
 }
+
+// The unit box of `cells` voxels with random moduli (the same on every rank).
+template <int dim>
+ElasticModel<dim> random_voxel_model(const std::array<long, dim>& cells, double poisson_ratio) {
+  long n = 1;
+  for (const long c : cells) n *= c;
+  return ElasticModel<dim>::voxel_grid(cells, Vec<dim>::Zero(), Vec<dim>::Ones(),
+                                       random_moduli<dim>(static_cast<std::size_t>(n)), poisson_ratio);
+}
+
+// One model made twice by `make`, both under add_conditions: `serial` solved on each rank (CHOLMOD),
+// `spread` with its solves over the ranks (distribute_solves). solve() gives the serial and the spread
+// solution of the same point constraints (the spread one to a relative tolerance of 1e-13).
+struct SerialAndSpread {
+  template <class Make>
+  explicit SerialAndSpread(Make make) : serial(make()), spread(make()) {
+    add_conditions(serial);
+    add_conditions(spread);
+    distribute_solves(spread, MPI_COMM_WORLD);
+  }
+  std::pair<Solution<3>, Solution<3>> solve(const std::vector<PointConstraint<3>>& points) {
+    SolverOptions direct, tight;
+    direct.type = SolverOptions::Type::direct;
+    tight.tolerance = 1e-13;
+    Solution<3> ref = serial.solve(points, direct);
+    return {std::move(ref), spread.solve(points, tight)};
+  }
+  ElasticModel<3> serial, spread;
+};
+
+// The conditions of add_conditions on `model`, then its distributed solve against the serial one.
+template <int dim>
+void compare_under_conditions(ElasticModel<dim> model, const std::string& method = "cg+amg") {
+  add_conditions(model);
+  compare(model, method);
+}
 }  // namespace
 
 TEST(Distributed, SimplexP1_3D) {
   const auto mesh = test::kuhn_box<3>({{10, 10, 10}}, {{0, 0, 0}}, {{1, 1, 1}});
-  ElasticModel<3> model(mesh, random_moduli<3>(mesh.n_cells()), 0.35, 1);
-  add_conditions(model);
-  compare(model);
+  compare_under_conditions(ElasticModel<3>(mesh, random_moduli<3>(mesh.n_cells()), 0.35, 1));
 }
 
 TEST(Distributed, SimplexP2_3D) {
   const auto mesh = test::kuhn_box<3>({{5, 5, 5}}, {{0, 0, 0}}, {{1, 1, 1}});
-  ElasticModel<3> model(mesh, random_moduli<3>(mesh.n_cells()), 0.45, 2);
-  add_conditions(model);
-  compare(model);
+  compare_under_conditions(ElasticModel<3>(mesh, random_moduli<3>(mesh.n_cells()), 0.45, 2));
 }
 
 TEST(Distributed, SimplexP1_2D) {
   const auto mesh = test::kuhn_box<2>({{30, 30}}, {{0, 0}}, {{1, 1}});
-  ElasticModel<2> model(mesh, random_moduli<2>(mesh.n_cells()), 0.3, 1);
-  add_conditions(model);
-  compare(model);
+  compare_under_conditions(ElasticModel<2>(mesh, random_moduli<2>(mesh.n_cells()), 0.3, 1));
 }
 
 // A support along rotated axes (DirichletBC::axes; constraint lines with entries, the serial path is
@@ -130,32 +154,22 @@ TEST(Distributed, SlidingSupportAlongRotatedAxesP1_3D) {
 }
 
 TEST(Distributed, VoxelModel3D) {
-  auto model = ElasticModel<3>::voxel_grid({{12, 10, 8}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1),
-                                           random_moduli<3>(12 * 10 * 8), 0.4);
-  add_conditions(model);
-  compare(model, "cg+matrix-free multigrid");
+  compare_under_conditions(random_voxel_model<3>({{12, 10, 8}}, 0.4), "cg+matrix-free multigrid");
 }
 
 // Grid sizes divisible by 4 (coarse p4est grid refined twice) and odd sizes (no refinement), 2D.
 TEST(Distributed, VoxelModel3DRefinedCoarseGrid) {
-  auto model = ElasticModel<3>::voxel_grid({{16, 8, 12}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1),
-                                           random_moduli<3>(16 * 8 * 12), 0.3);
-  add_conditions(model);
-  compare(model, "cg+matrix-free multigrid");
+  compare_under_conditions(random_voxel_model<3>({{16, 8, 12}}, 0.3), "cg+matrix-free multigrid");
 }
 
 // Five multigrid levels (32³, coarse grid one cell) with moduli spanning 1 to 8 per voxel.
 TEST(Distributed, VoxelModel3DMultigridLevels) {
-  auto model = ElasticModel<3>::voxel_grid({{32, 32, 32}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1),
-                                           random_moduli<3>(32 * 32 * 32), 0.3);
-  add_conditions(model);
-  compare(model, "cg+matrix-free multigrid");
+  compare_under_conditions(random_voxel_model<3>({{32, 32, 32}}, 0.3), "cg+matrix-free multigrid");
 }
 
 // A support along rotated axes (constraint lines with entries) on a voxel grid: CG + AMG, not multigrid.
 TEST(Distributed, VoxelModel3DRotatedSupportUsesAmg) {
-  auto model = ElasticModel<3>::voxel_grid({{8, 8, 8}}, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1),
-                                           random_moduli<3>(8 * 8 * 8), 0.3);
+  auto model = random_voxel_model<3>({{8, 8, 8}}, 0.3);
   const Vec<3> lo = Vec<3>::Zero(), hi = Vec<3>::Ones();
   DirichletBC<3> slide;
   slide.region = box_face_region<3>(lo, hi, 0, false, 1e-9);
@@ -170,12 +184,7 @@ TEST(Distributed, VoxelModel3DRotatedSupportUsesAmg) {
   compare(model, "cg+amg");
 }
 
-TEST(Distributed, VoxelModel2DOddSizes) {
-  auto model =
-      ElasticModel<2>::voxel_grid({{9, 7}}, Vec<2>(0, 0), Vec<2>(1, 1), random_moduli<2>(9 * 7), 0.3);
-  add_conditions(model);
-  compare(model);
-}
+TEST(Distributed, VoxelModel2DOddSizes) { compare_under_conditions(random_voxel_model<2>({{9, 7}}, 0.3)); }
 
 TEST(Distributed, SingularThrowsOnEveryRank) {
   const auto mesh = test::kuhn_box<3>({{3, 3, 3}}, {{0, 0, 0}}, {{1, 1, 1}});
@@ -223,11 +232,8 @@ TEST(Distributed, FewerCellsThanRanksIsRefusedOnEveryRank) {
 // point forces to 1e-8, twice (the second solve reuses the cached columns and moves the points).
 TEST(Distributed, PointConstraintsThroughDistributedColumns) {
   const auto mesh = test::kuhn_box<3>({{8, 8, 8}}, {{0, 0, 0}}, {{1, 1, 1}});
-  const auto E = random_moduli<3>(mesh.n_cells());
-  ElasticModel<3> serial(mesh, E, 0.35, 1), spread(mesh, E, 0.35, 1);
-  add_conditions(serial);
-  add_conditions(spread);
-  distribute_solves(spread, MPI_COMM_WORLD);
+  SerialAndSpread models([&] { return ElasticModel<3>(mesh, random_moduli<3>(mesh.n_cells()), 0.35, 1); });
+  ElasticModel<3>&serial = models.serial, &spread = models.spread;
   PointConstraint<3> tip(Vec<3>(0.43, 0.51, 0.47), Vec<3>(0.01, -0.02, 0.005));
   PointConstraint<3> band(Vec<3>(0.3, 0.52, 0.5), Vec<3>(0.0, 0.01, 0.0));
   for (int q = 0; q < 8; ++q) {
@@ -236,12 +242,8 @@ TEST(Distributed, PointConstraintsThroughDistributedColumns) {
     band.weights.push_back(1.0);
   }
   band.compliance = Vec<3>(0.02, 0.03, 0.03);
-  SolverOptions direct, tight;
-  direct.type = SolverOptions::Type::direct;
-  tight.tolerance = 1e-13;
   for (int pass = 0; pass < 2; ++pass) {
-    const auto ref = serial.solve({tip, band}, direct);
-    const auto sol = spread.solve({tip, band}, tight);
+    const auto [ref, sol] = models.solve({tip, band});
     EXPECT_NE(sol.stats.method.find("mpi"), std::string::npos) << sol.stats.method;
     for (std::size_t k = 0; k < 2; ++k) {
       ASSERT_GT(ref.point_force[k].norm(), 0);
@@ -278,19 +280,12 @@ std::vector<Vec<3>> sample_points() {
 // the point outside the mesh reported outside by both; and the DoF count before any solve.
 TEST(Distributed, P2SamplesAndEdgeMidpointsMatchTheSerialModel) {
   const auto mesh = test::kuhn_box<3>({{4, 4, 4}}, {{0, 0, 0}}, {{1, 1, 1}});
-  const auto E = random_moduli<3>(mesh.n_cells());
-  ElasticModel<3> serial(mesh, E, 0.3, 2), spread(mesh, E, 0.3, 2);
-  add_conditions(serial);
-  add_conditions(spread);
-  distribute_solves(spread, MPI_COMM_WORLD);
+  SerialAndSpread models([&] { return ElasticModel<3>(mesh, random_moduli<3>(mesh.n_cells()), 0.3, 2); });
+  ElasticModel<3>&serial = models.serial, &spread = models.spread;
   EXPECT_EQ(spread.n_dofs(), serial.n_dofs());
   EXPECT_EQ(spread.cells_held(), 0u);  // nothing built before the first solve
   PointConstraint<3> tip(Vec<3>(0.41, 0.52, 0.46), Vec<3>(0.01, -0.02, 0.005));
-  SolverOptions direct, tight;
-  direct.type = SolverOptions::Type::direct;
-  tight.tolerance = 1e-13;
-  const auto ref = serial.solve({tip}, direct);
-  const auto sol = spread.solve({tip}, tight);
+  const auto [ref, sol] = models.solve({tip});
   expect_same_fields(ref, sol, 1e-8);
   EXPECT_LT((sol.point_force[0] - ref.point_force[0]).norm(), 1e-8 * ref.point_force[0].norm());
   double scale = 0;
@@ -313,19 +308,10 @@ TEST(Distributed, P2SamplesAndEdgeMidpointsMatchTheSerialModel) {
 // A voxel model with a point constraint whose solves run over the ranks (p4est grid, no serial grid on
 // any rank) vs the serial model: point force and samples to 1e-8.
 TEST(Distributed, VoxelModelWithAPointConstraintMatchesTheSerialModel) {
-  const std::array<long, 3> cells{{6, 5, 4}};
-  const auto E = random_moduli<3>(6 * 5 * 4);
-  auto serial = ElasticModel<3>::voxel_grid(cells, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1), E, 0.3);
-  auto spread = ElasticModel<3>::voxel_grid(cells, Vec<3>(0, 0, 0), Vec<3>(1, 1, 1), E, 0.3);
-  add_conditions(serial);
-  add_conditions(spread);
-  distribute_solves(spread, MPI_COMM_WORLD);
+  SerialAndSpread models([] { return random_voxel_model<3>({{6, 5, 4}}, 0.3); });
+  ElasticModel<3>&serial = models.serial, &spread = models.spread;
   PointConstraint<3> tip(Vec<3>(0.45, 0.55, 0.5), Vec<3>(0.0, 0.01, -0.01));
-  SolverOptions direct, tight;
-  direct.type = SolverOptions::Type::direct;
-  tight.tolerance = 1e-13;
-  const auto ref = serial.solve({tip}, direct);
-  const auto sol = spread.solve({tip}, tight);
+  const auto [ref, sol] = models.solve({tip});
   EXPECT_NE(sol.stats.method.find("mpi"), std::string::npos) << sol.stats.method;
   expect_same_fields(ref, sol, 1e-8);
   EXPECT_LT((sol.point_force[0] - ref.point_force[0]).norm(), 1e-8 * ref.point_force[0].norm());
