@@ -22,8 +22,6 @@
 
 namespace vim::pipeline {
 
-using nlohmann::json;
-
 namespace {
 
 // Per-element values of a fixed mesh (the grid mesher) and its energies, as history[0].

@@ -14,8 +14,6 @@
 
 namespace vim::pipeline {
 
-using nlohmann::json;
-
 std::string fmt(const char* f, ...) {
   char buf[512];
   va_list ap;
@@ -25,37 +23,10 @@ std::string fmt(const char* f, ...) {
   return buf;
 }
 
-json options_json(const RunOptions& o) {
-  json j;
-  // --spacing sets the initial grid instead of the node budget (the voxel reference uses neither).
-  j["nodes"] = o.spacing > 0.0 ? json(nullptr) : json(o.nodes);
-  j["spacing"] = o.spacing;
-  j["lambda"] = o.lambda;
-  j["max_dihedral_deg"] = o.max_dihedral_deg;
-  j["min_dihedral_deg"] = o.min_dihedral_deg;
-  j["min_radius_ratio"] = o.min_radius_ratio;
-  j["max_iterations"] = o.max_iterations;
-  j["convergence"] = o.convergence;
-  j["energy_convergence"] = o.energy_convergence;
-  j["search_width"] = o.search_width;
-  j["threads"] = o.threads;
-  j["seed"] = o.seed;
-  j["check_invariants"] = o.check_invariants;
-  j["sizing"] = o.sizing.empty() ? json(nullptr) : json(o.sizing);
-  j["threshold"] = o.threshold ? json(*o.threshold) : json(nullptr);
-  j["mesher"] = to_string(o.mesher);
-  j["max_memory"] = o.max_memory > 0.0 ? json(o.max_memory) : json(nullptr);
-  j["degree"] = o.degree;
-  j["simulate"] = o.simulate.empty() ? json(nullptr) : json(o.simulate);
-  j["export"] = o.exports;
-  j["overwrite"] = o.overwrite;
-  return j;
-}
-
 namespace {
 
 // The scenario's mesh keys apply where the option was not given on the command line.
-RunOptions with_scenario_mesh(const RunOptions& given, const std::optional<Scenario>& sc) {
+RunOptions with_scenario_mesh_keys(const RunOptions& given, const std::optional<Scenario>& sc) {
   if (!sc) return given;
   RunOptions o = given;
   static_cast<MeshOptions&>(o) = with_scenario_mesh(given, *sc, [&](const std::string& flag) {
@@ -103,7 +74,7 @@ template <int dim>
 PipelineRun<dim>::PipelineRun(const RunOptions& given, ImageFile image, RunRanks ranks)
     : scenario_(given.simulate.empty() ? std::nullopt
                                        : std::optional<Scenario>(read_scenario(given.simulate, dim))),
-      options_(with_scenario_mesh(given, scenario_)),
+      options_(with_scenario_mesh_keys(given, scenario_)),
       ranks_(std::move(ranks)),
       image_file_(std::move(image)),
       start_(std::chrono::steady_clock::now()),
@@ -119,7 +90,7 @@ PipelineRun<dim>::PipelineRun(const RunOptions& given, ImageFile image, RunRanks
 template <int dim>
 PipelineRun<dim>::PipelineRun(const RunOptions& given, RunInputs<dim> inputs, RunRanks ranks)
     : scenario_(std::move(inputs.scenario)),
-      options_(with_scenario_mesh(given, scenario_)),
+      options_(with_scenario_mesh_keys(given, scenario_)),
       ranks_(std::move(ranks)),
       inputs_(std::move(inputs)),
       start_(std::chrono::steady_clock::now()),

@@ -1,5 +1,5 @@
-// Private to the run_*.cpp stages of PipelineRun (pipeline_run.hpp): message formatting and the
-// options as report.json records them.
+// Private to the run_*.cpp stages of PipelineRun (pipeline_run.hpp) and the study: message formatting
+// and the options as report.json records them.
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -11,7 +11,8 @@ namespace vim::pipeline {
 // printf-style formatting of a progress or warning line (at most 511 characters).
 std::string fmt(const char* format, ...) __attribute__((format(printf, 1, 2)));
 
-// report.json "options": every option of the run as it applies (scenario mesh keys included).
+// report.json "options": every option of the run as it applies (scenario mesh keys included;
+// run_write_report.cpp).
 nlohmann::json options_json(const RunOptions& options);
 
 // Poisson ratio from which a degree-1 simulation warns about volumetric locking.

@@ -14,6 +14,33 @@ namespace vim::pipeline {
 
 using nlohmann::json;
 
+json options_json(const RunOptions& o) {
+  json j;
+  // --spacing sets the initial grid instead of the node budget (the voxel reference uses neither).
+  j["nodes"] = o.spacing > 0.0 ? json(nullptr) : json(o.nodes);
+  j["spacing"] = o.spacing;
+  j["lambda"] = o.lambda;
+  j["max_dihedral_deg"] = o.max_dihedral_deg;
+  j["min_dihedral_deg"] = o.min_dihedral_deg;
+  j["min_radius_ratio"] = o.min_radius_ratio;
+  j["max_iterations"] = o.max_iterations;
+  j["convergence"] = o.convergence;
+  j["energy_convergence"] = o.energy_convergence;
+  j["search_width"] = o.search_width;
+  j["threads"] = o.threads;
+  j["seed"] = o.seed;
+  j["check_invariants"] = o.check_invariants;
+  j["sizing"] = o.sizing.empty() ? json(nullptr) : json(o.sizing);
+  j["threshold"] = o.threshold ? json(*o.threshold) : json(nullptr);
+  j["mesher"] = to_string(o.mesher);
+  j["max_memory"] = o.max_memory > 0.0 ? json(o.max_memory) : json(nullptr);
+  j["degree"] = o.degree;
+  j["simulate"] = o.simulate.empty() ? json(nullptr) : json(o.simulate);
+  j["export"] = o.exports;
+  j["overwrite"] = o.overwrite;
+  return j;
+}
+
 namespace {
 
 json mesh_json(const MeshResult& m) {
