@@ -254,6 +254,10 @@ long VimOptimizer<dim>::swap_pass() {
 
 template bool VimOptimizer<2>::try_replace(const int*, int, const Cell*, int, int);
 template bool VimOptimizer<3>::try_replace(const int*, int, const Cell*, int, int);
+template bool VimOptimizer<2>::try_facet_swap(int, int);
+template bool VimOptimizer<3>::try_facet_swap(int, int);
+template bool VimOptimizer<2>::try_ring_swap(int, int, std::size_t);
+template bool VimOptimizer<3>::try_ring_swap(int, int, std::size_t);
 template bool VimOptimizer<2>::try_flip(int, int);
 template bool VimOptimizer<3>::try_flip(int, int);
 template bool VimOptimizer<2>::try_swap_23(int, int);
