@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <ostream>
 #include <sstream>
 #include <string>
 #include <vim/pipeline/image/image_io.hpp>
@@ -183,6 +184,9 @@ const Edit kEdits[] = {
      "  - {type: fixed, region: {box_face: x_max}, components: [x]}\n",
      {"s.yaml:3:", "boundary_conditions:", "rigid-body motion free"}},
 };
+
+// The edit's name in test listings (instead of its bytes).
+void PrintTo(const Edit& edit, std::ostream* os) { *os << edit.name; }
 
 class BadScenarioEdit : public BadScenario, public ::testing::WithParamInterface<Edit> {};
 
