@@ -26,7 +26,7 @@ std::vector<ShaftPoint<3>> five_stations() {
   return shaft;
 }
 
-NeedleOptions<3> needle(const char* law, int steps, double cutting_distance) {
+NeedleOptions<3> options_for(const char* law, int steps, double cutting_distance) {
   NeedleOptions<3> o;
   o.path.depth = 10.0;
   o.steps = steps;
@@ -38,7 +38,7 @@ NeedleOptions<3> needle(const char* law, int steps, double cutting_distance) {
 }  // namespace
 
 TEST(Insertion, StationsJoinAtTheMeanStickValueOfTheirCutPart) {
-  Insertion<3> ins(needle("stick", 7, 0.7), five_stations());
+  Insertion<3> ins(options_for("stick", 7, 0.7), five_stations());
   Springs tissue(std::vector<double>(5, 3.0), ins.state());
   double prev = 0.0;
   for (int k = 1; k <= 7; ++k) {
@@ -63,7 +63,7 @@ TEST(Insertion, StationsJoinAtTheMeanStickValueOfTheirCutPart) {
 // Stick-slip on the springs: every station force stays within q × its carried length, and the total
 // (the needle's axial force) never falls.
 TEST(Insertion, StickSlipForceWithinTheCarriedLimitNeverFalls) {
-  NeedleOptions<3> o = needle("stick-slip", 13, 0.0);
+  NeedleOptions<3> o = options_for("stick-slip", 13, 0.0);
   o.friction.max_shear_per_length = 1.0;
   Insertion<3> ins(o, five_stations());
   Springs tissue({3.0, 0.5, 3.0, 0.2, 3.0}, ins.state());
@@ -90,7 +90,7 @@ TEST(Insertion, StickSlipForceWithinTheCarriedLimitNeverFalls) {
 // w = 0.5 and the front is cut − 0.5; the stations carry [b, min(e, cut − 0.5)].
 // (The rows' positions do not enter: the springs have no geometry.)
 TEST(Insertion, TipPressesUntilTheCuttingForceThenCutsAtIt) {
-  NeedleOptions<3> o = needle("stick", 20, 0.0);
+  NeedleOptions<3> o = options_for("stick", 20, 0.0);
   o.friction.cutting_force = 2.0;
   std::vector<ShaftPoint<3>> tips;
   for (int k = 0; k <= 20; ++k) tips.push_back({Vec<3>(0.0, 0.0, 0.5 * k), 0.5 * k, 0.0});
