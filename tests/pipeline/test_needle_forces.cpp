@@ -131,7 +131,9 @@ TEST(NeedleTip, PunctureAtTheCuttingForceThenCutsAtIt) {
     EXPECT_EQ(r.tip_cutting[k], 1) << "step " << k;
     EXPECT_NEAR(r.tip_force[k], fc, 0.02 * fc) << "step " << k;
     EXPECT_NEAR(r.friction_force[k] + r.tip_force[k], r.axial_force[k], 1e-9 * r.axial_force[k]);
-    if (k > first_cut) EXPECT_GE(r.friction_force[k], r.friction_force[k - 1]) << "step " << k;
+    if (k > first_cut) {
+      EXPECT_GE(r.friction_force[k], r.friction_force[k - 1]) << "step " << k;
+    }
   }
   EXPECT_GT(r.friction_force.back(), 0.0);
 }
