@@ -97,7 +97,9 @@ TEST(NeedleTip, FlatPunchForceOnTheFaceOfAUniformBlock) {
       }
       last.push_back(r.axial_force.back());
     }
-    if (last.size() == 2) EXPECT_NEAR(last[1] / last[0], 2.0, 0.03 * 2.0) << "h " << h;
+    if (last.size() == 2) {
+      EXPECT_NEAR(last[1] / last[0], 2.0, 0.03 * 2.0) << "h " << h;
+    }
   }
 }
 
