@@ -186,11 +186,15 @@ std::vector<BandCoupling::Vec> BandCoupling::tissue_displacements(const std::vec
   const std::vector<StationState> st = station_states(state.active, state.axial, solution);
   if (st.empty() || effective_radius_ <= radius_) return mesh_values;
   const Vec entry = stations_.front().position - stations_.front().s * axis_;
+  // The held tissue ends where the last station's cut part ends (the front).
+  double held_end = st.back().s + 0.5 * band_.length;
+  if (state.tip < stations_.size() && state.tip < state.carried.size())
+    held_end = st.back().s - 0.5 * band_.length + state.carried[state.tip];
   for (std::size_t k = 0; k < points.size(); ++k) {
     const Vec d = points[k] - entry;
     const double t = d.dot(axis_), r = (d - t * axis_).norm();
     const double half = 0.5 * band_.length;
-    const bool beside = t >= st.front().s - half && t <= st.back().s + half;
+    const bool beside = t >= st.front().s - half && t <= held_end;
     if (beside && r < effective_radius_)
       mesh_values[k] = annulus_value(st, t, r);
     else if (!beside)

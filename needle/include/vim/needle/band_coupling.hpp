@@ -60,9 +60,9 @@ class BandCoupling final : public NeedleCoupling<3> {
                                  const fem::ElasticModel<3>& model) const override;
   void keep_offsets(const std::vector<Vec>& displacement) override;
   // Within the effective radius R_e of the active stations' bands (from the first one's start to the
-  // last one's end: the tissue the needle holds) the model holds only the band means ū; the tissue there
-  // follows the annulus solution between the needle's surface (r = a, where it sits at the rows' value
-  // g) and R_e (at ū):
+  // end of the last one's cut part: the tissue the needle holds) the model holds only the band means ū; the
+  // tissue there follows the annulus solution between the needle's surface (r = a, where it sits at the rows'
+  // value g) and R_e (at ū):
   //   u(r) = ū + φ(r)(g − ū),  φ(r) = ln(R_e / max(r, a)) / ln(R_e / a),  g − ū = κ f per row,
   // linear in the arc length between station centres (docs/needle-model.md, target displacements).
   // Beside the held shaft beyond R_e: the model's value. Ahead of the held shaft's end or behind its
