@@ -4,6 +4,7 @@
 #include <limits>
 #include <vim/needle/band_coupling.hpp>
 #include <vim/needle/band_load_field.hpp>
+#include <vim/needle/tip_bearing.hpp>
 
 namespace vim::needle {
 
@@ -21,6 +22,7 @@ BandCoupling::BandCoupling(const Geometry& g, const CellLocator<3>& locator,
       radius_(g.radius),
       poisson_ratio_(poisson_ratio) {
   add_stations(g, locator, cell_modulus, poisson_ratio, blocked);
+  if (g.tip_spacing > 0.0) add_tip_rows(g, locator, cell_modulus, poisson_ratio);
   lateral_.assign(stations_.size(), Vec::Zero());
   for (std::size_t v = 0; v < blocked.size(); ++v)
     if (blocked[v]) held_points_.push_back(locator.vertex(static_cast<int>(v)));
@@ -73,19 +75,62 @@ void BandCoupling::add_stations(const Geometry& g, const CellLocator<3>& locator
   }
 }
 
-// axes = (lateral 1, lateral 2, axis): the loads' lateral offset and the axial value.
+// Tip rows every g.tip_spacing from the entry: disks of radius R = max(R_band, 2a) (the band's rule from
+// the element size, so that the mesh resolves the disk's mean; at least 2a, so that the mesh's part
+// C_disk of the punch's compliance is at most half of it), samples spaced ≤ h/2, the modulus the mean
+// over the cells the samples fall in. Depth below the free surface: from where the path enters the
+// mesh if the entry lies outside it (or on its boundary), else unbounded (embedded).
+void BandCoupling::add_tip_rows(const Geometry& g, const CellLocator<3>& locator,
+                                const std::vector<double>& cell_modulus, double poisson_ratio) {
+  tip_disk_radius_ = std::max(coupling_radius_, 2.0 * g.radius);
+  const double spacing = 0.5 * std::min(g.element_size, tip_disk_radius_);
+  const long n = static_cast<long>(std::floor(g.depth / g.tip_spacing + 1e-9)) + 1;
+  const Vec world_axis = g.to_world * g.axis;
+  double surface = -std::numeric_limits<double>::infinity();
+  if (locator.locate(g.entry - 1e-6 * g.depth * g.axis) < 0) {
+    const double dt = 1e-3 * g.depth;
+    for (surface = 0.0; surface < g.depth && locator.locate(g.entry + surface * g.axis) < 0;) surface += dt;
+  }
+  for (long k = 0; k < n; ++k) {
+    const double t = static_cast<double>(k) * g.tip_spacing;
+    const Vec centre = g.entry + t * g.axis;
+    fem::PointConstraint<3> p =
+        tip_bearing_constraint(centre, world_axis, g.radius, tip_disk_radius_, spacing, 1.0, poisson_ratio,
+                               std::max(0.0, t - surface));
+    p.axes = g.to_world.transpose() * p.axes;
+    for (Vec& o : p.offsets) o = g.to_world.transpose() * o;
+    double e_sum = 0.0;
+    int inside = 0;
+    for (const Vec& o : p.offsets) {
+      const long c = locator.locate(centre + o);
+      if (c < 0) continue;
+      e_sum += cell_modulus[static_cast<std::size_t>(c)];
+      ++inside;
+    }
+    if (inside < static_cast<int>(p.offsets.size()) / 2) continue;  // the disk is not in the tissue
+    p.compliance /= e_sum / inside;
+    tips_.push_back({centre, t, 0.0});
+    tip_bands_.push_back(std::move(p));
+  }
+}
+
+// axes = (lateral 1, lateral 2, axis): the loads' lateral offset and the axial value (tip rows: axial).
 void BandCoupling::held_values(const std::vector<std::size_t>& active, const std::vector<double>& axial,
                                std::vector<Vec>& held) const {
   held.resize(active.size());
   for (std::size_t i = 0; i < active.size(); ++i) {
     const std::size_t j = active[i];
+    if (j >= bands_.size()) {
+      held[i] = Vec(0.0, 0.0, axial[j]);
+      continue;
+    }
     held[i] = Vec(bands_[j].axes.col(0).dot(lateral_[j]), bands_[j].axes.col(1).dot(lateral_[j]), axial[j]);
   }
 }
 
 std::vector<double> BandCoupling::axial_forces(const std::vector<std::size_t>& active,
                                                const fem::Solution<3>& solution) const {
-  std::vector<double> f(stations_.size(), 0.0);
+  std::vector<double> f(stations_.size() + tips_.size(), 0.0);
   for (std::size_t i = 0; i < active.size() && i < solution.point_force.size(); ++i)
     f[active[i]] = solution.point_force[i].dot(axis_);
   return f;
@@ -95,17 +140,18 @@ std::vector<BandCoupling::Vec> BandCoupling::displacements(const std::vector<std
                                                            const fem::ElasticModel<3>& model) const {
   std::vector<Vec> at;
   for (std::size_t j : points)
-    for (const Vec& o : bands_[j].offsets) at.push_back(bands_[j].position + o);
+    for (const Vec& o : row_template(j).offsets) at.push_back(row_template(j).position + o);
   fem::PointSample info;
   const std::vector<Vec> u = model.sample(at, &info);
   std::vector<Vec> mean(points.size(), Vec::Zero());
   std::size_t q = 0;
   for (std::size_t i = 0; i < points.size(); ++i) {
     double w = 0.0;
-    for (std::size_t k = 0; k < bands_[points[i]].offsets.size(); ++k, ++q) {
+    const fem::PointConstraint<3>& row = row_template(points[i]);
+    for (std::size_t k = 0; k < row.offsets.size(); ++k, ++q) {
       if (!info.inside[q]) continue;
-      mean[i] += bands_[points[i]].weights[k] * u[q];
-      w += bands_[points[i]].weights[k];
+      mean[i] += row.weights[k] * u[q];
+      w += row.weights[k];
     }
     if (w > 0.0) mean[i] /= w;
   }
@@ -123,6 +169,7 @@ std::vector<BandCoupling::StationState> BandCoupling::station_states(const std::
                                                                      const fem::Solution<3>& solution) const {
   std::vector<StationState> st;
   for (std::size_t i = 0; i < active.size() && i < solution.point_force.size(); ++i) {
+    if (active[i] >= bands_.size()) continue;  // a tip row
     const fem::PointConstraint<3>& b = bands_[active[i]];
     const Vec g_axes(b.axes.col(0).dot(lateral_[active[i]]), b.axes.col(1).dot(lateral_[active[i]]),
                      axial[active[i]]);
@@ -139,11 +186,15 @@ std::vector<BandCoupling::Vec> BandCoupling::tissue_displacements(const std::vec
   const std::vector<StationState> st = station_states(state.active, state.axial, solution);
   if (st.empty() || effective_radius_ <= radius_) return mesh_values;
   const Vec entry = stations_.front().position - stations_.front().s * axis_;
+  // The held tissue ends where the last station's cut part ends (the front).
+  double held_end = st.back().s + 0.5 * band_.length;
+  if (state.tip < stations_.size() && state.tip < state.carried.size())
+    held_end = st.back().s - 0.5 * band_.length + state.carried[state.tip];
   for (std::size_t k = 0; k < points.size(); ++k) {
     const Vec d = points[k] - entry;
     const double t = d.dot(axis_), r = (d - t * axis_).norm();
     const double half = 0.5 * band_.length;
-    const bool beside = t >= st.front().s - half && t <= st.back().s + half;
+    const bool beside = t >= st.front().s - half && t <= held_end;
     if (beside && r < effective_radius_)
       mesh_values[k] = annulus_value(st, t, r);
     else if (!beside)
@@ -182,6 +233,7 @@ BandCoupling::Vec BandCoupling::surface_load_correction(const Vec& x, const Shaf
   Vec du = Vec::Zero();
   for (std::size_t i = 0; i < state.active.size() && i < solution.point_force.size(); ++i) {
     const std::size_t j = state.active[i];
+    if (j >= stations_.size()) continue;  // the tip's disk: its load is not corrected
     const ShaftPoint<3>& p = stations_[j];
     const double d = (x - p.position).norm(), w = std::clamp(3.0 - d / b, 0.0, 1.0);
     if (w == 0.0 || d > kSurfaceLoadReach * std::max(coupling_radius_, p.length)) continue;

@@ -68,7 +68,7 @@ void ElasticTissue<dim>::clear() {
 
 template <int dim>
 const AxialMap& ElasticTissue<dim>::axial_map() {
-  if (map_size_ == state_.active.size()) return map_;
+  if (map_active_ == state_.active) return map_;
   map_ = AxialMap::probe(
       static_cast<Eigen::Index>(state_.active.size()),
       [&](const Eigen::VectorXd& wc) {
@@ -77,7 +77,7 @@ const AxialMap& ElasticTissue<dim>::axial_map() {
         return state_.compact(solve(full));
       },
       probe_step_);
-  map_size_ = state_.active.size();
+  map_active_ = state_.active;
   return map_;
 }
 

@@ -20,8 +20,7 @@ class StickLaw final : public FrictionLaw {
     limit_.assign(n, std::numeric_limits<double>::infinity());
   }
   FrictionStep update(ShaftState& state, TissueResponse& tissue) override {
-    for (std::size_t j : state.active)
-      limit_[j] = j == state.cutting ? cutting_force_ : std::numeric_limits<double>::infinity();
+    friction_limits(state, cutting_force_, std::numeric_limits<double>::infinity(), limit_);
     return settle_active_set(state, tissue, limit_, sliding_, sign_, max_sweeps_);
   }
   bool has_active_set() const override { return cutting_force_ > 0.0; }

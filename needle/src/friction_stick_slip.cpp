@@ -25,8 +25,7 @@ class StickSlipLaw final : public FrictionLaw {
     limit_.assign(n, 0.0);
   }
   FrictionStep update(ShaftState& state, TissueResponse& tissue) override {
-    for (std::size_t j : state.active)
-      limit_[j] = j == state.cutting ? cutting_force_ : max_shear_per_length_ * state.carried[j];
+    friction_limits(state, cutting_force_, max_shear_per_length_, limit_);
     return settle_active_set(state, tissue, limit_, sliding_, sign_, max_sweeps_);
   }
   bool has_active_set() const override { return true; }

@@ -11,8 +11,11 @@
 #include <string>
 #include <tuple>
 #include <vector>
+#include <vim/image.hpp>
 #include <vim/initial_mesh.hpp>
+#include <vim/pipeline/scenario/scenario.hpp>
 #include <vim/pipeline/simulation/simulation.hpp>
+#include <vim/voxel_statistics.hpp>
 
 namespace vim::pipeline::simulation_test {
 
@@ -109,6 +112,36 @@ inline double max_norm(const std::vector<V3>& u) {
   double m = 0.0;
   for (const auto& x : u) m = std::max(m, x.norm());
   return m;
+}
+
+// A block image of `n` voxels of 1 mm, a stiffer sphere at its centre (or uniform).
+inline Image<3> block_image(const std::array<long, 3>& n, double inclusion_modulus) {
+  Image<3> img(n, {{1, 1, 1}}, {{0.5, 0.5, 0.5}});
+  const V3 c(0.5 * n[0], 0.5 * n[1], 0.5 * n[2]);
+  for (std::size_t v = 0; v < img.voxel_count(); ++v) {
+    const auto i = img.index_of(v);
+    const V3 x(i[0] + 1.0, i[1] + 1.0, i[2] + 1.0);
+    img.data[v] = static_cast<float>((x - c).norm() < 4.0 ? inclusion_modulus : 20.0);
+  }
+  return img;
+}
+
+inline MeshModel<3> image_mesh(const Image<3>& img, const SimplexMesh<3>& mesh) {
+  MeshModel<3> m;
+  m.mesh = mesh;
+  const VoxelStatistics<3> stats(img);
+  for (std::size_t c = 0; c < m.mesh.n_cells(); ++c) m.values.push_back(stats.value(cell_points(m.mesh, c)));
+  return m;
+}
+
+// The block image's needle scenario: the path along z off the mesh vertices, the bottom face held.
+inline Scenario block_scenario(const std::string& needle_extra) {
+  return parse_scenario_text(
+      yaml("{entry: [9.37, 10.29, 0], direction: [0, 0, 1], depth: 18, steps: 12, diameter: 1.27" +
+               needle_extra + "}",
+           "[]", "{youngs_modulus: image, poisson_ratio: 0.45}",
+           "[{type: fixed, region: {box_face: z_max}}, {type: fixed, region: {box_face: x_min}}]"),
+      3);
 }
 
 }  // namespace vim::pipeline::simulation_test

@@ -40,36 +40,6 @@ double final_axial_force(const MeshModel<3>& mesh, const Scenario& sc, unsigned 
   return NeedleSimulation<3>(mesh, sc, o).run().needles.at(0).axial_force.back();
 }
 
-// A block image of `n` voxels of 1 mm, a stiffer sphere at its centre (or uniform).
-Image<3> block_image(const std::array<long, 3>& n, double inclusion_modulus) {
-  Image<3> img(n, {{1, 1, 1}}, {{0.5, 0.5, 0.5}});
-  const V3 c(0.5 * n[0], 0.5 * n[1], 0.5 * n[2]);
-  for (std::size_t v = 0; v < img.voxel_count(); ++v) {
-    const auto i = img.index_of(v);
-    const V3 x(i[0] + 1.0, i[1] + 1.0, i[2] + 1.0);
-    img.data[v] = static_cast<float>((x - c).norm() < 4.0 ? inclusion_modulus : 20.0);
-  }
-  return img;
-}
-
-MeshModel<3> image_mesh(const Image<3>& img, const SimplexMesh<3>& mesh) {
-  MeshModel<3> m;
-  m.mesh = mesh;
-  const VoxelStatistics<3> stats(img);
-  for (std::size_t c = 0; c < m.mesh.n_cells(); ++c) m.values.push_back(stats.value(cell_points(m.mesh, c)));
-  return m;
-}
-
-// The block image's needle scenario: the path along z off the mesh vertices, the bottom face held.
-Scenario block_scenario(const std::string& needle_extra) {
-  return parse_scenario_text(
-      yaml("{entry: [9.37, 10.29, 0], direction: [0, 0, 1], depth: 18, steps: 12, diameter: 1.27" +
-               needle_extra + "}",
-           "[]", "{youngs_modulus: image, poisson_ratio: 0.45}",
-           "[{type: fixed, region: {box_face: z_max}}, {type: fixed, region: {box_face: x_min}}]"),
-      3);
-}
-
 }  // namespace
 
 // Antiplane theory: F ∝ 1/ln(ρ/a), so doubling the diameter from 1 to 2 mm in the 20 mm section raises

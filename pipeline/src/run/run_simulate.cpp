@@ -81,7 +81,8 @@ json PipelineRun<dim>::write_simulation_figures(const SimulationResult<dim>& res
     const std::string prefix = result.needles.size() > 1 ? run.name + "_" : "";
     json& fig = figures[run.name.empty() ? std::string("needle") : run.name];
     fig["force"] = write_line_plot(out().file("figures/" + prefix + "needle_force.png"), run.depth,
-                                   {run.axial_force, run.lateral_force}, {"axial force", "lateral force"},
+                                   {run.axial_force, run.friction_force, run.tip_force, run.lateral_force},
+                                   {"axial force", "friction", "tip", "lateral force"},
                                    "needle depth [" + length + "]", "force on the needle [" + force + "]");
     fig["force"]["file"] = "figures/" + prefix + "needle_force.png";
     if (!run.target_displacement.empty() && !run.target_displacement.front().empty()) {

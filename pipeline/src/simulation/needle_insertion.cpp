@@ -33,10 +33,10 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
     run_.point_s.push_back(p.s);
     run_.point_length.push_back(p.length);
   }
-  const std::size_t np = shaft.size();
-  stepping_.emplace(needle_, std::move(shaft));
-  tissue_ = std::make_unique<needle::ElasticTissue<dim>>(*ctx_.model, *coupling_, stepping_->state(), np,
-                                                         pitch_, ctx_.solver, ctx_.opt.monolithic);
+  stepping_.emplace(needle_, std::move(shaft), std::move(tip_rows_));
+  tissue_ = std::make_unique<needle::ElasticTissue<dim>>(*ctx_.model, *coupling_, stepping_->state(),
+                                                         stepping_->n_points(), pitch_, ctx_.solver,
+                                                         ctx_.opt.monolithic);
   for (const auto &t : ctx_.sc.targets) targets_.push_back(ctx_.tf.to_frame(vec<dim>(t.position)));
   // External loads (a prescribed displacement, a pressure, a traction) act from
   // the start: before the tip reaches the first shaft point (step 0 included)
@@ -72,6 +72,9 @@ std::vector<needle::ShaftPoint<dim>> NeedleInsertion<dim>::make_coupling(bool sn
     g.coupling_radius = needle_.coupling_radius;
     g.element_size = h;
     g.degree = ctx_.degree;
+    // The tip bearing when the tip cuts: disks every half element or step, whichever is shorter.
+    if (needle_.friction.cutting_force > 0.0 && needle_.friction.law != "force")
+      g.tip_spacing = std::min(0.5 * h, path.depth / static_cast<double>(needle_.steps));
     auto band = std::make_unique<needle::BandCoupling>(
         with_spacing(g), ctx_.locator(), ctx_.E, ctx_.sc.poisson_ratio, ctx_.blocked, ctx_.held_regions);
     // A mesh so coarse that no band of the default size fits in it (every
@@ -82,6 +85,7 @@ std::vector<needle::ShaftPoint<dim>> NeedleInsertion<dim>::make_coupling(bool sn
                                                     ctx_.sc.poisson_ratio, ctx_.blocked, ctx_.held_regions);
     }
     shaft = band->stations();
+    tip_rows_ = band->tip_rows();
     pitch_ = shaft.empty() ? with_spacing(g).spacing : shaft.front().length;
     coupling_radius_ = band->coupling_radius();
     coupling_ = std::move(band);
@@ -221,6 +225,7 @@ void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim> *s, int
   const needle::ShaftState &state = stepping_->state();
   std::vector<double> pa(stepping_->shaft().size(), 0.0);
   if (s) pa = coupling_->axial_forces(state.active, *s);
+  pa.resize(std::max(pa.size(), stepping_->n_points()), 0.0);
   // The axial force splits into the shaft's friction and the force on the
   // tissue the tip pushes (the cutting station; the force model: the tip point,
   // which carries tip_force).
@@ -230,6 +235,11 @@ void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim> *s, int
     if (j != pushed) friction += pa[j];
   run_.friction_force.push_back(s ? friction : 0.0);
   run_.tip_force.push_back(s && pushed < pa.size() ? pa[pushed] : 0.0);
+  const bool cutting = s && state.tip_cutting;
+  if (cutting && !run_.tip_cutting.empty() && run_.tip_cutting.back() == 0)
+    run_.punctures.push_back({depth, run_.axial_force[run_.axial_force.size() - 2], run_.axial_force.back()});
+  run_.tip_cutting.push_back(cutting ? 1 : 0);
+  pa.resize(stepping_->shaft().size());  // the shaft stations' (the tip rows' is tip_force)
   run_.point_axial_force.push_back(std::move(pa));
   run_.active_points.push_back(static_cast<int>(state.active.size()));
   run_.solves.push_back(solves);

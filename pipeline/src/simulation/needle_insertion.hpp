@@ -59,6 +59,7 @@ class NeedleInsertion {
   double pitch_ = 0.0;                   // spacing of the shaft points (3D: the stations' band length)
   double coupling_radius_ = 0.0;         // 3D: R of the bands
   std::unique_ptr<needle::NeedleCoupling<dim>> coupling_;
+  std::vector<needle::ShaftPoint<dim>> tip_rows_;  // 3D with a cutting force: the tip bearing's disks
   std::optional<needle::Insertion<dim>> stepping_;
   std::unique_ptr<needle::ElasticTissue<dim>> tissue_;
   std::vector<Vec> targets_;  // frame

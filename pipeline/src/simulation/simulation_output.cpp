@@ -186,6 +186,7 @@ json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const need
   per["lateral_force"] = run.lateral_force;
   per["friction_force"] = run.friction_force;
   per["tip_force"] = run.tip_force;
+  per["tip_cutting"] = run.tip_cutting;
   per["max_strain"] = run.max_strain;
   per["active_points"] = run.active_points;
   per["solves"] = run.solves;
@@ -204,6 +205,11 @@ json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const need
   }
   per["target_displacement"] = targets;
   rep["per_step"] = per;
+  json punctures = json::array();
+  for (const auto& p : run.punctures)
+    punctures.push_back(
+        {{"depth", p.depth}, {"force_before", p.force_before}, {"force_after", p.force_after}});
+  rep["punctures"] = punctures;
   json final_targets = json::object();
   for (std::size_t t = 0; t < sc.targets.size(); ++t) {
     const auto u = run.target_displacement.back()[t];

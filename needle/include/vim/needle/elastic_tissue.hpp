@@ -56,7 +56,7 @@ class ElasticTissue final : public TissueResponse {
   fem::Solution<dim> solution_;
   bool field_ = false;  // solution_ holds the whole field of the last solve
   AxialMap map_;
-  std::size_t map_size_ = 0;
+  std::vector<std::size_t> map_active_;  // the active points of the map's probe
   int solves_ = 0;
   double solve_seconds_ = 0.0;
 };

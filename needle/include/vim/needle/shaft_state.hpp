@@ -22,6 +22,10 @@ struct ShaftState {
   std::vector<double> axial;    // axial constraint value: kept between steps, set by the law
   std::vector<double> stick;    // the value that moves the point with the needle at this step
   std::vector<double> carried;  // shaft length the point carries (its segment up to the tip)
+  // 3D: the arc length, at rest, of the tissue at the tip (what the tip has cut).
+  double front = 0.0;
+  // The point the tip pushes is held at the cutting force (the tip cuts) in the last solve.
+  bool tip_cutting = false;
 
   // Moves a point with the needle (it sticks).
   void stick_to_needle(std::size_t j) { axial[j] = stick[j]; }

@@ -24,7 +24,7 @@ class TissueResponse {
   // The last call of a step is the step's solution.
   virtual std::vector<double> solve(const std::vector<double>& axial) = 0;
   // The affine map from the active points' axial values to their axial forces (axial_map.hpp), probed
-  // with m + 1 solves when the number of active points m has changed since the last probe.
+  // with m + 1 solves when the active points (m of them) have changed since the last probe.
   virtual const AxialMap& axial_map() = 0;
 };
 

@@ -7,8 +7,11 @@
 // Needle models (all in the reference configuration, small strain). In 3D the "shaft points" below are
 // band stations of the needle of radius diameter/2 (needle::BandCoupling, vim/needle/band_coupling.hpp): the
 // mean displacement of a band of a cylinder around the shaft, held through the analytic annulus compliance,
-// joining when the tip has passed its band; the tip pushes the station it is in until the cutting force
-// (docs/architecture.md, the needle model). In 2D they are points on the axis line.
+// joining as soon as the cut passes its band's start, at the mean stick value of its cut part, and carrying
+// that part (vim/needle/insertion.hpp); with a cutting force the tip presses the tissue ahead of it as a
+// flat punch (the tip bearing, vim/needle/tip_bearing.hpp) until its force reaches the cutting force, then
+// cuts at that force (docs/needle-model.md §9). In 2D they are points on the axis line and the bullets
+// below describe them.
 //  * kinematic / stick: shaft points s_j = entry + s·a are sampled along the path (about one per cell
 //    crossed). A point is picked up when the tip reaches its current position (s_j + u_j·a < d, with u
 //    from the previous step: tissue ahead of the tip is pushed before it is pierced); from then on it
@@ -106,6 +109,14 @@ struct NeedleRun {
   // The axial force's parts: the shaft's friction (Σ over the shaft stations) and the tip's force (the
   // tissue the tip pushes until it is cut; the force model: the tip point); they sum to axial_force.
   std::vector<double> friction_force, tip_force;
+  // A puncture: the first step at which the tip cuts after pressing the tissue without cutting (its
+  // force reached the cutting force); the needle's depth then, and the axial force at the step
+  // before and at that step.
+  struct Puncture {
+    double depth = 0.0, force_before = 0.0, force_after = 0.0;
+  };
+  std::vector<Puncture> punctures;
+  std::vector<int> tip_cutting;  // per step: 1 where the tip cuts (its force held at the cutting force)
   std::vector<std::vector<Vec>> target_displacement;  // [step][target], world axes
   std::vector<std::vector<Vec>>
       vertex_displacement;         // world axes: every step if keep_step_fields, else the last
