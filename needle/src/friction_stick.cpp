@@ -17,12 +17,13 @@ class StickLaw final : public FrictionLaw {
   void start(std::size_t n) override {
     sliding_.assign(n, false);
     sign_.assign(n, 1.0);
+    work_.reserve(n);
     limit_.assign(n, std::numeric_limits<double>::infinity());
   }
   FrictionStep update(ShaftState& state, TissueResponse& tissue) override {
     for (std::size_t j : state.active)
       limit_[j] = j == state.cutting ? cutting_force_ : std::numeric_limits<double>::infinity();
-    return settle_active_set(state, tissue, limit_, sliding_, sign_, max_sweeps_);
+    return settle_active_set(state, tissue, limit_, sliding_, sign_, max_sweeps_, work_);
   }
   bool has_active_set() const override { return cutting_force_ > 0.0; }
   // A stuck shaft advancing into linear elastic tissue pushes it: the axial force never falls.
@@ -38,6 +39,7 @@ class StickLaw final : public FrictionLaw {
   int max_sweeps_;
   std::vector<bool> sliding_;
   std::vector<double> sign_, limit_;
+  ActiveSetWorkspace work_;
 };
 
 }  // namespace

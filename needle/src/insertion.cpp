@@ -24,6 +24,7 @@ Insertion<dim>::Insertion(const NeedleOptions<dim>& options, std::vector<ShaftPo
   state_.stick.assign(np, 0.0);
   state_.carried.assign(np, 0.0);
   picked_.assign(np, false);
+  state_.active.reserve(np);  // steps allocate nothing (the real-time needle)
   state_.cutting = np;
 }
 
