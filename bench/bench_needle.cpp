@@ -80,9 +80,9 @@ Timing time_run(const MeshModel<3>& model, unsigned degree, int steps, const std
 }
 
 // vim::needle::HapticNeedle on the same block (its model and conditions from a NeedleSimulation that does not
-// run): the region a cylinder of radius R + h around the path, one probe (the target), stick-slip at
-// 0.5 mN/mm, the tip advanced along the path in `steps` calls. Returns the precomputation (s), the
-// region's DoFs and the per-call times.
+// run): the default band (as the CLI's), the region a cylinder of radius R + h around the path, one probe
+// (the target), stick-slip at 0.5 mN/mm (the registered law), the tip advanced along the path in `steps`
+// calls. Returns the precomputation (s), the region's DoFs and the per-call times.
 Timing time_haptic(const MeshModel<3>& model, unsigned degree, double h, int steps) {
   const std::string y =
       "material: {poisson_ratio: 0.45}\n"
@@ -95,10 +95,11 @@ Timing time_haptic(const MeshModel<3>& model, unsigned degree, double h, int ste
   NeedleSimulation<3> sim(model, parse_scenario_text(y, 3, "bench"), so);
   vim::needle::HapticNeedle::Options o;
   o.radius = 0.635;
-  o.coupling_radius = vim::needle::default_coupling_radius(o.radius, h, degree);
+  o.element_size = h;  // the default band, as the CLI's
   o.spacing = h;
-  o.max_shear_per_length = 0.5;
-  const double reach = o.coupling_radius + h;
+  o.friction.law = "stick-slip";
+  o.friction.max_shear_per_length = 0.5;
+  const double reach = vim::needle::default_coupling_radius(o.radius, h, degree) + h;
   const fem::Region<3> region{
       "path", [reach](const fem::Vec<3>& x) { return std::hypot(x[0] - 0.3, x[1] + 0.2) < reach; }};
   const auto t0 = std::chrono::steady_clock::now();

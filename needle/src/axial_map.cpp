@@ -1,5 +1,5 @@
 // The axial stiffness map of the active shaft points (vim/needle/axial_map.hpp).
-#include <Eigen/Dense>
+#include <Eigen/Cholesky>
 #include <stdexcept>
 #include <vim/needle/axial_map.hpp>
 
@@ -20,20 +20,39 @@ AxialMap AxialMap::probe(Eigen::Index m, const std::function<Eigen::VectorXd(con
   return map;
 }
 
-void AxialMap::solve_free(Eigen::VectorXd& w, const std::vector<bool>& free,
-                          const Eigen::VectorXd& target) const {
-  std::vector<Eigen::Index> f, n;
-  for (Eigen::Index j = 0; j < w.size(); ++j) (free[j] ? f : n).push_back(j);
-  if (f.empty()) return;
-  Eigen::MatrixXd kff(f.size(), f.size());
-  Eigen::VectorXd rhs(f.size());
-  for (std::size_t a = 0; a < f.size(); ++a) {
-    rhs[a] = target[f[a]] - c[f[a]];
-    for (Eigen::Index j : n) rhs[a] -= K(f[a], j) * w[j];
-    for (std::size_t b = 0; b < f.size(); ++b) kff(a, b) = K(f[a], f[b]);
+void AxialMap::Work::reserve(Eigen::Index m) {
+  if (kff.rows() < m) kff.resize(m, m), rhs.resize(m);
+  free.reserve(static_cast<std::size_t>(m)), held.reserve(static_cast<std::size_t>(m));
+}
+
+void AxialMap::apply(const Eigen::Ref<const Eigen::VectorXd>& w, Eigen::Ref<Eigen::VectorXd> f) const {
+  const Eigen::Index m = w.size();
+  f.noalias() = K.topLeftCorner(m, m) * w;
+  f += c.head(m);
+}
+
+void AxialMap::solve_free(Eigen::Ref<Eigen::VectorXd> w, const std::vector<bool>& free,
+                          const Eigen::Ref<const Eigen::VectorXd>& target, Work& work) const {
+  work.reserve(w.size());
+  work.free.clear(), work.held.clear();
+  for (Eigen::Index j = 0; j < w.size(); ++j)
+    (free[static_cast<std::size_t>(j)] ? work.free : work.held).push_back(j);
+  const auto nf = static_cast<Eigen::Index>(work.free.size());
+  if (nf == 0) return;
+  auto rhs = work.rhs.head(nf);
+  for (Eigen::Index a = 0; a < nf; ++a) {
+    const Eigen::Index fa = work.free[static_cast<std::size_t>(a)];
+    rhs[a] = target[fa] - c[fa];
+    for (Eigen::Index j : work.held) rhs[a] -= K(fa, j) * w[j];
+    for (Eigen::Index b = 0; b <= a; ++b) work.kff(a, b) = K(fa, work.free[static_cast<std::size_t>(b)]);
   }
-  const Eigen::VectorXd x = kff.ldlt().solve(rhs);
-  for (std::size_t a = 0; a < f.size(); ++a) w[f[a]] = x[a];
+  // K is symmetric positive definite, so is its free block: Cholesky in place on the work block.
+  Eigen::Ref<Eigen::MatrixXd> kff = work.kff.topLeftCorner(nf, nf);
+  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Lower> llt(kff);
+  if (llt.info() != Eigen::Success)
+    throw std::runtime_error("AxialMap::solve_free: the free points' stiffness is not positive definite");
+  llt.solveInPlace(rhs);
+  for (Eigen::Index a = 0; a < nf; ++a) w[work.free[static_cast<std::size_t>(a)]] = rhs[a];
 }
 
 }  // namespace vim::needle

@@ -34,14 +34,7 @@ void BandCoupling::add_stations(const Geometry& g, const CellLocator<3>& locator
                                 const std::vector<bool>& blocked) {
   const long n = std::max(1L, static_cast<long>(std::ceil(g.depth / g.spacing - 1e-9)));
   const double length = g.depth / static_cast<double>(n);
-  NeedleBand band;
-  if (g.coupling_radius > 0.0) {
-    band.radius = g.radius;
-    band.coupling_radius = g.coupling_radius;
-    band.length = length;
-  } else {
-    band = default_needle_band(g.radius, g.element_size, length, g.degree);
-  }
+  const NeedleBand band = station_band(g.radius, g.coupling_radius, g.element_size, length, g.degree);
   band_ = band;
   coupling_radius_ = band.coupling_radius;
   effective_radius_ = effective_coupling_radius(band);

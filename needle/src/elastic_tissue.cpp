@@ -35,7 +35,7 @@ void ElasticTissue<dim>::precompute(const std::vector<Vec<dim>>& probes) {
 // One solve of the step: the monolithic reference forms the whole field; the condensed rows give the
 // point forces (and the probes' displacements) only, the field is formed when a step needs it.
 template <int dim>
-std::vector<double> ElasticTissue<dim>::solve(const std::vector<double>& axial) {
+const std::vector<double>& ElasticTissue<dim>::solve(const std::vector<double>& axial) {
   const auto t = Clock::now();
   if (monolithic_) {
     solution_ = model_.solve_monolithic(coupling_.rows(state_.active, axial), solver_);
@@ -48,7 +48,8 @@ std::vector<double> ElasticTissue<dim>::solve(const std::vector<double>& axial) 
   field_ = monolithic_;
   solve_seconds_ += seconds_since(t);
   ++solves_;
-  return coupling_.axial_forces(state_.active, solution_);
+  forces_ = coupling_.axial_forces(state_.active, solution_);
+  return forces_;
 }
 
 template <int dim>

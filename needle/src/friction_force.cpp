@@ -11,16 +11,21 @@ class ForceLaw final : public FrictionLaw {
  public:
   ForceLaw(double friction_per_length, double tip_force)
       : friction_per_length_(friction_per_length), tip_force_(tip_force) {}
-  void start(std::size_t) override {}
+  void start(std::size_t n) override { reserve(n); }
   FrictionStep update(ShaftState& state, TissueResponse& tissue) override {
     for (std::size_t j : state.active) state.stick_to_needle(j);
     const AxialMap& map = tissue.axial_map();
-    std::vector<double> target(state.axial.size(), 0.0);
-    for (std::size_t j : state.active)
-      target[j] = friction_per_length_ * state.carried[j] + (j == state.tip ? tip_force_ : 0.0);
-    Eigen::VectorXd w = state.compact(state.axial);
-    map.solve_free(w, std::vector<bool>(state.active.size(), true), state.compact(target));
-    state.expand(w, state.axial);
+    const std::size_t m = state.active.size();
+    reserve(m);
+    auto w = w_.head(static_cast<Eigen::Index>(m)), target = target_.head(static_cast<Eigen::Index>(m));
+    for (std::size_t i = 0; i < m; ++i) {
+      const std::size_t j = state.active[i];
+      w[static_cast<Eigen::Index>(i)] = state.axial[j];
+      target[static_cast<Eigen::Index>(i)] =
+          friction_per_length_ * state.carried[j] + (j == state.tip ? tip_force_ : 0.0);
+    }
+    map.solve_free(w, free_, target, work_);
+    for (std::size_t i = 0; i < m; ++i) state.axial[state.active[i]] = w[static_cast<Eigen::Index>(i)];
     tissue.solve(state.axial);
     return {};
   }
@@ -31,7 +36,17 @@ class ForceLaw final : public FrictionLaw {
   }
 
  private:
+  // Work vectors for n active points (allocation-free steps once reserved).
+  void reserve(std::size_t n) {
+    if (static_cast<std::size_t>(w_.size()) >= n) return;
+    w_.resize(static_cast<Eigen::Index>(n)), target_.resize(static_cast<Eigen::Index>(n));
+    free_.assign(n, true);
+    work_.reserve(static_cast<Eigen::Index>(n));
+  }
   double friction_per_length_, tip_force_;
+  Eigen::VectorXd w_, target_;
+  std::vector<bool> free_;
+  AxialMap::Work work_;
 };
 
 }  // namespace

@@ -17,11 +17,12 @@ class StickLaw final : public FrictionLaw {
   void start(std::size_t n) override {
     sliding_.assign(n, false);
     sign_.assign(n, 1.0);
+    work_.reserve(n);
     limit_.assign(n, std::numeric_limits<double>::infinity());
   }
   FrictionStep update(ShaftState& state, TissueResponse& tissue) override {
     friction_limits(state, cutting_force_, std::numeric_limits<double>::infinity(), limit_);
-    return settle_active_set(state, tissue, limit_, sliding_, sign_, max_sweeps_);
+    return settle_active_set(state, tissue, limit_, sliding_, sign_, max_sweeps_, work_);
   }
   bool has_active_set() const override { return cutting_force_ > 0.0; }
   // A stuck shaft advancing into linear elastic tissue pushes it: the axial force never falls.
@@ -37,6 +38,7 @@ class StickLaw final : public FrictionLaw {
   int max_sweeps_;
   std::vector<bool> sliding_;
   std::vector<double> sign_, limit_;
+  ActiveSetWorkspace work_;
 };
 
 }  // namespace

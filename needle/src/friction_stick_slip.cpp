@@ -22,11 +22,12 @@ class StickSlipLaw final : public FrictionLaw {
   void start(std::size_t n) override {
     sliding_.assign(n, false);
     sign_.assign(n, 1.0);
+    work_.reserve(n);
     limit_.assign(n, 0.0);
   }
   FrictionStep update(ShaftState& state, TissueResponse& tissue) override {
     friction_limits(state, cutting_force_, max_shear_per_length_, limit_);
-    return settle_active_set(state, tissue, limit_, sliding_, sign_, max_sweeps_);
+    return settle_active_set(state, tissue, limit_, sliding_, sign_, max_sweeps_, work_);
   }
   bool has_active_set() const override { return true; }
   bool tip_cuts() const override { return cutting_force_ > 0.0; }
@@ -44,6 +45,7 @@ class StickSlipLaw final : public FrictionLaw {
   double cutting_distance_, cutting_force_;
   std::vector<bool> sliding_;  // per shaft point: force-controlled at ±limit
   std::vector<double> sign_, limit_;
+  ActiveSetWorkspace work_;
 };
 
 }  // namespace

@@ -28,6 +28,7 @@ Insertion<dim>::Insertion(const NeedleOptions<dim>& options, std::vector<ShaftPo
   state_.stick.assign(n, 0.0);
   state_.carried.assign(n, 0.0);
   picked_.assign(n, false);
+  state_.active.reserve(n);  // steps allocate nothing (the real-time needle)
   state_.cutting = n;
 }
 

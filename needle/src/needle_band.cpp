@@ -115,6 +115,16 @@ double default_coupling_radius(double radius, double element_size, unsigned degr
   return default_needle_band(radius, element_size, element_size, degree).coupling_radius;
 }
 
+NeedleBand station_band(double radius, double coupling_radius, double element_size, double length,
+                        unsigned degree) {
+  if (!(coupling_radius > 0.0)) return default_needle_band(radius, element_size, length, degree);
+  NeedleBand band;
+  band.radius = radius;
+  band.coupling_radius = coupling_radius;
+  band.length = length;
+  return band;
+}
+
 Eigen::Matrix3d needle_frame(const Vec<3>& axis) {
   const Vec<3> z = axis.normalized();
   // The world axis least aligned with the needle, made orthogonal to it.

@@ -11,12 +11,12 @@ namespace vim::needle::test {
 class Springs final : public TissueResponse {
  public:
   Springs(std::vector<double> k, const ShaftState& state) : k_(std::move(k)), state_(state) {}
-  std::vector<double> solve(const std::vector<double>& axial) override {
+  const std::vector<double>& solve(const std::vector<double>& axial) override {
     ++solves;
     last = axial;
-    std::vector<double> f(k_.size(), 0.0);
-    for (std::size_t j : state_.active) f[j] = k_[j] * axial[j];
-    return f;
+    f_.assign(k_.size(), 0.0);
+    for (std::size_t j : state_.active) f_[j] = k_[j] * axial[j];
+    return f_;
   }
   const AxialMap& axial_map() override {
     const auto m = static_cast<Eigen::Index>(state_.active.size());
@@ -32,6 +32,7 @@ class Springs final : public TissueResponse {
   std::vector<double> k_;
   const ShaftState& state_;
   AxialMap map_;
+  std::vector<double> f_;
 };
 
 }  // namespace vim::needle::test

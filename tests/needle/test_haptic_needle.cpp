@@ -1,15 +1,24 @@
-// Tests for vim/needle/haptic_needle.hpp (a needle at haptic rate in a condensed region) against the
-// monolithic saddle-point solve [K Cᵀ; C −κ] (ElasticModel::solve_monolithic, UMFPACK) of the same band
-// constraints at every step — station forces and probe displacements — with stick and stick-slip
-// friction, P1 and P2, a pose that turns mid-way; the friction limit (sliding stations carry exactly
-// their limit); and that stepping allocates no memory after the first steps (a counting operator new).
+// Tests for vim/needle/haptic_needle.hpp (a needle at haptic rate in a condensed region):
+// - against the monolithic saddle-point solve [K Cᵀ; C −κ] (ElasticModel::solve_monolithic, UMFPACK) of
+//   the same band constraints at every step — station forces and probe displacements — with stick and
+//   stick-slip friction, P1 and P2, a pose that turns mid-way; sliding stations carry exactly their
+//   limit, max_shear_per_length × the shaft length they carry;
+// - against the CLI's stepping (pipeline's NeedleInsertion: needle::Insertion, BandCoupling with the
+//   default band, ElasticTissue's condensed rows and the registered law) on one scenario — stick-slip
+//   with a cutting force, P2, two tissues of different modulus — station by station at every step;
+// - stepping allocates no memory after the first step (a counting operator new).
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <new>
 #include <vim/fem/elasticity.hpp>
+#include <vim/needle/band_coupling.hpp>
+#include <vim/needle/elastic_tissue.hpp>
 #include <vim/needle/haptic_needle.hpp>
+#include <vim/needle/insertion.hpp>
 
 #include "../fem/box_mesh.hpp"
 
@@ -39,16 +48,21 @@ using namespace vim::needle;
 
 namespace {
 
-// 1 × 1 × 1.5 Kuhn block, graded modulus, bottom face held, a body force.
-ElasticModel<3> block(unsigned degree) {
+// 1 × 1 × 1.5 Kuhn block, bottom face held; modulus graded across (or, `layered`, two tissues: 1 below
+// z = 0.75, 3 above); a body force unless `layered`.
+ElasticModel<3> block(unsigned degree, bool layered = false) {
   const auto mesh = test::kuhn_box<3>({{4, 4, 6}}, {{0.0, 0.0, 0.0}}, {{1.0, 1.0, 1.5}});
   std::vector<double> E(mesh.n_cells());
-  for (std::size_t j = 0; j < E.size(); ++j) E[j] = 1.0 + 2.0 * mesh.points[mesh.cells[j][0]][0];
+  for (std::size_t j = 0; j < E.size(); ++j) {
+    Vec<3> c = Vec<3>::Zero();
+    for (int v = 0; v < 4; ++v) c += mesh.points[mesh.cells[j][v]];
+    E[j] = layered ? (c[2] / 4.0 > 0.75 ? 3.0 : 1.0) : 1.0 + 2.0 * mesh.points[mesh.cells[j][0]][0];
+  }
   ElasticModel<3> model(mesh, E, 0.45, degree);
   DirichletBC<3> fixed;
   fixed.region = box_face_region<3>(Vec<3>::Zero(), Vec<3>(1.0, 1.0, 1.5), 2, false, 1e-9);
   model.add_dirichlet(fixed);
-  model.set_body_force(Vec<3>(0.0, 0.0, -0.05));
+  if (!layered) model.set_body_force(Vec<3>(0.0, 0.0, -0.05));
   return model;
 }
 
@@ -63,11 +77,18 @@ void pose(int k, Vec<3>& tip, Vec<3>& dir) {
         0.07 * std::max(k - 8, 0) * dir;
 }
 
+HapticNeedle::Options options(double max_shear) {
+  HapticNeedle::Options o;
+  o.radius = 0.04, o.coupling_radius = 0.12, o.spacing = 0.15;
+  o.friction.law = std::isfinite(max_shear) ? "stick-slip" : "stick";
+  o.friction.max_shear_per_length = max_shear;
+  o.friction.max_sweeps = 20;
+  return o;
+}
+
 void haptic_vs_monolithic(unsigned degree, double max_shear, bool expect_sliding) {
   auto model = block(degree);
-  HapticNeedle::Options o;
-  o.radius = 0.04, o.coupling_radius = 0.12, o.spacing = 0.15, o.max_shear_per_length = max_shear;
-  o.max_sweeps = 20;
+  const HapticNeedle::Options o = options(max_shear);
   const std::vector<Vec<3>> probes = {Vec<3>(0.3, 0.6, 0.9), Vec<3>(0.5, 0.5, 0.2)};
   HapticNeedle needle(model, around_path(), probes, o);
   EXPECT_LT(needle.region_dofs(), model.n_dofs());
@@ -84,14 +105,14 @@ void haptic_vs_monolithic(unsigned degree, double max_shear, bool expect_sliding
     for (const auto& f : ref.point_force) fmax = std::max(fmax, f.norm());
     for (const auto& u : ref.vertex_displacement) umax = std::max(umax, u.norm());
     ASSERT_GT(fmax, 0.0);
-    for (std::size_t j = 0; j < s.stations; ++j) {
-      EXPECT_LT((s.station_force[j] - ref.point_force[j]).norm(), 1e-8 * fmax)
-          << "step " << k << " station " << j;
-      if (s.sliding[j]) {
-        slid = true;
-        EXPECT_NEAR(std::abs(s.station_force[j].dot(dir)), max_shear * o.spacing,
-                    1e-9 * max_shear * o.spacing);
-      }
+    const ShaftState& state = needle.state();
+    for (std::size_t i = 0; i < s.stations; ++i) {
+      EXPECT_LT((s.station_force[i] - ref.point_force[i]).norm(), 1e-8 * fmax)
+          << "step " << k << " station " << i;
+      const double limit = max_shear * state.carried[state.active[i]];
+      const double axial = std::abs(s.station_force[i].dot(dir));
+      EXPECT_LE(axial, limit * (1.0 + 1e-9)) << "step " << k << " station " << i;
+      slid = slid || (std::isfinite(limit) && std::abs(axial - limit) <= 1e-9 * limit);
     }
     const auto at = model.sample(probes);
     for (std::size_t p = 0; p < probes.size(); ++p)
@@ -111,24 +132,88 @@ TEST(HapticNeedle, StickMatchesMonolithicP2) {
 TEST(HapticNeedle, StickSlipMatchesMonolithicP1) { haptic_vs_monolithic(1, 0.02, true); }
 TEST(HapticNeedle, StickSlipMatchesMonolithicP2) { haptic_vs_monolithic(2, 0.02, true); }
 
-// Truth: a counting operator new. After the first steps (the result vectors sized) a step allocates
-// nothing, stations joining included, with stick-slip sweeps.
+// Truth: the CLI's stepping of the same needle (pipeline/src/simulation/needle_insertion.cpp, its
+// advance_one_step with the library's pieces): stick-slip with a cutting distance and force, P2, the
+// two-tissue block, a straight insertion of 1.05 in 15 steps. The haptic needle is given the CLI's station
+// length and element size (the default band); every station's force equals the CLI's to 1e-8 relative at
+// every step, and the run exercises the law: stations slide at their limit and the tip cuts.
+TEST(HapticNeedle, StationForcesEqualTheCliSteppingP2TwoTissues) {
+  auto model = block(2, true);
+  const Vec<3> entry(0.52, 0.47, 1.5), axis(0.0, 0.0, -1.0);
+  NeedleOptions<3> n;
+  n.path.entry = entry, n.path.axis = axis, n.path.depth = 1.05;
+  n.steps = 15;
+  n.diameter = 0.08;
+  n.friction.law = "stick-slip";
+  n.friction.max_shear_per_length = 0.01;
+  n.friction.cutting_distance = 0.03;
+  n.friction.cutting_force = 0.004;
+  n.friction.max_sweeps = 50;
+  BandCoupling::Geometry g;
+  g.entry = entry, g.axis = axis, g.depth = n.path.depth, g.radius = 0.5 * n.diameter;
+  g.element_size = path_element_size(model.locator(), entry, axis, n.path.depth);
+  g.degree = 2, g.spacing = 0.16;
+  BandCoupling band(g, model.locator(), model.youngs_modulus(), model.poisson_ratio(), {});
+  const std::size_t np = band.stations().size();
+  ASSERT_EQ(np, 7u);
+  const double pitch = band.stations().front().length;
+  Insertion<3> cli(n, band.stations());
+  ElasticTissue<3> tissue(model, band, cli.state(), np, pitch, {}, false);
+  tissue.precompute({});
+
+  HapticNeedle::Options o;
+  o.radius = g.radius, o.element_size = g.element_size, o.spacing = pitch, o.friction = n.friction;
+  o.max_stations = 12;
+  HapticNeedle haptic(model, around_path(), {}, o);
+  haptic.step(entry, axis);
+  bool have = false, slid = false, cut = false;
+  for (int k = 1; k <= n.steps; ++k) {
+    const double d = cli.depth(k), prev = cli.depth(k - 1);
+    cli.pick_up(d, d - prev, [&](std::size_t j) { return have ? tissue.held_axial(j, axis) : 0.0; });
+    const ShaftState& state = cli.state();
+    have = !state.active.empty();
+    if (have)
+      cli.solve(tissue);
+    else
+      tissue.clear();
+    const auto& s = haptic.step(entry + d * axis, axis);
+    ASSERT_EQ(s.stations, state.active.size()) << "step " << k;
+    const auto& ref = tissue.solution().point_force;
+    double fmax = 0.0;
+    for (std::size_t i = 0; i < s.stations; ++i) fmax = std::max(fmax, ref[i].norm());
+    for (std::size_t i = 0; i < s.stations; ++i) {
+      EXPECT_LT((s.station_force[i] - ref[i]).norm(), 1e-8 * fmax) << "step " << k << " station " << i;
+      const std::size_t j = state.active[i];
+      const double axial = ref[i].dot(axis);
+      if (j == state.cutting)
+        cut = cut || std::abs(axial - n.friction.cutting_force) <= 1e-9 * n.friction.cutting_force;
+      else
+        slid = slid || std::abs(std::abs(axial) - n.friction.max_shear_per_length * state.carried[j]) <=
+                           1e-9 * n.friction.max_shear_per_length * state.carried[j];
+    }
+  }
+  EXPECT_TRUE(slid);
+  EXPECT_TRUE(cut);
+}
+
+// Truth: a counting operator new. After the first step a step allocates nothing, stations joining
+// included, with stick-slip sweeps.
 TEST(HapticNeedle, SteppingAllocatesNothingAfterWarmUp) {
   auto model = block(1);
-  HapticNeedle::Options o;
-  o.radius = 0.04, o.coupling_radius = 0.12, o.spacing = 0.15, o.max_shear_per_length = 0.02;
-  HapticNeedle needle(model, around_path(), {Vec<3>(0.3, 0.6, 0.9)}, o);
+  HapticNeedle needle(model, around_path(), {Vec<3>(0.3, 0.6, 0.9)}, options(0.02));
   Vec<3> tip, dir;
   pose(0, tip, dir);
   needle.step(tip, dir);
   g_allocations = 0;
   g_counting = true;
-  int stations = 0;
+  int stations = 0, sweeps = 0;
   for (int k = 1; k <= 14; ++k) {
     pose(k, tip, dir);
-    stations = static_cast<int>(needle.step(tip, dir).stations);
+    const auto& s = needle.step(tip, dir);
+    stations = static_cast<int>(s.stations), sweeps = std::max(sweeps, s.sweeps);
   }
   g_counting = false;
   EXPECT_GT(stations, 5);
+  EXPECT_GT(sweeps, 1);
   EXPECT_EQ(g_allocations.load(), 0);
 }

@@ -110,8 +110,18 @@ V3 total_force(const vim::fem::Solution<3>& s) {
   return f;
 }
 
-// Antiplane case: force per length along the axis over its theory (1 = exact).
-double antiplane_ratio(double a, double h, unsigned degree, const Coupling& how) {
+// The share of the shaft's displacement U taken by the annulus in series: the mean over the stations of
+// κ_c F_c / U along the row c of the stations' axes that the shaft moves along.
+double compliance_share(const std::vector<PointConstraint<3>>& pts, const vim::fem::Solution<3>& s, int row) {
+  double sum = 0.0;
+  for (std::size_t j = 0; j < pts.size(); ++j)
+    sum += pts[j].compliance[row] * pts[j].axes.col(row).dot(s.point_force[j]) / kU;
+  return pts.empty() ? 0.0 : sum / static_cast<double>(pts.size());
+}
+
+// Antiplane case: force per length along the axis over its theory (1 = exact); `share`: the annulus
+// compliance's share of U (compliance_share).
+double antiplane_ratio(double a, double h, unsigned degree, const Coupling& how, double* share = nullptr) {
   const double L = kLayers * h;
   const auto xy = graded_axis(0.5 * kSide, h, std::max(2.0 * h, 2.0 * a));
   const auto mesh = vim::test::kuhn_mesh<3>({{xy, xy, vim::test::linspace(0.0, L, kLayers)}});
@@ -124,7 +134,9 @@ double antiplane_ratio(double a, double h, unsigned degree, const Coupling& how)
   DirichletBC<3> ends{Region<3>{"end faces", [&](const V3& x) { return x[2] < tol || x[2] > L - tol; }}};
   ends.components = {{true, true, false}};
   model.add_dirichlet(ends);
-  const auto s = model.solve(shaft_stations(a, h, degree, L, V3(0, 0, kU), how), direct());
+  const auto pts = shaft_stations(a, h, degree, L, V3(0, 0, kU), how);
+  const auto s = model.solve(pts, direct());
+  if (share) *share = compliance_share(pts, s, 2);
   return total_force(s)[2] / L / antiplane_theory_per_length(a);
 }
 
@@ -143,8 +155,8 @@ vim::SimplexMesh<3> disk_mesh(double h, double core, double L) {
   return mesh;
 }
 
-// Lateral case: force per length along x over its theory (1 = exact).
-double lateral_ratio(double a, double h, unsigned degree, const Coupling& how) {
+// Lateral case: force per length along x over its theory (1 = exact); `share` as for antiplane_ratio.
+double lateral_ratio(double a, double h, unsigned degree, const Coupling& how, double* share = nullptr) {
   const double L = kLayers * h;
   const auto mesh = disk_mesh(h, std::max(2.0 * h, 2.0 * a), L);
   ElasticModel<3> model(mesh, std::vector<double>(mesh.n_cells(), kE), kNu, degree);
@@ -154,7 +166,9 @@ double lateral_ratio(double a, double h, unsigned degree, const Coupling& how) {
   DirichletBC<3> ends{Region<3>{"end faces", [&](const V3& x) { return x[2] < tol || x[2] > L - tol; }}};
   ends.components = {{false, false, true}};
   model.add_dirichlet(ends);
-  const auto s = model.solve(shaft_stations(a, h, degree, L, V3(kU, 0, 0), how), direct());
+  const auto pts = shaft_stations(a, h, degree, L, V3(kU, 0, 0), how);
+  const auto s = model.solve(pts, direct());
+  if (share) *share = compliance_share(pts, s, 0);
   return total_force(s)[0] / L / lateral_theory_per_length(a);
 }
 
@@ -238,4 +252,52 @@ TEST(NeedleCoupling, DISABLED_StationLengthStudy) {
       }
       std::printf("\n");
     }
+}
+
+// Coarse meshes (h ≫ a): the default band is then a solid cylinder of radius c·h (R_e = 0.78 c·h ≫ a), and
+// the annulus compliance in series carries most of the shaft's displacement U (its share κ F / U > 0.6;
+// at the finest meshes above R_e = a and κ = 0). The force then checks κ_z and κ_x themselves: within 3%
+// of theory, where κ scaled by 1.1 moves it by 1/(1 + 0.1·share), 6–9%
+// (tests/sabotage/axial-compliance-scaled.patch, tests/sabotage/lateral-compliance-scaled.patch).
+struct CoarseCase {
+  unsigned degree;
+  double a, h;
+};
+
+void check_coarse(bool lateral, const std::vector<CoarseCase>& cases) {
+  for (const CoarseCase& c : cases) {
+    double share = 0.0;
+    const double r = lateral ? lateral_ratio(c.a, c.h, c.degree, {}, &share)
+                             : antiplane_ratio(c.a, c.h, c.degree, {}, &share);
+    std::printf("%s P%u a %.2f h %.2f: force / theory %.4f, compliance share %.3f\n",
+                lateral ? "lateral" : "antiplane", c.degree, c.a, c.h, r, share);
+    EXPECT_GT(share, 0.55) << "P" << c.degree << " a " << c.a;
+    EXPECT_NEAR(r, 1.0, 0.03) << "P" << c.degree << " a " << c.a;
+  }
+}
+
+TEST(NeedleCoupling, AxialComplianceOnACoarseMeshMatchesTheory) {
+  check_coarse(false, {{2, 0.1, 3.0}, {2, 0.25, 3.0}, {1, 0.25, 2.0}});
+}
+
+// P1 at h = 1 mm: on coarser P1 meshes R = 3h reaches the held cylinder (b = 10 mm).
+TEST(NeedleCoupling, LateralComplianceOnACoarseMeshMatchesTheory) {
+  check_coarse(true, {{2, 0.1, 3.0}, {2, 0.25, 3.0}, {1, 0.25, 1.0}});
+}
+
+// Coarse meshes (h ≫ a) and the share of the annulus compliance in the answer, not run by CTest:
+//   build/tests/test_needle_coupling --gtest_also_run_disabled_tests --gtest_filter='*CoarseStudy*'
+TEST(NeedleCoupling, DISABLED_CoarseStudy) {
+  std::printf("case degree a h | force / theory, compliance share\n");
+  for (bool lateral : {false, true})
+    for (unsigned degree : {2u, 1u})
+      for (double a : {0.1, 0.25, 0.5})
+        for (double h : {1.0, 2.0, 3.0}) {
+          double share = 0.0;
+          const double r =
+              lateral ? lateral_ratio(a, h, degree, {}, &share) : antiplane_ratio(a, h, degree, {}, &share);
+          std::printf("%s P%u %.2f %.2f | %.4f %.3f\n", lateral ? "lateral" : "antiplane", degree, a, h, r,
+                      share);
+          std::fflush(stdout);
+        }
 }

@@ -2,7 +2,10 @@
 // the needle and which slide at their friction limit.
 #pragma once
 
+#include <Eigen/Core>
+#include <cstddef>
 #include <vector>
+#include <vim/needle/axial_map.hpp>
 #include <vim/needle/shaft_state.hpp>
 #include <vim/needle/tissue_response.hpp>
 
@@ -14,6 +17,15 @@ struct FrictionStep {
   bool settled = true;
 };
 
+// The work vectors of settle_active_set, kept by the law between steps: once reserved for the shaft's
+// points (FrictionLaw::start), a step allocates nothing (the real-time needle's frames).
+struct ActiveSetWorkspace {
+  Eigen::VectorXd w, stick, limit, sign, target, force;  // per active point (compact order)
+  std::vector<bool> sliding;                             // per active point
+  AxialMap::Work map;
+  void reserve(std::size_t n_points);
+};
+
 // Every active point sticks (moves with the needle: state.stick) unless its axial load exceeds
 // limit[j] (per point; +∞: always sticks); then it slides, its value solved on the tissue's axial map
 // so that its load equals ±limit. A sliding point whose limit would need it to move ahead of the
@@ -21,6 +33,7 @@ struct FrictionStep {
 // max_sweeps sweeps (≥ 1). One solve when every point can stick; the map (m + 1 solves when m
 // changes) otherwise. Leaves the tissue solved with the final values.
 FrictionStep settle_active_set(ShaftState& state, TissueResponse& tissue, const std::vector<double>& limit,
-                               std::vector<bool>& sliding, std::vector<double>& sign, int max_sweeps);
+                               std::vector<bool>& sliding, std::vector<double>& sign, int max_sweeps,
+                               ActiveSetWorkspace& work);
 
 }  // namespace vim::needle

@@ -27,7 +27,7 @@ class ElasticTissue final : public TissueResponse {
   // batch, so that no step does a sparse solve (nothing with the monolithic reference).
   void precompute(const std::vector<Vec<dim>>& probes);
 
-  std::vector<double> solve(const std::vector<double>& axial) override;
+  const std::vector<double>& solve(const std::vector<double>& axial) override;
   const AxialMap& axial_map() override;
 
   // The whole field of the last solve into solution() (once per solve; the monolithic solve has it).
@@ -53,6 +53,7 @@ class ElasticTissue final : public TissueResponse {
   bool monolithic_;
   std::unique_ptr<fem::CondensedConstraints<dim>> condensed_;
   std::vector<Vec<dim>> held_;  // the active rows' displacements of a solve
+  std::vector<double> forces_;  // the axial forces of the last solve
   fem::Solution<dim> solution_;
   bool field_ = false;  // solution_ holds the whole field of the last solve
   AxialMap map_;

@@ -3,67 +3,72 @@
 // (DiMaio & Salcudean's condensation: W = the block of K⁻¹ on the region's DoFs, and u0 = K⁻¹f there,
 // from one factorisation and blocks of right-hand sides), then each step() takes the needle's pose —
 // its tip and direction — and returns the forces and the displacements of chosen probe points, with
-// dense work on the region's W alone, no allocation after the first steps (the stations' capacity is
-// reserved), and a bounded number of stick-slip sweeps.
+// dense work on the region's W alone and no allocation after the first steps (every capacity is
+// reserved for max_stations).
 //
-// The needle model is the finite-diameter band coupling of docs/needle-model.md: a station joins the
-// shaft each time the tip has travelled `spacing` along the track, centred on the track segment it
-// passed; it holds the mean displacement of its band (rings of the coupling radius R around the axis
-// at the time it joined) through the analytic annulus compliance in series (needle_band_constraint,
-// the station's modulus the mean over the cells its samples fall in). Each step its tissue is held on
-// the current needle axis across it (the lateral rows) and, axially, moves with the needle (stick: the
-// needle's axial travel since the station joined, minus its slip) unless its axial load exceeds
-// max_shear_per_length × spacing: it then slides at that limit (its slip accumulating); a sliding
-// station whose limit would need it ahead of the needle sticks again. deal.II-free.
+// The needle model is the CLI's (docs/needle-model.md): the stepping is needle::Insertion (which
+// stations are on the needle, the values that move them with it, the shaft length each carries), the
+// active set is the registered friction law's (make_friction_law, the same FrictionOptions as a
+// scenario's needle), and each station is a band of BandCoupling's kind (station_band: the given
+// coupling radius or the default band rule from the element size and the model's degree; the analytic
+// annulus compliance in series, the station's modulus the mean over the cells its samples fall in).
+// Only the tissue is the haptic one: a TissueResponse on the condensed region whose rows follow the
+// pose. Station j stands for arc length [j·ℓ, (j + 1)·ℓ] of the needle's axial travel; its band is
+// placed on the current pose's axis the first time the stepping reads its tissue, and from then on its
+// tissue is held on the current needle axis across it (the lateral rows) and axially at the value the
+// law gives it. deal.II-free.
 #pragma once
 
 #include <Eigen/Core>
 #include <cstddef>
-#include <limits>
 #include <memory>
 #include <vector>
 #include <vim/fem/conditions.hpp>
 #include <vim/fem/model.hpp>
 #include <vim/needle/fem_types.hpp>
+#include <vim/needle/friction_law.hpp>
+#include <vim/needle/shaft_state.hpp>
 
 namespace vim::needle {
 
 class HapticNeedle {
  public:
   struct Options {
-    double radius = 0.5;           // a: the needle's radius
-    double coupling_radius = 1.0;  // R ≥ a: outer radius of the bands
-    double spacing = 1.0;          // station spacing along the track (the band length)
-    double max_shear_per_length = std::numeric_limits<double>::infinity();  // stick-slip limit; ∞ = stick
-    int max_sweeps = 8;             // stick-slip active-set sweeps per step (≥ 1)
+    double radius = 0.5;            // a: the needle's radius
+    double coupling_radius = 0.0;   // R ≥ a of the bands; 0: the default band (station_band)
+    double element_size = 0.0;      // h near the path, for the default band (needed when R is 0)
+    double spacing = 1.0;           // station length ℓ along the needle's travel
+    FrictionOptions friction;       // the law and its parameters, as a scenario's needle gives them
     std::size_t max_stations = 64;  // capacity: stations beyond it do not join
   };
   struct Step {
-    std::size_t stations = 0;           // stations on the shaft
-    std::vector<Vec<3>> station_force;  // per station: the force on the tissue (model axes)
+    std::size_t stations = 0;           // stations on the shaft (the stepping's active points)
+    std::vector<Vec<3>> station_force;  // per active station, in shaft order: the force on the tissue
     Vec<3> force = Vec<3>::Zero();      // the force of the tissue on the needle, −Σ station_force
     std::vector<Vec<3>> probe_displacement;
-    int sweeps = 0;             // active-set sweeps of this step
-    bool settled = true;        // false: the set still changed after max_sweeps
-    std::vector<bool> sliding;  // per station
+    int sweeps = 0;       // the law's active-set sweeps of this step
+    bool settled = true;  // false: the set still changed after max_sweeps
   };
 
   // Condenses the model onto the DoFs of its cells whose centroid lies in `region`, and of the cells
   // holding the probes; the needle's bands must stay in those cells. Simplex models only. Throws
-  // std::invalid_argument for a voxel model, bad options or a probe outside the mesh.
+  // std::invalid_argument for a voxel model, bad options, an unknown law or a probe outside the mesh.
   HapticNeedle(fem::ElasticModel<3>& model, const fem::Region<3>& region, const std::vector<Vec<3>>& probes,
                const Options& options, const fem::SolverOptions& solver = {});
   ~HapticNeedle();
   HapticNeedle(HapticNeedle&&) noexcept;
 
   // One step with the tip at `tip` and the shaft along the unit `direction` (towards the tip). The
-  // first call marks the entry (no station yet). Throws std::invalid_argument when a band leaves the
-  // region. The result stays valid until the next call.
+  // first call marks the entry (travel 0). The needle's travel advances by the tip's motion along
+  // `direction`. Throws std::invalid_argument when a band leaves the region. The result stays valid
+  // until the next call.
   const Step& step(const Vec<3>& tip, const Vec<3>& direction);
 
   std::size_t region_dofs() const;
-  // The last step's constraints (one per station: band samples, axes, compliances and the values held:
-  // lateral across the axis, axial the needle-side value), for fem::ElasticModel::solve_monolithic.
+  // The stepping's state after the last step (active stations, their axial values and carried lengths).
+  const ShaftState& state() const;
+  // The last step's constraints (one per active station: band samples, axes, compliances and the values
+  // held: lateral across the axis, axial the law's value), for fem::ElasticModel::solve_monolithic.
   std::vector<PointConstraint<3>> constraints() const;
 
  private:

@@ -52,6 +52,11 @@ double path_element_size(const CellLocator<3>& locator, const Vec<3>& entry, con
 NeedleBand default_needle_band(double radius, double element_size, double length, unsigned degree);
 double default_coupling_radius(double radius, double element_size, unsigned degree);
 
+// The band of every station of a needle (BandCoupling and HapticNeedle): with coupling_radius > 0 one ring
+// of that radius (the scenario's needle.coupling_radius), else default_needle_band. Throws as they do.
+NeedleBand station_band(double radius, double coupling_radius, double element_size, double length,
+                        unsigned degree);
+
 // Compliances (displacement per unit force) of the annulus a ≤ r ≤ R over a band of length ℓ.
 double axial_band_compliance(double radius, double coupling_radius, double length, double youngs_modulus,
                              double poisson_ratio);

@@ -6,9 +6,9 @@
 //
 // Implementations: the linear elastic model condensed onto the needle's rows
 // (fem::CondensedConstraints, one dense Schur solve per call; pipeline's NeedleInsertion), or its
-// monolithic reference. A nonlinear tissue implements solve() with its own iteration and axial_map()
-// with the tangent at the current state; a flexible needle adds its own compliance to the rows behind
-// this interface. Neither touches the stepping nor the laws.
+// monolithic reference; the real-time needle's condensed region (HapticNeedle). A nonlinear tissue implements
+// solve() with its own iteration and axial_map() with the tangent at the current state; a flexible needle
+// adds its own compliance to the rows behind this interface. Neither touches the stepping nor the laws.
 #pragma once
 
 #include <vector>
@@ -20,9 +20,9 @@ class TissueResponse {
  public:
   virtual ~TissueResponse() = default;
   // One tissue solve with the active points at `axial` (one entry per shaft point; only the active
-  // points' entries are read); the axial force on the body per shaft point (0 for points not active).
-  // The last call of a step is the step's solution.
-  virtual std::vector<double> solve(const std::vector<double>& axial) = 0;
+  // points' entries are read); the axial force on the body per shaft point (0 for points not active),
+  // valid until the next call. The last call of a step is the step's solution.
+  virtual const std::vector<double>& solve(const std::vector<double>& axial) = 0;
   // The affine map from the active points' axial values to their axial forces (axial_map.hpp), probed
   // with m + 1 solves when the active points (m of them) have changed since the last probe.
   virtual const AxialMap& axial_map() = 0;
