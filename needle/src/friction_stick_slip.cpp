@@ -15,7 +15,8 @@ namespace {
 class StickSlipLaw final : public FrictionLaw {
  public:
   explicit StickSlipLaw(const FrictionOptions& spec)
-      : max_shear_per_length_(spec.max_shear_per_length),
+      : spec_(spec),
+        max_shear_per_length_(spec.max_shear_per_length),
         max_sweeps_(std::max(1, spec.max_sweeps)),
         cutting_distance_(spec.cutting_distance),
         cutting_force_(spec.cutting_force) {}
@@ -26,11 +27,12 @@ class StickSlipLaw final : public FrictionLaw {
   }
   FrictionStep update(ShaftState& state, TissueResponse& tissue) override {
     for (std::size_t j : state.active)
-      limit_[j] = j == state.cutting ? cutting_force_ : max_shear_per_length_ * state.carried[j];
+      limit_[j] = j == state.cutting ? spec_.cutting_force_at(j)
+                                     : spec_.max_shear_per_length_at(j) * state.carried[j];
     return settle_active_set(state, tissue, limit_, sliding_, sign_, max_sweeps_);
   }
   bool has_active_set() const override { return true; }
-  bool tip_cuts() const override { return cutting_force_ > 0.0; }
+  bool tip_cuts() const override { return spec_.cuts(); }
   LawDescription describe() const override {
     return {"kinematic",
             "stick-slip",
@@ -40,6 +42,7 @@ class StickSlipLaw final : public FrictionLaw {
   }
 
  private:
+  FrictionOptions spec_;  // the per-point values
   double max_shear_per_length_;
   int max_sweeps_;
   double cutting_distance_, cutting_force_;

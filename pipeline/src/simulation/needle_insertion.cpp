@@ -33,6 +33,17 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
     run_.point_s.push_back(p.s);
     run_.point_length.push_back(p.length);
   }
+  if (!spec.tissues.empty()) {  // each shaft point's tissue, then its friction limit and cutting force
+    std::vector<Vec> positions;
+    for (const auto &p : shaft) positions.push_back(p.position);
+    run_.point_tissue = point_tissues<dim>(
+        spec, positions, [this](const RegionSpec &r) { return ctx_.region(r); },
+        [this](const Vec &x) {
+          const long cell = ctx_.locator().locate(x);
+          return cell >= 0 ? ctx_.E[static_cast<std::size_t>(cell)] : -1.0;
+        });
+    set_point_values(spec, run_.point_tissue, needle_.friction);
+  }
   const std::size_t np = shaft.size();
   stepping_.emplace(needle_, std::move(shaft));
   tissue_ = std::make_unique<needle::ElasticTissue<dim>>(*ctx_.model, *coupling_, stepping_->state(), np,

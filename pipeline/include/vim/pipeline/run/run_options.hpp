@@ -55,9 +55,10 @@ struct RunOptions {
   double max_memory = 0.0;  // --max-memory in bytes (0 = the memory available to the process)
 
   // Simulation and outputs
-  int degree = 1;        // --degree: FEM polynomial degree (1 = P1, the paper's model; 2 = P2)
-  std::string simulate;  // --simulate SCENARIO.yaml ("" = mesh only)
-  std::string study;     // --study STUDY.yaml: many scenarios (study.hpp) instead of --simulate
+  int degree = 1;          // --degree: FEM polynomial degree (1 = P1, the paper's model; 2 = P2)
+  std::string simulate;    // --simulate SCENARIO.yaml ("" = mesh only)
+  std::string study;       // --study STUDY.yaml: many scenarios (study.hpp) instead of --simulate
+  std::string fit_forces;  // --fit-forces MEASURED.csv: fit the needle to it first (fit/fit_run.hpp)
   std::vector<std::string> exports = export_formats();  // --export: every format (mesh.vtu is always written)
   bool overwrite = false;
   Verbosity verbosity = Verbosity::normal;
