@@ -5,6 +5,7 @@
 #include <limits>
 #include <numeric>
 #include <sstream>
+#include <vim/pipeline/scenario/scenario_regions.hpp>
 
 #include "simulation/largest_strain.hpp"
 #include "simulation/needle_options.hpp"
@@ -37,7 +38,8 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
     std::vector<Vec> positions;
     for (const auto &p : shaft) positions.push_back(p.position);
     run_.point_tissue = point_tissues<dim>(
-        spec, positions, [this](const RegionSpec &r) { return ctx_.region(r); },
+        spec, positions,
+        [this](const RegionSpec &r) { return scenario_region<dim>(r, ctx_.box_min, ctx_.box_max, ctx_.tf); },
         [this](const Vec &x) {
           const long cell = ctx_.locator().locate(x);
           return cell >= 0 ? ctx_.E[static_cast<std::size_t>(cell)] : -1.0;
