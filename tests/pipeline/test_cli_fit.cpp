@@ -59,7 +59,7 @@ TEST(CliFit, FitForcesWritesTheFitFilesAndFittedYamlReproducesTheFittedCurve) {
   vim::test::TempDir dir("clifit");
   OrientedImage<3> im;
   im.image = Image<3>({{10, 10, 16}}, {{1, 1, 1}}, {{-4.5, -4.5, -7.5}}, 15.0f);
-  write_image<3>(im, (dir / "block.mha").string());
+  write_image<3>(im, dir / "block.mha");
   const std::string common = quote(dir / "block.mha") + " --mesher grid --nodes 300 --export none -q ";
   std::ofstream(dir / "hidden.yaml") << scenario(1.2, 0.3);
   const auto truth =
@@ -90,7 +90,7 @@ TEST(CliFit, FitForcesWritesTheFitFilesAndFittedYamlReproducesTheFittedCurve) {
   const Canvas png = Canvas::read_png(dir.path / "fit" / "figures" / "force_fit.png");
   EXPECT_GE(png.width(), 100);
   // --simulate runs fitted.yaml as it is, and its curve is the fitted one.
-  const auto again = run_pipeline(common + "--simulate " + quote(dir / "fit" / "fitted.yaml") + " --out " +
+  const auto again = run_pipeline(common + "--simulate " + quote((dir.path / "fit" / "fitted.yaml").string()) + " --out " +
                                   quote(dir / "again"));
   ASSERT_EQ(again.code, 0) << again.err;
   const auto refit = force_curve(dir.path / "again" / "needle.csv");

@@ -37,8 +37,12 @@ void fit_image(const RunOptions& o, ImageFile file) {
   const MeasuredCurve measured = read_measured_forces(o.fit_forces);
   OutputDirectory out(o.out, o.overwrite);  // refuses a non-empty DIR before any work
   RunOptions mesh_options = o;
-  mesh_options.out.clear();
-  PipelineRun<dim> mesh(mesh_options, std::move(file));
+  mesh_options.out.clear();  // the meshing run writes nothing
+  RunInputs<dim> mesh_inputs;
+  mesh_inputs.image = file.read<dim>();
+  if (!o.sizing.empty()) mesh_inputs.sizing = read_image<dim>(o.sizing);
+  mesh_inputs.scenario = read_scenario(o.simulate, dim);
+  PipelineRun<dim> mesh(mesh_options, std::move(mesh_inputs));
   mesh.read_inputs();
   mesh.make_mesh();
   const Scenario& scenario = *mesh.scenario();
