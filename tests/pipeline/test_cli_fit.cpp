@@ -90,8 +90,9 @@ TEST(CliFit, FitForcesWritesTheFitFilesAndFittedYamlReproducesTheFittedCurve) {
   const Canvas png = Canvas::read_png(dir.path / "fit" / "figures" / "force_fit.png");
   EXPECT_GE(png.width(), 100);
   // --simulate runs fitted.yaml as it is, and its curve is the fitted one.
-  const auto again = run_pipeline(common + "--simulate " + quote((dir.path / "fit" / "fitted.yaml").string()) + " --out " +
-                                  quote(dir / "again"));
+  const auto again =
+      run_pipeline(common + "--simulate " + quote((dir.path / "fit" / "fitted.yaml").string()) + " --out " +
+                   quote(dir / "again"));
   ASSERT_EQ(again.code, 0) << again.err;
   const auto refit = force_curve(dir.path / "again" / "needle.csv");
   const auto fitted = j["curve"]["fitted"].get<std::vector<double>>();
