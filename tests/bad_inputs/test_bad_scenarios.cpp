@@ -294,6 +294,6 @@ TEST_F(BadScenario, MeasuredForcesWithANonNumericCell) {
 TEST_F(BadScenario, FitWithNothingToFit) {
   std::ofstream(dir_ / "m.csv") << "depth,force\n1,2\n2,3\n3,4\n4,5\n";
   expect_error(with("  friction: {model: stick}\n", std::string(kStickSlip) + "  fit: false\n"),
-               {"s.yaml:5:", "nothing to fit", "fit: true"}, "",
+               {"s.yaml:6:", "nothing to fit", "fit: true"}, "",
                " --fit-forces " + (dir_ / "m.csv").string());
 }
