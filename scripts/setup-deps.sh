@@ -14,6 +14,7 @@ PACKAGES=(
   zlib1g-dev
   libyaml-cpp-dev
   libcli11-dev
+  libceres-dev   # the least-squares fit of --fit-forces
   nlohmann-json3-dev
   libtbb-dev
   libgtest-dev libgmock-dev

@@ -15,10 +15,11 @@ std::unique_ptr<FrictionLaw> make_stick_slip_law(const FrictionOptions& options)
 // Force needle: prescribed friction per shaft length and tip force (friction_force.cpp).
 std::unique_ptr<FrictionLaw> make_force_law(const FrictionOptions& options);
 
-// The kinematic laws' limit per active point: the cutting force for the tissue the tip pushes
-// (state.cutting), else shear_per_length × the shaft length the point carries (+∞: the point sticks).
-// (friction_limits.cpp)
-void friction_limits(const ShaftState& state, double cutting_force, double shear_per_length,
+// The kinematic laws' limit per active point (friction_limits.cpp): the cutting force of the tissue
+// at the point the tip pushes (state.cutting), else +∞ for the stick law (`stick`) or the point's
+// limit per length × the shaft length it carries. Per-point values (the tissue at each point) come
+// from FrictionOptions::cutting_force_at / max_shear_per_length_at.
+void friction_limits(const ShaftState& state, const FrictionOptions& options, bool stick,
                      std::vector<double>& limit);
 
 }  // namespace vim::needle

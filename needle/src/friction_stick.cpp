@@ -12,8 +12,11 @@ namespace {
 
 class StickLaw final : public FrictionLaw {
  public:
-  StickLaw(double cutting_distance, double cutting_force, int max_sweeps)
-      : cutting_distance_(cutting_distance), cutting_force_(cutting_force), max_sweeps_(max_sweeps) {}
+  explicit StickLaw(const FrictionOptions& spec)
+      : spec_(spec),
+        cutting_distance_(spec.cutting_distance),
+        cutting_force_(spec.cutting_force),
+        max_sweeps_(spec.max_sweeps) {}
   void start(std::size_t n) override {
     sliding_.assign(n, false);
     sign_.assign(n, 1.0);
@@ -21,19 +24,20 @@ class StickLaw final : public FrictionLaw {
     limit_.assign(n, std::numeric_limits<double>::infinity());
   }
   FrictionStep update(ShaftState& state, TissueResponse& tissue) override {
-    friction_limits(state, cutting_force_, std::numeric_limits<double>::infinity(), limit_);
+    friction_limits(state, spec_, true, limit_);
     return settle_active_set(state, tissue, limit_, sliding_, sign_, max_sweeps_, work_);
   }
-  bool has_active_set() const override { return cutting_force_ > 0.0; }
+  bool has_active_set() const override { return spec_.cuts(); }
   // A stuck shaft advancing into linear elastic tissue pushes it: the axial force never falls.
   bool axial_force_never_falls() const override { return true; }
-  bool tip_cuts() const override { return cutting_force_ > 0.0; }
+  bool tip_cuts() const override { return spec_.cuts(); }
   LawDescription describe() const override {
     return {
         "kinematic", "stick", {{"cutting_distance", cutting_distance_}, {"cutting_force", cutting_force_}}};
   }
 
  private:
+  FrictionOptions spec_;  // the per-point values
   double cutting_distance_, cutting_force_;
   int max_sweeps_;
   std::vector<bool> sliding_;
@@ -44,7 +48,7 @@ class StickLaw final : public FrictionLaw {
 }  // namespace
 
 std::unique_ptr<FrictionLaw> make_stick_law(const FrictionOptions& spec) {
-  return std::make_unique<StickLaw>(spec.cutting_distance, spec.cutting_force, spec.max_sweeps);
+  return std::make_unique<StickLaw>(spec);
 }
 
 }  // namespace vim::needle

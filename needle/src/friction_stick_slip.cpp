@@ -15,7 +15,8 @@ namespace {
 class StickSlipLaw final : public FrictionLaw {
  public:
   explicit StickSlipLaw(const FrictionOptions& spec)
-      : max_shear_per_length_(spec.max_shear_per_length),
+      : spec_(spec),
+        max_shear_per_length_(spec.max_shear_per_length),
         max_sweeps_(std::max(1, spec.max_sweeps)),
         cutting_distance_(spec.cutting_distance),
         cutting_force_(spec.cutting_force) {}
@@ -26,11 +27,11 @@ class StickSlipLaw final : public FrictionLaw {
     limit_.assign(n, 0.0);
   }
   FrictionStep update(ShaftState& state, TissueResponse& tissue) override {
-    friction_limits(state, cutting_force_, max_shear_per_length_, limit_);
+    friction_limits(state, spec_, false, limit_);
     return settle_active_set(state, tissue, limit_, sliding_, sign_, max_sweeps_, work_);
   }
   bool has_active_set() const override { return true; }
-  bool tip_cuts() const override { return cutting_force_ > 0.0; }
+  bool tip_cuts() const override { return spec_.cuts(); }
   LawDescription describe() const override {
     return {"kinematic",
             "stick-slip",
@@ -40,6 +41,7 @@ class StickSlipLaw final : public FrictionLaw {
   }
 
  private:
+  FrictionOptions spec_;  // the per-point values
   double max_shear_per_length_;
   int max_sweeps_;
   double cutting_distance_, cutting_force_;

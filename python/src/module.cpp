@@ -220,6 +220,12 @@ PYBIND11_MODULE(_core, m) {
     py::gil_scoped_release release;
     return mesh(im, s, report);
   });
+  m.def("fit_forces", [](const std::string& image, const py::dict& settings, const std::string& scenario,
+                         const std::string& measured, const std::string& out, bool overwrite) {
+    const MeshSettings s = settings_from(settings);
+    py::gil_scoped_release release;
+    return fit_forces(image, s, scenario, measured, out, overwrite);
+  });
   m.def("simulate",
         [](const py::object& image, const MeshData* premeshed, const py::dict& settings,
            const std::string& scenario_path, const std::string& scenario_text,

@@ -8,12 +8,14 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iomanip>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <stdexcept>
 #include <vim/invariants.hpp>
 #include <vim/pipeline/common/progress.hpp>
+#include <vim/pipeline/fit/fit_run.hpp>
 #include <vim/pipeline/image/image_arrays.hpp>
 #include <vim/pipeline/image/image_io.hpp>
 #include <vim/pipeline/output/vtk_output.hpp>
@@ -313,6 +315,24 @@ SimulationData simulate(const ImageData* image, const MeshData* premeshed, const
                       : simulate_mesh<3>(*premeshed->state->three, settings, scenario, staging_dir, progress);
     return dim == 2 ? simulate_image<2>(*image, settings, scenario, staging_dir, progress)
                     : simulate_image<3>(*image, settings, scenario, staging_dir, progress);
+  });
+}
+
+std::string fit_forces(const std::string& image, const MeshSettings& settings, const std::string& scenario,
+                       const std::string& measured, const std::string& out, bool overwrite) {
+  vp::Log::set_verbosity(vp::Verbosity::quiet);
+  return guarded([&] {
+    check_settings(settings);
+    vp::RunOptions o = run_options(settings, image, out);
+    o.simulate = scenario;
+    o.fit_forces = measured;
+    o.overwrite = overwrite;
+    o.command_line.insert(o.command_line.end(), {"--simulate", scenario, "--fit-forces", measured});
+    vp::run_force_fit(o);
+    std::ifstream in(fs::path(out) / "fit.json");
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
   });
 }
 

@@ -119,6 +119,10 @@ void write_vtu(const MeshData& mesh, const std::string& path);
 SimulationData simulate(const ImageData* image, const MeshData* premeshed, const MeshSettings& settings,
                         const ScenarioSource& scenario, const std::string& staging_dir,
                         const ProgressFunction& progress);
+// `vim-pipeline IMAGE --simulate SCENARIO --fit-forces MEASURED --out OUT` with the mesh settings
+// (fit/fit_run.hpp); returns the text of OUT/fit.json.
+std::string fit_forces(const std::string& image, const MeshSettings& settings, const std::string& scenario,
+                       const std::string& measured, const std::string& out, bool overwrite);
 // The project version (CMake project version).
 std::string version();
 

@@ -231,3 +231,16 @@ def simulate(image_or_mesh, scenario, progress=None, spacing=None, origin=None, 
         img = _image(image_or_mesh, spacing, origin, direction)
         data = _core.simulate(img._as_dict(), None, settings, path, text, name, staging.name, progress)
     return Result(data, staging)
+
+
+def fit_forces(image, scenario, measured, out, overwrite=False, **mesh_options):
+    """Fits the scenario's needle (its cutting forces and friction limits, and those of its
+    needle.tissues entries) to a measured insertion, as ``vim-pipeline IMAGE --simulate SCENARIO
+    --fit-forces MEASURED --out OUT`` does: ``image``, ``scenario`` and ``measured`` (a CSV with
+    columns depth, force) are paths; OUT receives fit.json, fitted.yaml, figures/force_fit.png and the
+    fitted scenario's run. Returns fit.json as a dict. Bad input raises ValueError."""
+    if "grid_spacing" in mesh_options:
+        mesh_options["spacing"] = mesh_options.pop("grid_spacing")
+    text = _core.fit_forces(os.fspath(image), _settings(**mesh_options), os.fspath(scenario),
+                            os.fspath(measured), os.fspath(out), overwrite)
+    return json.loads(text)

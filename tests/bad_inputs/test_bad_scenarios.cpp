@@ -62,12 +62,13 @@ class BadScenario : public ::testing::Test {
     write_image<3>(img, path);
   }
 
-  CliRun run(const std::string& yaml, const std::string& image = "") {
+  // extra: more command-line arguments (e.g. --fit-forces FILE).
+  CliRun run(const std::string& yaml, const std::string& image = "", const std::string& extra = "") {
     const fs::path scen = dir_ / "s.yaml", out = dir_ / "out", err = dir_ / "err.txt";
     fs::remove_all(out);
     std::ofstream(scen) << yaml;
     const std::string cmd = std::string(VIM_PIPELINE_EXE) + " " + (image.empty() ? image_ : image) +
-                            " --simulate " + scen.string() +
+                            " --simulate " + scen.string() + extra +
                             " --mesher grid --nodes 300 --export none -q --out " + out.string() + " 2> " +
                             err.string() + " > /dev/null";
     CliRun r;
@@ -86,8 +87,8 @@ class BadScenario : public ::testing::Test {
   }
 
   void expect_error(const std::string& yaml, const std::vector<std::string>& parts,
-                    const std::string& image = "") {
-    const CliRun r = run(yaml, image);
+                    const std::string& image = "", const std::string& extra = "") {
+    const CliRun r = run(yaml, image, extra);
     EXPECT_EQ(r.code, 1) << r.err;
     EXPECT_EQ(r.err.rfind("vim-pipeline: error: ", 0), 0u) << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line only: " << r.err;
@@ -263,4 +264,49 @@ TEST_F(BadScenario, VoxelModelWarnsThatDegreeTwoDoesNotApply) {
   std::stringstream es;
   es << e.rdbuf();
   EXPECT_NE(es.str().find("--degree 2 applies to the simplex meshes"), std::string::npos) << es.str();
+}
+
+// needle.tissues and --fit-forces.
+namespace {
+const char* kStickSlip = "  friction: {model: stick-slip, max_shear_per_length: 0.5}\n  cutting_force: 1\n";
+}  // namespace
+
+TEST_F(BadScenario, TissueEntryWithoutARegion) {
+  expect_error(
+      with("  friction: {model: stick}\n", std::string(kStickSlip) + "  tissues: [{cutting_force: 2}]\n"),
+      {"s.yaml:13:", "missing key 'needle.tissues[0].region'", "modulus"});
+}
+TEST_F(BadScenario, TissueEntryWithANegativeValue) {
+  expect_error(with("  friction: {model: stick}\n",
+                    std::string(kStickSlip) + "  tissues:\n    - {region: {sphere: {center: [0, 0, 1], "
+                                              "radius: 2}}, max_shear_per_length: -1}\n"),
+               {"s.yaml:14:", "needle.tissues[0].max_shear_per_length must be >= 0, got -1"});
+}
+TEST_F(BadScenario, TissueEntryWithAnUnknownKey) {
+  expect_error(with("  friction: {model: stick}\n",
+                    std::string(kStickSlip) +
+                        "  tissues:\n    - {region: {modulus: {min: 1, max: 5}}, friction: 2}\n"),
+               {"s.yaml:14:", "unknown key 'needle.tissues[0].friction'", "max_shear_per_length"});
+}
+TEST_F(BadScenario, MeasuredForcesWithoutTheForceColumn) {
+  std::ofstream(dir_ / "m.csv") << "depth,load\n1,2\n2,3\n";
+  expect_error(with("  friction: {model: stick}\n", kStickSlip), {"m.csv:1:", "'depth' and 'force'"}, "",
+               " --fit-forces " + (dir_ / "m.csv").string());
+}
+TEST_F(BadScenario, MeasuredForcesWithDepthThatDoesNotIncrease) {
+  std::ofstream(dir_ / "m.csv") << "depth,force\n1,2\n3,3\n2,4\n";
+  expect_error(with("  friction: {model: stick}\n", kStickSlip), {"m.csv:4:", "column 'depth' must increase"},
+               "", " --fit-forces " + (dir_ / "m.csv").string());
+}
+TEST_F(BadScenario, MeasuredForcesWithANonNumericCell) {
+  std::ofstream(dir_ / "m.csv") << "depth,force\n1,2\n2,n/a\n";
+  expect_error(with("  friction: {model: stick}\n", kStickSlip),
+               {"m.csv:3:", "column 'force' must be a number", "n/a"}, "",
+               " --fit-forces " + (dir_ / "m.csv").string());
+}
+TEST_F(BadScenario, FitWithNothingToFit) {
+  std::ofstream(dir_ / "m.csv") << "depth,force\n1,2\n2,3\n3,4\n4,5\n";
+  expect_error(with("  friction: {model: stick}\n", std::string(kStickSlip) + "  fit: false\n"),
+               {"s.yaml:6:", "nothing to fit", "fit: true"}, "",
+               " --fit-forces " + (dir_ / "m.csv").string());
 }

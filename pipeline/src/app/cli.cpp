@@ -10,6 +10,7 @@
 #include <vim/invariants.hpp>
 #include <vim/pipeline/app/cli.hpp>
 #include <vim/pipeline/common/memory_limit.hpp>
+#include <vim/pipeline/fit/fit_run.hpp>
 #include <vim/pipeline/image/image_io.hpp>
 #include <vim/pipeline/output/export_registry.hpp>
 #include <vim/pipeline/output/report.hpp>
@@ -286,6 +287,13 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
       ->type_name("STUDY.yaml")
       ->excludes(simulate)
       ->excludes("--sizing");
+  app.add_option("--fit-forces", o.fit_forces,
+                 "A measured insertion (CSV with columns depth, force in the scenario's units): fit the "
+                 "needle's cutting forces and friction limits to it (DIR/fit.json, DIR/fitted.yaml, "
+                 "DIR/figures/force_fit.png), then simulate the fitted scenario")
+      ->type_name("MEASURED.csv")
+      ->needs(simulate)
+      ->excludes("--study");
   std::vector<std::string> export_values = export_formats();
   export_values.insert(export_values.end(), {"all", "none"});
   app.add_option("--export", o.exports, export_help())
@@ -400,6 +408,8 @@ int run(const RunOptions& o) {
   const std::string error = error_of_run([&] {
     if (o.info)
       run_info(o);
+    else if (!o.fit_forces.empty())
+      run_force_fit(o);
     else
       run_image(o);
   });

@@ -128,11 +128,57 @@ void parse_friction(const Reader& r, const Fields& f, const YAML::Node& needle, 
   }
 }
 
+// needle.tissues: [{region: REGION | {modulus: {min, max}}, cutting_force, max_shear_per_length, fit}].
+void parse_tissues(const Reader& r, const YAML::Node& t, const std::string& path, int dim, NeedleSpec& s) {
+  if (s.model == NeedleSpec::Model::force)
+    r.fail(t, path + " applies only to needle model 'kinematic' (cutting_force, max_shear_per_length)");
+  if (!t.IsSequence() || t.size() == 0)
+    r.fail(t, path + " must be a non-empty list of {region, cutting_force, max_shear_per_length, fit}");
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    const std::string p = path + "[" + std::to_string(i) + "]";
+    const Fields f = r.check_keys(t[i], p, {"region", "cutting_force", "max_shear_per_length", "fit"});
+    TissueSpec ts;
+    ts.line = Reader::line(t[i]);
+    const YAML::Node& reg = f["region"];
+    if (!reg)
+      r.fail(t[i], "missing key '" + p + ".region' (a scenario region or {modulus: {min: A, max: B}})");
+    if (reg.IsMap() && reg["modulus"]) {
+      std::vector<std::string> names = region_types();
+      names.emplace_back("modulus");
+      r.check_keys(reg, p + ".region", names);
+      if (reg.size() != 1) r.fail(reg, p + ".region must have exactly one of: " + join(names));
+      const std::string mp = p + ".region.modulus";
+      const Fields m = r.check_keys(reg["modulus"], mp, {"min", "max"});
+      ts.modulus_min = r.number(r.require(m, "min", mp + ".min"), mp + ".min");
+      ts.modulus_max = r.number(r.require(m, "max", mp + ".max"), mp + ".max");
+      if (!(ts.modulus_min >= 0.0 && ts.modulus_min <= ts.modulus_max))
+        r.fail(reg, mp + " must have 0 <= min <= max, got [" + fmt(ts.modulus_min) + ", " +
+                        fmt(ts.modulus_max) + "]");
+    } else {
+      ts.region = parse_region(r, reg, p + ".region", dim);
+    }
+    for (const char* k : {"cutting_force", "max_shear_per_length"}) {
+      const YAML::Node& x = f[k];
+      if (!x) continue;
+      const bool shear = std::string(k) == "max_shear_per_length";
+      if (shear && s.friction != NeedleSpec::Friction::stick_slip)
+        r.fail(x, p + ".max_shear_per_length applies only to friction model stick-slip");
+      const double v = r.number(x, p + "." + k);
+      if (!(v >= 0.0)) r.fail(x, p + "." + k + " must be >= 0, got " + fmt(v));
+      (shear ? ts.max_shear_per_length : ts.cutting_force) = v;
+    }
+    if (!ts.cutting_force && !ts.max_shear_per_length)
+      r.fail(t[i], p + " gives neither cutting_force nor max_shear_per_length; give at least one");
+    if (const YAML::Node& x = f["fit"]) ts.fit = r.boolean(x, p + ".fit");
+    s.tissues.push_back(std::move(ts));
+  }
+}
+
 NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string& path, int dim) {
-  const Fields f = r.check_keys(
-      n, path,
-      {"name", "entry", "direction", "depth", "steps", "diameter", "model", "friction", "sample_spacing",
-       "cutting_distance", "cutting_force", "coupling_radius", "tip_force", "friction_per_length"});
+  const Fields f = r.check_keys(n, path,
+                                {"name", "entry", "direction", "depth", "steps", "diameter", "model",
+                                 "friction", "sample_spacing", "cutting_distance", "cutting_force",
+                                 "coupling_radius", "tip_force", "friction_per_length", "tissues", "fit"});
   NeedleSpec s;
   s.line = Reader::line(n);
   if (f["name"]) {
@@ -207,6 +253,8 @@ NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string&
   }
   if (force && !(s.tip_force > 0.0 || s.friction_per_length > 0.0))
     r.fail(n, path + ": needle model 'force' needs tip_force and/or friction_per_length > 0");
+  if (const YAML::Node& x = f["fit"]) s.fit = r.boolean(x, path + ".fit");
+  if (const YAML::Node& t = f["tissues"]) parse_tissues(r, t, path + ".tissues", dim, s);
   return s;
 }
 
@@ -236,6 +284,10 @@ std::string RegionSpec::describe() const {
       break;
   }
   return s.str();
+}
+
+std::string TissueSpec::describe() const {
+  return region ? region->describe() : "modulus " + fmt(modulus_min) + ".." + fmt(modulus_max);
 }
 
 bool Scenario::wants(const std::string& field) const {

@@ -5,6 +5,7 @@
 #include <limits>
 #include <numeric>
 #include <sstream>
+#include <vim/pipeline/scenario/scenario_regions.hpp>
 
 #include "simulation/largest_strain.hpp"
 #include "simulation/needle_options.hpp"
@@ -32,6 +33,22 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
   for (const auto &p : shaft) {
     run_.point_s.push_back(p.s);
     run_.point_length.push_back(p.length);
+  }
+  const std::size_t np = shaft.size();
+  if (!spec.tissues.empty()) {  // each point's tissue (shaft stations, then tip disks), then its values
+    std::vector<Vec> positions;
+    for (const auto &p : shaft) positions.push_back(p.position);
+    for (const auto &p : tip_rows_) positions.push_back(p.position);
+    std::vector<int> tissue = point_tissues<dim>(
+        spec, positions,
+        [this](const RegionSpec &r) { return scenario_region<dim>(r, ctx_.box_min, ctx_.box_max, ctx_.tf); },
+        [this](const Vec &x) {
+          const long cell = ctx_.locator().locate(x);
+          return cell >= 0 ? ctx_.E[static_cast<std::size_t>(cell)] : -1.0;
+        });
+    set_point_values(spec, tissue, needle_.friction);
+    tissue.resize(np);
+    run_.point_tissue = std::move(tissue);
   }
   stepping_.emplace(needle_, std::move(shaft), std::move(tip_rows_));
   tissue_ = std::make_unique<needle::ElasticTissue<dim>>(*ctx_.model, *coupling_, stepping_->state(),
@@ -73,7 +90,10 @@ std::vector<needle::ShaftPoint<dim>> NeedleInsertion<dim>::make_coupling(bool sn
     g.element_size = h;
     g.degree = ctx_.degree;
     // The tip bearing when the tip cuts: disks every half element or step, whichever is shorter.
-    if (needle_.friction.cutting_force > 0.0 && needle_.friction.law != "force")
+    const bool tissue_cuts = std::any_of(spec_.tissues.begin(), spec_.tissues.end(), [](const TissueSpec &t) {
+      return t.cutting_force.value_or(0.0) > 0.0;
+    });
+    if ((needle_.friction.cutting_force > 0.0 || tissue_cuts) && needle_.friction.law != "force")
       g.tip_spacing = std::min(0.5 * h, path.depth / static_cast<double>(needle_.steps));
     auto band = std::make_unique<needle::BandCoupling>(
         with_spacing(g), ctx_.locator(), ctx_.E, ctx_.sc.poisson_ratio, ctx_.blocked, ctx_.held_regions);

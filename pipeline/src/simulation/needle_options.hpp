@@ -2,6 +2,8 @@
 // coordinates) into the needle library's options (frame coordinates).
 #pragma once
 
+#include <functional>
+#include <vim/fem/conditions.hpp>
 #include <vim/needle/needle_options.hpp>
 #include <vim/pipeline/scenario/scenario.hpp>
 
@@ -10,6 +12,19 @@ namespace vim::pipeline {
 // The friction law of needle.model / needle.friction and its parameters; max_active_set_iterations
 // caps the stick-slip sweeps per step.
 needle::FrictionOptions friction_options(const NeedleSpec& spec, int max_active_set_iterations);
+
+// The needle.tissues entry of each shaft point (frame positions): the first whose region holds it, or
+// whose modulus range holds modulus_at(point); -1 where none does. region(r): the scenario region as a
+// frame predicate.
+template <int dim>
+std::vector<int> point_tissues(const NeedleSpec& spec,
+                               const std::vector<Eigen::Matrix<double, dim, 1>>& points,
+                               const std::function<fem::Region<dim>(const RegionSpec&)>& region,
+                               const std::function<double(const Eigen::Matrix<double, dim, 1>&)>& modulus_at);
+
+// The friction law's per-point values (FrictionOptions::point_*) of the points' tissues.
+void set_point_values(const NeedleSpec& spec, const std::vector<int>& tissue,
+                      needle::FrictionOptions& friction);
 
 // The needle's path in the frame, its stepping, geometry and law.
 template <int dim>

@@ -178,6 +178,17 @@ json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const need
   rep["friction"] = law_keys.friction;
   for (const auto& [key, value] : law_keys.parameters) rep[key] = value;
   rep["shaft_points"] = run.point_s.size();
+  if (!spec.tissues.empty()) {
+    // needle.tissues as used: per shaft point the entry that holds it (-1: the needle's own values).
+    json tissues = json::array();
+    for (const TissueSpec& t : spec.tissues)
+      tissues.push_back(
+          {{"region", t.describe()},
+           {"cutting_force", t.cutting_force.value_or(spec.cutting_force)},
+           {"max_shear_per_length", t.max_shear_per_length.value_or(spec.max_shear_per_length)}});
+    rep["tissues"] = tissues;
+    rep["point_tissue"] = run.point_tissue;
+  }
   rep["shaft_pitch"] = pitch;
   if (!prefix.empty()) rep["folder"] = prefix;
   json per = json::object();

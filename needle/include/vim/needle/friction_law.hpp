@@ -24,6 +24,23 @@ struct FrictionOptions {
   double cutting_distance = 0.0;      // kinematic: the tip is this far behind the needle's end
   double cutting_force = 0.0;         // kinematic: the load at which the tip cuts the tissue it pushes
   int max_sweeps = 100;               // kinematic: active-set sweeps per step
+  // Per shaft point, from the tissue at each point (filled once the shaft is built; empty: the values
+  // above everywhere): the stick-slip limit per length, and the cutting force when the tip pushes it.
+  std::vector<double> point_max_shear_per_length, point_cutting_force;
+
+  // The values at shaft point j: its own, else the needle's.
+  double max_shear_per_length_at(std::size_t j) const {
+    return j < point_max_shear_per_length.size() ? point_max_shear_per_length[j] : max_shear_per_length;
+  }
+  double cutting_force_at(std::size_t j) const {
+    return j < point_cutting_force.size() ? point_cutting_force[j] : cutting_force;
+  }
+  // Some tissue on the path has a cutting force (the tip pushes the tissue until it cuts it).
+  bool cuts() const {
+    bool any = cutting_force > 0.0;
+    for (double f : point_cutting_force) any = any || f > 0.0;
+    return any;
+  }
 };
 
 // What a law reports about itself (report.json's needle entry: "model", "friction", its parameters).

@@ -42,8 +42,9 @@ struct RunOptions : MeshOptions {
   double max_memory = 0.0;  // --max-memory in bytes (0 = the memory available to the process)
 
   // Simulation and outputs
-  std::string simulate;  // --simulate SCENARIO.yaml ("" = mesh only)
-  std::string study;     // --study STUDY.yaml: many scenarios (study.hpp) instead of --simulate
+  std::string simulate;    // --simulate SCENARIO.yaml ("" = mesh only)
+  std::string study;       // --study STUDY.yaml: many scenarios (study.hpp) instead of --simulate
+  std::string fit_forces;  // --fit-forces MEASURED.csv: fit the needle to it first (fit/fit_run.hpp)
   std::vector<std::string> exports = export_formats();  // --export: every format (mesh.vtu is always written)
   bool overwrite = false;
   Verbosity verbosity = Verbosity::normal;

@@ -60,6 +60,19 @@ struct BoundaryConditionSpec {
   bool is_dirichlet() const { return type == Type::fixed || type == Type::displacement; }
 };
 
+// An entry of needle.tissues: where it applies (a scenario region, or the elements whose Young's modulus
+// lies in [modulus_min, modulus_max]) and the needle's parameters there (a value not given is the
+// needle's own). The first entry that holds a shaft point gives that point's values.
+struct TissueSpec {
+  std::optional<RegionSpec> region;             // absent: the modulus range
+  double modulus_min = 0.0, modulus_max = 0.0;  // modulus units
+  std::optional<double> cutting_force;          // the tip's cutting force in this tissue
+  std::optional<double> max_shear_per_length;   // the stick-slip limit per length here
+  bool fit = true;                              // --fit-forces adjusts its values
+  int line = 0;                                 // YAML line of the entry
+  std::string describe() const;
+};
+
 struct NeedleSpec {
   std::string name = "needle";
   std::vector<double> entry, direction;  // world; direction normalised by the parser
@@ -87,6 +100,8 @@ struct NeedleSpec {
   double tip_force = 0.0;  // force model: cutting force at the tip (modulus × length²: kPa·mm² = mN in
                            // 3D; per unit thickness, mN/mm, in 2D)
   double friction_per_length = 0.0;  // force model: friction force per unit shaft length
+  std::vector<TissueSpec> tissues;   // kinematic model: parameters per tissue (needle.tissues)
+  bool fit = true;                   // --fit-forces adjusts the needle's own cutting force and limit
   int line = 0;
 };
 

@@ -127,6 +127,7 @@ struct NeedleRun {
   std::vector<int>
       unsettled_steps;  // stick-slip steps whose active set did not settle (see SimulationOptions)
   std::vector<double> point_s, point_length;  // shaft points: travel at pick-up, shaft length each stands for
+  std::vector<int> point_tissue;  // per shaft point: its needle.tissues entry (-1: the needle's values)
   std::vector<std::vector<double>>
       point_axial_force;          // [step][point]: axial force on the body (0 if not active)
   double max_displacement = 0.0;  // largest vertex displacement norm over all steps

@@ -1,0 +1,109 @@
+// needle.tissues: per shaft point the friction limit and cutting force of the tissue it lies in (a
+// scenario region or a modulus range), against closed forms: the sliding force is the sum over the
+// points of q_tissue × carried length, and a stiff layer with a higher cutting force is pushed until
+// its cutting force, then cut (a puncture peak and drop at the interface).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <vim/initial_mesh.hpp>
+#include <vim/pipeline/simulation/simulation.hpp>
+
+#include "simulation_test_util.hpp"
+
+using namespace vim;
+using namespace vim::pipeline;
+using namespace vim::pipeline::simulation_test;
+
+namespace {
+
+// Carried length of each shaft point at needle travel d (3D stations: each passed station its band,
+// the last one whose band the tip has entered everything up to the tip).
+std::vector<double> carried_lengths(const NeedleRun<3>& r, double d) {
+  const std::size_t np = r.point_s.size();
+  std::vector<double> carried(np, 0.0);
+  std::size_t last = np;
+  for (std::size_t j = 0; j < np; ++j)
+    if (r.point_s[j] + 0.5 * r.point_length[j] < d) last = j;
+  for (std::size_t j = 0; j < np && last < np && j <= last; ++j) {
+    const double start = r.point_s[j] - 0.5 * r.point_length[j];
+    carried[j] = j == last ? d - start : std::min(r.point_length[j], d - start);
+  }
+  return carried;
+}
+
+}  // namespace
+
+// Two layers (z < 8: the needle's own q = 0.05; z >= 8: q = 0.4 from a box region, the first entry; a
+// second entry that holds the deepest of them is ignored there). The friction is low enough that every
+// station slides at the last step: each station's force is q of its own tissue × its carried length, and the
+// axial force is their sum (with one q for all, the deep stations' forces would be 8 times too small).
+TEST(NeedleTissues, SlidingForceIsTheSumOfEachTissuesLimitTimesItsCarriedLength) {
+  const double q_soft = 0.05, q_deep = 0.4, z_layer = 8.0;
+  const std::string needle =
+      "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 20, steps: 10, diameter: 1, friction: {model: "
+      "stick-slip, max_shear_per_length: 0.05}, tissues: [{region: {box: {min: [-7, -7, 8], max: [7, 7, "
+      "25]}}, "
+      "max_shear_per_length: 0.4}, {region: {box: {min: [-7, -7, 12], max: [7, 7, 25]}}, "
+      "max_shear_per_length: 9}]}";
+  const auto res = run_simulation<3>(axis_block(), parse_scenario_text(yaml(needle), 3), quiet());
+  const NeedleRun<3>& r = res.needles[0];
+  ASSERT_EQ(r.point_tissue.size(), r.point_s.size());
+  int deep = 0;
+  for (std::size_t j = 0; j < r.point_s.size(); ++j) {
+    EXPECT_EQ(r.point_tissue[j], r.point_s[j] >= z_layer ? 0 : -1) << "station at s = " << r.point_s[j];
+    deep += r.point_s[j] >= z_layer;
+  }
+  ASSERT_GE(deep, 3);
+  const double d = r.depth.back();
+  const std::vector<double> carried = carried_lengths(r, d);
+  double sum = 0.0;
+  for (std::size_t j = 0; j < carried.size(); ++j) {
+    const double q = r.point_s[j] >= z_layer ? q_deep : q_soft;
+    EXPECT_NEAR(std::abs(r.point_axial_force.back()[j]), q * carried[j], 1e-6 * q * carried[j] + 1e-12)
+        << "station " << j;
+    sum += q * carried[j];
+  }
+  EXPECT_NEAR(r.axial_force.back(), sum, 1e-6 * sum);
+  EXPECT_GT(sum, q_soft * d * 2.0);  // the deep layer's limit counts
+}
+
+// A stiff layer (E 40 for 10 < z < 14, a capsule picked by a modulus range) whose cutting force 3 is
+// far above the soft tissue's (0.3): the tip pushes the stiff tissue until its force reaches 3 (the
+// tip force equals it while it is held), and once through the layer the axial force drops. The same
+// needle without the tissue entry has no such peak.
+TEST(NeedleTissues, StiffLayerWithAHigherCuttingForceGivesAPuncturePeakAndDrop) {
+  const double fc_stiff = 3.0;
+  const auto model = [] {
+    MeshModel<3> m = axis_block();
+    for (std::size_t c = 0; c < m.mesh.n_cells(); ++c)
+      m.values[c].mean = std::abs(centroid<3>(cell_points(m.mesh, c))[2] - 12.0) < 2.0 ? 40.0 : 10.0;
+    return m;
+  }();
+  const std::string base =
+      "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 20, steps: 40, diameter: 1, cutting_force: 0.3, "
+      "friction: {model: stick-slip, max_shear_per_length: 0.05}";
+  const auto with = run_simulation<3>(
+      model,
+      parse_scenario_text(
+          yaml(base + ", tissues: [{region: {modulus: {min: 30, max: 50}}, cutting_force: 3}]}"), 3),
+      quiet());
+  const auto without = run_simulation<3>(model, parse_scenario_text(yaml(base + "}"), 3), quiet());
+  const NeedleRun<3>& r = with.needles[0];
+  // The tip force reaches the stiff layer's cutting force (never more), then drops once the layer is cut.
+  std::size_t peak = 0;
+  for (std::size_t k = 1; k < r.tip_force.size(); ++k) {
+    EXPECT_LE(r.tip_force[k], fc_stiff * (1 + 1e-6)) << "step " << k;
+    if (r.tip_force[k] > r.tip_force[peak]) peak = k;
+  }
+  EXPECT_NEAR(r.tip_force[peak], fc_stiff, 1e-6 * fc_stiff);
+  EXPECT_GE(r.depth[peak], 10.0 - 2.0);
+  EXPECT_LE(r.depth[peak], 14.0 + 2.0);
+  bool drop = false;
+  for (std::size_t k = peak + 1; k < r.axial_force.size(); ++k)
+    drop = drop || r.axial_force[k] < r.axial_force[peak] - 0.5 * fc_stiff;
+  EXPECT_TRUE(drop);
+  double max_without = 0.0;
+  for (double f : without.needles[0].tip_force) max_without = std::max(max_without, f);
+  EXPECT_LE(max_without, 0.3 * (1 + 1e-6));
+}
