@@ -129,8 +129,11 @@ TEST(ProstateNeedle, VimBelowGridAt252And891NodesP2WithTheScenariosNeedleRefinem
   ASSERT_TRUE(s.sc.needle_refinement.has_value())
       << "examples/prostate_needle.yaml lost mesh.needle_refinement";
   // One coupling radius for the reference and both meshes (the default follows each mesh's element size
-  // near the path): the comparison then measures the meshes, not their needle bands.
-  for (auto& nd : s.sc.needles) nd.steps = 2, nd.coupling_radius = 3.0;
+  // near the path): the comparison then measures the meshes, not their needle bands. One friction limit
+  // and no cutting force for all: the scenario's needle.tissues pick a limit by element modulus, which
+  // the coarse meshes average differently from the voxels, so each model would carry its own load.
+  for (auto& nd : s.sc.needles)
+    nd.steps = 2, nd.coupling_radius = 3.0, nd.tissues.clear(), nd.cutting_force = 0.0;
   s.sc.output_every = 0;
   vim::pipeline::WorldTransform<3> tf;
   tf.origin = s.img.origin();
@@ -188,6 +191,62 @@ TEST(ProstateNeedle, VimBelowGridAt252And891NodesP2WithTheScenariosNeedleRefinem
   // Errors fall with the node count (P2, both meshers).
   EXPECT_LT(cases[1].err[2][0], cases[0].err[2][0]);
   EXPECT_LT(cases[1].err[2][1], cases[0].err[2][1]);
+}
+
+// The example's needle.tissues pick tissues by element modulus ({modulus: {min, max}}): on the phantom
+// they must pick the gland and the lesion the phantom's geometry puts on the path. Truth: the nominal
+// geometry (phantoms.hpp: gland ellipsoid, lesion sphere), not the moduli; stations within 2.5 mm of
+// an interface (the image's blur and 2 mm voxels) are not judged.
+TEST(ProstateNeedle, ExampleTissuesPickThePhantomsGlandAndLesion) {
+  Scenario sc =
+      vim::pipeline::read_scenario(std::string(VIM_SOURCE_DIR) + "/examples/prostate_needle.yaml", 3);
+  ASSERT_EQ(sc.needles.size(), 1u);
+  ASSERT_EQ(sc.needles[0].tissues.size(), 2u) << "examples/prostate_needle.yaml: gland and lesion entries";
+  sc.needles[0].steps = 1;
+  sc.output_every = 0;
+  const vim::pipeline::OrientedImage<3> img = vim::pipeline::phantoms::prostate(30);
+  vim::pipeline::WorldTransform<3> tf;
+  tf.origin = img.origin();
+  tf.direction = img.direction;
+  vim::pipeline::SimulationOptions opt;
+  opt.progress = false;
+  auto sim = vim::pipeline::NeedleSimulation<3>::voxel(img.image, tf, sc, opt);
+  const auto run = sim.run();
+  const auto& r = run.needles[0];
+  ASSERT_EQ(r.point_tissue.size(), r.point_s.size());
+  const vim::pipeline::phantoms::ProstateGeometry g;
+  const V3 entry(sc.needles[0].entry[0], sc.needles[0].entry[1], sc.needles[0].entry[2]);
+  const V3 dir(sc.needles[0].direction[0], sc.needles[0].direction[1], sc.needles[0].direction[2]);
+  // Signed distances to the interfaces: |x − c| − r for the lesion; for the gland the first-order
+  // distance to the ellipsoid, level / |∇level| with level = Σ (x_a/s_a)² − 1.
+  const V3 lc(g.lesion_centre[0], g.lesion_centre[1], g.lesion_centre[2]);
+  const double margin = 2.5;
+  int counted[3] = {0, 0, 0};  // outside the gland, gland, lesion
+  for (std::size_t j = 0; j < r.point_s.size(); ++j) {
+    const V3 x = entry + r.point_s[j] * dir;
+    double level = -1.0;
+    V3 grad;
+    for (int a = 0; a < 3; ++a) {
+      const double s2 = g.gland_semi_axes[a] * g.gland_semi_axes[a];
+      level += x[a] * x[a] / s2;
+      grad[a] = 2.0 * x[a] / s2;
+    }
+    const double d_gland = level / grad.norm(), d_lesion = (x - lc).norm() - g.lesion_radius;
+    int expected;
+    if (d_lesion < -margin)
+      expected = 1;
+    else if (d_gland < -margin && d_lesion > margin)
+      expected = 0;
+    else if (d_gland > margin)
+      expected = -1;
+    else
+      continue;
+    EXPECT_EQ(r.point_tissue[j], expected) << "station at s = " << r.point_s[j] << " mm";
+    ++counted[expected + 1];
+  }
+  EXPECT_GE(counted[0], 2);
+  EXPECT_GE(counted[1], 4);
+  EXPECT_GE(counted[2], 1);
 }
 
 }  // namespace

@@ -507,6 +507,9 @@ SimulationResult<dim> run_simulation(const MeshModel<dim>& model, const Scenario
   return sim.run();
 }
 
+// SimulationContext::region is also called from needle_insertion.cpp (needle.tissues regions): emit it here.
+template fem::Region<2> SimulationContext<2>::region(const RegionSpec&) const;
+template fem::Region<3> SimulationContext<3>::region(const RegionSpec&) const;
 template class NeedleSimulation<2>;
 template class NeedleSimulation<3>;
 template SimulationResult<2> run_simulation<2>(const MeshModel<2>&, const Scenario&, SimulationOptions);
