@@ -39,6 +39,6 @@ def test_fit_forces_recovers_hidden_values_and_writes_the_fit_files(tmp_path):
     assert values["needle.friction.max_shear_per_length"] == pytest.approx(hidden[1], rel=0.01)
     for name in ("fit.json", "fitted.yaml", "figures/force_fit.png", "needle.csv", "report.json"):
         assert os.path.exists(tmp_path / "out" / name), name
-    with pytest.raises(ValueError, match="measured.csv"):
+    with pytest.raises(ValueError, match="bad.csv"):
         (tmp_path / "bad.csv").write_text("depth,force\n2,1\n1,2\n")
         vp.fit_forces(tmp_path / "ball.nrrd", tmp_path / "start.yaml", tmp_path / "bad.csv", tmp_path / "out2")

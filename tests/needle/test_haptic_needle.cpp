@@ -133,10 +133,11 @@ TEST(HapticNeedle, StickSlipMatchesMonolithicP1) { haptic_vs_monolithic(1, 0.02,
 TEST(HapticNeedle, StickSlipMatchesMonolithicP2) { haptic_vs_monolithic(2, 0.02, true); }
 
 // Truth: the CLI's stepping of the same needle (pipeline/src/simulation/needle_insertion.cpp, its
-// advance_one_step with the library's pieces): stick-slip with a cutting distance and force, P2, the
-// two-tissue block, a straight insertion of 1.05 in 15 steps. The haptic needle is given the CLI's station
-// length and element size (the default band); every station's force equals the CLI's to 1e-8 relative at
-// every step, and the run exercises the law: stations slide at their limit and the tip cuts.
+// advance_one_step with the library's pieces): stick-slip with a cutting distance, P2, the two-tissue
+// block, a straight insertion of 1.05 in 15 steps. The haptic needle is given the CLI's station length
+// and element size (the default band); every station's force equals the CLI's to 1e-8 relative at every
+// step, and the run exercises the law: stations slide at their limit. (The real-time needle has no tip
+// bearing yet: without the tip's disk rows a cutting force is not applied in 3D, on either side.)
 TEST(HapticNeedle, StationForcesEqualTheCliSteppingP2TwoTissues) {
   auto model = block(2, true);
   const Vec<3> entry(0.52, 0.47, 1.5), axis(0.0, 0.0, -1.0);
@@ -147,7 +148,6 @@ TEST(HapticNeedle, StationForcesEqualTheCliSteppingP2TwoTissues) {
   n.friction.law = "stick-slip";
   n.friction.max_shear_per_length = 0.01;
   n.friction.cutting_distance = 0.03;
-  n.friction.cutting_force = 0.004;
   n.friction.max_sweeps = 50;
   BandCoupling::Geometry g;
   g.entry = entry, g.axis = axis, g.depth = n.path.depth, g.radius = 0.5 * n.diameter;
@@ -166,7 +166,7 @@ TEST(HapticNeedle, StationForcesEqualTheCliSteppingP2TwoTissues) {
   o.max_stations = 12;
   HapticNeedle haptic(model, around_path(), {}, o);
   haptic.step(entry, axis);
-  bool have = false, slid = false, cut = false;
+  bool have = false, slid = false;
   for (int k = 1; k <= n.steps; ++k) {
     const double d = cli.depth(k), prev = cli.depth(k - 1);
     cli.pick_up(d, d - prev, [&](std::size_t j) { return have ? tissue.held_axial(j, axis) : 0.0; });
@@ -185,15 +185,12 @@ TEST(HapticNeedle, StationForcesEqualTheCliSteppingP2TwoTissues) {
       EXPECT_LT((s.station_force[i] - ref[i]).norm(), 1e-8 * fmax) << "step " << k << " station " << i;
       const std::size_t j = state.active[i];
       const double axial = ref[i].dot(axis);
-      if (j == state.cutting)
-        cut = cut || std::abs(axial - n.friction.cutting_force) <= 1e-9 * n.friction.cutting_force;
-      else
+      if (j != state.cutting)
         slid = slid || std::abs(std::abs(axial) - n.friction.max_shear_per_length * state.carried[j]) <=
                            1e-9 * n.friction.max_shear_per_length * state.carried[j];
     }
   }
   EXPECT_TRUE(slid);
-  EXPECT_TRUE(cut);
 }
 
 // Truth: a counting operator new. After the first step a step allocates nothing, stations joining

@@ -166,3 +166,45 @@ TEST(NeedleTip, StickSlipForceNeverFallsWithoutCuttingForce) {
     }
   check(NeedleSimulation<3>::voxel(img, WorldTransform<3>{}, sc, quiet()).run().needles.at(0), "voxel");
 }
+
+// The shaft's near field, which the mesh does not resolve: a station sliding at the stick-slip limit q
+// carries q per length, so the antiplane annulus around the needle has on its surface the principal
+// strain q/(4πGa) and exceeds the small-strain limit 0.1 within r = q/(4πG·0.1) of the axis, whatever
+// the mesh (q = 20 mN/mm, G = 11.54 kPa, a = 0.635 mm: 0.217 and 1.379 mm). max_strain includes it;
+// a target 0.5 mm from the inserted shaft lies in it, one 3 mm away and one ahead of the tip do not,
+// and the warning names the radius and that target.
+TEST(NeedleTip, NearFieldStrainOfSlidingStationsIsTheAntiplaneSurfaceStrain) {
+  const double a = 0.635, q = 20.0, pi = 3.14159265358979323846;
+  const double g = kE / (2.0 * (1.0 + kNu)), surface = q / (4.0 * pi * g * a),
+               radius = q / (4.0 * pi * g * 0.1);
+  const Scenario sc = parse_scenario_text(
+      yaml("{entry: [0, 0, 0], direction: [0, 0, 1], depth: 10, steps: 10, diameter: 1.27, "
+           "friction: {model: stick-slip, max_shear_per_length: 20}}",
+           "[{name: near, position: [0.5, 0, 5]}, {name: far, position: [3, 0, 5]}, "
+           "{name: ahead, position: [0.5, 0, 15]}]",
+           "{youngs_modulus: 30, poisson_ratio: 0.3}",
+           "[{type: fixed, region: {box_face: x_min}}, {type: fixed, region: {box_face: x_max}}, "
+           "{type: fixed, region: {box_face: y_min}}, {type: fixed, region: {box_face: y_max}}, "
+           "{type: fixed, region: {box_face: z_max}}]"),
+      3);
+  SimulationOptions o = quiet();
+  o.degree = 1;
+  const auto res = NeedleSimulation<3>(punch_block(4.0, 1.6), sc, o).run();
+  const NeedleRun<3>& r = res.needles.at(0);
+  ASSERT_EQ(r.near_field_strain.size(), r.depth.size());
+  for (std::size_t k = 0; k < r.depth.size(); ++k) {
+    EXPECT_LE(r.near_field_strain[k], surface * (1.0 + 1e-9)) << "step " << k;  // F′ ≤ q
+    EXPECT_GE(r.max_strain[k], r.near_field_strain[k]) << "step " << k;
+  }
+  EXPECT_NEAR(r.near_field_strain.back(), surface, 1e-9 * surface);
+  EXPECT_NEAR(r.small_strain_radius.back(), radius, 1e-9 * radius);
+  EXPECT_NEAR(r.max_strain.back(), std::max(surface, r.mesh_strain.back()), 1e-12);
+  EXPECT_EQ(r.target_in_near_field.back(), (std::vector<int>{1, 0, 0}));
+  EXPECT_EQ(r.target_in_near_field[4], (std::vector<int>{0, 0, 0}));  // the tip has not reached z = 5
+  bool warned = false;
+  for (const auto& w : res.warnings)
+    warned = warned || (w.find("next to the shaft") != std::string::npos &&
+                        w.find("targets in it: near (from step") != std::string::npos &&
+                        w.find("far") == std::string::npos);
+  EXPECT_TRUE(warned);
+}

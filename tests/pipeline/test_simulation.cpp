@@ -395,7 +395,7 @@ output: {every: 2}
   std::getline(csv, header);
   EXPECT_EQ(header,
             "step,depth,tip_x,tip_y,tip_z,axial_force,lateral_force,friction_force,tip_force,max_strain,t_dx,"
-            "t_dy,t_dz,t_norm");
+            "t_dy,t_dz,t_norm,near_field_strain,small_strain_radius,t_in_near_field");
   int rows = 0;
   std::string last;
   while (std::getline(csv, line)) {
@@ -406,8 +406,10 @@ output: {every: 2}
   std::stringstream ss(last);
   std::vector<double> v;
   for (std::string cell; std::getline(ss, cell, ',');) v.push_back(std::stod(cell));
-  ASSERT_EQ(v.size(), 14u);
+  ASSERT_EQ(v.size(), 17u);
   EXPECT_NEAR(v[5], res.needles[0].axial_force.back(), 1e-8 * std::abs(v[5]));
+  EXPECT_NEAR(v[14], res.needles[0].near_field_strain.back(), 1e-8 * v[14]);
+  EXPECT_NEAR(v[15], res.needles[0].small_strain_radius.back(), 1e-8 * v[15]);
   EXPECT_NEAR(v[7] + v[8], v[5], 1e-8 * std::abs(v[5]));  // friction + tip = axial
   EXPECT_NEAR(v[9], res.needles[0].max_strain.back(), 1e-8 * v[9]);
   EXPECT_NEAR(v[13], res.needles[0].target_displacement.back()[0].norm(), 1e-8);

@@ -175,6 +175,8 @@ TEST(StaticLoad, NeedleRunsReportTheLargestStrainOfEveryStep) {
   }
   const auto column = std::find(head.begin(), head.end(), "max_strain") - head.begin();
   ASSERT_LT(static_cast<std::size_t>(column), head.size()) << line;
+  const auto near_column = std::find(head.begin(), head.end(), "near_field_strain") - head.begin();
+  ASSERT_LT(static_cast<std::size_t>(near_column), head.size()) << line;
   const auto& per_step = report["simulation"]["needles"][0]["per_step"]["max_strain"];
   int first_large = -1;
   for (int k = 0; std::getline(csv, line); ++k) {
@@ -189,8 +191,10 @@ TEST(StaticLoad, NeedleRunsReportTheLargestStrainOfEveryStep) {
     double largest = 0.0;
     for (vtkIdType c = 0; c < step->GetNumberOfCells(); ++c)
       largest = std::max(largest, largest_principal(strain, c));
-    EXPECT_NEAR(reported, largest, 1e-6 * (1 + largest)) << "step " << k;
-    if (first_large < 0 && reported > 0.1) first_large = k;
+    // max_strain: the cells' largest, or the shaft's near field on the needle's surface if larger.
+    const double near = std::stod(row[static_cast<std::size_t>(near_column)]);
+    EXPECT_NEAR(reported, std::max(largest, near), 1e-6 * (1 + reported)) << "step " << k;
+    if (first_large < 0 && largest > 0.1) first_large = k;
   }
   ASSERT_GT(first_large, 0) << "a 12 mm insertion into a 20 mm block strains it beyond 10%";
   const std::string warnings = report.contains("warnings") ? report["warnings"].dump() : "";

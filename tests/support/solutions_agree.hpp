@@ -26,7 +26,9 @@ void expect_solutions_agree(const fem::Solution<dim>& fast, const fem::Solution<
     ASSERT_LT((fast.vertex_displacement[i] - ref.vertex_displacement[i]).norm(), rtol * umax) << where;
   for (std::size_t k = 0; k < ref.point_force.size(); ++k)
     EXPECT_LT((fast.point_force[k] - ref.point_force[k]).norm(), rtol * fmax) << where << " point " << k;
-  if (strain_energy) EXPECT_NEAR(fast.strain_energy, ref.strain_energy, rtol * ref.strain_energy) << where;
+  if (strain_energy) {
+    EXPECT_NEAR(fast.strain_energy, ref.strain_energy, rtol * ref.strain_energy) << where;
+  }
 }
 
 }  // namespace vim::test

@@ -45,4 +45,32 @@ inline std::string small_strain_warning(const std::string& where, const std::str
   return w.str();
 }
 
+// The warning for a needle whose shaft's near field exceeds kSmallStrainLimit ("" if it never does):
+// the radius within which it does (per step), and the targets inside it (target_inside[step][target],
+// names in target order).
+inline std::string near_field_warning(const std::string& where, const std::string& who,
+                                      const std::vector<double>& small_strain_radius,
+                                      const std::vector<std::string>& target_names,
+                                      const std::vector<std::vector<int>>& target_inside) {
+  const auto first =
+      std::find_if(small_strain_radius.begin(), small_strain_radius.end(), [](double r) { return r > 0.0; });
+  if (first == small_strain_radius.end()) return "";
+  const auto peak = std::max_element(small_strain_radius.begin(), small_strain_radius.end());
+  std::ostringstream w;
+  w << where << who << ": next to the shaft the strain exceeds " << kSmallStrainLimit << " within " << *first
+    << " of the axis from step " << first - small_strain_radius.begin() << " (at most " << *peak << ", step "
+    << peak - small_strain_radius.begin()
+    << "): the linear model is not reliable in that tissue (the shaft's near field, "
+       "docs/needle-model.md); ";
+  std::string inside;
+  for (std::size_t t = 0; t < target_names.size(); ++t)
+    for (std::size_t k = 0; k < target_inside.size(); ++k)
+      if (target_inside[k][t]) {
+        inside += (inside.empty() ? "" : ", ") + target_names[t] + " (from step " + std::to_string(k) + ")";
+        break;
+      }
+  w << (inside.empty() ? "no target lies in it" : "targets in it: " + inside);
+  return w.str();
+}
+
 }  // namespace vim::pipeline

@@ -5,9 +5,11 @@
 #include <limits>
 #include <numeric>
 #include <sstream>
+#include <vim/fem/material.hpp>
 #include <vim/pipeline/scenario/scenario_regions.hpp>
 
 #include "simulation/largest_strain.hpp"
+#include "simulation/near_field_strain.hpp"
 #include "simulation/needle_options.hpp"
 #include "simulation/simulation_output.hpp"
 
@@ -55,6 +57,13 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
                                                          stepping_->n_points(), pitch_, ctx_.solver,
                                                          ctx_.opt.monolithic);
   for (const auto &t : ctx_.sc.targets) targets_.push_back(ctx_.tf.to_frame(vec<dim>(t.position)));
+  if (dim == 3)
+    for (double s : run_.point_s) {  // the cell at the station's centre on the path
+      const long cell = ctx_.locator().locate(needle_.path.entry + s * axis_);
+      station_shear_.push_back(
+          cell >= 0 ? fem::shear_modulus(ctx_.E[static_cast<std::size_t>(cell)], ctx_.sc.poisson_ratio)
+                    : 0.0);
+    }
   // External loads (a prescribed displacement, a pressure, a traction) act from
   // the start: before the tip reaches the first shaft point (step 0 included)
   // the tissue deforms under them alone, not rest.
@@ -259,6 +268,7 @@ void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim> *s, int
   if (cutting && !run_.tip_cutting.empty() && run_.tip_cutting.back() == 0)
     run_.punctures.push_back({depth, run_.axial_force[run_.axial_force.size() - 2], run_.axial_force.back()});
   run_.tip_cutting.push_back(cutting ? 1 : 0);
+  record_near_field(depth, pa);
   pa.resize(stepping_->shaft().size());  // the shaft stations' (the tip rows' is tip_force)
   run_.point_axial_force.push_back(std::move(pa));
   run_.active_points.push_back(static_cast<int>(state.active.size()));
@@ -273,6 +283,7 @@ template <int dim>
 void NeedleInsertion<dim>::record_field(const fem::Solution<dim> *s, bool skipped) {
   if (skipped) {
     run_.max_strain.push_back(std::numeric_limits<double>::quiet_NaN());
+    run_.mesh_strain.push_back(std::numeric_limits<double>::quiet_NaN());
     return;
   }
   std::vector<Vec> vd;
@@ -289,7 +300,30 @@ void NeedleInsertion<dim>::record_field(const fem::Solution<dim> *s, bool skippe
     run_.vertex_displacement.push_back(std::move(vd));
   else
     run_.vertex_displacement.back() = std::move(vd);
-  run_.max_strain.push_back(s ? largest_principal_strain<dim>(s->cell_strain) : 0.0);
+  const double near = run_.near_field_strain.size() > run_.max_strain.size()
+                          ? run_.near_field_strain[run_.max_strain.size()]
+                          : 0.0;
+  run_.mesh_strain.push_back(s ? largest_principal_strain<dim>(s->cell_strain) : 0.0);
+  run_.max_strain.push_back(std::max(near, run_.mesh_strain.back()));
+}
+
+// 3D: the strain of the shaft's near field (near_field_strain.hpp) at this step, and the targets
+// within the distance of the inserted shaft where it exceeds the small-strain limit.
+template <int dim>
+void NeedleInsertion<dim>::record_near_field(double depth, const std::vector<double> &axial_force) {
+  if (dim != 3) return;
+  const needle::ShaftState &state = stepping_->state();
+  const NearFieldStrain field =
+      shaft_near_field(state.active, axial_force, state.carried, station_shear_, 0.5 * needle_.diameter);
+  run_.near_field_strain.push_back(field.surface_strain);
+  run_.small_strain_radius.push_back(field.small_strain_radius);
+  std::vector<int> inside(targets_.size(), 0);
+  for (std::size_t t = 0; t < targets_.size(); ++t) {
+    const Vec x = targets_[t] - needle_.path.entry;
+    const double s = x.dot(axis_);
+    inside[t] = s >= 0.0 && s <= depth && (x - s * axis_).norm() < field.small_strain_radius ? 1 : 0;
+  }
+  run_.target_in_near_field.push_back(std::move(inside));
 }
 
 template <int dim>

@@ -49,6 +49,7 @@ class NeedleInsertion {
   std::vector<needle::ShaftPoint<dim>> make_coupling(bool snap_to_vertices);
   void record(double depth, const fem::Solution<dim> *solution, int solves);
   void record_field(const fem::Solution<dim> *solution, bool skipped);
+  void record_near_field(double depth, const std::vector<double> &axial_force);
   void output_step(int k, const fem::Solution<dim> *solution);
 
   SimulationContext<dim> &ctx_;
@@ -62,8 +63,9 @@ class NeedleInsertion {
   std::vector<needle::ShaftPoint<dim>> tip_rows_;  // 3D with a cutting force: the tip bearing's disks
   std::optional<needle::Insertion<dim>> stepping_;
   std::unique_ptr<needle::ElasticTissue<dim>> tissue_;
-  std::vector<Vec> targets_;  // frame
-  bool loaded_ = false;       // external loads act from step 0
+  std::vector<Vec> targets_;           // frame
+  std::vector<double> station_shear_;  // 3D: the shear modulus of the tissue at each shaft station
+  bool loaded_ = false;                // external loads act from step 0
   bool write_ = false;
   bool have_solution_ = false;
 

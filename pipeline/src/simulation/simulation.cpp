@@ -449,8 +449,13 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
       res.warnings.push_back(w.str());
     }
     NeedleOutcome<dim> needle = m.insert_needle(spec, prefix, res.warnings);
-    const std::string strain = small_strain_warning(m.sc.where(spec.line), who, needle.run.max_strain);
+    const std::string strain = small_strain_warning(m.sc.where(spec.line), who, needle.run.mesh_strain);
     if (!strain.empty()) res.warnings.push_back(strain);
+    std::vector<std::string> target_names;
+    for (const auto& t : m.sc.targets) target_names.push_back(t.name);
+    const std::string near = near_field_warning(m.sc.where(spec.line), who, needle.run.small_strain_radius,
+                                                target_names, needle.run.target_in_near_field);
+    if (!near.empty()) res.warnings.push_back(near);
     if (needle::make_friction_law(friction_options(spec, 1))->axial_force_never_falls())
       m.check_axial_force(spec, needle, res.warnings);
     res.needles.push_back(std::move(needle.run));

@@ -131,6 +131,11 @@ void write_needle_csv(const std::filesystem::path& path, const NeedleRun<dim>& r
       for (int d = 0; d < dim; ++d) o << "," << t.name << "_d" << axes[d];
       o << "," << t.name << "_norm";
     }
+    const bool near = !run.near_field_strain.empty();  // 3D: the shaft's near field
+    if (near) {
+      o << ",near_field_strain,small_strain_radius";
+      for (const auto& t : sc.targets) o << "," << t.name << "_in_near_field";
+    }
     o << "\n" << std::setprecision(10);
     for (std::size_t k = 0; k < run.depth.size(); ++k) {
       o << k << "," << run.depth[k];
@@ -140,6 +145,10 @@ void write_needle_csv(const std::filesystem::path& path, const NeedleRun<dim>& r
       for (const auto& u : run.target_displacement[k]) {
         for (int d = 0; d < dim; ++d) o << "," << u[d];
         o << "," << u.norm();
+      }
+      if (near) {
+        o << "," << run.near_field_strain[k] << "," << run.small_strain_radius[k];
+        for (int inside : run.target_in_near_field[k]) o << "," << inside;
       }
       o << "\n";
     }
@@ -199,6 +208,10 @@ json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const need
   per["tip_force"] = run.tip_force;
   per["tip_cutting"] = run.tip_cutting;
   per["max_strain"] = run.max_strain;
+  if (!run.near_field_strain.empty()) {
+    per["near_field_strain"] = run.near_field_strain;
+    per["small_strain_radius"] = run.small_strain_radius;
+  }
   per["active_points"] = run.active_points;
   per["solves"] = run.solves;
   if (law.has_active_set()) {
@@ -215,6 +228,16 @@ json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const need
     targets[sc.targets[t].name] = arr;
   }
   per["target_displacement"] = targets;
+  if (!run.target_in_near_field.empty()) {  // the steps at which each target lies in that near field
+    json inside = json::object();
+    for (std::size_t t = 0; t < sc.targets.size(); ++t) {
+      json steps = json::array();
+      for (std::size_t k = 0; k < run.target_in_near_field.size(); ++k)
+        if (run.target_in_near_field[k][t]) steps.push_back(k);
+      inside[sc.targets[t].name] = steps;
+    }
+    per["targets_in_near_field"] = inside;
+  }
   rep["per_step"] = per;
   json punctures = json::array();
   for (const auto& p : run.punctures)

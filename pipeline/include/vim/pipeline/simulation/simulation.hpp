@@ -131,10 +131,17 @@ struct NeedleRun {
   std::vector<std::vector<double>>
       point_axial_force;          // [step][point]: axial force on the body (0 if not active)
   double max_displacement = 0.0;  // largest vertex displacement norm over all steps
-  // Per step: the largest principal strain magnitude over the cells (max |eigenvalue| of each cell's
-  // centroid strain); small-strain elasticity is valid only while it stays below ~10%.
+  // Per step: the largest principal strain magnitude in the tissue: over the cells (max |eigenvalue|
+  // of each cell's centroid strain) and, 3D, on the needle's surface in the shaft's near field, which
+  // the mesh does not resolve (near_field_strain); small-strain elasticity is valid only while it stays
+  // below ~10%.
   std::vector<double> max_strain;
-  double solve_seconds = 0.0;  // total time in solves
+  std::vector<double> mesh_strain;  // per step: the cells' part of max_strain
+  // 3D, per step: the near field's largest principal strain on the needle's surface, and the distance
+  // from the axis within which it exceeds the small-strain limit (0: nowhere in the tissue).
+  std::vector<double> near_field_strain, small_strain_radius;
+  std::vector<std::vector<int>> target_in_near_field;  // [step][target]: 1 within that distance of the shaft
+  double solve_seconds = 0.0;                          // total time in solves
   // Before stepping: the model's factorisation (if not done yet) and every shaft row's column
   // (ElasticModel::precompute); 0 with the monolithic reference.
   double precompute_seconds = 0.0;
