@@ -16,7 +16,8 @@
 # ctest -R/-E), FILTER_<suite> (e.g. FILTER_test_pipeline: a filter for that suite alone),
 # VALIDATION_FILTER (the validation smoke; default below), FAST_UNWIND (default 1: ASan's fast
 # unwinder for the stacks of allocations; 0: full stacks, several times slower per allocation),
-# CMAKE_ARGS added to the configure line (e.g. -DCMAKE_CXX_COMPILER_LAUNCHER=ccache), FEM_FROM (a
+# UNITY (default 1: unity builds, VIM_UNITY_BUILD; 0: one unit per file), CMAKE_ARGS added to the
+# configure line (e.g. -DCMAKE_CXX_COMPILER_LAUNCHER=ccache), FEM_FROM (a
 # normal build dir of the same checkout: its vim_fem is brought up to date and linked uninstrumented
 # instead of compiling fem's deal.II units again; not with test_fem, which would then check nothing).
 # Leak detection is on; scripts/lsan.supp suppresses only the intentional allocations of MPI,
@@ -55,6 +56,7 @@ for d in "${dirs[@]}"; do
   [ "$d" = "$build-unchecked" ] && checked=OFF
   cmake -S "$root" -B "$d" -DCMAKE_BUILD_TYPE=Release -DVIM_SANITIZE=ON -DVIM_CHECKED=$checked -DVIM_BUILD_BENCH=OFF \
     -DCMAKE_CXX_FLAGS="-g1" -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" -DVIM_FEM_LIBRARY="$fem_library" \
+    -DVIM_UNITY_BUILD="$([ "${UNITY:-1}" = 0 ] && echo OFF || echo ON)" \
     ${CMAKE_ARGS:-} >/dev/null
   echo "configured $d (VIM_SANITIZE=ON, VIM_CHECKED=$checked${fem_library:+, fem linked uninstrumented from $fem_library})"
 done

@@ -26,6 +26,9 @@ bench=ON
 BUILD_DIR="$BUILD_DIR" CMAKE_ARGS="-DVIM_WERROR=ON -DVIM_BUILD_BENCH=$bench -DVIM_SKIP_SUITES=$skip ${CMAKE_ARGS:-}" \
   bash "$ROOT/scripts/build.sh"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+# Tests run JOBS at a time on as many cores: OpenBLAS (below CHOLMOD and UMFPACK) threads of its own
+# would oversubscribe them and spin (a monolithic-solve test: 2.8x the wall time under load).
+export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}"
 cd "$BUILD_DIR"
 # The full run: the tests JOBS at a time, except those labelled mpi (two ranks each, or a test program
 # that starts `mpirun -np 2`), which run after them one at a time.

@@ -152,8 +152,8 @@ void parse_tissues(const Reader& r, const YAML::Node& t, const std::string& path
       ts.modulus_min = r.number(r.require(m, "min", mp + ".min"), mp + ".min");
       ts.modulus_max = r.number(r.require(m, "max", mp + ".max"), mp + ".max");
       if (!(ts.modulus_min >= 0.0 && ts.modulus_min <= ts.modulus_max))
-        r.fail(reg, mp + " must have 0 <= min <= max, got [" + fmt(ts.modulus_min) + ", " +
-                        fmt(ts.modulus_max) + "]");
+        r.fail(reg, mp + " must have 0 <= min <= max, got [" + number_text(ts.modulus_min) + ", " +
+                        number_text(ts.modulus_max) + "]");
     } else {
       ts.region = parse_region(r, reg, p + ".region", dim);
     }
@@ -164,7 +164,7 @@ void parse_tissues(const Reader& r, const YAML::Node& t, const std::string& path
       if (shear && s.friction != NeedleSpec::Friction::stick_slip)
         r.fail(x, p + ".max_shear_per_length applies only to friction model stick-slip");
       const double v = r.number(x, p + "." + k);
-      if (!(v >= 0.0)) r.fail(x, p + "." + k + " must be >= 0, got " + fmt(v));
+      if (!(v >= 0.0)) r.fail(x, p + "." + k + " must be >= 0, got " + number_text(v));
       (shear ? ts.max_shear_per_length : ts.cutting_force) = v;
     }
     if (!ts.cutting_force && !ts.max_shear_per_length)
@@ -207,10 +207,11 @@ NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string&
     s.sample_spacing = r.positive(f["sample_spacing"], path + ".sample_spacing");
     // One embedded point (one constraint of the FEM solve) per sample_spacing of travel.
     if (s.depth / s.sample_spacing > 100000.0)
-      r.fail(f["sample_spacing"], path + ".sample_spacing = " + fmt(s.sample_spacing) +
+      r.fail(f["sample_spacing"], path + ".sample_spacing = " + number_text(s.sample_spacing) +
                                       " puts more than 100000 shaft points "
                                       "on the depth of " +
-                                      fmt(s.depth) + "; use at least " + fmt(s.depth / 100000.0));
+                                      number_text(s.depth) + "; use at least " +
+                                      number_text(s.depth / 100000.0));
   }
   if (const YAML::Node& c = f["cutting_distance"]) {
     // The force model loads the newest shaft point with the tip force: with a cutting distance there
@@ -223,9 +224,9 @@ NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string&
               "at the tissue the tip has reached");
     s.cutting_distance = r.number(c, path + ".cutting_distance");
     if (s.cutting_distance < 0.0)
-      r.fail(c, path + ".cutting_distance must be >= 0, got " + fmt(s.cutting_distance));
+      r.fail(c, path + ".cutting_distance must be >= 0, got " + number_text(s.cutting_distance));
     if (s.cutting_distance >= s.depth)
-      r.fail(c, path + ".cutting_distance must be less than the depth (" + fmt(s.depth) + ")");
+      r.fail(c, path + ".cutting_distance must be less than the depth (" + number_text(s.depth) + ")");
   }
   if (const YAML::Node& c = f["cutting_force"]) {
     if (s.model == NeedleSpec::Model::force)
@@ -234,13 +235,14 @@ NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string&
           path + ".cutting_force applies only to needle model 'kinematic'; the force model takes tip_force");
     s.cutting_force = r.number(c, path + ".cutting_force");
     if (!(s.cutting_force >= 0.0) || !std::isfinite(s.cutting_force))
-      r.fail(c, path + ".cutting_force must be a finite force >= 0, got " + fmt(s.cutting_force));
+      r.fail(c, path + ".cutting_force must be a finite force >= 0, got " + number_text(s.cutting_force));
   }
   if (const YAML::Node& c = f["coupling_radius"]) {
     s.coupling_radius = r.positive(c, path + ".coupling_radius");
     if (s.coupling_radius < 0.5 * s.diameter)
-      r.fail(c, path + ".coupling_radius = " + fmt(s.coupling_radius) +
-                    " must be at least the needle radius " + fmt(0.5 * s.diameter) + " (diameter / 2)");
+      r.fail(c, path + ".coupling_radius = " + number_text(s.coupling_radius) +
+                    " must be at least the needle radius " + number_text(0.5 * s.diameter) +
+                    " (diameter / 2)");
   }
   const bool force = s.model == NeedleSpec::Model::force;
   for (const char* k : {"tip_force", "friction_per_length"}) {
@@ -248,7 +250,7 @@ NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string&
     if (!x) continue;
     if (!force) r.fail(x, path + "." + k + " applies only to needle model 'force'");
     const double v = r.number(x, path + "." + k);
-    if (v < 0.0) r.fail(x, path + "." + k + " must be >= 0, got " + fmt(v));
+    if (v < 0.0) r.fail(x, path + "." + k + " must be >= 0, got " + number_text(v));
     (std::string(k) == "tip_force" ? s.tip_force : s.friction_per_length) = v;
   }
   if (force && !(s.tip_force > 0.0 || s.friction_per_length > 0.0))
@@ -287,7 +289,8 @@ std::string RegionSpec::describe() const {
 }
 
 std::string TissueSpec::describe() const {
-  return region ? region->describe() : "modulus " + fmt(modulus_min) + ".." + fmt(modulus_max);
+  return region ? region->describe()
+                : "modulus " + number_text(modulus_min) + ".." + number_text(modulus_max);
 }
 
 bool Scenario::wants(const std::string& field) const {
@@ -317,7 +320,7 @@ void parse_material(const Reader& r, const Fields& top, Scenario& s) {
           r.fail(e, "material.youngs_modulus must be 'image' or a number > 0, got " + scalar_text(e));
         }
         if (!(v > 0.0) || !std::isfinite(v))
-          r.fail(e, "material.youngs_modulus must be 'image' or a number > 0, got " + fmt(v));
+          r.fail(e, "material.youngs_modulus must be 'image' or a number > 0, got " + number_text(v));
         s.modulus_from_image = false;
         s.youngs_modulus = v;
       }
@@ -333,9 +336,11 @@ void parse_material(const Reader& r, const Fields& top, Scenario& s) {
       if (!c.IsSequence() || c.size() != 2)
         r.fail(c, "material.clamp must be a list [min, max], got " + scalar_text(c));
       const double lo = r.number(c[0], "material.clamp[0]"), hi = r.number(c[1], "material.clamp[1]");
-      if (!(lo > 0.0)) r.fail(c, "material.clamp min must be > 0 (a Young's modulus), got " + fmt(lo));
+      if (!(lo > 0.0))
+        r.fail(c, "material.clamp min must be > 0 (a Young's modulus), got " + number_text(lo));
       if (!(hi >= lo))
-        r.fail(c, "material.clamp must have min <= max, got [" + fmt(lo) + ", " + fmt(hi) + "]");
+        r.fail(c,
+               "material.clamp must have min <= max, got [" + number_text(lo) + ", " + number_text(hi) + "]");
       s.clamp = std::make_pair(lo, hi);
     }
     if (const YAML::Node& nu = f["poisson_ratio"]) {
@@ -343,10 +348,10 @@ void parse_material(const Reader& r, const Fields& top, Scenario& s) {
       if (v >= 0.5)
         r.fail(
             nu,
-            "material.poisson_ratio = " + fmt(v) +
+            "material.poisson_ratio = " + number_text(v) +
                 " is not valid: it must be < 0.5 (0.5 is incompressible; use e.g. 0.49 with mesh.degree 2)");
       if (!(v > -1.0))
-        r.fail(nu, "material.poisson_ratio = " + fmt(v) + " is not valid: it must be in (-1, 0.5)");
+        r.fail(nu, "material.poisson_ratio = " + number_text(v) + " is not valid: it must be in (-1, 0.5)");
       s.poisson_ratio = v;
     }
   }
@@ -364,7 +369,7 @@ void parse_mesh(const Reader& r, const Fields& top, Scenario& s) {
     }
     if (const YAML::Node& x = f["lambda"]) {
       const double v = r.number(x, "mesh.lambda");
-      if (!(v >= 0.0 && v < 1.0)) r.fail(x, "mesh.lambda must be in [0, 1), got " + fmt(v));
+      if (!(v >= 0.0 && v < 1.0)) r.fail(x, "mesh.lambda must be in [0, 1), got " + number_text(v));
       s.lambda = v;
     }
     if (const YAML::Node& x = f["degree"]) {
@@ -375,7 +380,7 @@ void parse_mesh(const Reader& r, const Fields& top, Scenario& s) {
     if (const YAML::Node& x = f["min_dihedral"]) {
       const double v = r.number(x, "mesh.min_dihedral");
       if (!(v >= 0.0 && v < 60.0))
-        r.fail(x, "mesh.min_dihedral must be in [0, 60) degrees (0 = off; e.g. 10), got " + fmt(v));
+        r.fail(x, "mesh.min_dihedral must be in [0, 60) degrees (0 = off; e.g. 10), got " + number_text(v));
       s.min_dihedral = v;
     }
     if (const YAML::Node& x = f["needle_refinement"]) {
@@ -387,7 +392,7 @@ void parse_mesh(const Reader& r, const Fields& top, Scenario& s) {
         r.fail(ratio,
                "mesh.needle_refinement.size_ratio must be in (0, 1] (element size on the needle path / "
                "far from it, e.g. 0.5), got " +
-                   fmt(nr.size_ratio));
+                   number_text(nr.size_ratio));
       nr.radius = r.positive(r.require(g, "radius", "mesh.needle_refinement.radius"),
                              "mesh.needle_refinement.radius");
       s.needle_refinement = nr;
@@ -635,7 +640,7 @@ void check_modulus_image(const Scenario& s, const Image<dim>& image) {
   }
   if (bad)
     throw ScenarioError(s.where(0) + "material.youngs_modulus: image has " + std::to_string(bad) +
-                        " voxels with a modulus that is negative, zero or NaN (e.g. " + fmt(lo) +
+                        " voxels with a modulus that is negative, zero or NaN (e.g. " + number_text(lo) +
                         "); add material.clamp: [min, max] with min > 0 to use it");
 }
 

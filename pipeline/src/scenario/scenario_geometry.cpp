@@ -6,16 +6,11 @@
 #include <limits>
 #include <sstream>
 #include <vim/pipeline/scenario/scenario.hpp>
+#include <vim/point_text.hpp>
 
 namespace vim::pipeline {
 
 namespace {
-
-std::string fmt(double x) {
-  std::ostringstream s;
-  s << x;
-  return s.str();
-}
 
 // The narrowest width of a box of the given extents perpendicular to the unit direction `axis`: the
 // width along a unit p is sum_d |p_d| extent_d, and over the unit vectors p perpendicular to the axis it
@@ -46,11 +41,6 @@ void check_scenario_geometry(const Scenario& s, const Eigen::Matrix<double, dim,
     for (int d = 0; d < dim; ++d)
       if (p[d] < box_min[d] - tol || p[d] > box_max[d] + tol) return false;
     return true;
-  };
-  auto vec = [](const std::vector<double>& x) {
-    V v;
-    for (int d = 0; d < dim; ++d) v[d] = x[d];
-    return v;
   };
   auto str = [](const V& w) {
     std::ostringstream o;
@@ -83,11 +73,11 @@ void check_scenario_geometry(const Scenario& s, const Eigen::Matrix<double, dim,
   for (std::size_t i = 0; i < s.needles.size(); ++i) {
     const auto& n = s.needles[i];
     const std::string p = s.needle_list ? "needles[" + std::to_string(i) + "]" : "needle";
-    const V entry = tf.to_frame(vec(n.entry));
+    const V entry = tf.to_frame(spec_vector<dim>(n.entry));
     if (!inside(entry))
-      throw ScenarioError(s.where(n.line) + p + ".entry " + str(vec(n.entry)) + " is outside " + box +
-                          along_axes(entry) + "; the entry must be inside the image or on its surface");
-    const V dir = tf.vector_to_frame(vec(n.direction));
+      throw ScenarioError(s.where(n.line) + p + ".entry " + str(spec_vector<dim>(n.entry)) + " is outside " +
+                          box + along_axes(entry) + "; the entry must be inside the image or on its surface");
+    const V dir = tf.vector_to_frame(spec_vector<dim>(n.direction));
     // Largest travel that stays in the box.
     double tmax = std::numeric_limits<double>::infinity();
     for (int d = 0; d < dim; ++d) {
@@ -95,23 +85,24 @@ void check_scenario_geometry(const Scenario& s, const Eigen::Matrix<double, dim,
       if (dir[d] < -1e-12) tmax = std::min(tmax, (box_min[d] - entry[d]) / dir[d]);
     }
     if (!(tmax > tol))
-      throw ScenarioError(s.where(n.line) + p + ".direction " + str(vec(n.direction)) + " points out of " +
-                          box + " at the entry " + str(vec(n.entry)));
+      throw ScenarioError(s.where(n.line) + p + ".direction " + str(spec_vector<dim>(n.direction)) +
+                          " points out of " + box + " at the entry " + str(spec_vector<dim>(n.entry)));
     if (n.depth > tmax + tol)
-      throw ScenarioError(s.where(n.line) + p + ".depth = " + fmt(n.depth) + " takes the tip out of " + box +
-                          "; the largest depth from this entry along this direction is " + fmt(tmax));
+      throw ScenarioError(s.where(n.line) + p + ".depth = " + number_text(n.depth) +
+                          " takes the tip out of " + box +
+                          "; the largest depth from this entry along this direction is " + number_text(tmax));
     const double width = width_across<dim>(dir, box_max - box_min);
     if (n.diameter > width)
       throw ScenarioError(
-          s.where(n.line) + p + ".diameter = " + fmt(n.diameter) + " is larger than " + box +
-          " across the needle (its narrowest width perpendicular to the needle's direction is " + fmt(width) +
-          "); the needle must fit inside the image");
+          s.where(n.line) + p + ".diameter = " + number_text(n.diameter) + " is larger than " + box +
+          " across the needle (its narrowest width perpendicular to the needle's direction is " +
+          number_text(width) + "); the needle must fit inside the image");
   }
   for (const auto& t : s.targets) {
-    const V position = tf.to_frame(vec(t.position));
+    const V position = tf.to_frame(spec_vector<dim>(t.position));
     if (!inside(position))
-      throw ScenarioError(s.where(t.line) + "target '" + t.name + "' position " + str(vec(t.position)) +
-                          " is outside " + box + along_axes(position));
+      throw ScenarioError(s.where(t.line) + "target '" + t.name + "' position " +
+                          str(spec_vector<dim>(t.position)) + " is outside " + box + along_axes(position));
   }
   // Geometric regions that cannot touch the box are caught later (selects no node), with the BC index.
 }

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 #include <vim/pipeline/scenario/scenario.hpp>
+#include <vim/point_text.hpp>
 
 namespace vim::pipeline {
 
@@ -26,12 +27,6 @@ std::string join(const std::vector<std::string>& v, const char* sep = ", ") {
   std::string s;
   for (std::size_t i = 0; i < v.size(); ++i) s += (i ? sep : "") + v[i];
   return s;
-}
-
-std::string fmt(double x) {
-  std::ostringstream s;
-  s << x;
-  return s.str();
 }
 
 // Hand-written equivalents of the former std::regex checks (std::regex_match dominated the parse
@@ -156,7 +151,7 @@ class Reader {
   }
   double positive(const YAML::Node& n, const std::string& path) const {
     const double v = number(n, path);
-    if (!(v > 0.0)) fail(n, path + " must be > 0, got " + fmt(v));
+    if (!(v > 0.0)) fail(n, path + " must be > 0, got " + number_text(v));
     return v;
   }
   long integer(const YAML::Node& n, const std::string& path) const {
@@ -214,7 +209,7 @@ class Reader {
   }
   static std::string join_numbers(const std::vector<double>& v) {
     std::vector<std::string> s;
-    for (double x : v) s.push_back(fmt(x));
+    for (double x : v) s.push_back(number_text(x));
     return join(s);
   }
 

@@ -3,15 +3,6 @@
 
 namespace vim::pipeline {
 
-namespace {
-template <int dim>
-Eigen::Matrix<double, dim, 1> vec(const std::vector<double>& x) {
-  Eigen::Matrix<double, dim, 1> v;
-  for (int a = 0; a < dim; ++a) v[a] = x[a];
-  return v;
-}
-}  // namespace
-
 template <int dim>
 fem::Region<dim> scenario_region(const RegionSpec& r, const Eigen::Matrix<double, dim, 1>& box_min,
                                  const Eigen::Matrix<double, dim, 1>& box_max,
@@ -23,11 +14,12 @@ fem::Region<dim> scenario_region(const RegionSpec& r, const Eigen::Matrix<double
   }
   std::function<bool(const Vec&)> world;
   if (r.kind == RegionSpec::Kind::box) {
-    world = fem::box_region<dim>(vec<dim>(r.lo), vec<dim>(r.hi)).contains;
+    world = fem::box_region<dim>(spec_vector<dim>(r.lo), spec_vector<dim>(r.hi)).contains;
   } else if (r.kind == RegionSpec::Kind::sphere) {
-    world = fem::sphere_region<dim>(vec<dim>(r.center), r.radius).contains;
+    world = fem::sphere_region<dim>(spec_vector<dim>(r.center), r.radius).contains;
   } else {
-    world = fem::cylinder_region<dim>(vec<dim>(r.center), vec<dim>(r.axis_vector), r.radius).contains;
+    world = fem::cylinder_region<dim>(spec_vector<dim>(r.center), spec_vector<dim>(r.axis_vector), r.radius)
+                .contains;
   }
   return {r.describe(), [world, tf](const Vec& x) { return world(tf.to_world(x)); }};
 }

@@ -22,8 +22,8 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
       spec_(spec),
       needle_(needle_options<dim>(spec, context.tf, context.opt.max_active_set_iterations)),
       prefix_(std::move(prefix)) {
-  axis_world_ = vec<dim>(spec.direction).normalized();
-  entry_world_ = vec<dim>(spec.entry);
+  axis_world_ = spec_vector<dim>(spec.direction).normalized();
+  entry_world_ = spec_vector<dim>(spec.entry);
   axis_ = needle_.path.axis;
   std::vector<needle::ShaftPoint<dim>> shaft = make_coupling(snap_to_vertices);
   if (shaft.empty())
@@ -56,7 +56,7 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
   tissue_ = std::make_unique<needle::ElasticTissue<dim>>(*ctx_.model, *coupling_, stepping_->state(),
                                                          stepping_->n_points(), pitch_, ctx_.solver,
                                                          ctx_.opt.monolithic);
-  for (const auto &t : ctx_.sc.targets) targets_.push_back(ctx_.tf.to_frame(vec<dim>(t.position)));
+  for (const auto &t : ctx_.sc.targets) targets_.push_back(ctx_.tf.to_frame(spec_vector<dim>(t.position)));
   if (dim == 3)
     for (double s : run_.point_s) {  // the cell at the station's centre on the path
       const long cell = ctx_.locator().locate(needle_.path.entry + s * axis_);

@@ -67,11 +67,11 @@ fem::VolumeSupport<dim> NeedleSimulation<dim>::Impl::volume_support(const Bounda
     lo = lo.cwiseMin(w), hi = hi.cwiseMax(w);
   }
   if (r.kind == RegionSpec::Kind::box) {
-    anchor = vec<dim>(r.lo);
-    lo = lo.cwiseMax(vec<dim>(r.lo)), hi = hi.cwiseMin(vec<dim>(r.hi));
-    size = (vec<dim>(r.hi) - vec<dim>(r.lo)).minCoeff();
+    anchor = spec_vector<dim>(r.lo);
+    lo = lo.cwiseMax(spec_vector<dim>(r.lo)), hi = hi.cwiseMin(spec_vector<dim>(r.hi));
+    size = (spec_vector<dim>(r.hi) - spec_vector<dim>(r.lo)).minCoeff();
   } else {
-    anchor = vec<dim>(r.center);
+    anchor = spec_vector<dim>(r.center);
     size = r.radius;
     if (r.kind == RegionSpec::Kind::sphere)
       lo = lo.cwiseMax((anchor.array() - r.radius).matrix()),
@@ -151,7 +151,7 @@ void NeedleSimulation<dim>::Impl::setup(const std::vector<Vec>& vertices) {
       d.region = reg;
       const bool all = std::all_of(bc.components.begin(), bc.components.end(), [](bool b) { return b; });
       if (bc.type == BoundaryConditionSpec::Type::displacement)
-        d.value = tf.vector_to_frame(vec<dim>(bc.value));
+        d.value = tf.vector_to_frame(spec_vector<dim>(bc.value));
       if (!all && tf.axis_aligned()) {
         // Every image axis is a world axis: the world components are frame components.
         for (int c = 0; c < dim; ++c) d.components[c] = bc.components[tf.world_axis_of(c)];
@@ -160,7 +160,7 @@ void NeedleSimulation<dim>::Impl::setup(const std::vector<Vec>& vertices) {
         d.axes = tf.direction.transpose();
         point_axes = d.axes;
         for (int c = 0; c < dim; ++c) d.components[c] = bc.components[c];
-        if (bc.type == BoundaryConditionSpec::Type::displacement) d.value = vec<dim>(bc.value);
+        if (bc.type == BoundaryConditionSpec::Type::displacement) d.value = spec_vector<dim>(bc.value);
       }
       model->add_dirichlet(d);
       if (all) {
@@ -174,12 +174,12 @@ void NeedleSimulation<dim>::Impl::setup(const std::vector<Vec>& vertices) {
       if (bc.type == BoundaryConditionSpec::Type::pressure)
         load.pressure = bc.value[0];
       else
-        load.traction = tf.vector_to_frame(vec<dim>(bc.value));
+        load.traction = tf.vector_to_frame(spec_vector<dim>(bc.value));
       model->add_surface_load(load);
     }
   }
   for (const auto& t : sc.targets)
-    if (locator().locate(tf.to_frame(vec<dim>(t.position))) < 0)
+    if (locator().locate(tf.to_frame(spec_vector<dim>(t.position))) < 0)
       throw ScenarioError(sc.where(t.line) + "target '" + t.name + "' is outside the meshed domain");
 }
 

@@ -45,11 +45,4 @@ struct SimulationContext {
   fem::Region<dim> region(const RegionSpec& r) const;
 };
 
-template <int dim>
-Eigen::Matrix<double, dim, 1> vec(const std::vector<double>& x) {
-  Eigen::Matrix<double, dim, 1> v;
-  for (int d = 0; d < dim; ++d) v[d] = x[d];
-  return v;
-}
-
 }  // namespace vim::pipeline

@@ -30,7 +30,7 @@ StaticLoadOutcome<dim> run_static_load(SimulationContext<dim>& ctx, std::vector<
   }
   run.max_strain = largest_principal_strain<dim>(solution.cell_strain);
   std::vector<Vec> targets;
-  for (const auto& t : ctx.sc.targets) targets.push_back(ctx.tf.to_frame(vec<dim>(t.position)));
+  for (const auto& t : ctx.sc.targets) targets.push_back(ctx.tf.to_frame(spec_vector<dim>(t.position)));
   if (!targets.empty())
     for (const Vec& u : ctx.model->sample(targets))
       run.target_displacement.push_back(ctx.tf.vector_to_world(u));

@@ -162,6 +162,14 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim,
                              const std::string& source_name = "scenario");
 Scenario read_scenario(const std::string& path, int dim);
 
+// A coordinate list of the scenario (a position, direction or corner; at least dim values) as a vector.
+template <int dim>
+Eigen::Matrix<double, dim, 1> spec_vector(const std::vector<double>& x) {
+  Eigen::Matrix<double, dim, 1> v;
+  for (int d = 0; d < dim; ++d) v[d] = x[d];
+  return v;
+}
+
 // Checks the scenario against the image geometry (world = transform.to_world(frame)): needle entry
 // inside the image box (on its surface is fine, as for a transperineal entry at the skin), the whole
 // path inside the box, targets inside the box. box_min/box_max are the image box in the frame.
