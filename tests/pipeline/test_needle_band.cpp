@@ -274,13 +274,13 @@ TEST(NeedleBand, TargetsInsideTheBandRadiusAreWarnedAbout) {
   EXPECT_EQ(band_warning_of(outside), "");
 }
 
-// A modulus change inside the bands: a stiff sphere (60 against 20 kPa, radius 4 mm, centre (10, 10, 12))
-// on the needle's path changes the modulus within the bands of the stations in and near it by far more
-// than 20%, so the run warns and report.json lists those stations; a path 6.6 mm from the sphere
-// (farther than R + an element) has none.
+// A modulus change inside the bands, off the axis: a stiff sphere (60 against 20 kPa, radius 4 mm,
+// centre (10, 10, 12)) 1.5 mm beside the needle's path, inside the band radius R = 3.36 mm, changes the
+// modulus within the bands of the stations beside it by more than 20%, so the run warns and report.json
+// lists those stations; a path 6.6 mm from the sphere (farther than R + an element) has none.
 TEST(NeedleBand, ModulusChangesInsideTheBandAreWarnedAbout) {
   const Image<3> sphere = block_image({{20, 20, 24}}, 60.0);
-  const SimulationResult<3> through = band_run(sphere, 9.37, 10.29, 6.0);
+  const SimulationResult<3> through = band_run(sphere, 15.5, 10.0, -6.0);
   const auto& changes = through.report["needles"][0]["band"]["modulus_changes"];
   ASSERT_FALSE(changes.empty());
   double largest = 0.0;
