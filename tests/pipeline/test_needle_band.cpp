@@ -266,7 +266,7 @@ TEST(NeedleBand, TargetsInsideTheBandRadiusAreWarnedAbout) {
   EXPECT_EQ(inside.report["needles"][0]["band"]["targets_inside"], nlohmann::json::array({"near"}));
   EXPECT_TRUE(inside.report["needles"][0]["band"]["modulus_changes"].empty());
   const std::string w = band_warning_of(inside);
-  EXPECT_NE(w.find("targets near;"), std::string::npos) << w;
+  EXPECT_NE(w.find("lie targets: near;"), std::string::npos) << w;
   EXPECT_EQ(w.find("far"), std::string::npos) << w;
   EXPECT_EQ(w.find("modulus changes"), std::string::npos) << w;
   const SimulationResult<3> outside = band_run(uniform, 9.37, 10.29, 1.1 * radius);

@@ -80,12 +80,12 @@ inline std::string band_warning(const std::string& where, const std::string& who
   w << where << who << ": inside the band (radius " << radius
     << " around the shaft, where the model holds only a band mean and an annulus of one modulus; "
        "docs/needle-model.md) lie ";
-  if (!inside.empty()) w << "targets " << inside;
+  if (!inside.empty()) w << "targets: " << inside;
   if (!check.modulus_changes.empty()) {
     const auto peak = std::max_element(
         check.modulus_changes.begin(), check.modulus_changes.end(),
         [](const BandModulusChange& a, const BandModulusChange& b) { return a.change < b.change; });
-    w << (inside.empty() ? "" : " and ") << "modulus changes above " << 100.0 * kBandModulusChange << "% at "
+    w << (inside.empty() ? "" : "; ") << "modulus changes above " << 100.0 * kBandModulusChange << "% at "
       << check.modulus_changes.size() << " stations (largest " << 100.0 * peak->change
       << "% between path lengths " << peak->from << " and " << peak->to << ")";
   }
