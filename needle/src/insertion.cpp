@@ -49,6 +49,11 @@ void Insertion<dim>::pick_up(double depth, double travel,
     pick_up_points(cut, depth, held_axial);
   else
     pick_up_bands(cut, travel, held_axial);
+  list_active();
+}
+
+template <int dim>
+void Insertion<dim>::list_active() {
   state_.active.clear();
   state_.tip = n_points();
   for (std::size_t j = 0; j < n_points(); ++j) {
@@ -103,6 +108,16 @@ void Insertion<dim>::pick_up_bands(double cut, double travel,
     const double u = jf < np ? held_axial(jf) : 0.0;
     reach = state_.front = std::max(state_.front, cut - u);
   }
+  reach_ = reach;
+  join_stations(cut, reach);
+}
+
+// Every station the front `reach` has entered carries its cut part at the mean stick value of that
+// part (the part cut before keeps its value).
+template <int dim>
+void Insertion<dim>::join_stations(double cut, double reach) {
+  const std::size_t np = shaft_.size();
+  const double eps = 1e-9 * options_.path.depth;
   for (std::size_t j = 0; j < np && start_[j] < reach - eps; ++j) {
     const double old_length = state_.carried[j];
     const double new_length = std::max(old_length, std::min(shaft_[j].length, reach - start_[j]));
@@ -152,6 +167,18 @@ FrictionStep Insertion<dim>::solve(TissueResponse& tissue) {
   state_.tip_cutting =
       c < n_points() && state_.axial[c] < state_.stick[c] - 1e-12 * std::max(1.0, std::abs(state_.stick[c]));
   if (state_.tip_cutting && c >= shaft_.size()) state_.front = std::max(state_.front, cut_ - state_.axial[c]);
+  // The tip cut past the front the stations took (it punctured in this step, or cut more than the last
+  // step's indentation predicted): the tissue cut in this step joins now and the step is solved again,
+  // so that it carries friction in the step that cut it.
+  if (dim == 3 && state_.tip_cutting && c >= shaft_.size() &&
+      state_.front > reach_ + 1e-9 * options_.path.depth) {
+    join_stations(cut_, state_.front);
+    list_active();
+    const FrictionStep again = law_->update(state_, tissue);
+    state_.tip_cutting = state_.axial[c] < state_.stick[c] - 1e-12 * std::max(1.0, std::abs(state_.stick[c]));
+    if (state_.tip_cutting) state_.front = std::max(state_.front, cut_ - state_.axial[c]);
+    return {again.sweeps + step.sweeps, again.settled};
+  }
   return step;
 }
 

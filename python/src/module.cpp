@@ -143,6 +143,20 @@ py::dict needle_dict(const NeedleData& n, int dim, std::size_t targets, std::siz
   d["lateral_force"] = to_array<double>(n.lateral_force, {steps});
   d["friction_force"] = to_array<double>(n.friction_force, {steps});
   d["tip_force"] = to_array<double>(n.tip_force, {steps});
+  py::array_t<bool> tip_cutting(steps);
+  for (py::ssize_t k = 0; k < steps; ++k)
+    tip_cutting.mutable_at(k) =
+        k < static_cast<py::ssize_t>(n.tip_cutting.size()) && n.tip_cutting[static_cast<std::size_t>(k)] != 0;
+  d["tip_cutting"] = tip_cutting;
+  py::list punctures;
+  for (std::size_t p = 0; p + 2 < n.punctures.size(); p += 3) {
+    py::dict one;
+    one["depth"] = n.punctures[p];
+    one["force_before"] = n.punctures[p + 1];
+    one["force_after"] = n.punctures[p + 2];
+    punctures.append(one);
+  }
+  d["punctures"] = punctures;
   d["max_strain"] = to_array<double>(n.max_strain, {steps});
   d["tip"] = to_array<double>(n.tip, {steps, dim});
   d["force"] = to_array<double>(n.force, {steps, dim});

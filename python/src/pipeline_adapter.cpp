@@ -215,6 +215,9 @@ NeedleData needle_data(const vp::NeedleRun<dim>& run) {
   n.lateral_force = run.lateral_force;
   n.friction_force = run.friction_force;
   n.tip_force = run.tip_force;
+  n.tip_cutting = run.tip_cutting;
+  for (const auto& p : run.punctures)
+    n.punctures.insert(n.punctures.end(), {p.depth, p.force_before, p.force_after});
   n.max_strain = run.max_strain;
   auto append = [](std::vector<double>& out, const Eigen::Matrix<double, dim, 1>& v) {
     for (int a = 0; a < dim; ++a) out.push_back(v[a]);

@@ -90,10 +90,12 @@ struct NeedleData {
   std::string name;
   std::vector<double> depth, axial_force, lateral_force;  // per step
   std::vector<double> friction_force, tip_force;          // per step: the axial force's two parts
-  std::vector<double> max_strain;                         // per step: largest principal strain
-  std::vector<double> tip, force;                         // steps × dim, world
-  std::vector<double> target_displacement;                // steps × targets × dim, world axes
-  std::vector<double> displacement;                       // steps × nodes × dim, world axes
+  std::vector<int> tip_cutting;             // per step: 1 where the tip cuts (at its cutting force)
+  std::vector<double> punctures;            // per puncture: depth, force before, force after
+  std::vector<double> max_strain;           // per step: largest principal strain
+  std::vector<double> tip, force;           // steps × dim, world
+  std::vector<double> target_displacement;  // steps × targets × dim, world axes
+  std::vector<double> displacement;         // steps × nodes × dim, world axes
 };
 
 struct SimulationData {

@@ -75,6 +75,8 @@ class Mesh:
 class Result:
     """A needle-insertion simulation: ``mesh`` (with youngs_modulus), ``needles`` (one dict per needle:
     ``name``, per-step ``depth``, ``axial_force`` (= ``friction_force`` of the shaft + ``tip_force``),
+    ``tip_cutting`` (bool: the tip cuts, its force held at the cutting force), ``punctures`` (a list of
+    dicts ``depth``, ``force_before``, ``force_after``: the steps at which the tip first cuts after pressing),
     ``lateral_force``, ``max_strain``, ``tip`` and ``force`` (steps x dim, world), ``target_displacement`` (steps x targets x dim), ``displacement`` (steps x nodes x dim)),
     ``target_names``, ``warnings``, ``report`` (report.json). ``write(out_dir)`` writes the CLI's files."""
 

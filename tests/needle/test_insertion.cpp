@@ -87,7 +87,8 @@ TEST(Insertion, StickSlipForceWithinTheCarriedLimitNeverFalls) {
 
 // The tip bearing on springs: tip rows every 0.5 from the entry, k = 4 each, F_c = 2, steps of 0.5.
 // Pushing: w = cut, force 4·cut ≤ 2 up to cut = 0.5; from cut = 1 on the row is held at F_c with
-// w = 0.5 and the front is cut − 0.5; the stations carry [b, min(e, cut − 0.5)].
+// w = 0.5 and the front is cut − 0.5; the stations carry [b, min(e, cut − 0.5)] from the puncture
+// step (cut = 1) on.
 // (The rows' positions do not enter: the springs have no geometry.)
 TEST(Insertion, TipPressesUntilTheCuttingForceThenCutsAtIt) {
   NeedleOptions<3> o = options_for("stick", 20, 0.0);
@@ -110,9 +111,9 @@ TEST(Insertion, TipPressesUntilTheCuttingForceThenCutsAtIt) {
     EXPECT_EQ(s.tip_cutting, d > 0.5 + 1e-9) << "step " << k;
     const double front = d > 0.5 + 1e-9 ? d - 0.5 : 0.0;
     EXPECT_NEAR(s.front, front, 1e-9) << "step " << k;
-    // The stations take the front the tip reaches when it keeps cutting (from the step after the
-    // puncture on): cut − 0.5; at the puncture step itself nothing is cut yet when they join.
-    const double reach = d > 1.0 + 1e-9 ? d - 0.5 : 0.0;
+    // The stations carry the tissue the tip has cut, cut − 0.5, also at the puncture step (the tissue
+    // cut in that step joins after the tip row gave way, and the step is solved again).
+    const double reach = front;
     for (std::size_t j = 0; j < 5; ++j) {
       const double b = 2.0 * static_cast<double>(j);
       EXPECT_NEAR(s.carried[j], std::clamp(reach - b, 0.0, 2.0), 1e-9) << "step " << k << " station " << j;

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <sstream>
 #include <vim/image.hpp>
 #include <vim/initial_mesh.hpp>
 #include <vim/pipeline/scenario/scenario.hpp>
@@ -223,4 +224,75 @@ TEST(NeedleBand, TargetsAheadOfTheTipDoNotDependOnTheStationPitch) {
   const auto u1 = targets_ahead_of_a_slipping_needle("coupling_radius: 2, sample_spacing: 1");
   const auto u3 = targets_ahead_of_a_slipping_needle("coupling_radius: 2, sample_spacing: 3");
   for (std::size_t k = 0; k < 2; ++k) EXPECT_NEAR(u3[k].z() / u1[k].z(), 1.0, 0.02) << "target " << k;
+}
+
+namespace {
+
+// The block image's scenario with a needle at (x, y) along z and two targets at 8 mm depth: `near`
+// `near_offset` from the axis, `far` 8 mm from it.
+SimulationResult<3> band_run(const Image<3>& img, double x, double y, double near_offset) {
+  const SimplexMesh<3> grid = regular_grid_mesh<3>(img.box_min(), img.box_max(), {{7, 7, 8}});
+  std::ostringstream needle, targets;
+  needle << "{entry: [" << x << ", " << y
+         << ", 0], direction: [0, 0, 1], depth: 18, steps: 3, diameter: 1.27, "
+         << "friction: {model: stick}}";
+  targets << "[{name: near, position: [" << x + near_offset << ", " << y << ", 8]}, {name: far, position: ["
+          << x << ", " << y + 8.0 << ", 8]}]";
+  const Scenario sc = parse_scenario_text(
+      yaml(needle.str(), targets.str(), "{youngs_modulus: image, poisson_ratio: 0.45}",
+           "[{type: fixed, region: {box_face: z_max}}, {type: fixed, region: {box_face: x_min}}]"),
+      3);
+  SimulationOptions o = quiet();
+  o.degree = 2;
+  return NeedleSimulation<3>(image_mesh(img, grid), sc, o).run();
+}
+
+std::string band_warning_of(const SimulationResult<3>& r) {
+  for (const auto& w : r.warnings)
+    if (w.find("inside the band (radius") != std::string::npos) return w;
+  return "";
+}
+
+}  // namespace
+
+// A target within the band radius R of the shaft (R = the element size 3.33 mm at P2 on this grid)
+// is named in the warning and in report.json's band.targets_inside; one 8 mm away is not, and with the
+// near target 1.1 R from the axis there is no warning at all (uniform block: no modulus change).
+TEST(NeedleBand, TargetsInsideTheBandRadiusAreWarnedAbout) {
+  const Image<3> uniform = block_image({{20, 20, 24}}, 20.0);
+  const SimulationResult<3> inside = band_run(uniform, 9.37, 10.29, 1.5);
+  const double radius = inside.report["needles"][0]["band"]["radius"];
+  ASSERT_GT(radius, 1.5);
+  EXPECT_EQ(inside.report["needles"][0]["band"]["targets_inside"], nlohmann::json::array({"near"}));
+  EXPECT_TRUE(inside.report["needles"][0]["band"]["modulus_changes"].empty());
+  const std::string w = band_warning_of(inside);
+  EXPECT_NE(w.find("lie targets: near;"), std::string::npos) << w;
+  EXPECT_EQ(w.find("far"), std::string::npos) << w;
+  EXPECT_EQ(w.find("modulus changes"), std::string::npos) << w;
+  const SimulationResult<3> outside = band_run(uniform, 9.37, 10.29, 1.1 * radius);
+  EXPECT_TRUE(outside.report["needles"][0]["band"]["targets_inside"].empty());
+  EXPECT_EQ(band_warning_of(outside), "");
+}
+
+// A modulus change inside the bands, off the axis: a stiff sphere (60 against 20 kPa, radius 4 mm,
+// centre (10, 10, 12)) 1.5 mm beside the needle's path, inside the band radius R = 3.36 mm, changes the
+// modulus within the bands of the stations beside it by more than 20%, so the run warns and report.json
+// lists those stations; a path 6.6 mm from the sphere (farther than R + an element) has none.
+TEST(NeedleBand, ModulusChangesInsideTheBandAreWarnedAbout) {
+  const Image<3> sphere = block_image({{20, 20, 24}}, 60.0);
+  const SimulationResult<3> through = band_run(sphere, 15.5, 10.0, -6.0);
+  const auto& changes = through.report["needles"][0]["band"]["modulus_changes"];
+  ASSERT_FALSE(changes.empty());
+  double largest = 0.0;
+  for (const auto& c : changes) {
+    EXPECT_LT(static_cast<double>(c["from"]), 16.0 + 1e-9);  // stations reaching the sphere (z 8 … 16)
+    EXPECT_GT(static_cast<double>(c["to"]), 8.0 - 1e-9);
+    largest = std::max(largest, static_cast<double>(c["relative_change"]));
+  }
+  EXPECT_GT(largest, 0.2);
+  EXPECT_NE(band_warning_of(through).find("modulus changes above 20%"), std::string::npos)
+      << band_warning_of(through);
+  const SimulationResult<3> beside = band_run(sphere, 17.5, 2.5, -6.0);
+  EXPECT_TRUE(beside.report["needles"][0]["band"]["modulus_changes"].empty());
+  EXPECT_EQ(band_warning_of(beside), "");
 }

@@ -6,8 +6,10 @@
 // cutting force, a needle pushed further into linear elastic tissue cannot pull less).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <sstream>
 #include <vim/pipeline/scenario/scenario.hpp>
 #include <vim/pipeline/simulation/simulation.hpp>
@@ -207,4 +209,104 @@ TEST(NeedleTip, NearFieldStrainOfSlidingStationsIsTheAntiplaneSurfaceStrain) {
                         w.find("targets in it: near (from step") != std::string::npos &&
                         w.find("far") == std::string::npos);
   EXPECT_TRUE(warned);
+}
+
+namespace {
+
+// The largest change of a per-step curve between two runs, over the largest magnitude of the finer
+// run: max_k |X_coarse(d_k) − X_fine(d_k)| / max_k |X_fine|, the finer curve read at the coarser
+// run's depths d_k (linear in the depth between its steps).
+template <class Value, class Norm>
+double curve_change(const std::vector<double>& depth, const std::vector<Value>& coarse,
+                    const std::vector<double>& fine_depth, const std::vector<Value>& fine, Norm norm) {
+  double change = 0.0, scale = 0.0;
+  for (const auto& x : fine) scale = std::max(scale, norm(x));
+  for (std::size_t k = 0; k < depth.size(); ++k) {
+    const auto hi = std::lower_bound(fine_depth.begin(), fine_depth.end(), depth[k] - 1e-12);
+    const std::size_t j = static_cast<std::size_t>(hi - fine_depth.begin());
+    Value at = fine[std::min(j, fine.size() - 1)];
+    if (j > 0 && j < fine.size() && fine_depth[j] > depth[k] + 1e-12) {
+      const double t = (depth[k] - fine_depth[j - 1]) / (fine_depth[j] - fine_depth[j - 1]);
+      at = (1.0 - t) * fine[j - 1] + t * fine[j];
+    }
+    change = std::max(change, norm(coarse[k] - at));
+  }
+  return scale > 0.0 ? change / scale : change;
+}
+
+struct CurveChanges {
+  double force = 0.0;
+  std::vector<double> targets;
+};
+
+CurveChanges curve_changes(const NeedleRun<3>& coarse, const NeedleRun<3>& fine) {
+  CurveChanges c;
+  c.force = curve_change(coarse.depth, coarse.axial_force, fine.depth, fine.axial_force,
+                         [](double x) { return std::abs(x); });
+  for (std::size_t t = 0; t < fine.target_displacement.front().size(); ++t) {
+    std::vector<V3> uc, uf;
+    for (const auto& u : coarse.target_displacement) uc.push_back(u[t]);
+    for (const auto& u : fine.target_displacement) uf.push_back(u[t]);
+    c.targets.push_back(curve_change(coarse.depth, uc, fine.depth, uf, [](const V3& x) { return x.norm(); }));
+  }
+  return c;
+}
+
+// A uniform block image (20 × 20 × 24 voxels of 1 mm, 20 kPa), the needle along z off the mesh
+// vertices with stick-slip friction and a cutting force, three targets: beside the path, off it and
+// ahead of the final tip.
+Scenario convergence_scenario(int steps) {
+  std::ostringstream needle;
+  needle << "{entry: [9.37, 10.29, 0], direction: [0, 0, 1], depth: 16, steps: " << steps
+         << ", diameter: 1.27, cutting_force: 8, friction: {model: stick-slip, max_shear_per_length: 3}}";
+  return parse_scenario_text(
+      yaml(needle.str(),
+           "[{name: beside, position: [12.6, 10.29, 8]}, {name: off, position: [14.0, 12.0, 10]}, "
+           "{name: ahead, position: [9.37, 10.29, 19]}, {name: in_band, position: [10.9, 10.29, 8]}]",
+           "{youngs_modulus: image, poisson_ratio: 0.45}",
+           "[{type: fixed, region: {box_face: z_max}}, {type: fixed, region: {box_face: x_min}}]"),
+      3);
+}
+
+}  // namespace
+
+// Curve convergence on a uniform block (P2): the whole force–depth curve and every target's trajectory
+// change by at most 3% of their largest value between the two finest of three grids (element size
+// 4, 2.86 and 2 mm), and between 16 and 32 steps of the same insertion on the finest grid.
+TEST(NeedleTip, ForceCurveAndTargetTrajectoriesConvergeOnAUniformBlock) {
+  const Image<3> img = block_image({{20, 20, 24}}, 20.0);  // the sphere has the block's modulus
+  SimulationOptions o = quiet();
+  o.degree = 2;
+  std::vector<NeedleRun<3>> runs;
+  const std::vector<std::array<int, 3>> grids = {{{8, 8, 9}}, {{11, 11, 13}}, {{15, 15, 18}}};
+  for (const auto& n : grids) {
+    const SimplexMesh<3> grid = regular_grid_mesh<3>(img.box_min(), img.box_max(), n);
+    runs.push_back(
+        NeedleSimulation<3>(image_mesh(img, grid), convergence_scenario(16), o).run().needles.at(0));
+  }
+  const SimplexMesh<3> mid = regular_grid_mesh<3>(img.box_min(), img.box_max(), grids[1]);
+  const NeedleRun<3> twice =
+      NeedleSimulation<3>(image_mesh(img, mid), convergence_scenario(32), o).run().needles.at(0);
+  const auto print = [](const char* what, const CurveChanges& c) {
+    std::printf("%s: force %.4f, targets", what, c.force);
+    for (double t : c.targets) std::printf(" %.4f", t);
+    std::printf("\n");
+  };
+  print("coarse vs mid", curve_changes(runs[0], runs[1]));
+  const CurveChanges mesh = curve_changes(runs[1], runs[2]), steps = curve_changes(runs[1], twice);
+  print("mid vs fine", mesh);
+  print("16 vs 32 steps", steps);
+  std::printf("final force %.4f / %.4f / %.4f / %.4f mN\n", runs[0].axial_force.back(),
+              runs[1].axial_force.back(), runs[2].axial_force.back(), twice.axial_force.back());
+  if (std::getenv("VIM_PRINT_CURVES"))
+    for (const NeedleRun<3>* r : std::vector<const NeedleRun<3>*>{&runs[0], &runs[1], &runs[2], &twice})
+      for (std::size_t k = 0; k < r->depth.size(); ++k)
+        std::printf("%zu %6.2f F %8.4f tip %8.4f cut %d beside %8.5f off %8.5f ahead %8.5f\n",
+                    r->depth.size(), r->depth[k], r->axial_force[k], r->tip_force[k], r->tip_cutting[k],
+                    r->target_displacement[k][0].norm(), r->target_displacement[k][1].norm(),
+                    r->target_displacement[k][2].norm());
+  for (const CurveChanges* c : {&mesh, &steps}) {
+    EXPECT_LE(c->force, 0.03);
+    for (std::size_t t = 0; t < 3; ++t) EXPECT_LE(c->targets[t], 0.03) << "target " << t;
+  }
 }

@@ -57,6 +57,12 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
                                                          stepping_->n_points(), pitch_, ctx_.solver,
                                                          ctx_.opt.monolithic);
   for (const auto &t : ctx_.sc.targets) targets_.push_back(ctx_.tf.to_frame(spec_vector<dim>(t.position)));
+  if constexpr (dim == 3)
+    band_check_ = check_bands(needle_.path.entry, axis_, coupling_radius_, run_.point_s, run_.point_length,
+                              targets_, [this](const Vec &x) {
+                                const long cell = ctx_.locator().locate(x);
+                                return cell >= 0 ? ctx_.E[static_cast<std::size_t>(cell)] : -1.0;
+                              });
   if (dim == 3)
     for (double s : run_.point_s) {  // the cell at the station's centre on the path
       const long cell = ctx_.locator().locate(needle_.path.entry + s * axis_);
@@ -163,8 +169,26 @@ NeedleOutcome<dim> NeedleInsertion<dim>::run() {
   }
   nlohmann::json report = needle_report<dim>(spec_, run_, stepping_->law(), pitch_, prefix_, run_seconds,
                                              tissue_->solves(), ctx_.opt.monolithic, ctx_.sc);
-  if (dim == 3) report["coupling_radius"] = coupling_radius_;
-  return {std::move(run_), std::move(report)};
+  std::vector<std::string> warnings;
+  if (dim == 3) {
+    report["coupling_radius"] = coupling_radius_;
+    nlohmann::json band = {{"radius", coupling_radius_},
+                           {"modulus_change_threshold", kBandModulusChange},
+                           {"targets_inside", nlohmann::json::array()},
+                           {"modulus_changes", nlohmann::json::array()}};
+    std::vector<std::string> names;
+    for (std::size_t t = 0; t < ctx_.sc.targets.size(); ++t) {
+      names.push_back(ctx_.sc.targets[t].name);
+      if (band_check_.target_inside[t]) band["targets_inside"].push_back(names.back());
+    }
+    for (const auto &c : band_check_.modulus_changes)
+      band["modulus_changes"].push_back({{"from", c.from}, {"to", c.to}, {"relative_change", c.change}});
+    report["band"] = std::move(band);
+    const std::string who = spec_.name.empty() ? std::string("the needle") : "needle '" + spec_.name + "'";
+    const std::string w = band_warning(ctx_.sc.where(spec_.line), who, coupling_radius_, names, band_check_);
+    if (!w.empty()) warnings.push_back(w);
+  }
+  return {std::move(run_), std::move(report), std::move(warnings)};
 }
 
 // Step 0: rest, or the external loads alone; their displacement across the axis

@@ -23,6 +23,7 @@
 #include <vim/pipeline/common/progress.hpp>
 #include <vim/pipeline/simulation/simulation.hpp>
 
+#include "simulation/band_check.hpp"
 #include "simulation/simulation_context.hpp"
 #include "simulation/simulation_output.hpp"
 
@@ -65,6 +66,7 @@ class NeedleInsertion {
   std::unique_ptr<needle::ElasticTissue<dim>> tissue_;
   std::vector<Vec> targets_;           // frame
   std::vector<double> station_shear_;  // 3D: the shear modulus of the tissue at each shaft station
+  BandCheck band_check_;               // 3D: the targets and modulus changes inside the bands
   bool loaded_ = false;                // external loads act from step 0
   bool write_ = false;
   bool have_solution_ = false;

@@ -451,6 +451,7 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
     NeedleOutcome<dim> needle = m.insert_needle(spec, prefix, res.warnings);
     const std::string strain = small_strain_warning(m.sc.where(spec.line), who, needle.run.mesh_strain);
     if (!strain.empty()) res.warnings.push_back(strain);
+    for (auto& w : needle.warnings) res.warnings.push_back(std::move(w));
     std::vector<std::string> target_names;
     for (const auto& t : m.sc.targets) target_names.push_back(t.name);
     const std::string near = near_field_warning(m.sc.where(spec.line), who, needle.run.small_strain_radius,

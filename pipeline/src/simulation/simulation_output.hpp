@@ -44,6 +44,7 @@ template <int dim>
 struct NeedleOutcome {
   NeedleRun<dim> run;
   nlohmann::json report;
+  std::vector<std::string> warnings;  // the run summary's (what lies inside the bands)
 };
 
 // The needle's entry of report.json["simulation"]["needles"].

@@ -68,6 +68,8 @@ class Insertion {
   void pick_up_points(double cut, double depth, const std::function<double(std::size_t)>& held_axial);
   void pick_up_bands(double cut, double travel, const std::function<double(std::size_t)>& held_axial);
   double press_tip(double cut, double travel);
+  void join_stations(double cut, double reach);
+  void list_active();
 
   NeedleOptions<dim> options_;
   std::vector<ShaftPoint<dim>> shaft_, tips_;
@@ -76,8 +78,9 @@ class Insertion {
   std::unique_ptr<FrictionLaw> law_;
   ShaftState state_;
   std::vector<bool> picked_;
-  bool cuts_ = false;  // the tip pushes the tissue until it cuts it
-  double cut_ = 0.0;   // the tip's travel at this step
+  bool cuts_ = false;   // the tip pushes the tissue until it cuts it
+  double cut_ = 0.0;    // the tip's travel at this step
+  double reach_ = 0.0;  // 3D: the front the stations took at this step
 };
 
 }  // namespace vim::needle
