@@ -12,6 +12,7 @@
 
 #include <cmath>
 #include <vector>
+#include <vim/fem/material_description.hpp>
 
 #include "linear_elastic_material.hpp"
 
@@ -31,8 +32,7 @@ class NeoHookeanMaterial final : public Material<dim> {
     double c10 = 0.0, d1 = 0.0;
   };
   static Constants constants(double E, double nu) {
-    const double mu = LinearElasticMaterial<dim>::shear_modulus(E, nu), K = E / (3.0 * (1.0 - 2.0 * nu));
-    return {0.5 * mu, 2.0 / K};
+    return {MaterialDescription::neo_hookean_c10(E, nu), MaterialDescription::neo_hookean_d1(E, nu)};
   }
   Constants cell(unsigned j) const { return constants((*E_)[j], nu_); }
 
