@@ -225,6 +225,17 @@ TEST_F(BadScenario, NeedleFreeScenarioWithoutLoad) {
                       "boundary_conditions: a scenario without 'needle' or 'needles' is a static load case",
                       "pressure"});
 }
+TEST_F(BadScenario, NeoHookeanLoadStepThatCannotConverge) {
+  // The face x_min pushed 20 mm through the 16 mm block (λ₁ < 0 is no deformation): the Newton solve
+  // halves its last step until the limit and the run ends naming the key and the step, writing nothing.
+  std::string yaml = kBase;
+  yaml.erase(yaml.find("needle:"), yaml.find("targets:") - yaml.find("needle:"));
+  yaml.replace(yaml.find("material: {"), 11, "material: {model: neo-hookean, ");
+  yaml.replace(yaml.find("  - {type: fixed, region: {cylinder"), std::string::npos,
+               "  - {type: displacement, region: {box_face: x_min}, value: [20, 0, 0]}\n");
+  expect_error(yaml, {"s.yaml:1:", "material.model = 'neo-hookean'", "the load step from load factor",
+                      "did not converge after 10 halvings"});
+}
 TEST_F(BadScenario, NegativeModulusImageWithoutClamp) {
   const std::string img = (dir_ / "negative.mha").string();
   write_block(img, 10.0f, -4.0f);
