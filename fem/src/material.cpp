@@ -92,7 +92,17 @@ std::vector<double> block_mean(const std::array<long, dim>& dims, const std::vec
 }
 
 void MaterialDescription::write_inp_card(std::ostream& out, double youngs_modulus) const {
-  out << "*Elastic\n" << youngs_modulus << ", " << poisson_ratio << '\n';
+  if (neo_hookean)
+    out << "*Hyperelastic, NEO HOOKE\n"
+        << neo_hookean_c10(youngs_modulus, poisson_ratio) << ", "
+        << neo_hookean_d1(youngs_modulus, poisson_ratio) << '\n';
+  else
+    out << "*Elastic\n" << youngs_modulus << ", " << poisson_ratio << '\n';
+}
+
+double MaterialDescription::neo_hookean_c10(double E, double nu) { return 0.5 * shear_modulus(E, nu); }
+double MaterialDescription::neo_hookean_d1(double E, double nu) {
+  return 2.0 / (E / (3.0 * (1.0 - 2.0 * nu)));
 }
 
 void MaterialDescription::write_feb_material(std::ostream& out, int id, const std::string& name,

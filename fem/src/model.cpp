@@ -632,7 +632,9 @@ void ElasticModel<dim>::Impl::assemble_cells() {
 template <int dim>
 void ElasticModel<dim>::Impl::assemble_supports() {
   support_outside = 0;
+  K_support.clear();
   if (supports.empty()) return;
+  K_support.reinit(sparsity);
   const unsigned dpc = fe->n_dofs_per_cell();
   std::map<std::pair<int, int>, std::pair<std::vector<Point<dim>>, std::vector<double>>> by_cell;
   for (const auto& sup : supports)
@@ -667,6 +669,7 @@ void ElasticModel<dim>::Impl::assemble_supports() {
       }
     cell->get_dof_indices(idx);
     constraints.distribute_local_to_global(Ke, Fe, idx, K, f);
+    K_support.add(idx, Ke);
   }
 }
 

@@ -311,6 +311,9 @@ struct ElasticModel<dim>::Impl {
   dealii::SparseMatrix<double> K;       // Dirichlet DoFs eliminated (symmetric)
   dealii::SparseMatrix<double> K_full;  // unconstrained: energy ½uᵀKu and reactions Ku − f
   dealii::Vector<double> f, f_full;
+  // The volume supports alone, unconstrained (sparsity of K; empty without supports): the springs of
+  // the finite-strain solve (finite_strain.cpp).
+  dealii::SparseMatrix<double> K_support;
   double assemble_seconds = 0.0;
 
   // ---- solvers (cached across solve() calls) -----------------------------------------------
@@ -440,6 +443,10 @@ struct ModelAccess {
     return *model.impl_;
   }
 };
+
+// CHOLMOD's factor of a symmetric positive definite sparse matrix (solvers.cpp); std::runtime_error
+// if it is not positive definite.
+std::unique_ptr<CholmodLLT> cholmod_factor(const dealii::SparseMatrix<double>& K);
 
 // Initialises MPI (threads serialised) unless it is, and finalises it at exit then; throws
 // std::runtime_error if MPI_Init_thread fails (solvers.cpp).

@@ -51,8 +51,6 @@ void ensure_mpi_initialized() {
   });
 }
 
-namespace {
-
 // CHOLMOD's factor of the symmetric K: its rows (CSR) are its columns (CSC); the upper triangle of
 // column i is row i's entries with column index ≤ i, sorted.
 std::unique_ptr<CholmodLLT> cholmod_factor(const SparseMatrix<double>& K) {
@@ -71,8 +69,6 @@ std::unique_ptr<CholmodLLT> cholmod_factor(const SparseMatrix<double>& K) {
   }
   return std::make_unique<CholmodLLT>(n, Ap, Ai, Ax);
 }
-
-}  // namespace
 
 template <int dim>
 void ElasticModel<dim>::Impl::prepare_solver(const SolverOptions& opt) {

@@ -166,6 +166,14 @@ const Edit kEdits[] = {
      "poisson_ratio: 0.45",
      "poisson_ratio: 0.5",
      {"s.yaml:1:", "material.poisson_ratio = 0.5", "< 0.5"}},
+    {"UnknownMaterialModel",
+     "poisson_ratio: 0.45",
+     "poisson_ratio: 0.45, model: mooney",
+     {"s.yaml:1:", "material.model = 'mooney' is not valid", "linear, neo-hookean"}},
+    {"NeoHookeanWithANeedle",
+     "poisson_ratio: 0.45",
+     "poisson_ratio: 0.45, model: neo-hookean",
+     {"s.yaml:1:", "material.model = 'neo-hookean' is solved for static load cases only", "needle"}},
     {"RegionThatSelectsNoNode",
      "center: [0, -6, 0], axis: [1, 0, 0], radius: 2",
      "center: [0, -30, 0], axis: [1, 0, 0], radius: 2",
@@ -216,6 +224,17 @@ TEST_F(BadScenario, NeedleFreeScenarioWithoutLoad) {
   expect_error(yaml, {"s.yaml:3:",
                       "boundary_conditions: a scenario without 'needle' or 'needles' is a static load case",
                       "pressure"});
+}
+TEST_F(BadScenario, NeoHookeanLoadStepThatCannotConverge) {
+  // The face x_min pushed 20 mm through the 16 mm block (λ₁ < 0 is no deformation): the Newton solve
+  // halves its last step until the limit and the run ends naming the key and the step, writing nothing.
+  std::string yaml = kBase;
+  yaml.erase(yaml.find("needle:"), yaml.find("targets:") - yaml.find("needle:"));
+  yaml.replace(yaml.find("material: {"), 11, "material: {model: neo-hookean, ");
+  yaml.replace(yaml.find("  - {type: fixed, region: {cylinder"), std::string::npos,
+               "  - {type: displacement, region: {box_face: x_min}, value: [20, 0, 0]}\n");
+  expect_error(yaml, {"s.yaml:1:", "material.model = 'neo-hookean'", "the load step from load factor",
+                      "did not converge after 10 halvings"});
 }
 TEST_F(BadScenario, NegativeModulusImageWithoutClamp) {
   const std::string img = (dir_ / "negative.mha").string();

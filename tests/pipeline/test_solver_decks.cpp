@@ -20,6 +20,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <vim/fem/finite_strain.hpp>
 #include <vim/pipeline/output/exports.hpp>
 #include <vim/pipeline/simulation/simulation.hpp>
 
@@ -124,8 +125,9 @@ struct OurSolution {
 // Our step-0 solution at the deck's nodes: vertex values and, for P2, the mid-edge DoF values.
 template <int dim>
 OurSolution<dim> our_solution(NeedleSimulation<dim>& sim, const MeshModel<dim>& m,
-                              const SolverDeck<dim>& deck) {
-  const fem::Solution<dim> s = sim.model().solve();
+                              const SolverDeck<dim>& deck, bool neo_hookean = false) {
+  const fem::Solution<dim> s =
+      neo_hookean ? fem::solve_neo_hookean(sim.model()).solution : sim.model().solve();
   OurSolution<dim> out;
   for (const auto& u : s.vertex_displacement) out.nodes.push_back(m.transform.vector_to_world(u));
   if (deck.degree == 2)
@@ -172,7 +174,78 @@ void expect_calculix_agrees(unsigned degree, const std::array<int, dim>& nodes) 
             << " nodes, max |Δu| / max |u| = " << worst / ours.largest << '\n';
 }
 
+// material.model neo-hookean, static: the heterogeneous oblique block held on its last-axis minimum face,
+// the opposite face moved by 20% of the height inwards and 4% across (world axes, oblique to the
+// grid), a pressure (dead: nodal forces in the deck) and a traction on two side faces.
+template <int dim>
+Scenario neo_hookean_scenario(const MeshModel<dim>& m) {
+  using P = Eigen::Matrix<double, dim, 1>;
+  P lo = m.mesh.points[0], hi = lo;
+  for (const auto& p : m.mesh.points) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  const double height = hi[dim - 1] - lo[dim - 1];
+  const P move = m.transform.vector_to_world(-0.2 * height * P::Unit(dim - 1) + 0.04 * height * P::Unit(0));
+  const std::string last = dim == 3 ? "z" : "y";
+  std::string y = "material: {model: neo-hookean, youngs_modulus: image, poisson_ratio: 0.3}\n";
+  y += "boundary_conditions:\n  - {type: fixed, region: {box_face: " + last + "_min}}\n";
+  y += "  - {type: displacement, region: {box_face: " + last + "_max}, value: " + vec_yaml<dim>(move) + "}\n";
+  y += "  - {type: pressure, region: {box_face: x_max}, value: 0.5}\n";
+  y += "  - {type: traction, region: {box_face: x_min}, value: " +
+       (dim == 3 ? std::string("[0.1, 0.2, 0.3]") : std::string("[0.1, 0.2]")) + "}\n";
+  return parse_scenario_text(y, dim, "neo_hookean_deck.yaml");
+}
+
+// CalculiX runs the exported neo-Hookean deck as written; its nodal displacements equal our Newton
+// solve's within 0.5% of the largest.
+template <int dim>
+void expect_calculix_agrees_neo_hookean(unsigned degree, const std::array<int, dim>& nodes) {
+  if (!have_program("ccx")) GTEST_SKIP() << "CalculiX (ccx, Debian package calculix-ccx) is not installed";
+  const auto dir =
+      vim::test::scratch_dir("decks", "ccx_nh" + std::to_string(dim) + "d_p" + std::to_string(degree));
+  MeshModel<dim> m = oblique_model<dim>(nodes);
+  const Scenario sc = neo_hookean_scenario(m);
+  SimulationOptions so;
+  so.degree = degree;
+  so.progress = false;
+  NeedleSimulation<dim> sim(m, sc, so);
+  m.youngs_modulus = sim.youngs_modulus();
+  ExportOptions eo;
+  eo.poisson_ratio = sc.poisson_ratio;
+  eo.scenario = &sc;
+  eo.degree = degree;
+  write_exports<dim>(m, dir, {"inp"}, eo);
+  std::ifstream deck_file(dir / "mesh.inp");
+  std::stringstream text;
+  text << deck_file.rdbuf();
+  EXPECT_NE(text.str().find("*Hyperelastic, NEO HOOKE"), std::string::npos);
+  EXPECT_NE(text.str().find("*Step, NLGEOM"), std::string::npos);
+  EXPECT_EQ(text.str().find("*Dsload"), std::string::npos) << "pressures are dead nodal forces";
+  const SolverDeck<dim> deck = solver_deck(m, world_mesh(m), m.youngs_modulus, sc.poisson_ratio, degree, &sc);
+  const OurSolution<dim> ours = our_solution(sim, m, deck, true);
+  ASSERT_GT(ours.largest, 1e-3);
+  const auto theirs = run_calculix(dir);
+  ASSERT_EQ(theirs.size(), deck.nodes.size()) << "CalculiX printed another node count";
+  double worst = 0.0;
+  for (std::size_t i = 0; i < deck.nodes.size(); ++i) {
+    const Eigen::Vector3d& t = theirs.at(static_cast<long>(i) + 1);
+    for (int a = 0; a < dim; ++a) worst = std::max(worst, std::abs(t[a] - ours.nodes[i][a]));
+  }
+  EXPECT_LE(worst, 5e-3 * ours.largest) << "largest displacement " << ours.largest;
+  ::testing::Test::RecordProperty("ccx_max_difference_over_largest", fmt(worst / ours.largest));
+  std::cout << "CalculiX NLGEOM vs neo-Hookean Newton, " << dim << "D P" << degree << ": "
+            << deck.nodes.size() << " nodes, max |Δu| / max |u| = " << worst / ours.largest << '\n';
+}
+
 }  // namespace
+
+TEST(SolverDecks, CalculixSolvesNeoHookeanDeckLikeOurNewton3DP2) {
+  expect_calculix_agrees_neo_hookean<3>(2, {{4, 4, 5}});
+}
+TEST(SolverDecks, CalculixSolvesNeoHookeanDeckLikeOurNewton3DP1) {
+  expect_calculix_agrees_neo_hookean<3>(1, {{5, 5, 6}});
+}
+TEST(SolverDecks, CalculixSolvesNeoHookeanDeckLikeOurNewton2DP2) {
+  expect_calculix_agrees_neo_hookean<2>(2, {{6, 7}});
+}
 
 TEST(SolverDecks, CalculixSolves3DP1DeckLikeDealII) { expect_calculix_agrees<3>(1, {{5, 5, 6}}); }
 TEST(SolverDecks, CalculixSolves3DP2DeckLikeDealII) { expect_calculix_agrees<3>(2, {{5, 5, 5}}); }

@@ -202,3 +202,70 @@ TEST(StaticLoad, NeedleRunsReportTheLargestStrainOfEveryStep) {
             std::string::npos)
       << warnings;
 }
+
+namespace {
+
+// ∂W/∂λ_i of the neo-Hookean energy W = C10 (J^(−2/3) Σλ² − 3) + (J − 1)²/D₁ at F = diag(λ),
+// C10 = μ/2, D₁ = 2/K (hand-written from the textbook μ, K of E, ν).
+double neo_hookean_piola(const std::array<double, 3>& l, int i) {
+  const double c10 = kE / (4 * (1 + kNu)), d1 = 6 * (1 - 2 * kNu) / kE;
+  const double J = l[0] * l[1] * l[2], I1 = l[0] * l[0] + l[1] * l[1] + l[2] * l[2];
+  return c10 * std::pow(J, -2.0 / 3.0) * (2 * l[i] - (2.0 / 3.0) * I1 / l[i]) + 2 * (J - 1) * J / (d1 * l[i]);
+}
+// The root in [lo, hi] of an increasing function, by bisection.
+template <class F>
+double bisect(F f, double lo, double hi) {
+  for (int k = 0; k < 200; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    (f(mid) > 0 ? hi : lo) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+// Uniaxial stress along z with stretch l3: the lateral stretch of P₁₁ = P₂₂ = 0.
+double lateral(double l3) {
+  return bisect([l3](double l) { return neo_hookean_piola({{l, l, l3}}, 0); }, 0.2, 3.0);
+}
+
+}  // namespace
+
+// material.model: neo-hookean on the block: a prescribed compression of 15% (λ₃ = 0.85) and a dead
+// pressure p on the top face (P₃₃ = −p on the reference area) give the homogeneous uniaxial state of the
+// energy, solved here by scalar root finds: the target at (7, 3, 16) moves by ((λ − 1) 7, (λ − 1) 3,
+// (λ₃ − 1) 16), on the grid (P1) and the voxel reference (Q1); report.json holds the load steps.
+TEST(StaticLoad, NeoHookeanUniaxialStatesMatchTheClosedForm) {
+  vim::test::TempDir dir("static_nh");
+  write_block(dir.path / "block.mha");
+  const double p = 1.5;
+  for (const std::string mesher : {"grid", "voxel"})
+    for (const bool pressure : {false, true}) {
+      const std::string name = mesher + (pressure ? "_p" : "_u");
+      std::string yaml =
+          static_scenario(pressure ? "{type: pressure, region: {box_face: z_max}, value: 1.5}"
+                                   : "{type: displacement, region: {box_face: z_max}, value: [0, "
+                                     "0, -3], components: [z]}");
+      yaml.replace(yaml.find("material: {"), 11, "material: {model: neo-hookean, ");
+      const auto report = run(dir, yaml, mesher, name);
+      ASSERT_TRUE(report.contains("simulation")) << name;
+      const auto& sl = report["simulation"]["static_load"];
+      EXPECT_EQ(sl["material_model"], "neo-hookean");
+      const double l3 = pressure ? bisect(
+                                       [p](double l) {
+                                         return neo_hookean_piola({{lateral(l), lateral(l), l}}, 2) + p;
+                                       },
+                                       0.3, 1.0)
+                                 : 1.0 - 3.0 / kL;
+      const double l = lateral(l3);
+      const Eigen::Vector3d expected((l - 1) * 7, (l - 1) * 3, (l3 - 1) * 16);
+      const auto& u = sl["targets"]["top"]["displacement"];
+      for (int a = 0; a < 3; ++a)
+        EXPECT_NEAR(u[a].get<double>(), expected[a], 1e-6 * 16) << name << " axis " << a;
+      ASSERT_FALSE(sl["newton"]["load_steps"].empty()) << name;
+      for (const auto& step : sl["newton"]["load_steps"]) {
+        const auto& r = step["residual_norm"];
+        EXPECT_LE(r.back().get<double>(), 1e-10 * r.front().get<double>()) << name;
+      }
+      EXPECT_EQ(sl["newton"]["load_steps"].back()["load_factor"].get<double>(), 1.0) << name;
+      const std::string warnings = report.contains("warnings") ? report["warnings"].dump() : "";
+      EXPECT_EQ(warnings.find("the static load case: the largest strain"), std::string::npos) << warnings;
+    }
+}

@@ -150,6 +150,11 @@ void write_feb(const std::filesystem::path& path, const SolverDeck<3>& deck) {
                  "for a complete model)")
           << "\n";
     for (const auto& what : deck.not_expressed) out << xml_comment("Not in this model: " + what) << "\n";
+    if (deck.neo_hookean)
+      out << xml_comment(
+                 "Not in this model: material.model neo-hookean; the material below is FEBio's "
+                 "isotropic elastic of the linear model")
+          << "\n";
     out << "<febio_spec version=\"4.0\">\n"
         << "  <Module type=\"solid\"/>\n"
         << "  <Control>\n"

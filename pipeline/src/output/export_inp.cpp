@@ -3,7 +3,9 @@
 // of unit thickness, as fem/), node sets and element-face surfaces of the image box faces and of every
 // scenario region, one *MATERIAL per distinct modulus (exact, 17 significant digits), and with a
 // scenario one *STEP with *STATIC: *BOUNDARY per held node and world component, *DSLOAD pressures,
-// *CLOAD consistent nodal forces of the tractions, *NODE PRINT / *NODE FILE of U. `ccx -i mesh`.
+// *CLOAD consistent nodal forces of the tractions, *NODE PRINT / *NODE FILE of U. `ccx -i mesh`. With
+// material.model neo-hookean: *HYPERELASTIC, NEO HOOKE cards, *STEP, NLGEOM and the pressures as dead
+// nodal forces (solver_deck.hpp).
 #include <map>
 #include <vim/fem/material_description.hpp>
 #include <vim/pipeline/common/atomic_file.hpp>
@@ -38,14 +40,18 @@ void write_sets(std::ostream& out, const SolverDeck<dim>& deck) {
 
 template <int dim>
 void write_step(std::ostream& out, const SolverDeck<dim>& deck) {
-  out << "*Step\n*Static, SOLVER=SPOOLES\n";
+  // neo-Hookean: geometrically nonlinear, in increments of the load (CalculiX's automatic stepping)
+  if (deck.neo_hookean)
+    out << "*Step, NLGEOM, INC=1000\n*Static, SOLVER=SPOOLES\n0.1, 1.0, 1e-05, 0.25\n";
+  else
+    out << "*Step\n*Static, SOLVER=SPOOLES\n";
   if (!deck.held.empty()) {
     out << "*Boundary\n";
     for (const auto& h : deck.held)
       out << h.node + 1 << ", " << h.component + 1 << ", " << h.component + 1 << ", " << h.value << '\n';
   }
   for (const auto& load : deck.surface_loads)
-    if (load.is_pressure && !deck.regions[load.region].faces.empty())
+    if (load.is_pressure && !deck.neo_hookean && !deck.regions[load.region].faces.empty())
       out << "*Dsload\nS_" << deck.regions[load.region].name << ", P, " << load.pressure << '\n';
   if (!deck.nodal_forces.empty()) {
     out << "*Cload\n";
@@ -95,7 +101,7 @@ void write_inp(const std::filesystem::path& path, const SolverDeck<dim>& deck) {
           << (dim == 2 ? "1.0\n" : "\n");  // 2D: unit thickness
     }
     k = 0;
-    const fem::MaterialDescription material{deck.poisson_ratio};
+    const fem::MaterialDescription material{deck.poisson_ratio, deck.neo_hookean};
     for (const auto& [E, members] : by_modulus) {
       out << "*Material, NAME=MATERIAL_" << ++k << '\n';
       material.write_inp_card(out, E);

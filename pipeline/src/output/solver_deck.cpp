@@ -92,6 +92,23 @@ double face_measure(const SolverDeck<dim>& deck, const typename SolverDeck<dim>:
     return (x[cell[c[1]]] - x[cell[c[0]]]).norm();
 }
 
+// The unit normal of face f pointing out of its cell (away from the corner not on the face).
+template <int dim>
+Vec<dim> outward_normal(const SolverDeck<dim>& deck, const typename SolverDeck<dim>::Face& f) {
+  const auto& c = deck_face_corners<dim>(f.face);
+  const auto& x = deck.nodes;
+  const auto& cell = deck.cells[f.cell];
+  Vec<dim> n;
+  if constexpr (dim == 3)
+    n = (x[cell[c[1]]] - x[cell[c[0]]]).cross(x[cell[c[2]]] - x[cell[c[0]]]);
+  else
+    n = Vec<dim>(x[cell[c[1]]][1] - x[cell[c[0]]][1], x[cell[c[0]]][0] - x[cell[c[1]]][0]);
+  int opposite = 0;
+  while (std::find(c.begin(), c.end(), opposite) != c.end()) ++opposite;
+  if (n.dot(x[cell[opposite]] - x[cell[c[0]]]) > 0.0) n = -n;
+  return n.normalized();
+}
+
 const char* const axis_names[] = {"x", "y", "z"};
 
 template <int dim>
@@ -126,12 +143,16 @@ void add_conditions(SolverDeck<dim>& deck, const Scenario& sc, const std::vector
     typename SolverDeck<dim>::SurfaceLoad load;
     load.region = static_cast<int>(i);
     load.is_pressure = bc.type == BoundaryConditionSpec::Type::pressure;
-    if (load.is_pressure) {
+    if (load.is_pressure)
       load.pressure = bc.value[0];
-    } else {
+    else
       for (int c = 0; c < dim; ++c) load.traction[c] = bc.value[c];
-      // Consistent nodal forces of a constant traction: ∫ N_k t ds over each face.
+    // Consistent nodal forces of a constant traction (a neo-Hookean deck's pressure: −p n on the
+    // reference face): ∫ N_k t ds over each face.
+    if (!load.is_pressure || deck.neo_hookean)
       for (const auto& f : set.faces) {
+        const Vec<dim> t =
+            load.is_pressure ? Vec<dim>(-load.pressure * outward_normal(deck, f)) : load.traction;
         const double m = face_measure(deck, f);
         const std::vector<long> fn = deck.face_nodes(f);
         for (std::size_t k = 0; k < fn.size(); ++k) {
@@ -140,10 +161,9 @@ void add_conditions(SolverDeck<dim>& deck, const Scenario& sc, const std::vector
                            : dim == 3       ? (corner ? 0.0 : 1.0 / 3.0)
                                             : (corner ? 1.0 / 6.0 : 2.0 / 3.0);
           if (w == 0.0) continue;
-          force.try_emplace(fn[k], Vec<dim>::Zero()).first->second += w * m * load.traction;
+          force.try_emplace(fn[k], Vec<dim>::Zero()).first->second += w * m * t;
         }
       }
-    }
     deck.surface_loads.push_back(load);
   }
   for (const auto& [key, value] : held) deck.held.push_back({key.first, key.second, value});
@@ -166,6 +186,7 @@ SolverDeck<dim> solver_deck(const MeshModel<dim>& model, const SimplexMesh<dim>&
   deck.degree = degree;
   deck.modulus = modulus;
   deck.poisson_ratio = poisson_ratio;
+  deck.neo_hookean = scenario && scenario->material_model == Scenario::MaterialModel::neo_hookean;
   if (world.n_points() != model.mesh.n_points() || world.n_cells() != model.mesh.n_cells())
     throw std::invalid_argument("solver deck: the world mesh is not the model's mesh");
   deck.n_vertices = world.n_points();

@@ -303,10 +303,17 @@ std::string Scenario::where(int line) const {
 
 namespace {
 
-// material: the modulus (from the image or constant, scale, clamp) and Poisson ratio.
+// material: the model, the modulus (from the image or constant, scale, clamp) and Poisson ratio.
 void parse_material(const Reader& r, const Fields& top, Scenario& s) {
   if (const YAML::Node& m = top["material"]) {
-    const Fields f = r.check_keys(m, "material", {"youngs_modulus", "scale", "clamp", "poisson_ratio"});
+    const Fields f =
+        r.check_keys(m, "material", {"model", "youngs_modulus", "scale", "clamp", "poisson_ratio"});
+    if (const YAML::Node& x = f["model"]) {
+      s.material_model = r.choice(x, "material.model", {"linear", "neo-hookean"}) == "neo-hookean"
+                             ? Scenario::MaterialModel::neo_hookean
+                             : Scenario::MaterialModel::linear;
+      s.material_model_line = x.Mark().line + 1;
+    }
     if (const YAML::Node& e = f["youngs_modulus"]) {
       if (e.IsScalar() && e.Scalar() == "image") {
         s.modulus_from_image = true;
@@ -515,6 +522,10 @@ bool is_load(const BoundaryConditionSpec& bc) {
 // A scenario without a needle is a static load case (solved once, step 0): it needs a load, and
 // mesh.needle_refinement has no path to refine along.
 void check_static_load(const Reader& r, const Fields& top, const Scenario& s) {
+  if (!s.needles.empty() && s.material_model == Scenario::MaterialModel::neo_hookean)
+    r.fail(top["material"]["model"],
+           "material.model = 'neo-hookean' is solved for static load cases only (no 'needle' or 'needles'); "
+           "needle insertion runs on the linear model: use material.model: linear or remove the needle");
   if (!s.needles.empty()) return;
   if (std::none_of(s.boundary_conditions.begin(), s.boundary_conditions.end(), is_load))
     r.fail(top["boundary_conditions"],

@@ -1,6 +1,7 @@
 // The static load case of a scenario without a needle (static_load.hpp).
 #include "simulation/static_load.hpp"
 
+#include <vim/fem/finite_strain.hpp>
 #include <vim/pipeline/output/vtk_output.hpp>
 
 #include "simulation/largest_strain.hpp"
@@ -10,13 +11,43 @@ namespace vim::pipeline {
 
 using json = nlohmann::json;
 
+namespace {
+
+// material.model neo-hookean: the Newton solve of the model's conditions, its load steps for the report
+// (load factor, per iteration ‖r‖ on the free DoFs and the update's norm) in `newton`.
+template <int dim>
+fem::Solution<dim> solve_finite_strain(SimulationContext<dim>& ctx, json& newton) {
+  const Scenario& sc = ctx.sc;
+  if (ctx.opt.mpi_ranks > 1)
+    throw ScenarioError(sc.where(sc.material_model_line) +
+                        "material.model = 'neo-hookean' is solved on one process; run without --mpi-ranks");
+  fem::FiniteStrainSolution<dim> fs;
+  try {
+    fs = fem::solve_neo_hookean(*ctx.model);
+  } catch (const fem::NewtonFailure& e) {
+    throw ScenarioError(sc.where(sc.material_model_line) + "material.model = 'neo-hookean': " + e.what());
+  }
+  json steps = json::array();
+  for (const fem::LoadStepRecord& s : fs.steps)
+    steps.push_back({{"load_factor", s.load_factor},
+                     {"residual_norm", s.residual_norm},
+                     {"update_norm", s.update_norm},
+                     {"line_search", s.line_search}});
+  newton = {{"load_steps", steps}, {"iterations", fs.newton_iterations}, {"halvings", fs.halvings}};
+  return fs.solution;
+}
+
+}  // namespace
+
 template <int dim>
 StaticLoadOutcome<dim> run_static_load(SimulationContext<dim>& ctx, std::vector<std::string>& warnings) {
   using Vec = Eigen::Matrix<double, dim, 1>;
   const auto start = Clock::now();
+  const bool finite_strain = ctx.sc.material_model == Scenario::MaterialModel::neo_hookean;
   fem::Solution<dim> solution;
+  json newton;
   try {
-    solution = ctx.model->solve({}, ctx.solver);
+    solution = finite_strain ? solve_finite_strain<dim>(ctx, newton) : ctx.model->solve({}, ctx.solver);
   } catch (const fem::SingularConstraints& e) {  // name the scenario's conditions, as a needle run does
     const int line = ctx.sc.boundary_conditions.empty() ? 0 : ctx.sc.boundary_conditions.front().line;
     throw ScenarioError(ctx.sc.where(line) + "boundary_conditions: " + e.what());
@@ -47,6 +78,7 @@ StaticLoadOutcome<dim> run_static_load(SimulationContext<dim>& ctx, std::vector<
     final_targets[ctx.sc.targets[t].name] = {{"displacement", d}, {"norm", u.norm()}};
   }
   json report = {{"steps", 1},
+                 {"material_model", finite_strain ? "neo-hookean" : "linear"},
                  {"files", write ? json::array({file}) : json::array()},
                  {"max_displacement", run.max_displacement},
                  {"max_strain", run.max_strain},
@@ -64,6 +96,10 @@ StaticLoadOutcome<dim> run_static_load(SimulationContext<dim>& ctx, std::vector<
                    {"assemble_seconds", run.stats.assemble_seconds},
                    {"precondition_seconds", run.stats.precondition_seconds},
                    {"cg_seconds", run.stats.solve_seconds - run.stats.precondition_seconds}}}};
+  if (finite_strain) {
+    report["newton"] = newton;
+    return {std::move(run), std::move(report)};  // a finite-strain solve: no small-strain warning
+  }
   const std::string w = small_strain_warning(ctx.sc.where(0), "the static load case", {run.max_strain});
   if (!w.empty()) warnings.push_back(w);
   return {std::move(run), std::move(report)};

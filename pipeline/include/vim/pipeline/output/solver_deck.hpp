@@ -26,6 +26,10 @@ struct SolverDeck {
   std::vector<std::array<int, 2>> edges;  // degree 2: the vertices of mid-edge node n_vertices + e
   std::vector<double> modulus;            // per cell, exact
   double poisson_ratio = kDefaultPoissonRatio;
+  // material.model neo-hookean: the .inp deck holds *HYPERELASTIC, NEO HOOKE and *STEP, NLGEOM, and its
+  // pressures as consistent nodal forces on the reference faces (dead loads, as solved; CalculiX's
+  // *DSLOAD follows the deformed faces under NLGEOM).
+  bool neo_hookean = false;
 
   // An element face: cell and face number 0..dim in the Abaqus/CalculiX numbering (S1..S4 of a
   // tetrahedron: corners 123, 142, 243, 341; of a triangle: 12, 23, 31).
@@ -55,7 +59,8 @@ struct SolverDeck {
     bool is_pressure = true;
   };
   std::vector<SurfaceLoad> surface_loads;
-  std::vector<std::pair<long, Vec>> nodal_forces;  // tractions as consistent nodal forces, summed per node
+  std::vector<std::pair<long, Vec>> nodal_forces;  // tractions (and neo_hookean: pressures) as consistent
+                                                   // nodal forces, summed per node
   std::vector<std::string> not_expressed;          // scenario features the decks do not hold
   bool has_conditions = false;                     // a scenario was given
 

@@ -124,6 +124,10 @@ struct Scenario {
   double scale = 1.0;
   std::optional<std::pair<double, double>> clamp;
   double poisson_ratio = kDefaultPoissonRatio;
+  // material.model: small-strain linear elasticity (default) or the compressible neo-Hookean solid of
+  // fem::solve_neo_hookean (static load cases; docs/finite-strain.md), and the key's line.
+  enum class MaterialModel { linear, neo_hookean } material_model = MaterialModel::linear;
+  int material_model_line = 0;
 
   // mesh (the CLI options override these)
   std::optional<long> nodes;
