@@ -48,11 +48,6 @@ output: {every: 1}
   return c;
 }
 
-ProcessResult run_to_end(const std::vector<std::string>& args, const fs::path& err,
-                         long file_size_limit = -1) {
-  return wait_cli(spawn_cli(args, err, file_size_limit), err);
-}
-
 }  // namespace
 
 TEST(Faults, SigkillAtRandomMomentsOfAMultiNeedleRunLeavesOnlyCompleteFiles) {

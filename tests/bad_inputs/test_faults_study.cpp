@@ -45,11 +45,6 @@ std::vector<std::string> study_args(const fs::path& dir, const fs::path& out) {
           out.string()};
 }
 
-ProcessResult run_to_end(const std::vector<std::string>& args, const fs::path& err,
-                         long file_size_limit = -1) {
-  return wait_cli(spawn_cli(args, err, file_size_limit), err);
-}
-
 }  // namespace
 
 TEST(StudyFaults, SigkillAtRandomMomentsThenTheSameCommandGivesTheUninterruptedTable) {

@@ -21,6 +21,7 @@
 #include <vim/pipeline/output/exports.hpp>
 
 #include "oblique_grid.hpp"
+#include "run_cli.hpp"
 #include "scratch_dir.hpp"
 
 namespace fs = std::filesystem;
@@ -30,14 +31,9 @@ using namespace vim::pipeline;
 namespace {
 
 using vim::test::ScratchDir;
-ScratchDir fresh_dir(const std::string& name) { return vim::test::scratch_dir("exports", name); }
+ScratchDir exports_dir(const std::string& name) { return vim::test::scratch_dir("exports", name); }
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using vim::test::slurp;
 
 // A Kuhn grid of the box with an oblique transform and one modulus per element.
 template <int dim>
@@ -306,7 +302,7 @@ TEST(MaterialBins, FallsBackToElementMeanWithoutModulus) {
 }
 
 TEST(Exports, UnknownFormatIsRejectedBeforeWriting) {
-  const auto dir = fresh_dir("unknown");
+  const auto dir = exports_dir("unknown");
   const auto m = grid_model<3>({{2, 2, 2}}, false, false);
   nlohmann::json report;
   try {
@@ -324,7 +320,7 @@ TEST(Exports, UnknownFormatIsRejectedBeforeWriting) {
 }
 
 TEST(Exports, RoundTrip3D) {
-  const auto dir = fresh_dir("rt3");
+  const auto dir = exports_dir("rt3");
   const auto m = grid_model<3>({{4, 3, 3}}, false, false);
   nlohmann::json report;
   report["exports"] = write_exports(m, dir, export_formats());
@@ -398,7 +394,7 @@ TEST(Exports, RoundTrip3D) {
 }
 
 TEST(Exports, RoundTrip2DAndFebSkipped) {
-  const auto dir = fresh_dir("rt2");
+  const auto dir = exports_dir("rt2");
   const auto m = grid_model<2>({{5, 4}}, false, false);
   nlohmann::json report;
   report["exports"] = write_exports(m, dir, {"vtk", "feb", "msh", "inp"});
@@ -426,7 +422,7 @@ TEST(Exports, RoundTrip2DAndFebSkipped) {
 // A voxel centre known in index space lands on the ITK world point origin + D·diag(spacing)·index in
 // every export, with an oblique, mirroring direction and anisotropic spacing.
 TEST(Exports, ObliqueAnisotropicVoxelCentreLandsOnWorldPoint) {
-  const auto dir = fresh_dir("coords");
+  const auto dir = exports_dir("coords");
   const Eigen::Vector3d origin(-12.5, 40.0, 7.25), spacing(0.5, 1.25, 2.0);
   Eigen::Matrix3d D = Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, -1.0, 0.5).normalized()).toRotationMatrix();
   D.col(2) *= -1.0;                             // det(D) = -1: every cell must be re-oriented in world space

@@ -24,9 +24,10 @@ using namespace vim::pipeline;
 namespace {
 
 using vim::test::ScratchDir;
-ScratchDir fresh_dir(const std::string& name) { return vim::test::scratch_dir("figures", name); }
+ScratchDir figures_dir(const std::string& name) { return vim::test::scratch_dir("figures", name); }
 
-double pixel_variance(const Canvas& c) {
+// Variance of the pixels' brightness r + g + b: 0 for a blank image.
+double brightness_variance(const Canvas& c) {
   double s = 0, s2 = 0;
   const double n = static_cast<double>(c.width()) * c.height();
   for (int y = 0; y < c.height(); ++y)
@@ -125,7 +126,7 @@ std::vector<Eigen::Vector3d> crossings(const std::array<Eigen::Vector3d, 4>& x, 
 }  // namespace
 
 TEST(Canvas, PrimitivesAndPngRoundTrip) {
-  const auto dir = fresh_dir("canvas");
+  const auto dir = figures_dir("canvas");
   Canvas c(30, 20);
   c.fill_polygon({{2, 2}, {12, 2}, {12, 8}, {2, 8}}, {10, 20, 30});
   EXPECT_EQ(c.at(2, 2), (Rgb{10, 20, 30}));
@@ -226,7 +227,7 @@ TEST(Figures, TetSlicePolygonIsTheCrossSection) {
 }
 
 TEST(Figures, ThreeSlicesShowImageAndMeshCrossSection) {
-  const auto dir = fresh_dir("slices");
+  const auto dir = figures_dir("slices");
   const auto im = gradient_image<3>({{20, 16, 12}}, {{1.0, 1.5, 2.0}});
   const auto model = grid_model_over<3>(im.image, {{4, 4, 4}});
   const Eigen::Vector3d slice(7.0, 6.0, 10.0);  // voxel centre (7, 4, 5), off every node plane
@@ -251,7 +252,7 @@ TEST(Figures, ThreeSlicesShowImageAndMeshCrossSection) {
     const int right_x0 = 24 + w;
     EXPECT_EQ(c.width(), right_x0 + w + 12);
     EXPECT_EQ(c.height(), h + 3 * 12 + 14 + 18);  // + the colour bar's text row
-    EXPECT_GT(pixel_variance(c), 0.0);
+    EXPECT_GT(brightness_variance(c), 0.0);
     // Under the image panel, the slice's name and voxel in text; under the element panel, the bar.
     long ink = 0;
     for (int y = 12 + h + 12; y < 12 + h + 12 + 16; ++y)
@@ -314,7 +315,7 @@ TEST(Figures, ThreeSlicesShowImageAndMeshCrossSection) {
 }
 
 TEST(Figures, DefaultSlicePointIsTheImageCentre) {
-  const auto dir = fresh_dir("centre");
+  const auto dir = figures_dir("centre");
   const auto im = gradient_image<3>({{6, 5, 4}}, {{1.0, 1.0, 3.0}});
   const auto model = grid_model_over<3>(im.image, {{2, 2, 2}});
   nlohmann::json report;
@@ -327,7 +328,7 @@ TEST(Figures, DefaultSlicePointIsTheImageCentre) {
 }
 
 TEST(Figures, TwoDimensionalOverlayAndDiscretizedImage) {
-  const auto dir = fresh_dir("2d");
+  const auto dir = figures_dir("2d");
   const auto im = gradient_image<2>({{24, 18}}, {{1.0, 0.5}});
   const auto model = grid_model_over<2>(im.image, {{5, 4}});
   nlohmann::json report;
@@ -341,7 +342,7 @@ TEST(Figures, TwoDimensionalOverlayAndDiscretizedImage) {
   for (const Canvas* c : {&overlay, &disc}) {
     EXPECT_EQ(c->width(), w + 24);
     EXPECT_EQ(c->height(), h + 3 * 12 + 14 + 18);  // + the grey bar and its text row
-    EXPECT_GT(pixel_variance(*c), 0.0);
+    EXPECT_GT(brightness_variance(*c), 0.0);
     // The grey bar under the panel: the range's low end (black) on the left, its high end on the right.
     const int bar_row = 12 + h + 12 + 7;
     EXPECT_EQ(c->at(12, bar_row), grey(0.0));
@@ -372,7 +373,7 @@ TEST(Figures, TwoDimensionalOverlayAndDiscretizedImage) {
 }
 
 TEST(Figures, EnergyPlotIsNormalisedToTheFirstIteration) {
-  const auto dir = fresh_dir("energy");
+  const auto dir = figures_dir("energy");
   std::vector<IterationRecord> h(4);
   const double e[] = {2.0, 1.6, 1.4, 1.3}, g[] = {10, 9, 8.5, 8.4}, d[] = {5, 3, 2, 1.5};
   for (int k = 0; k < 4; ++k)
@@ -381,7 +382,7 @@ TEST(Figures, EnergyPlotIsNormalisedToTheFirstIteration) {
   const Canvas c = Canvas::read_png(dir / "energy.png");
   EXPECT_EQ(c.width(), 700);
   EXPECT_EQ(c.height(), 470);
-  EXPECT_GT(pixel_variance(c), 0.0);
+  EXPECT_GT(brightness_variance(c), 0.0);
   const auto xr = j["x_range"].get<std::vector<double>>(), yr = j["y_range"].get<std::vector<double>>();
   const auto area = j["plot_area"].get<std::vector<int>>();  // left, top, right, bottom
   ASSERT_EQ(area.size(), 4u);
@@ -404,7 +405,7 @@ TEST(Figures, EnergyPlotIsNormalisedToTheFirstIteration) {
 }
 
 TEST(Figures, LinePlotSkipsNonFiniteValues) {
-  const auto dir = fresh_dir("line");
+  const auto dir = figures_dir("line");
   const auto j = write_line_plot(dir / "force.png", {0, 1, 2, 3}, {{0.0, NAN, 2.0, 3.0}}, {"force"});
   EXPECT_TRUE(fs::exists(dir / "force.png"));
   EXPECT_EQ(j["y_range"][1].get<double>(), 3.0);
@@ -414,7 +415,7 @@ TEST(Figures, LinePlotSkipsNonFiniteValues) {
 // Tick values under the x axis and left of the y axis, both axis titles and the legend are drawn:
 // ink in those margins, none where a plot without text leaves them white.
 TEST(Figures, LinePlotHasTickValuesTitlesAndLegend) {
-  const auto dir = fresh_dir("labels");
+  const auto dir = figures_dir("labels");
   auto plot = [&](const std::string& name, std::vector<std::string> names, const std::string& xl,
                   const std::string& yl) {
     const auto j =
@@ -450,7 +451,7 @@ TEST(Figures, LinePlotHasTickValuesTitlesAndLegend) {
 }
 
 TEST(Figures, DeformedSliceFollowsTheDisplacement) {
-  const auto dir = fresh_dir("deformed");
+  const auto dir = figures_dir("deformed");
   const auto im = gradient_image<3>({{8, 8, 8}}, {{1.0, 1.0, 1.0}});
   const auto model = grid_model_over<3>(im.image, {{3, 3, 3}});
   const Eigen::Vector3d shift(2.0, 1.0, 0.0);
@@ -459,7 +460,7 @@ TEST(Figures, DeformedSliceFollowsTheDisplacement) {
   const auto j = write_deformed_slice<3>(model, u, dir / "deformed.png", slice, 2);
   EXPECT_NEAR(j["displacement_range"][1].get<double>(), shift.norm(), 1e-12);
   const Canvas c = Canvas::read_png(dir / "deformed.png");
-  EXPECT_GT(pixel_variance(c), 0.0);
+  EXPECT_GT(brightness_variance(c), 0.0);
   // Bounds of undeformed + deformed nodes in (x, y), padded by 2 % of the larger extent.
   const auto bmin = im.image.box_min(), bmax = im.image.box_max();
   const Eigen::Vector2d lo(bmin[0], bmin[1]), hi(bmax[0] + shift[0], bmax[1] + shift[1]);

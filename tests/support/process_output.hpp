@@ -79,6 +79,12 @@ inline ProcessResult wait_cli(pid_t pid, const fs::path& err_file) {
   return r;
 }
 
+// Runs the CLI with `args` to its end (spawn_cli, wait_cli).
+inline ProcessResult run_to_end(const std::vector<std::string>& args, const fs::path& err_file,
+                                long file_size_limit = -1) {
+  return wait_cli(spawn_cli(args, err_file, file_size_limit), err_file);
+}
+
 // `root` and every process below it (parent links read from /proc/PID/stat).
 inline std::vector<pid_t> process_tree(pid_t root) {
   std::vector<std::pair<pid_t, pid_t>> parent_of;  // {pid, ppid}
