@@ -51,7 +51,7 @@ namespace {
 // 1 × 1 × 1.5 Kuhn block, bottom face held; modulus graded across (or, `layered`, two tissues: 1 below
 // z = 0.75, 3 above); a body force unless `layered`.
 ElasticModel<3> block(unsigned degree, bool layered = false) {
-  const auto mesh = test::kuhn_box<3>({{4, 4, 6}}, {{0.0, 0.0, 0.0}}, {{1.0, 1.0, 1.5}});
+  const auto mesh = vim::test::kuhn_box<3>({{4, 4, 6}}, {{0.0, 0.0, 0.0}}, {{1.0, 1.0, 1.5}});
   std::vector<double> E(mesh.n_cells());
   for (std::size_t j = 0; j < E.size(); ++j) {
     Vec<3> c = Vec<3>::Zero();

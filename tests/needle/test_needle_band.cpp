@@ -23,7 +23,7 @@ namespace {
 
 // Unit cube, 6³ Kuhn boxes, bottom face held, no load: every displacement comes from the constraints.
 ElasticModel<3> held_cube(unsigned degree) {
-  const auto mesh = test::kuhn_box<3>({{6, 6, 6}}, {{0.0, 0.0, 0.0}}, {{1.0, 1.0, 1.0}});
+  const auto mesh = vim::test::kuhn_box<3>({{6, 6, 6}}, {{0.0, 0.0, 0.0}}, {{1.0, 1.0, 1.0}});
   std::vector<double> E(mesh.n_cells());
   for (std::size_t j = 0; j < E.size(); ++j) E[j] = 1.0 + 0.5 * static_cast<double>(j % 7);
   ElasticModel<3> model(mesh, E, 0.35, degree);

@@ -35,7 +35,7 @@ namespace {
 
 constexpr int kBlock = 4;       // voxels per block edge
 constexpr double kScale = 2.5;  // material.scale of the scenario
-constexpr double kNu = 0.3;
+constexpr double kEq15Nu = 0.3;
 
 // Blocks of kBlock^dim voxels; alternate blocks 1 and 8, each also scaled by its block index so that
 // no two blocks along an axis are alike (a transposed or shifted image changes the values).
@@ -62,7 +62,7 @@ template <int dim>
 std::string scenario_text() {
   const std::string face = dim == 3 ? "z_min" : "y_min";
   return "material: {youngs_modulus: image, scale: " + std::to_string(kScale) +
-         ", poisson_ratio: " + std::to_string(kNu) +
+         ", poisson_ratio: " + std::to_string(kEq15Nu) +
          "}\nboundary_conditions: [{type: fixed, region: {box_face: " + face + "}}]\n";
 }
 
@@ -119,8 +119,8 @@ EnergyErrors energy_errors(const Image<dim>& img, const SimplexMesh<dim>& mesh,
     EXPECT_NEAR(I.covered, vol, 1e-11 * vol) << "clipping must partition element " << c;
     std::array<V, dim + 1> ur;
     for (int k = 0; k <= dim; ++k) ur[k] = random[mesh.cells[c][k]];
-    const double da = test::strain_energy_density<dim>(A, kNu),
-                 dr = test::strain_energy_density<dim>(test::p1_gradient<dim>(x, ur), kNu);
+    const double da = test::strain_energy_density<dim>(A, kEq15Nu),
+                 dr = test::strain_energy_density<dim>(test::p1_gradient<dim>(x, ur), kEq15Nu);
     truth_affine += da * kScale * I.integral;
     truth_random += dr * kScale * I.integral;
     slack_affine += da * kScale * (I.max - I.min) * vol;

@@ -36,7 +36,7 @@ namespace {
 using V3 = Eigen::Vector3d;
 using vim::pipeline::Scenario;
 
-constexpr double kStrain = 0.05;
+constexpr double kProstateStrain = 0.05;
 
 void add_compression(vim::fem::ElasticModel<3>& model, const V3& lo, const V3& hi) {
   const double tol = 1e-6 * (hi - lo).norm();
@@ -44,7 +44,7 @@ void add_compression(vim::fem::ElasticModel<3>& model, const V3& lo, const V3& h
   vim::fem::DirichletBC<3> push{vim::fem::box_face_region<3>(lo, hi, 0, false, tol)};
   push.components = vim::fem::DirichletBC<3>::filled(false);
   push.components[0] = true;
-  push.value = V3(kStrain * (hi[0] - lo[0]), 0, 0);
+  push.value = V3(kProstateStrain * (hi[0] - lo[0]), 0, 0);
   model.add_dirichlet(push);
 }
 
