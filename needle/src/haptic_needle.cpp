@@ -58,7 +58,8 @@ class RegionTissue final : public TissueResponse {
 
  private:
   void add_sample(const Vec<3>& x, double w);
-  void factor();  // S of the active stations in frame F, factorised in place
+  void form_y(Index j3);  // Y_j = W c_j, columns j3 … j3 + 2 of Y
+  void factor();          // S of the active stations in frame F, factorised in place
   Vec<3> lateral(std::size_t j) const {
     return Vec<3>(F_.col(0).dot(tip_ - centre_[j]), F_.col(1).dot(tip_ - centre_[j]), 0.0);
   }
@@ -149,6 +150,33 @@ void RegionTissue::add_sample(const Vec<3>& x, double w) {
     }
 }
 
+// Y_j = W c_j over the touched slots, four columns of W at a time (Y_j is read and written once per four
+// slots rather than once per slot).
+void RegionTissue::form_y(Index j3) {
+  const Index ns = Y_.rows();
+  double* __restrict y0 = Y_.col(j3).data();
+  double* __restrict y1 = Y_.col(j3 + 1).data();
+  double* __restrict y2 = Y_.col(j3 + 2).data();
+  std::fill(y0, y0 + ns, 0.0), std::fill(y1, y1 + ns, 0.0), std::fill(y2, y2 + ns, 0.0);
+  const std::size_t nt = touched_.size();
+  std::size_t t = 0;
+  for (; t + 4 <= nt; t += 4) {
+    const double* __restrict w0 = W_->col(touched_[t]).data();
+    const double* __restrict w1 = W_->col(touched_[t + 1]).data();
+    const double* __restrict w2 = W_->col(touched_[t + 2]).data();
+    const double* __restrict w3 = W_->col(touched_[t + 3]).data();
+    std::array<std::array<double, 4>, 3> a{};
+    for (Index d = 0; d < 3; ++d)
+      for (std::size_t i = 0; i < 4; ++i) a[static_cast<std::size_t>(d)][i] = c_dense_(touched_[t + i], d);
+    for (Index r = 0; r < ns; ++r) {
+      y0[r] += w0[r] * a[0][0] + w1[r] * a[0][1] + w2[r] * a[0][2] + w3[r] * a[0][3];
+      y1[r] += w0[r] * a[1][0] + w1[r] * a[1][1] + w2[r] * a[1][2] + w3[r] * a[1][3];
+      y2[r] += w0[r] * a[2][0] + w1[r] * a[2][1] + w2[r] * a[2][2] + w3[r] * a[2][3];
+    }
+  }
+  for (; t < nt; ++t) Y_.middleCols<3>(j3).noalias() += W_->col(touched_[t]) * c_dense_.row(touched_[t]);
+}
+
 // As BandCoupling's stations: the samples inside the mesh, renormalised; the compliance of unit modulus
 // divided by the mean modulus of the cells the samples fall in.
 void RegionTissue::place(const Vec<3>& at, const Vec<3>& axis) {
@@ -169,8 +197,7 @@ void RegionTissue::place(const Vec<3>& at, const Vec<3>& axis) {
   for (std::size_t q = 0; q < band_offsets_.size(); ++q)
     if (inside_[q]) add_sample(at + frame_j * band_offsets_[q], band_weights_[q] / inside);
   // Y_j = W c_j over the touched slots; M_jk = c_j·Y_k; the probes' blocks; c_j·u0
-  Y_.middleCols<3>(j3).setZero();
-  for (int s : touched_) Y_.middleCols<3>(j3).noalias() += W_->col(s) * c_dense_.row(s);
+  form_y(j3);
   for (std::size_t k = 0; k <= n_; ++k) {
     Eigen::Matrix3d b = Eigen::Matrix3d::Zero();
     for (int s : touched_)
