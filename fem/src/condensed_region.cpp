@@ -155,4 +155,27 @@ void CondensedRegion::terms(const Vec<3>& x, double w, unsigned d, std::vector<T
   }
 }
 
+long CondensedRegion::terms(const Vec<3>& x, double w, std::array<std::vector<Term>, 3>& out) const {
+  const Impl& h = *impl_;
+  const long c = h.locator->locate(x);
+  if (c < 0) return -1;
+  const int rc = h.region_cell[static_cast<std::size_t>(c)];
+  if (rc < 0) throw std::invalid_argument("HapticNeedle: the needle's band left the precomputed region");
+  const Vec<3> xi = h.jinv[static_cast<std::size_t>(rc)] * (x - h.v0[static_cast<std::size_t>(rc)]);
+  const Point<3> unit(xi[0], xi[1], xi[2]);
+  const FiniteElement<3>& base = h.m->fe->base_element(0);
+  constexpr unsigned kMaxScalar = 64;  // scalar shape functions cached per call (P1 4, P2 10, P3 20)
+  std::array<double, kMaxScalar> value{};
+  const unsigned n_scalar = base.n_dofs_per_cell();
+  for (unsigned k = 0; k < n_scalar && k < kMaxScalar; ++k) value[k] = w * base.shape_value(k, unit);
+  for (unsigned i = 0; i < h.dofs_per_cell; ++i) {
+    const auto [comp, k] = h.m->fe->system_to_component_index(i);
+    const double v = k < kMaxScalar ? value[k] : w * base.shape_value(k, unit);
+    const std::size_t at = static_cast<std::size_t>(rc) * h.dofs_per_cell + i;
+    for (std::size_t t = h.dof_first[at]; t < h.dof_first[at + 1]; ++t)
+      out[comp].push_back({h.terms[t].slot, v * h.terms[t].coef});
+  }
+  return c;
+}
+
 }  // namespace vim::fem

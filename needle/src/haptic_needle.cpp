@@ -57,8 +57,9 @@ class RegionTissue final : public TissueResponse {
   PointConstraint<3> row(std::size_t j, double axial) const;
 
  private:
-  void add_sample(const Vec<3>& x, double w, Index d);
-  void factor();  // S of the active stations in frame F, factorised in place
+  void add_sample(const Vec<3>& x, double w);
+  void form_y(Index j3);  // Y_j = W c_j, columns j3 … j3 + 2 of Y
+  void factor();          // S of the active stations in frame F, factorised in place
   Vec<3> lateral(std::size_t j) const {
     return Vec<3>(F_.col(0).dot(tip_ - centre_[j]), F_.col(1).dot(tip_ - centre_[j]), 0.0);
   }
@@ -73,6 +74,7 @@ class RegionTissue final : public TissueResponse {
   // the band template (frame coordinates, E = 1)
   std::vector<Vec<3>> band_offsets_;  // (l1, l2, axis) coordinates
   std::vector<double> band_weights_;
+  std::vector<char> inside_;  // per template sample: inside the mesh at the band being placed
   Vec<3> band_compliance_ = Vec<3>::Zero();
   // the placed stations
   std::size_t n_ = 0;
@@ -82,7 +84,7 @@ class RegionTissue final : public TissueResponse {
   Eigen::VectorXd cu0_, nu_;            // 3cap: c_j·u0 + h_j; the last solve's F μ_j (model axes)
   // a station's row while it is formed
   Eigen::MatrixXd c_dense_;  // slots × 3
-  std::vector<Term> sample_;
+  std::array<std::vector<Term>, 3> sample_;
   std::vector<int> touched_;
   std::vector<char> is_touched_;
   // the step's Schur system over the active stations (3m rows, in the order of state.active)
@@ -106,6 +108,7 @@ RegionTissue::RegionTissue(fem::ElasticModel<3>& model, const fem::Region<3>& re
                                                       1.0, model.poisson_ratio());
   for (const auto& off : t.offsets) band_offsets_.push_back(t.axes.transpose() * off);
   band_weights_ = t.weights;
+  inside_.assign(band_weights_.size(), 0);
   band_compliance_ = t.compliance;
   const std::size_t ns = region_->slots(), np = probes.size();
   const auto c3 = static_cast<Index>(3 * cap);
@@ -113,7 +116,8 @@ RegionTissue::RegionTissue(fem::ElasticModel<3>& model, const fem::Region<3>& re
   cu0_ = Eigen::VectorXd::Zero(c3), nu_ = Eigen::VectorXd::Zero(c3);
   centre_.resize(cap), kappa_.resize(cap), frame_.resize(cap);
   c_dense_ = Eigen::MatrixXd::Zero(static_cast<Index>(ns), 3);
-  touched_.reserve(ns), is_touched_.assign(ns, 0), sample_.reserve(64);
+  touched_.reserve(ns), is_touched_.assign(ns, 0);
+  for (auto& terms : sample_) terms.reserve(256);
   S_.resize(c3, c3), b_.resize(c3), x_.resize(c3);
   forces_.assign(cap, 0.0);
   map_.K.resize(static_cast<Index>(cap), static_cast<Index>(cap)), map_.c.resize(static_cast<Index>(cap));
@@ -128,21 +132,49 @@ RegionTissue::RegionTissue(fem::ElasticModel<3>& model, const fem::Region<3>& re
     }
 }
 
-// Adds w·N(x) along model axis `d` to column d of c_dense (its constant to c_j·u0).
-void RegionTissue::add_sample(const Vec<3>& x, double w, Index d) {
-  sample_.clear();
-  region_->terms(x, w, static_cast<unsigned>(d), sample_);
-  for (const Term& term : sample_) {
-    if (term.slot < 0) {
-      cu0_[static_cast<Index>(3 * n_) + d] += term.coef;
-      continue;
+// Adds w·N(x) along the model axes to the columns of c_dense (their constants to c_j·u0).
+void RegionTissue::add_sample(const Vec<3>& x, double w) {
+  for (auto& terms : sample_) terms.clear();
+  region_->terms(x, w, sample_);
+  for (Index d = 0; d < 3; ++d)
+    for (const Term& term : sample_[static_cast<std::size_t>(d)]) {
+      if (term.slot < 0) {
+        cu0_[static_cast<Index>(3 * n_) + d] += term.coef;
+        continue;
+      }
+      if (!is_touched_[static_cast<std::size_t>(term.slot)]) {
+        is_touched_[static_cast<std::size_t>(term.slot)] = 1;
+        touched_.push_back(term.slot);
+      }
+      c_dense_(term.slot, d) += term.coef;
     }
-    if (!is_touched_[static_cast<std::size_t>(term.slot)]) {
-      is_touched_[static_cast<std::size_t>(term.slot)] = 1;
-      touched_.push_back(term.slot);
+}
+
+// Y_j = W c_j over the touched slots, four columns of W at a time (Y_j is read and written once per four
+// slots rather than once per slot).
+void RegionTissue::form_y(Index j3) {
+  const Index ns = Y_.rows();
+  double* __restrict y0 = Y_.col(j3).data();
+  double* __restrict y1 = Y_.col(j3 + 1).data();
+  double* __restrict y2 = Y_.col(j3 + 2).data();
+  std::fill(y0, y0 + ns, 0.0), std::fill(y1, y1 + ns, 0.0), std::fill(y2, y2 + ns, 0.0);
+  const std::size_t nt = touched_.size();
+  std::size_t t = 0;
+  for (; t + 4 <= nt; t += 4) {
+    const double* __restrict w0 = W_->col(touched_[t]).data();
+    const double* __restrict w1 = W_->col(touched_[t + 1]).data();
+    const double* __restrict w2 = W_->col(touched_[t + 2]).data();
+    const double* __restrict w3 = W_->col(touched_[t + 3]).data();
+    std::array<std::array<double, 4>, 3> a{};
+    for (Index d = 0; d < 3; ++d)
+      for (std::size_t i = 0; i < 4; ++i) a[static_cast<std::size_t>(d)][i] = c_dense_(touched_[t + i], d);
+    for (Index r = 0; r < ns; ++r) {
+      y0[r] += w0[r] * a[0][0] + w1[r] * a[0][1] + w2[r] * a[0][2] + w3[r] * a[0][3];
+      y1[r] += w0[r] * a[1][0] + w1[r] * a[1][1] + w2[r] * a[1][2] + w3[r] * a[1][3];
+      y2[r] += w0[r] * a[2][0] + w1[r] * a[2][1] + w2[r] * a[2][2] + w3[r] * a[2][3];
     }
-    c_dense_(term.slot, d) += term.coef;
   }
+  for (; t < nt; ++t) Y_.middleCols<3>(j3).noalias() += W_->col(touched_[t]) * c_dense_.row(touched_[t]);
 }
 
 // As BandCoupling's stations: the samples inside the mesh, renormalised; the compliance of unit modulus
@@ -154,6 +186,7 @@ void RegionTissue::place(const Vec<3>& at, const Vec<3>& axis) {
   int cells = 0;
   for (std::size_t q = 0; q < band_offsets_.size(); ++q) {
     const long c = region_->locate(at + frame_j * band_offsets_[q]);
+    inside_[q] = c >= 0;
     if (c < 0) continue;
     inside += band_weights_[q];
     e_sum += (*E_)[static_cast<std::size_t>(c)];
@@ -161,14 +194,10 @@ void RegionTissue::place(const Vec<3>& at, const Vec<3>& axis) {
   }
   if (!(inside > 0.0)) throw std::invalid_argument("HapticNeedle: a station's band lies outside the mesh");
   cu0_.segment<3>(j3).setZero();
-  for (std::size_t q = 0; q < band_offsets_.size(); ++q) {
-    const Vec<3> x = at + frame_j * band_offsets_[q];
-    if (region_->locate(x) < 0) continue;
-    for (Index d = 0; d < 3; ++d) add_sample(x, band_weights_[q] / inside, d);
-  }
+  for (std::size_t q = 0; q < band_offsets_.size(); ++q)
+    if (inside_[q]) add_sample(at + frame_j * band_offsets_[q], band_weights_[q] / inside);
   // Y_j = W c_j over the touched slots; M_jk = c_j·Y_k; the probes' blocks; c_j·u0
-  Y_.middleCols<3>(j3).setZero();
-  for (int s : touched_) Y_.middleCols<3>(j3).noalias() += W_->col(s) * c_dense_.row(s);
+  form_y(j3);
   for (std::size_t k = 0; k <= n_; ++k) {
     Eigen::Matrix3d b = Eigen::Matrix3d::Zero();
     for (int s : touched_)

@@ -5,7 +5,8 @@
 //   limit, max_shear_per_length × the shaft length they carry;
 // - against the CLI's stepping (pipeline's NeedleInsertion: needle::Insertion, BandCoupling with the
 //   default band, ElasticTissue's condensed rows and the registered law) on one scenario — stick-slip
-//   with a cutting force, P2, two tissues of different modulus — station by station at every step;
+//   with a cutting distance (no tip rows on either side), P2, two tissues of different modulus — station by
+//   station at every step;
 // - stepping allocates no memory after the first step (a counting operator new).
 #include <gtest/gtest.h>
 

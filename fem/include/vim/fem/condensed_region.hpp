@@ -8,6 +8,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <cstddef>
 #include <memory>
 #include <vector>
@@ -39,6 +40,10 @@ class CondensedRegion {
   // order of the cell's DoFs and their constraints. Throws std::invalid_argument when x lies outside
   // the region's cells.
   void terms(const Vec<3>& x, double w, unsigned d, std::vector<Term>& out) const;
+  // The terms of all three components at once (one cell search, one evaluation of each scalar shape
+  // function), w·u_d(x) appended to out[d]. Returns the model's cell holding x, or −1 (nothing appended)
+  // when x lies outside the mesh; throws std::invalid_argument when x lies outside the region's cells.
+  long terms(const Vec<3>& x, double w, std::array<std::vector<Term>, 3>& out) const;
   // The model's cell holding x (its locator), −1 outside the mesh.
   long locate(const Vec<3>& x) const;
 
