@@ -107,7 +107,8 @@ double MaterialDescription::neo_hookean_d1(double E, double nu) {
 
 void MaterialDescription::write_feb_material(std::ostream& out, int id, const std::string& name,
                                              const std::string& modulus_map) const {
-  out << "    <material id=\"" << id << "\" name=\"" << name << "\" type=\"isotropic elastic\">\n"
+  out << "    <material id=\"" << id << "\" name=\"" << name << "\" type=\""
+      << (neo_hookean ? "neo-Hookean" : "isotropic elastic") << "\">\n"
       << "      <density>1</density>\n"
       << "      <E type=\"map\">" << modulus_map << "</E>\n"
       << "      <v>" << poisson_ratio << "</v>\n"

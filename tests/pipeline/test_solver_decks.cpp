@@ -407,6 +407,41 @@ TEST(SolverDecks, FebioDeckHasTheRequiredStructure) {
   }
 }
 
+// material.model neo-hookean: mesh.feb passes the febio_spec 4.0 structure check (Python's XML parser) and
+// carries FEBio's neo-Hookean material with the per-element E map and the scenario's ν, and a static step
+// of 10 increments; the linear model's deck keeps FEBio's isotropic elastic in one step.
+TEST(SolverDecks, FebioDeckCarriesTheNeoHookeanMaterialAndANonlinearStep) {
+  if (!fs::exists("/usr/bin/python3"))
+    GTEST_SKIP() << "/usr/bin/python3 (its xml.etree checks mesh.feb) is missing";
+  const auto dir = vim::test::scratch_dir("decks", "feb_nh");
+  MeshModel<3> m = oblique_model<3>({{4, 4, 5}});
+  for (const bool neo : {true, false}) {
+    const Scenario sc = neo ? neo_hookean_scenario(m) : scenario_for(m);
+    ExportOptions eo;
+    eo.scenario = &sc;
+    eo.degree = 2;
+    eo.poisson_ratio = sc.poisson_ratio;
+    write_exports<3>(m, dir, {"feb"}, eo);
+    EXPECT_EQ(feb_check(dir / "mesh.feb"), "OK") << "neo-Hookean " << neo;
+    std::ifstream in(dir / "mesh.feb");
+    std::stringstream text;
+    text << in.rdbuf();
+    const std::string xml = text.str();
+    const auto at = xml.find("<material id=\"1\" name=\"tissue\" type=\"");
+    ASSERT_NE(at, std::string::npos);
+    const std::string material = xml.substr(at, xml.find("</material>", at) - at);
+    EXPECT_NE(material.find(neo ? "type=\"neo-Hookean\"" : "type=\"isotropic elastic\""), std::string::npos)
+        << material;
+    EXPECT_NE(material.find("<E type=\"map\">E_map</E>"), std::string::npos) << material;
+    ASSERT_NE(material.find("<v>"), std::string::npos) << material;
+    EXPECT_NEAR(std::stod(material.substr(material.find("<v>") + 3)), 0.3, 1e-15) << material;
+    EXPECT_NE(xml.find(neo ? "<time_steps>10</time_steps>" : "<time_steps>1</time_steps>"),
+              std::string::npos);
+    EXPECT_EQ(xml.find("<time_stepper") != std::string::npos, neo);
+    EXPECT_EQ(xml.find("Not in this model: material.model"), std::string::npos);
+  }
+}
+
 // Truth: deal.II's point evaluation (ElasticModel::sample, point location + FEValues) of the last step at
 // every point of the step VTU: the mid-edge points carry the P2 field, not an average of the vertices.
 TEST(SolverDecks, P2StepVtuHoldsQuadraticCellsWithTheP2Field) {

@@ -269,3 +269,85 @@ TEST(StaticLoad, NeoHookeanUniaxialStatesMatchTheClosedForm) {
       EXPECT_EQ(warnings.find("the static load case: the largest strain"), std::string::npos) << warnings;
     }
 }
+
+// --compare-linear on the block compressed by 15 % (grid, P1, which holds both homogeneous states
+// exactly): report.json simulation.compare_linear holds both models' target displacement and reactions
+// and |linear − neo-Hookean| / |neo-Hookean|, checked against the closed forms: linear u = (νε x, νε y,
+// −ε z) and the reaction E ε A on the moved and the held face; neo-Hookean the uniaxial state above with
+// the reaction P₃₃ A (A = 100 mm², the reference area); the laterally free faces carry no reaction
+// (null). The same numbers whichever model the scenario names; the summary lists them.
+TEST(StaticLoad, CompareLinearReportsTheClosedFormDifferences) {
+  vim::test::TempDir dir("static_compare");
+  write_block(dir.path / "block.mha");
+  const double eps = 3.0 / kL, l3 = 1.0 - eps, l = lateral(l3), area = 100.0;
+  const Eigen::Vector3d lin(kNu * eps * 7, kNu * eps * 3, -eps * 16),
+      nh((l - 1) * 7, (l - 1) * 3, (l3 - 1) * 16);
+  const double r_lin = kE * eps * area, r_nh = -neo_hookean_piola({{l, l, l3}}, 2) * area;
+  ASSERT_GT(std::abs(r_lin - r_nh), 0.1 * r_lin);  // the comparison is not trivial here
+  std::string yaml = static_scenario(
+      "{type: displacement, region: {box_face: z_max}, value: [0, 0, -3], "
+      "components: [z]}");
+  for (const bool neo : {true, false}) {
+    const std::string name = neo ? "neo" : "linear";
+    std::string y = yaml;
+    if (neo) y.replace(y.find("material: {"), 11, "material: {model: neo-hookean, ");
+    std::ofstream(dir / (name + ".yaml")) << y;
+    const auto r = run_pipeline(quote(dir / "block.mha") +
+                                " --mesher grid --nodes 300 --export none "
+                                "--compare-linear --simulate " +
+                                quote(dir / (name + ".yaml")) + " --out " + quote(dir / name));
+    ASSERT_EQ(r.code, 0) << r.err;
+    nlohmann::json report;
+    std::ifstream(dir.path / name / "report.json") >> report;
+    const auto& sim = report["simulation"];
+    EXPECT_EQ(sim["static_load"]["material_model"], neo ? "neo-hookean" : "linear");
+    ASSERT_TRUE(sim.contains("compare_linear")) << name;
+    const auto& c = sim["compare_linear"];
+    const auto& top = c["targets"]["top"];
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_NEAR(top["linear"][a].get<double>(), lin[a], 1e-8) << name << " axis " << a;
+      EXPECT_NEAR(top["neo-hookean"][a].get<double>(), nh[a], 1e-6 * 16) << name << " axis " << a;
+    }
+    EXPECT_NEAR(top["relative_difference"].get<double>(), (lin - nh).norm() / nh.norm(), 1e-5) << name;
+    ASSERT_EQ(c["reactions"].size(), 4u) << name;
+    for (int k = 0; k < 4; ++k) {
+      const auto& e = c["reactions"][k];
+      EXPECT_EQ(e["condition"], "boundary_conditions[" + std::to_string(k) + "]");
+      if (k < 2) {  // x_min, y_min: laterally free, no reaction in either model
+        EXPECT_TRUE(e["relative_difference"].is_null()) << name << " " << k;
+        continue;
+      }
+      const double sign = k == 2 ? 1.0 : -1.0;  // the held face pushes up, the moved face down
+      EXPECT_NEAR(e["linear"][2].get<double>(), sign * r_lin, 1e-6 * r_lin) << name << " " << k;
+      EXPECT_NEAR(e["neo-hookean"][2].get<double>(), sign * r_nh, 1e-3 * r_nh) << name << " " << k;
+      EXPECT_NEAR(e["relative_difference"].get<double>(), std::abs(r_lin - r_nh) / r_nh, 2e-3)
+          << name << " " << k;
+    }
+    EXPECT_NE(r.out.find("compare_linear (|linear - neo-hookean| / |neo-hookean|)"), std::string::npos)
+        << r.out;
+    EXPECT_NE(r.out.find("reaction boundary_conditions[3] box_face z_max"), std::string::npos) << r.out;
+  }
+}
+
+// --compare-linear with a needle scenario: refused before meshing with one line naming the scenario's
+// file and the needle's line, nothing written.
+TEST(StaticLoad, CompareLinearWithANeedleIsRefused) {
+  vim::test::TempDir dir("static_compare_needle");
+  write_block(dir.path / "block.mha");
+  std::ofstream(dir / "needle.yaml")
+      << "material: {youngs_modulus: image, poisson_ratio: 0.3}\n"
+         "boundary_conditions: [{type: fixed, region: {box_face: z_min}}]\n"
+         "needle: {entry: [5, 5, 20], direction: [0, 0, -1], depth: 5, steps: 2, "
+         "diameter: 1, friction: {model: stick}}\n";
+  const auto r = run_pipeline(quote(dir / "block.mha") +
+                              " --mesher grid --nodes 300 --export none -q "
+                              "--compare-linear --simulate " +
+                              quote(dir / "needle.yaml") + " --out " + quote(dir / "out"));
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.err.find("needle.yaml:3: needle: --compare-linear compares the two material models on a static "
+                       "load case"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(fs::exists(dir.path / "out" / "report.json"));
+}

@@ -300,6 +300,11 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
       ->type_name("LIST")
       ->delimiter(',')
       ->check(CLI::IsMember(export_values));
+  app.add_flag("--compare-linear", o.compare_linear,
+               "With a static load scenario (no needle): solve it with the linear and the neo-Hookean "
+               "material and report per target and per displacement condition's reaction the relative "
+               "difference |linear - neo-Hookean| / |neo-Hookean| (report.json simulation.compare_linear)")
+      ->needs(simulate);
   app.add_flag("--overwrite", o.overwrite, "Write into a non-empty DIR, replacing files of the same name");
   bool quiet = false, verbose = false;
   auto* q = app.add_flag("-q,--quiet", quiet, "Only errors on stderr, no summary on stdout");

@@ -179,6 +179,22 @@ void print_summary(std::ostream& out, const json& r) {
     out << "simulation\n";
     for (const auto& [k, v] : r["simulation"].items())
       if (v.is_primitive()) out << "  " << k << ": " << v.dump() << "\n";
+    if (r["simulation"].contains("compare_linear")) {  // --compare-linear
+      const json& c = r["simulation"]["compare_linear"];
+      out << "compare_linear (" << c.value("definition", std::string()) << ")\n";
+      const auto line = [&](const std::string& what, const json& e) {
+        const json& d = e["relative_difference"];
+        if (d.is_number())
+          std::snprintf(buf, sizeof buf, "  %s: %.4g\n", what.c_str(), d.get<double>());
+        else
+          std::snprintf(buf, sizeof buf, "  %s: - (neo-hookean value 0)\n", what.c_str());
+        out << buf;
+      };
+      for (const auto& [name, e] : c["targets"].items()) line("target " + name, e);
+      for (const auto& e : c["reactions"])
+        line("reaction " + e.value("condition", std::string()) + " " + e.value("region", std::string()), e);
+      line("max_displacement", c["max_displacement"]);
+    }
   }
   if (r.contains("timing")) {
     out << "time:";

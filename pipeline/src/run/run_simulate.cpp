@@ -23,6 +23,7 @@ void PipelineRun<dim>::build_model() {
   so.world_grid = world_grid_;  // the grid of mesh.vtu: the steps share its points and cells
   so.scenario_checked = true;   // read_inputs checked it against the image box
   so.keep_step_fields = inputs_ && inputs_->keep_step_fields;
+  so.compare_linear = options_.compare_linear;
   so.mpi_ranks = ranks_.size;
   so.mpi_comm = ranks_.comm;
   if (options_.mesher == MesherKind::voxel) {

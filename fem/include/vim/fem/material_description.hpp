@@ -23,7 +23,9 @@ struct MaterialDescription {
   static double neo_hookean_c10(double youngs_modulus, double poisson_ratio);
   static double neo_hookean_d1(double youngs_modulus, double poisson_ratio);
   // FEBio 4: the <material> element (FEBio's "isotropic elastic", St Venant–Kirchhoff, whose
-  // small-strain limit is this law), E per element from the element data map `modulus_map`.
+  // small-strain limit is this law; for neo_hookean FEBio's "neo-Hookean", W = μ/2 (I₁ − 3) − μ ln J +
+  // λ/2 (ln J)², the closest FEBio material: same μ and λ, another volumetric term), E per element
+  // from the element data map `modulus_map`.
   void write_feb_material(std::ostream& out, int id, const std::string& name,
                           const std::string& modulus_map) const;
 };

@@ -47,6 +47,7 @@ struct RunOptions : MeshOptions {
   std::string fit_forces;  // --fit-forces MEASURED.csv: fit the needle to it first (fit/fit_run.hpp)
   std::vector<std::string> exports = export_formats();  // --export: every format (mesh.vtu is always written)
   bool overwrite = false;
+  bool compare_linear = false;  // --compare-linear: a static load case solved by both material models
   Verbosity verbosity = Verbosity::normal;
 
   std::vector<std::string> command_line;  // argv, for the report

@@ -77,6 +77,9 @@ struct SimulationOptions {
   // Stick-slip: active-set sweeps per step (each one condensed solve). A step whose set still changes
   // after this many keeps the last iterate and is listed in NeedleRun::unsettled_steps and the warnings.
   int max_active_set_iterations = 100;
+  // A static load case is also solved by the other material model (linear and neo-Hookean), and
+  // report.json's simulation.compare_linear holds the relative differences (static_load.hpp).
+  bool compare_linear = false;
   // The model's grid in world coordinates when the caller has built it (PipelineRun's world grid, the
   // geometry of mesh.vtu): simplex_grid of the mesh, or voxel_grid of the image. Null: the simulation
   // builds the same grid itself.
