@@ -208,6 +208,7 @@ void ElasticModel<dim>::Impl::invalidate() {
   K_trilinos.reset();
   distributed.reset();
   method.clear();
+  prepared_for.clear();
   have_u0 = false;
   columns.clear();
 }
