@@ -542,8 +542,7 @@ class DistributedInverseOf : public DistributedInverse<dim> {
     return sys_.tria->memory_consumption() + sys_.dof.memory_consumption() +
            sys_.constraints.memory_consumption() + sys_.K.memory_consumption() + sys_.f.memory_consumption() +
            amg_.memory_consumption() + MemoryConsumption::memory_consumption(sys_.rel_point) +
-           MemoryConsumption::memory_consumption(sys_.serial_vertex) +
-           (mumps_ ? static_cast<std::size_t>(mumps_->factor_bytes()) : 0);
+           MemoryConsumption::memory_consumption(sys_.serial_vertex);  // as serially, without the factor
   }
 
   const std::string& method() const override { return method_; }

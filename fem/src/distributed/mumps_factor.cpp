@@ -117,16 +117,6 @@ void MumpsFactor::solve(const double* b, double* x) {
   check(VecRestoreArrayRead(s.x, &px), "VecRestoreArrayRead");
 }
 
-double MumpsFactor::factor_bytes() const {
-  // INFO(9), INFO(10): the reals and integers of this rank's factor (negative: millions of them)
-  const auto count = [this](PetscInt i) {
-    PetscInt n = 0;
-    check(MatMumpsGetInfo(impl_->F, i, &n), "MatMumpsGetInfo");
-    return n < 0 ? -1e6 * static_cast<double>(n) : static_cast<double>(n);
-  };
-  return 8.0 * count(9) + 4.0 * count(10);
-}
-
 std::unique_ptr<MumpsFactor> factorise_if_fits(std::unique_ptr<MumpsFactor> factor, const SolverOptions& opt,
                                                unsigned long n_dofs, unsigned ranks, std::string& reason) {
   const double estimate = factor->analyse();

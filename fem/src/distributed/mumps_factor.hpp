@@ -31,8 +31,6 @@ class MumpsFactor {
   void factorise();
   // x = A⁻¹ b on the owned rows (n_local entries each) by back-substitution. Collective.
   void solve(const double* b, double* x);
-  // The bytes of this rank's part of the factor (INFO(9) reals, INFO(10) integers) after factorise().
-  double factor_bytes() const;
 
  private:
   struct Impl;
