@@ -207,8 +207,7 @@ void ElasticModel<dim>::Impl::invalidate() {
   amg.reset();
   K_trilinos.reset();
   distributed.reset();
-  method.clear();
-  prepared_for.clear();
+  method.clear(), prepared_for.clear();
   have_u0 = false;
   columns.clear();
 }
