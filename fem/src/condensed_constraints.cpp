@@ -99,6 +99,7 @@ CondensedConstraints<dim>::CondensedConstraints(ElasticModel<dim>& model,
   c.used.reserve(n), c.kept.reserve(n), c.g_used.reserve(n), c.used_slot.reserve(n), c.keep.reserve(n);
   c.S.resize(n, n), c.L.resize(n, n), c.r.resize(n), c.x.resize(n), c.l.resize(n);
   c.stats.method = m.method;
+  c.stats.reason = m.method_reason;
   c.stats.n_dofs = static_cast<unsigned>(m.n_solve_dofs());
 }
 

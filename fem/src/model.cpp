@@ -207,7 +207,7 @@ void ElasticModel<dim>::Impl::invalidate() {
   amg.reset();
   K_trilinos.reset();
   distributed.reset();
-  method.clear();
+  method.clear(), prepared_for.clear();
   have_u0 = false;
   columns.clear();
 }

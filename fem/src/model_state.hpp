@@ -72,6 +72,9 @@ inline void check_solver_options(const SolverOptions& opt) {
     throw std::invalid_argument("SolverOptions: tolerance must be finite and > 0, got " +
                                 std::to_string(opt.tolerance));
   if (opt.max_iterations == 0) throw std::invalid_argument("SolverOptions: max_iterations must be > 0");
+  if (!(opt.max_memory >= 0.0) || !std::isfinite(opt.max_memory))
+    throw std::invalid_argument("SolverOptions: max_memory must be finite and >= 0 bytes, got " +
+                                std::to_string(opt.max_memory));
 }
 
 // One scalar constraint row c·u = g on the free DoFs (Dirichlet DoFs condensed into g).
@@ -242,6 +245,9 @@ class DistributedInverse {
   virtual std::size_t memory_consumption() const = 0;
   // The rank's owned and ghost cells.
   virtual std::size_t cells_held() const = 0;
+  // "mumps (mpi, N ranks)" or "cg+amg (mpi, N ranks)", and why (SolverStats::reason).
+  virtual const std::string& method() const = 0;
+  virtual const std::string& reason() const = 0;
 };
 
 template <int dim>
@@ -317,7 +323,10 @@ struct ElasticModel<dim>::Impl {
   double assemble_seconds = 0.0;
 
   // ---- solvers (cached across solve() calls) -----------------------------------------------
-  std::string method;  // "cholmod" | "cg+amg" once prepared
+  std::string
+      method;  // "cholmod" | "cg+amg" | "mumps (mpi, N ranks)" | "cg+amg (mpi, N ranks)" once prepared
+  std::string method_reason;  // over MPI ranks: why `method`
+  std::string prepared_for;   // the solver choice `method` was prepared for (prepare_solver)
   std::unique_ptr<CholmodLLT> direct;
   std::unique_ptr<dealii::TrilinosWrappers::SparseMatrix> K_trilinos;
   std::unique_ptr<dealii::TrilinosWrappers::PreconditionAMG> amg;
@@ -453,9 +462,10 @@ std::unique_ptr<CholmodLLT> cholmod_factor(const dealii::SparseMatrix<double>& K
 void ensure_mpi_initialized();
 
 // The distributed K⁻¹ of a serially assembled model (distributed.cpp): the model's mesh partitioned
-// over `comm` like solve_distributed, CG + AMG with the rigid-body modes. Collective.
+// over `comm` like solve_distributed, factorised once by MUMPS or CG + AMG with the rigid-body modes, as
+// `opt` chooses (SolverOptions::max_memory). Collective.
 template <int dim>
 std::unique_ptr<DistributedInverse<dim>> make_distributed_inverse(const ModelAccess::State<dim>& model,
-                                                                  MPI_Comm comm);
+                                                                  MPI_Comm comm, const SolverOptions& opt);
 
 }  // namespace vim::fem

@@ -78,10 +78,10 @@ void ElasticModel<dim>::Impl::prepare_solver(const SolverOptions& opt) {
   const bool use_amg = opt.type == SolverOptions::Type::amg || (opt.type == SolverOptions::Type::automatic &&
                                                                 dof.n_dofs() > opt.direct_limit_for(dim));
   const std::string wanted =
-      over_ranks ? "cg+amg (mpi, " + std::to_string(Utilities::MPI::n_mpi_processes(solve_comm)) + " ranks)"
+      over_ranks ? "mpi " + std::to_string(static_cast<int>(opt.type)) + " " + std::to_string(opt.max_memory)
       : use_amg  ? "cg+amg"
                  : "cholmod";
-  if (method == wanted) return;
+  if (prepared_for == wanted) return;
   direct.reset();
   amg.reset();
   K_trilinos.reset();
@@ -90,7 +90,7 @@ void ElasticModel<dim>::Impl::prepare_solver(const SolverOptions& opt) {
   columns.clear();
   Timer timer;
   if (over_ranks) {
-    distributed = make_distributed_inverse<dim>(*this, solve_comm);
+    distributed = make_distributed_inverse<dim>(*this, solve_comm, opt);
   } else if (!use_amg) {
     direct = cholmod_factor(K);
   } else {
@@ -108,7 +108,9 @@ void ElasticModel<dim>::Impl::prepare_solver(const SolverOptions& opt) {
         [&](unsigned i) { return dof_component[i]; }, degree, voxel, *amg);
   }
   prepare_seconds = timer.wall_time();
-  method = wanted;
+  prepared_for = wanted;
+  method = distributed ? distributed->method() : wanted;
+  method_reason = distributed ? distributed->reason() : std::string();
 }
 
 template <int dim>
@@ -423,6 +425,7 @@ Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>& 
     add_constraint_reactions<dim>(rows[a].entry->row, mu[a], s);
   }
   s.stats.method = m.method;
+  s.stats.reason = m.method_reason;
   s.stats.constraint_rows = static_cast<unsigned>(nr);
   s.stats.dependent_rows_dropped = static_cast<unsigned>(n_all - nr);
   s.stats.iterations = iterations;

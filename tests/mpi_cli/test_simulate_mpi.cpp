@@ -168,8 +168,9 @@ std::size_t count(const std::string& text, const std::string& what) {
 
 // A needle (finite diameter: the band rows with their series compliance) into the table1 phantom, on a
 // VIM mesh (fully distributed triangulation) and on the voxel model (p4est): every column of needle.csv
-// (forces, tip, target displacements) and the last step agree, and rank 0's model is smaller than the
-// serial one (no serial mesh or stiffness matrix on the ranks).
+// (forces, tip, target displacements) and the last step agree, the VIM mesh solved by MUMPS and the voxel
+// model by CG + AMG, and rank 0's model is smaller than the serial one (no serial mesh or stiffness
+// matrix on the ranks).
 TEST(SimulateMpi, NeedleOnTwoRanksEqualsTheSerialRun) {
   vim::test::TempDir dir("simulate_mpi_needle");
   vim::test::write_study_inputs(dir.path);
@@ -210,6 +211,13 @@ TEST(SimulateMpi, NeedleOnTwoRanksEqualsTheSerialRun) {
     EXPECT_EQ(pvtu, 2) << mesher;  // steps 0 and 3 (output every 3)
     const auto report = read_json(two_dir / "report.json");
     EXPECT_NE(report.dump().find("mpi, 2 ranks"), std::string::npos) << mesher;
+    // solver.type auto: the VIM mesh factorised once by MUMPS (its estimate fits the memory), the voxel
+    // model by CG + AMG
+    const auto solver = report["simulation"]["needles"][0]["solver"];
+    EXPECT_EQ(solver["method"], mesher == "vim" ? "mumps (mpi, 2 ranks)" : "cg+amg (mpi, 2 ranks)");
+    EXPECT_NE(solver.value("reason", "").find(mesher == "vim" ? "MUMPS estimates" : "voxel model"),
+              std::string::npos)
+        << solver.dump();
     // rank 0 holds no serial stiffness matrix (the serial run holds K and K_full) ...
     const double two_bytes = report["simulation"]["model"]["memory_bytes"];
     const double serial_bytes = read_json(serial_dir / "report.json")["simulation"]["model"]["memory_bytes"];

@@ -442,7 +442,7 @@ void unpack_stencils(const std::vector<double>& in, std::vector<PointStencil>& s
 template <int dim>
 class DistributedInverseOf : public DistributedInverse<dim> {
  public:
-  DistributedInverseOf(const State<dim>& m, MPI_Comm comm) : m_(m), comm_(comm) {
+  DistributedInverseOf(const State<dim>& m, MPI_Comm comm, const SolverOptions& opt) : m_(m), comm_(comm) {
     if (!m.supports.empty())
       throw std::invalid_argument(
           "a model with volume supports (add_volume_support) cannot be solved over MPI ranks; run it "
@@ -451,7 +451,7 @@ class DistributedInverseOf : public DistributedInverse<dim> {
     if (Utilities::MPI::n_mpi_processes(comm) > 1) one_thread.emplace();
     SolverStats stats;
     build_system<dim>(m, sys_, comm, stats, false);
-    setup_amg<dim>(m, sys_, amg_);
+    choose_solver(opt);
     for (const auto& cell : sys_.dof.active_cell_iterators())
       if (cell->is_locally_owned()) owned_cell_.emplace(cell->material_id(), cell);
   }
@@ -460,11 +460,18 @@ class DistributedInverseOf : public DistributedInverse<dim> {
                  double* residual) override {
     std::optional<OneThreadPerRank> one_thread;
     if (Utilities::MPI::n_mpi_processes(comm_) > 1) one_thread.emplace();
-    const TrilinosWrappers::MPI::Vector rhs = b ? owned_part(*b) : sys_.f;
-    SolverStats stats;
-    const TrilinosWrappers::MPI::Vector u = solve_cg<dim>(sys_, rhs, amg_, opt, comm_, stats);
     x.reinit(sys_.dof.n_dofs());
-    for (const auto i : sys_.owned) x[i] = u[i];
+    SolverStats stats;
+    if (mumps_) {  // back-substitution with the kept factor; the owned DoFs are one range
+      const auto first = *sys_.owned.begin();
+      std::vector<double> rhs(sys_.owned.n_elements());
+      for (std::size_t i = 0; i < rhs.size(); ++i) rhs[i] = b ? (*b)[first + i] : sys_.f[first + i];
+      mumps_->solve(rhs.data(), x.data() + first);
+    } else {
+      const TrilinosWrappers::MPI::Vector rhs = b ? owned_part(*b) : sys_.f;
+      const TrilinosWrappers::MPI::Vector u = solve_cg<dim>(sys_, rhs, amg_, opt, comm_, stats);
+      for (const auto i : sys_.owned) x[i] = u[i];
+    }
     sum_over_ranks(x);
     if (residual) *residual = stats.residual;
     return stats.iterations;
@@ -535,8 +542,11 @@ class DistributedInverseOf : public DistributedInverse<dim> {
     return sys_.tria->memory_consumption() + sys_.dof.memory_consumption() +
            sys_.constraints.memory_consumption() + sys_.K.memory_consumption() + sys_.f.memory_consumption() +
            amg_.memory_consumption() + MemoryConsumption::memory_consumption(sys_.rel_point) +
-           MemoryConsumption::memory_consumption(sys_.serial_vertex);
+           MemoryConsumption::memory_consumption(sys_.serial_vertex);  // as serially, without the factor
   }
+
+  const std::string& method() const override { return method_; }
+  const std::string& reason() const override { return reason_; }
 
  private:
   using Cell = typename DoFHandler<dim>::active_cell_iterator;
@@ -566,6 +576,25 @@ class DistributedInverseOf : public DistributedInverse<dim> {
     return v;
   }
 
+  // MUMPS's factor of K (kept, its owned rows one range) when `opt` chooses it and it fits, else the AMG.
+  void choose_solver(const SolverOptions& opt) {
+    const unsigned ranks = Utilities::MPI::n_mpi_processes(comm_);
+    const std::string on = " (mpi, " + std::to_string(ranks) + " ranks)";
+    using Type = SolverOptions::Type;
+    const bool contiguous = Utilities::MPI::min(sys_.owned.is_contiguous() ? 1 : 0, comm_) == 1;
+    if (opt.type == Type::direct || (opt.type == Type::automatic && !m_.voxel && contiguous)) {
+      if (!contiguous) throw std::logic_error("solve_distributed: the ranks' DoFs are not contiguous ranges");
+      mumps_ = factorise_if_fits(mumps_of(sys_.K, sys_.owned, comm_), opt, sys_.dof.n_dofs(), ranks, reason_);
+    } else {
+      reason_ = opt.type == Type::amg ? "solver.type amg" : "solver.type auto: voxel model, CG + AMG";
+    }
+    method_ = (mumps_ ? "mumps" : "cg+amg") + on;
+    if (mumps_)
+      sys_.K.clear();  // the factor replaces it
+    else
+      setup_amg<dim>(m_, sys_, amg_);
+  }
+
   // Each DoF is owned by one rank and zero on the others: the sum over the ranks is exact.
   void sum_over_ranks(Vector<double>& x) const {
     Utilities::MPI::sum(ArrayView<const double>(x.data(), x.size()), comm_,
@@ -576,6 +605,8 @@ class DistributedInverseOf : public DistributedInverse<dim> {
   MPI_Comm comm_;
   DistributedSystem<dim> sys_;
   TrilinosWrappers::PreconditionAMG amg_;
+  std::unique_ptr<MumpsFactor> mumps_;
+  std::string method_, reason_;
   // the locally owned cells by material id (input cell / voxel index)
   std::unordered_map<types::material_id, Cell> owned_cell_;
 };
@@ -583,8 +614,9 @@ class DistributedInverseOf : public DistributedInverse<dim> {
 }  // namespace
 
 template <int dim>
-std::unique_ptr<DistributedInverse<dim>> make_distributed_inverse(const State<dim>& model, MPI_Comm comm) {
-  return std::make_unique<DistributedInverseOf<dim>>(model, comm);
+std::unique_ptr<DistributedInverse<dim>> make_distributed_inverse(const State<dim>& model, MPI_Comm comm,
+                                                                  const SolverOptions& opt) {
+  return std::make_unique<DistributedInverseOf<dim>>(model, comm, opt);
 }
 
 template <int dim>
@@ -658,7 +690,9 @@ template void distribute_solves<2>(ElasticModel<2>&, MPI_Comm);
 template std::vector<std::size_t> owned_cells<2>(const ElasticModel<2>&, MPI_Comm);
 template std::vector<std::size_t> owned_cells<3>(const ElasticModel<3>&, MPI_Comm);
 template void distribute_solves<3>(ElasticModel<3>&, MPI_Comm);
-template std::unique_ptr<DistributedInverse<2>> make_distributed_inverse<2>(const State<2>&, MPI_Comm);
-template std::unique_ptr<DistributedInverse<3>> make_distributed_inverse<3>(const State<3>&, MPI_Comm);
+template std::unique_ptr<DistributedInverse<2>> make_distributed_inverse<2>(const State<2>&, MPI_Comm,
+                                                                            const SolverOptions&);
+template std::unique_ptr<DistributedInverse<3>> make_distributed_inverse<3>(const State<3>&, MPI_Comm,
+                                                                            const SolverOptions&);
 
 }  // namespace vim::fem

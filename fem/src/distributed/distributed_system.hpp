@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "model_state.hpp"
+#include "mumps_factor.hpp"
 
 namespace vim::fem {
 
@@ -102,5 +103,19 @@ dealii::TrilinosWrappers::MPI::Vector solve_voxel_multigrid(const State<3>& m,
                                                             const DistributedSystem<3>& sys,
                                                             const SolverOptions& opt, MPI_Comm comm,
                                                             SolverStats& stats);
+
+// MUMPS's copy (not yet analysed) of the rows of K this rank owns, `owned` one range of rows. Collective.
+inline std::unique_ptr<MumpsFactor> mumps_of(const dealii::TrilinosWrappers::SparseMatrix& K,
+                                             const dealii::IndexSet& owned, MPI_Comm comm) {
+  std::vector<long> row_ptr{0}, columns;
+  std::vector<double> values;
+  for (const auto i : owned) {
+    for (auto it = K.begin(i); it != K.end(i); ++it)
+      columns.push_back(static_cast<long>(it->column())), values.push_back(it->value());
+    row_ptr.push_back(static_cast<long>(columns.size()));
+  }
+  const long first = owned.n_elements() ? static_cast<long>(*owned.begin()) : 0;
+  return std::make_unique<MumpsFactor>(comm, static_cast<long>(K.m()), first, row_ptr, columns, values);
+}
 
 }  // namespace vim::fem

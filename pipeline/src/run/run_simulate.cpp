@@ -2,6 +2,7 @@
 // voxels) and the needle insertion on it (simulation.hpp), with its figures. Both do nothing without
 // --simulate.
 #include <chrono>
+#include <vim/pipeline/common/memory_limit.hpp>
 #include <vim/pipeline/output/figures.hpp>
 #include <vim/pipeline/output/report.hpp>
 #include <vim/pipeline/run/pipeline_run.hpp>
@@ -26,6 +27,10 @@ void PipelineRun<dim>::build_model() {
   so.compare_linear = options_.compare_linear;
   so.mpi_ranks = ranks_.size;
   so.mpi_comm = ranks_.comm;
+  // --max-memory per process; by default the ranks share the memory available to this one
+  if (ranks_.size > 1)
+    so.max_memory = options_.max_memory > 0.0 ? options_.max_memory
+                                              : available_memory_bytes().value_or(0.0) / ranks_.size;
   if (options_.mesher == MesherKind::voxel) {
     simulation_ = std::make_unique<NeedleSimulation<dim>>(
         NeedleSimulation<dim>::voxel(image_->image, model_.transform, *scenario_, std::move(so)));

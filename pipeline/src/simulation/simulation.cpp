@@ -125,6 +125,7 @@ void NeedleSimulation<dim>::Impl::setup(const std::vector<Vec>& vertices) {
                 : sc.solver_type == "amg"  ? fem::SolverOptions::Type::amg
                                            : fem::SolverOptions::Type::automatic;
   solver.tolerance = sc.solver_tolerance;
+  solver.max_memory = opt.max_memory;
   // A 3D needle's precomputation needs one column K⁻¹cᵀ per coupling row (three per station, tens to
   // hundreds): CHOLMOD's factorisation and one back-substitution per block of 32 rows beat one CG solve
   // per row well beyond the single-solve limit (docs/performance.md, "Needle steps": 225k P2 DoFs

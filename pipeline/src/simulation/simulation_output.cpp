@@ -262,6 +262,7 @@ json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const need
                    {"assemble_seconds", run.stats.assemble_seconds},
                    {"solves", solves},
                    {"monolithic", monolithic}};
+  if (!run.stats.reason.empty()) rep["solver"]["reason"] = run.stats.reason;
   rep["timing"] = {{"run_seconds", run_seconds},
                    {"solve_seconds", run.solve_seconds},
                    {"precompute_seconds", run.precompute_seconds},

@@ -34,10 +34,16 @@ struct SolverOptions {
   unsigned direct_limit = 0;
   static constexpr unsigned default_direct_limit(int dim) { return dim == 2 ? 200000u : 150000u; }
   unsigned direct_limit_for(int dim) const { return direct_limit ? direct_limit : default_direct_limit(dim); }
+  // Solves over MPI ranks (distribute_solves): the bytes a rank may give MUMPS's distributed
+  // factorisation, compared with MUMPS's own estimate after its analysis (INFOG(16), the largest over
+  // the ranks). `automatic` factorises simplex models with MUMPS when the estimate fits and uses CG + AMG
+  // otherwise; `direct` refuses a model whose estimate exceeds it. 0 = no limit.
+  double max_memory = 0.0;
 };
 
 struct SolverStats {
   std::string method;  // "cholmod" | "cg+amg" (solve), "umfpack-monolithic" (solve_monolithic)
+  std::string reason;  // solves over MPI ranks: why `method` was chosen (the MUMPS estimate and limit)
   unsigned iterations = 0;
   double residual = 0.0;
   unsigned n_dofs = 0;

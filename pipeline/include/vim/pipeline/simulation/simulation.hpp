@@ -94,6 +94,9 @@ struct SimulationOptions {
   // this header; cli.cpp takes it from StudyRanks). Null: one process (MPI_COMM_SELF, the voxel model's
   // multigrid on one rank).
   const void* mpi_comm = nullptr;
+  // Such a run's memory per rank for MUMPS's factorisation, in bytes (fem::SolverOptions::max_memory:
+  // solver.type auto factorises when MUMPS's estimate fits, direct refuses a model above it). 0 = no limit.
+  double max_memory = 0.0;
   // On the ranks other than 0 of such a run with an output folder (rank 0 alone has output_file and
   // writes every other file): the path of a file relative to that folder, for this rank's pieces of
   // the step files. Empty otherwise.
