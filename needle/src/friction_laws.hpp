@@ -1,5 +1,5 @@
-// Private to the needle library: the factories of the friction laws (vim/needle/friction_law.hpp), each
-// law in its own file; friction_law.cpp lists them in the registry.
+// Private to the needle library: the factories of the friction laws (vim/needle/friction_law.hpp), the
+// kinematic ones in one file, the force law in another; friction_law.cpp lists them in the registry.
 #pragma once
 
 #include <memory>
@@ -8,9 +8,9 @@
 
 namespace vim::needle {
 
-// Kinematic needle, stick: every shaft point moves with the needle (friction_stick.cpp).
+// Kinematic needle, stick: every shaft point moves with the needle (friction_kinematic.cpp).
 std::unique_ptr<FrictionLaw> make_stick_law(const FrictionOptions& options);
-// Kinematic needle, stick-slip with a Coulomb limit per shaft length (friction_stick_slip.cpp).
+// Kinematic needle, stick-slip with a Coulomb limit per shaft length (friction_kinematic.cpp).
 std::unique_ptr<FrictionLaw> make_stick_slip_law(const FrictionOptions& options);
 // Force needle: prescribed friction per shaft length and tip force (friction_force.cpp).
 std::unique_ptr<FrictionLaw> make_force_law(const FrictionOptions& options);
