@@ -100,7 +100,9 @@ void MaterialDescription::write_inp_card(std::ostream& out, double youngs_modulu
     out << "*Elastic\n" << youngs_modulus << ", " << poisson_ratio << '\n';
 }
 
-double MaterialDescription::neo_hookean_c10(double E, double nu) { return 0.5 * shear_modulus(E, nu); }
+// C10 = μ/2 and D1 = 2/K with μ = E/(2(1 + ν)) and K = E/(3(1 − 2ν)), written here from E and ν so that
+// the deck writer needs no deal.II unit (the scenario fuzz target compiles this file alone).
+double MaterialDescription::neo_hookean_c10(double E, double nu) { return E / (4.0 * (1.0 + nu)); }
 double MaterialDescription::neo_hookean_d1(double E, double nu) {
   return 2.0 / (E / (3.0 * (1.0 - 2.0 * nu)));
 }

@@ -107,11 +107,23 @@ dealii::TrilinosWrappers::MPI::Vector solve_voxel_multigrid(const State<3>& m,
 // MUMPS's copy (not yet analysed) of the rows of K this rank owns, `owned` one range of rows. Collective.
 inline std::unique_ptr<MumpsFactor> mumps_of(const dealii::TrilinosWrappers::SparseMatrix& K,
                                              const dealii::IndexSet& owned, MPI_Comm comm) {
+  // Epetra's own row copies: deal.II's row iterators search for the next stored row from K.end(i),
+  // which on a rank's last rows runs over the whole matrix (minutes at 128k DoFs).
+  const Epetra_CrsMatrix& A = K.trilinos_matrix();
   std::vector<long> row_ptr{0}, columns;
-  std::vector<double> values;
+  std::vector<double> values, row_values;
+  std::vector<dealii::TrilinosWrappers::types::int_type> row_columns;
   for (const auto i : owned) {
-    for (auto it = K.begin(i); it != K.end(i); ++it)
-      columns.push_back(static_cast<long>(it->column())), values.push_back(it->value());
+    const auto row = static_cast<dealii::TrilinosWrappers::types::int_type>(i);
+    const int length = A.NumGlobalEntries(row);
+    row_values.resize(static_cast<std::size_t>(length));
+    row_columns.resize(static_cast<std::size_t>(length));
+    int got = 0;
+    if (A.ExtractGlobalRowCopy(row, length, got, row_values.data(), row_columns.data()) != 0)
+      throw std::logic_error("mumps_of: row " + std::to_string(i) + " is not stored on this rank");
+    for (int k = 0; k < got; ++k)
+      columns.push_back(static_cast<long>(row_columns[static_cast<std::size_t>(k)])),
+          values.push_back(row_values[static_cast<std::size_t>(k)]);
     row_ptr.push_back(static_cast<long>(columns.size()));
   }
   const long first = owned.n_elements() ? static_cast<long>(*owned.begin()) : 0;
