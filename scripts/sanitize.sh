@@ -27,7 +27,7 @@ set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$root/../build-sanitize}
 jobs=${JOBS:-1}
-targets=${TARGETS:-"test_mesher test_fem test_pipeline test_bad_inputs test_validation"}
+targets=${TARGETS:-"test_mesher test_fem test_pipeline test_simulation test_bad_inputs test_validation"}
 # The validation smoke: Eq. 15 end to end (exact on aligned grids) and the Table I metrics.
 validation_filter=${VALIDATION_FILTER:-"Eq15EndToEnd.*:Table1Metrics.*"}
 

@@ -33,18 +33,19 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr double kE = 10.0, kNu = 0.3, kL = 20.0;  // modulus (kPa), Poisson ratio, block height (mm)
+constexpr double kBlockE = 10.0, kBlockNu = 0.3,
+                 kL = 20.0;  // modulus (kPa), Poisson ratio, block height (mm)
 
 // A homogeneous 10 x 10 x 20 mm block of 1 mm voxels, box [0,10] x [0,10] x [0,20].
 void write_block(const fs::path& path) {
   OrientedImage<3> img;
-  img.image = Image<3>({{10, 10, 20}}, {{1, 1, 1}}, {{0.5, 0.5, 0.5}}, static_cast<float>(kE));
+  img.image = Image<3>({{10, 10, 20}}, {{1, 1, 1}}, {{0.5, 0.5, 0.5}}, static_cast<float>(kBlockE));
   write_image<3>(img, path.string());
 }
 
 // Sliding supports on x_min, y_min, z_min (one component each) and `load` on z_max.
 std::string static_scenario(const std::string& load) {
-  return "material: {youngs_modulus: image, poisson_ratio: " + std::to_string(kNu) +
+  return "material: {youngs_modulus: image, poisson_ratio: " + std::to_string(kBlockNu) +
          "}\n"
          "boundary_conditions:\n"
          "  - {type: fixed, region: {box_face: x_min}, components: [x]}\n"
@@ -106,7 +107,7 @@ TEST(StaticLoad, PrescribedCompressionMatchesTheUniaxialSolution) {
       EXPECT_NEAR(sim["max_strain"].get<double>(), strain, 1e-8) << name;
       EXPECT_NEAR(sim["static_load"]["max_strain"].get<double>(), strain, 1e-8) << name;
       // The target at (7, 3, 16): u = (ν ε x, ν ε y, −ε z) with ε = δ/L.
-      const Eigen::Vector3d expected(kNu * strain * 7, kNu * strain * 3, -strain * 16);
+      const Eigen::Vector3d expected(kBlockNu * strain * 7, kBlockNu * strain * 3, -strain * 16);
       const auto& u = sim["static_load"]["targets"]["top"]["displacement"];
       for (int a = 0; a < 3; ++a) EXPECT_NEAR(u[a].get<double>(), expected[a], 1e-8) << name << " axis " << a;
       EXPECT_FALSE(fs::exists(dir.path / name / "needle.csv")) << name;
@@ -120,7 +121,7 @@ TEST(StaticLoad, PrescribedCompressionMatchesTheUniaxialSolution) {
       for (vtkIdType i = 0; i < step->GetNumberOfPoints(); ++i) {
         double p[3];
         step->GetPoint(i, p);
-        const Eigen::Vector3d truth(kNu * strain * p[0], kNu * strain * p[1], -strain * p[2]);
+        const Eigen::Vector3d truth(kBlockNu * strain * p[0], kBlockNu * strain * p[1], -strain * p[2]);
         for (int a = 0; a < 3; ++a) worst = std::max(worst, std::abs(disp->GetComponent(i, a) - truth[a]));
       }
       EXPECT_LT(worst, 1e-8) << name;
@@ -144,10 +145,10 @@ TEST(StaticLoad, PressureGivesTheUniaxialStrain) {
   const auto report =
       run(dir, static_scenario("{type: pressure, region: {box_face: z_max}, value: 0.4}"), "vim", "p");
   ASSERT_TRUE(report.contains("simulation"));
-  EXPECT_NEAR(report["simulation"]["max_strain"].get<double>(), p / kE, 1e-8);
+  EXPECT_NEAR(report["simulation"]["max_strain"].get<double>(), p / kBlockE, 1e-8);
   const auto& u = report["simulation"]["static_load"]["targets"]["top"]["displacement"];
-  EXPECT_NEAR(u[2].get<double>(), -p / kE * 16, 1e-8);
-  EXPECT_NEAR(u[0].get<double>(), kNu * p / kE * 7, 1e-8);
+  EXPECT_NEAR(u[2].get<double>(), -p / kBlockE * 16, 1e-8);
+  EXPECT_NEAR(u[0].get<double>(), kBlockNu * p / kBlockE * 7, 1e-8);
   EXPECT_TRUE(fs::exists(dir.path / "p" / "figures" / "deformed.png"));
 }
 
@@ -208,7 +209,7 @@ namespace {
 // ∂W/∂λ_i of the neo-Hookean energy W = C10 (J^(−2/3) Σλ² − 3) + (J − 1)²/D₁ at F = diag(λ),
 // C10 = μ/2, D₁ = 2/K (hand-written from the textbook μ, K of E, ν).
 double neo_hookean_piola(const std::array<double, 3>& l, int i) {
-  const double c10 = kE / (4 * (1 + kNu)), d1 = 6 * (1 - 2 * kNu) / kE;
+  const double c10 = kBlockE / (4 * (1 + kBlockNu)), d1 = 6 * (1 - 2 * kBlockNu) / kBlockE;
   const double J = l[0] * l[1] * l[2], I1 = l[0] * l[0] + l[1] * l[1] + l[2] * l[2];
   return c10 * std::pow(J, -2.0 / 3.0) * (2 * l[i] - (2.0 / 3.0) * I1 / l[i]) + 2 * (J - 1) * J / (d1 * l[i]);
 }
@@ -280,9 +281,9 @@ TEST(StaticLoad, CompareLinearReportsTheClosedFormDifferences) {
   vim::test::TempDir dir("static_compare");
   write_block(dir.path / "block.mha");
   const double eps = 3.0 / kL, l3 = 1.0 - eps, l = lateral(l3), area = 100.0;
-  const Eigen::Vector3d lin(kNu * eps * 7, kNu * eps * 3, -eps * 16),
+  const Eigen::Vector3d lin(kBlockNu * eps * 7, kBlockNu * eps * 3, -eps * 16),
       nh((l - 1) * 7, (l - 1) * 3, (l3 - 1) * 16);
-  const double r_lin = kE * eps * area, r_nh = -neo_hookean_piola({{l, l, l3}}, 2) * area;
+  const double r_lin = kBlockE * eps * area, r_nh = -neo_hookean_piola({{l, l, l3}}, 2) * area;
   ASSERT_GT(std::abs(r_lin - r_nh), 0.1 * r_lin);  // the comparison is not trivial here
   std::string yaml = static_scenario(
       "{type: displacement, region: {box_face: z_max}, value: [0, 0, -3], "
