@@ -20,6 +20,7 @@
 #include <vim/pipeline/image/phantoms.hpp>
 #include <vim/vim.hpp>
 
+#include "cli_in_process.hpp"
 #include "mesh_angles.hpp"
 #include "run_cli.hpp"
 
@@ -395,39 +396,47 @@ TEST(CliMesh, MinimumDihedralBoundHoldsOnEveryElement) {
 TEST(CliMesh, UsageErrorsExitWithTwo) {
   vim::test::TempDir dir("usage");
   write_image(phantoms::diamond(20), dir / "d.mha");
-  const std::string img = quote(dir / "d.mha");
-  const std::string out = " --out " + quote(dir / "o");
+  const std::string img = dir / "d.mha", out = dir / "o";
   struct Case {
-    std::string args, needle;
+    std::vector<std::string> args;
+    std::string needle;
   };
-  for (const Case& c : {Case{img + out + " --lambda 1", "--lambda"},
-                        Case{img + out + " --lambda -0.1", "--lambda"},
-                        Case{img + out + " --max-dihedral 90", "--max-dihedral"},
-                        Case{img + out + " --max-dihedral 200", "--max-dihedral"},
-                        Case{img + out + " --min-dihedral 60", "--min-dihedral"},
-                        Case{img + out + " --min-dihedral -1", "--min-dihedral"},
-                        Case{img + out + " --min-radius-ratio 1", "--min-radius-ratio"},
-                        Case{img + out + " --convergence 0", "--convergence"},
-                        Case{img + out + " --energy-convergence 1", "--energy-convergence"},
-                        Case{img + out + " --nodes 2", "--nodes"},
-                        Case{img + out + " --mesher tetgen", "--mesher"},
-                        Case{img + out + " --degree 3", "--degree"},
-                        Case{img + out + " --export stl", "--export"},
-                        Case{img + out + " --export vtk,none", "--export"},
-                        Case{img, "--out"},
-                        Case{out, "image"},
-                        Case{img + out + " --bogus", "--bogus"},
-                        Case{img + out + " --nodes 10 --spacing 2", "--spacing"},
-                        Case{img + out + " --spacing nan", "--spacing"},
-                        Case{img + out + " --spacing inf", "--spacing"},
-                        Case{img + out + " --spacing 0", "--spacing"},
-                        Case{img + out + " --threshold nan", "--threshold"},
-                        Case{img + out + " --threshold inf", "--threshold"}}) {
-    const auto r = run_pipeline(c.args);
-    EXPECT_EQ(r.code, 2) << c.args << "\n" << r.err;
+  const auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args{img, "--out", out};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return args;
+  };
+  for (const Case& c : {Case{with({"--lambda", "1"}), "--lambda"},
+                        Case{with({"--lambda", "-0.1"}), "--lambda"},
+                        Case{with({"--max-dihedral", "90"}), "--max-dihedral"},
+                        Case{with({"--max-dihedral", "200"}), "--max-dihedral"},
+                        Case{with({"--min-dihedral", "60"}), "--min-dihedral"},
+                        Case{with({"--min-dihedral", "-1"}), "--min-dihedral"},
+                        Case{with({"--min-radius-ratio", "1"}), "--min-radius-ratio"},
+                        Case{with({"--convergence", "0"}), "--convergence"},
+                        Case{with({"--energy-convergence", "1"}), "--energy-convergence"},
+                        Case{with({"--nodes", "2"}), "--nodes"},
+                        Case{with({"--mesher", "tetgen"}), "--mesher"},
+                        Case{with({"--degree", "3"}), "--degree"},
+                        Case{with({"--export", "stl"}), "--export"},
+                        Case{with({"--export", "vtk,none"}), "--export"},
+                        Case{{img}, "--out"},
+                        Case{{"--out", out}, "image"},
+                        Case{with({"--bogus"}), "--bogus"},
+                        Case{with({"--nodes", "10", "--spacing", "2"}), "--spacing"},
+                        Case{with({"--spacing", "nan"}), "--spacing"},
+                        Case{with({"--spacing", "inf"}), "--spacing"},
+                        Case{with({"--spacing", "0"}), "--spacing"},
+                        Case{with({"--threshold", "nan"}), "--threshold"},
+                        Case{with({"--threshold", "inf"}), "--threshold"}}) {
+    // In this process: usage errors stop in parsing, before any work (the bad-input suite runs such
+    // command lines through the executable).
+    const auto r = vim::test::run_pipeline_in_process(c.args);
+    const std::string shown = c.args.back();
+    EXPECT_EQ(r.code, 2) << shown << "\n" << r.err;
     EXPECT_EQ(r.err.rfind("vim-pipeline: error:", 0), 0u) << r.err;
     EXPECT_EQ(vim::test::count_lines(r.err), 1) << r.err;
-    EXPECT_NE(r.err.find(c.needle), std::string::npos) << c.args << " → " << r.err;
+    EXPECT_NE(r.err.find(c.needle), std::string::npos) << shown << " → " << r.err;
     EXPECT_EQ(vim::test::count_files(dir.path / "o"), 0);
   }
 }

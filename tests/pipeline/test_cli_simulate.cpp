@@ -291,7 +291,7 @@ TEST(CliSimulate, AmgSolverRunsWithoutAnMpiLauncher) {
   vim::test::TempDir dir("cliamg");
   const fs::path image = dir.path / "prostate.mha";
   const auto made =
-      vim::test::run_command(VIM_PHANTOM_EXE, "prostate " + quote(image.string()) + " --size 16");
+      vim::test::run_command(VIM_PHANTOM_EXE, "prostate " + quote(image.string()) + " --size 12");
   ASSERT_EQ(made.code, 0) << made.err;
   std::string yaml = vim::test::slurp(fs::path(VIM_SOURCE_DIR) / "examples" / "prostate_needle.yaml");
   auto replace = [&](const std::string& from, const std::string& to) {

@@ -14,6 +14,7 @@
 #include <vim/pipeline/output/export_registry.hpp>
 #include <vim/pipeline/output/exports.hpp>
 
+#include "cli_in_process.hpp"
 #include "oblique_grid.hpp"
 #include "run_cli.hpp"
 #include "scratch_dir.hpp"
@@ -53,10 +54,7 @@ class ExportRegistry : public ::testing::Test {
 
   // parse_command_line on `args` after the program name; the exit code in `code`.
   static std::optional<RunOptions> parse(std::vector<std::string> args, int& code) {
-    args.insert(args.begin(), "vim-pipeline");
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    return parse_command_line(static_cast<int>(argv.size()), argv.data(), code);
+    return vim::test::parse_in_process(std::move(args), code);
   }
 };
 
