@@ -9,7 +9,7 @@
 using namespace vim::pipeline;
 
 int main(int argc, char** argv) {
-  std::string kind, out;
+  std::string kind, out, labels;
   int size = 0;
   std::uint64_t seed = 1;
 
@@ -29,9 +29,14 @@ int main(int argc, char** argv) {
       ->type_name("N")
       ->check(CLI::Range(8, 2000));
   app.add_option("--seed", seed, "Noise seed for the prostate phantom (default 1)")->type_name("S");
+  app.add_option("--labels", labels,
+                 "prostate only: also write its anatomy label map on the same grid (16-bit integers: "
+                 "1 tissue, 2 gland, 3 lesion, 4 urethra, 5 rectum_wall, 6 pubic_bone, 7 probe)")
+      ->type_name("LABELS");
   app.footer(
       "Phantoms:\n" + kinds +
       "\nExamples:\n  vim-make-phantom table1 table1.mha\n  vim-make-phantom prostate prostate.mha --seed 7\n"
+      "  vim-make-phantom prostate prostate.mha --labels prostate_labels.mha\n"
       "  vim-make-phantom two-circles circles.nrrd --size 100");
   try {
     app.parse(argc, argv);
@@ -44,13 +49,19 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  if (!labels.empty() && kind != "prostate") {
+    std::cerr << "vim-make-phantom: error: --labels: only the prostate phantom has a label map, not " << kind
+              << " (see vim-make-phantom --help)\n";
+    return 2;
+  }
   try {
     auto n = [&](int fallback) { return size > 0 ? size : fallback; };
     if (kind == "table1")
       write_image(phantoms::table1(n(100)), out);
-    else if (kind == "prostate")
+    else if (kind == "prostate") {
       write_image(phantoms::prostate(n(120), seed), out);
-    else if (kind == "diamond")
+      if (!labels.empty()) write_label_image(phantoms::prostate_labels(n(120)), labels);
+    } else if (kind == "diamond")
       write_image(phantoms::diamond(n(100)), out);
     else if (kind == "two-circles")
       write_image(phantoms::two_circles(n(200)), out);
@@ -62,6 +73,7 @@ int main(int argc, char** argv) {
     std::cerr << "vim-make-phantom: error: " << e.what() << "\n";
     return 1;
   }
-  std::cout << "vim-make-phantom: wrote " << kind << " to " << out << "\n";
+  std::cout << "vim-make-phantom: wrote " << kind << " to " << out
+            << (labels.empty() ? "" : ", labels to " + labels) << "\n";
   return 0;
 }

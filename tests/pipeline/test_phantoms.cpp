@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <vim/pipeline/image/phantoms.hpp>
 
 #include "run_cli.hpp"
@@ -100,6 +101,59 @@ TEST(ProstatePhantom, GeometryAndValuesAtKnownPoints) {
   EXPECT_LT(sd, 0.05 * 15);
 }
 
+// Truth: the stated anatomy recomputed here at known points and as volumes (ellipsoid, sphere), and the
+// elastogram: where a voxel's 3×3×3 neighbourhood holds one label, the blur leaves that label's modulus
+// and only the 3 % noise changes it.
+TEST(ProstatePhantom, LabelMapFollowsTheStatedAnatomyAndTheElastogram) {
+  const auto labels = phantoms::prostate_labels(60);  // 1 mm voxels
+  const auto moduli = phantoms::prostate(60);
+  const Image<3>& im = labels.image;
+  ASSERT_EQ(im.size, moduli.image.size);
+  ASSERT_EQ(im.origin, moduli.image.origin);
+  auto at = [&](double x, double y, double z) {
+    const auto c = im.continuous_index(Eigen::Vector3d(x, y, z));
+    return static_cast<int>(im.at({{std::lround(c[0]), std::lround(c[1]), std::lround(c[2])}}));
+  };
+  EXPECT_EQ(at(-28, -23, -23), 1);   // tissue corner
+  EXPECT_EQ(at(-10, -3, -5), 2);     // gland
+  EXPECT_EQ(at(6, -5, 3), 3);        // lesion centre
+  EXPECT_EQ(at(-8, 4, 0), 4);        // urethra
+  EXPECT_EQ(at(0, -22 + 7, 10), 1);  // beside the rectum wall: |(7, 10)| > 8
+  EXPECT_EQ(at(10, -22 + 7, 0), 5);  // rectum wall, 7 mm from the probe's axis
+  EXPECT_EQ(at(-25, -22, 0), 7);     // the probe
+  EXPECT_EQ(at(12, 21, -20), 6);     // pubic bone, along z
+  EXPECT_EQ(at(12, 16, 0), 1);       // between the gland and the bone
+  std::vector<long> count(8, 0);
+  for (float v : im.data) {
+    ASSERT_EQ(v, std::round(v));
+    ASSERT_GE(v, 1.0f);
+    ASSERT_LE(v, 7.0f);
+    ++count[static_cast<std::size_t>(v)];
+  }
+  const double pi = 3.14159265358979323846;
+  EXPECT_NEAR(double(count[2] + count[3] + count[4]), 4.0 / 3.0 * pi * 20 * 15 * 17.5,
+              0.01 * 4.0 / 3.0 * pi * 20 * 15 * 17.5);
+  EXPECT_NEAR(double(count[3]), 4.0 / 3.0 * pi * 64, 0.08 * 4.0 / 3.0 * pi * 64);
+  // The bone: a cylinder of radius 3 along the 50 mm z extent (32 voxel centres of a 1 mm lattice at
+  // half-integer offsets lie in its 28.3 mm² disk).
+  EXPECT_NEAR(double(count[6]), pi * 9 * 50, 0.15 * pi * 9 * 50);
+  const double kpa[8] = {0, 15, 60, 150, 5, 15, 15, 15};
+  long interior = 0;
+  for (long k = 1; k + 1 < im.size[2]; ++k)
+    for (long j = 1; j + 1 < im.size[1]; ++j)
+      for (long i = 1; i + 1 < im.size[0]; ++i) {
+        const float l = im.at({{i, j, k}});
+        bool same = true;
+        for (long c = -1; c <= 1 && same; ++c)
+          for (long b = -1; b <= 1 && same; ++b)
+            for (long a = -1; a <= 1 && same; ++a) same = im.at({{i + a, j + b, k + c}}) == l;
+        if (!same) continue;
+        ++interior;
+        EXPECT_NEAR(moduli.image.at({{i, j, k}}), kpa[static_cast<int>(l)], 0.15 * kpa[static_cast<int>(l)]);
+      }
+  EXPECT_GT(interior, im.voxel_count() / 2);
+}
+
 TEST(ProstatePhantom, SeedIsReproducible) {
   const auto a = phantoms::prostate(40, 7), b = phantoms::prostate(40, 7), c = phantoms::prostate(40, 8);
   EXPECT_EQ(a.image.data, b.image.data);
@@ -144,6 +198,19 @@ TEST(MakePhantomExe, WritesReadableImagesAndRejectsBadKinds) {
   const auto bad = vim::test::run_command(VIM_PHANTOM_EXE, "banana " + vim::test::quote(dir / "b.mha"));
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.err.find("banana"), std::string::npos) << bad.err;
+  const auto labels = vim::test::run_command(VIM_PHANTOM_EXE, "prostate " + vim::test::quote(dir / "p.mha") +
+                                                                  " --size 24 --labels " +
+                                                                  vim::test::quote(dir / "p_labels.mha"));
+  ASSERT_EQ(labels.code, 0) << labels.err;
+  EXPECT_EQ(read_image<3>(dir / "p_labels.mha").image.data, phantoms::prostate_labels(24).image.data);
+  EXPECT_EQ(read_image<3>(dir / "p.mha").image.data, phantoms::prostate(24).image.data);
+  EXPECT_NE(vim::test::slurp(dir / "p_labels.mha").find("ElementType = MET_SHORT"), std::string::npos);
+  const auto no_labels =
+      vim::test::run_command(VIM_PHANTOM_EXE, "table1 " + vim::test::quote(dir / "t2.mha") + " --labels " +
+                                                  vim::test::quote(dir / "l.mha"));
+  EXPECT_EQ(no_labels.code, 2);
+  EXPECT_NE(no_labels.err.find("--labels"), std::string::npos) << no_labels.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "t2.mha"));
   const auto help = vim::test::run_command(VIM_PHANTOM_EXE, "--help");
   EXPECT_EQ(help.code, 0);
   for (const auto& n : phantoms::names()) EXPECT_NE(help.out.find(n), std::string::npos) << n;

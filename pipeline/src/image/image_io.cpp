@@ -99,8 +99,9 @@ OrientedImage<dim> read_image(const std::string& path) {
   return ImageFile(path).read<dim>();
 }
 
+namespace {
 template <int dim>
-void write_image(const OrientedImage<dim>& image, const std::string& path) {
+itk_io::RawImage raw_of(const OrientedImage<dim>& image) {
   itk_io::RawImage raw;
   for (int a = 0; a < dim; ++a) {
     raw.size.push_back(image.image.size[a]);
@@ -109,6 +110,19 @@ void write_image(const OrientedImage<dim>& image, const std::string& path) {
     for (int b = 0; b < dim; ++b) raw.direction.push_back(image.direction(a, b));
   }
   raw.data = image.image.data;
+  return raw;
+}
+}  // namespace
+
+template <int dim>
+void write_image(const OrientedImage<dim>& image, const std::string& path) {
+  itk_io::write(raw_of(image), path);
+}
+
+template <int dim>
+void write_label_image(const OrientedImage<dim>& labels, const std::string& path) {
+  itk_io::RawImage raw = raw_of(labels);
+  raw.labels = true;
   itk_io::write(raw, path);
 }
 
@@ -118,5 +132,7 @@ template OrientedImage<2> read_image<2>(const std::string&);
 template OrientedImage<3> read_image<3>(const std::string&);
 template void write_image<2>(const OrientedImage<2>&, const std::string&);
 template void write_image<3>(const OrientedImage<3>&, const std::string&);
+template void write_label_image<2>(const OrientedImage<2>&, const std::string&);
+template void write_label_image<3>(const OrientedImage<3>&, const std::string&);
 
 }  // namespace vim::pipeline

@@ -599,9 +599,9 @@ RawImage read_dim(const std::string& path, itk::ImageIOBase::Pointer io) {
   return out;
 }
 
-template <unsigned dim>
+template <typename Pixel, unsigned dim>
 void write_dim(const RawImage& image, const std::string& tmp) {
-  using ItkImage = itk::Image<float, dim>;
+  using ItkImage = itk::Image<Pixel, dim>;
   auto img = ItkImage::New();
   typename ItkImage::SizeType size;
   typename ItkImage::SpacingType spacing;
@@ -618,7 +618,8 @@ void write_dim(const RawImage& image, const std::string& tmp) {
   img->SetOrigin(origin);
   img->SetDirection(direction);
   img->Allocate();
-  std::copy(image.data.begin(), image.data.end(), img->GetBufferPointer());
+  std::transform(image.data.begin(), image.data.end(), img->GetBufferPointer(),
+                 [](float v) { return static_cast<Pixel>(v); });
   auto writer = itk::ImageFileWriter<ItkImage>::New();
   writer->SetFileName(tmp);
   writer->SetInput(img);
@@ -662,6 +663,11 @@ void write(const RawImage& image, const std::string& path) {
   for (long s : image.size) n *= static_cast<std::size_t>(s);
   if (image.data.size() != n)
     throw std::invalid_argument(path + ": write_image: data size does not match the image size");
+  if (image.labels)
+    for (float v : image.data)
+      if (!(v == std::round(v) && std::abs(v) <= 32767.0f))
+        throw std::invalid_argument(path + ": write_label_image: label " + std::to_string(v) +
+                                    " is not an integer in [-32767, 32767]");
 
   const fs::path final_path(path);
   const std::string ext = final_path.extension().string();
@@ -670,10 +676,14 @@ void write(const RawImage& image, const std::string& path) {
         path + ": detached-header formats cannot be written atomically; use .mha, .nrrd, .nii or .nii.gz");
   const fs::path tmp = temporary_image_path(final_path);
   try {
-    if (dim == 2)
-      write_dim<2>(image, tmp.string());
+    if (image.labels && dim == 2)
+      write_dim<std::int16_t, 2>(image, tmp.string());
+    else if (image.labels)
+      write_dim<std::int16_t, 3>(image, tmp.string());
+    else if (dim == 2)
+      write_dim<float, 2>(image, tmp.string());
     else
-      write_dim<3>(image, tmp.string());
+      write_dim<float, 3>(image, tmp.string());
     fs::rename(tmp, final_path);
   } catch (const itk::ExceptionObject& e) {
     std::error_code ec;

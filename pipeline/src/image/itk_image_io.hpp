@@ -16,6 +16,7 @@ struct RawImage {
   std::vector<double> direction;  // row-major dim × dim
   std::vector<float> data;
   bool double_voxels = false;  // the file stores doubles: a finite value beyond ±FLT_MAX reads as ±inf
+  bool labels = false;         // write: integer labels, stored as 16-bit signed integers
 };
 
 // A file whose header has been read and checked (the ITK ImageIO that read it, kept for the voxels).

@@ -98,7 +98,34 @@ OrientedImage<3> table1(int n) {
   return out;
 }
 
-OrientedImage<3> prostate(int n, std::uint64_t seed, const ProstateGeometry& g) {
+int prostate_label(const double p[3], const ProstateGeometry& g) {
+  const auto sq = [](double v) { return v * v; };
+  double e = 0.0;
+  for (int a = 0; a < 3; ++a) e += sq(p[a] / g.gland_semi_axes[a]);
+  if (e <= 1.0) {
+    double d2 = 0.0;
+    for (int a = 0; a < 3; ++a) d2 += sq(p[a] - g.lesion_centre[a]);
+    if (d2 <= sq(g.lesion_radius)) return kLesion;
+    if (sq(p[1] - g.urethra_y) + sq(p[2] - g.urethra_z) <= sq(g.urethra_radius)) return kUrethra;
+    return kGland;
+  }
+  const double probe2 = sq(p[1] - g.probe_y) + sq(p[2] - g.probe_z);
+  if (probe2 <= sq(g.probe_radius)) return kProbe;
+  if (probe2 <= sq(g.rectum_wall_radius)) return kRectumWall;
+  if (sq(p[0] - g.pubic_bone_x) + sq(p[1] - g.pubic_bone_y) <= sq(g.pubic_bone_radius)) return kPubicBone;
+  return kTissue;
+}
+
+const std::vector<std::string>& prostate_label_names() {
+  static const std::vector<std::string> n = {"",        "tissue",      "gland",      "lesion",
+                                             "urethra", "rectum_wall", "pubic_bone", "probe"};
+  return n;
+}
+
+namespace {
+
+// The phantom's grid: n voxels along x, the image (and gland) centre at the origin.
+OrientedImage<3> prostate_grid(int n, const ProstateGeometry& g) {
   require_size(n, 8, "prostate");
   const double h = g.extent_mm[0] / n;
   std::array<long, 3> size{};
@@ -106,25 +133,36 @@ OrientedImage<3> prostate(int n, std::uint64_t seed, const ProstateGeometry& g) 
   for (int a = 0; a < 3; ++a) {
     size[a] = std::max(2L, std::lround(g.extent_mm[a] / h));
     spacing[a] = h;
-    origin[a] = -0.5 * static_cast<double>(size[a] - 1) * h;  // image (and gland) centre at 0
+    origin[a] = -0.5 * static_cast<double>(size[a] - 1) * h;
   }
   OrientedImage<3> out;
   out.image = Image<3>(size, spacing, origin);
+  return out;
+}
+
+}  // namespace
+
+OrientedImage<3> prostate_labels(int n, const ProstateGeometry& g) {
+  OrientedImage<3> out = prostate_grid(n, g);
   Image<3>& img = out.image;
   for (std::size_t k = 0; k < img.voxel_count(); ++k) {
     const auto p = img.point_of(img.index_of(k));
-    double e = 0.0;
-    for (int a = 0; a < 3; ++a) e += (p[a] / g.gland_semi_axes[a]) * (p[a] / g.gland_semi_axes[a]);
-    double v = g.tissue_kpa;
-    if (e <= 1.0) {
-      v = g.gland_kpa;
-      const double dy = p[1] - g.urethra_y, dz = p[2] - g.urethra_z;
-      if (dy * dy + dz * dz <= g.urethra_radius * g.urethra_radius) v = g.urethra_kpa;
-      double d2 = 0.0;
-      for (int a = 0; a < 3; ++a) d2 += (p[a] - g.lesion_centre[a]) * (p[a] - g.lesion_centre[a]);
-      if (d2 <= g.lesion_radius * g.lesion_radius) v = g.lesion_kpa;
-    }
-    img.data[k] = static_cast<float>(v);
+    const double x[3] = {p[0], p[1], p[2]};
+    img.data[k] = static_cast<float>(prostate_label(x, g));
+  }
+  return out;
+}
+
+OrientedImage<3> prostate(int n, std::uint64_t seed, const ProstateGeometry& g) {
+  OrientedImage<3> out = prostate_labels(n, g);
+  Image<3>& img = out.image;
+  for (float& v : img.data) {
+    const int label = static_cast<int>(v);
+    const double kpa = label == kGland     ? g.gland_kpa
+                       : label == kLesion  ? g.lesion_kpa
+                       : label == kUrethra ? g.urethra_kpa
+                                           : g.tissue_kpa;
+    v = static_cast<float>(kpa);
   }
   for (int a = 0; a < 3; ++a) blur_axis(img, a);
   Normal normal(seed);

@@ -74,5 +74,9 @@ OrientedImage<dim> read_image(const std::string& path);
 // Writes a float image (.mha, .nrrd, .nii[.gz] by extension) through a temporary name + rename.
 template <int dim>
 void write_image(const OrientedImage<dim>& image, const std::string& path);
+// Writes a label image (integer values, stored as 16-bit signed integers) in the same way; throws
+// std::invalid_argument for a value that is not an integer in [−32767, 32767].
+template <int dim>
+void write_label_image(const OrientedImage<dim>& labels, const std::string& path);
 
 }  // namespace vim::pipeline

@@ -25,6 +25,11 @@ long table1_sphere_voxels(int n = 100);
 // (the gland's long axis) through (·, 4, 0), 5 kPa, inside the gland only. The sharp label map is
 // blurred once with [1 2 1]/4 along each axis and multiplied by (1 + 0.03·N(0,1)) noise from a
 // mt19937_64 stream with `seed` (Box–Muller, so the values are identical on every platform).
+// The anatomy outside the gland is in the label map only (the elastogram has the surrounding tissue's
+// modulus there): the TRUS probe in the rectum, a cylinder of radius probe_radius along x through
+// (·, probe_y, probe_z) (the example scenarios' probe support), the rectum wall around it out to
+// rectum_wall_radius, and the pubic bone anterior to the gland's base, a cylinder of radius
+// pubic_bone_radius along z through (pubic_bone_x, pubic_bone_y, ·).
 struct ProstateGeometry {
   double gland_semi_axes[3] = {20.0, 15.0, 17.5};
   double lesion_centre[3] = {6.0, -5.0, 3.0};
@@ -33,8 +38,31 @@ struct ProstateGeometry {
   double tissue_kpa = 15.0, gland_kpa = 60.0, lesion_kpa = 150.0, urethra_kpa = 5.0;
   double noise = 0.03;
   double extent_mm[3] = {60.0, 50.0, 50.0};
+  double probe_y = -22.0, probe_z = 0.0, probe_radius = 6.0, rectum_wall_radius = 8.0;
+  double pubic_bone_x = 12.0, pubic_bone_y = 21.0, pubic_bone_radius = 3.0;
 };
 OrientedImage<3> prostate(int n = 120, std::uint64_t seed = 1, const ProstateGeometry& g = {});
+
+// The prostate phantom's anatomy labels, by the precedence of prostate_label: inside the gland's
+// ellipsoid the lesion, else the urethra, else the gland; outside it the probe, else the rectum wall,
+// else the pubic bone, else the surrounding tissue.
+enum ProstateLabel : int {
+  kTissue = 1,
+  kGland = 2,
+  kLesion = 3,
+  kUrethra = 4,
+  kRectumWall = 5,
+  kPubicBone = 6,
+  kProbe = 7
+};
+// The label of the point p (mm, the phantom's world frame).
+int prostate_label(const double p[3], const ProstateGeometry& g = {});
+// The label names (tissue, gland, lesion, urethra, rectum_wall, pubic_bone, probe), indexed by label.
+const std::vector<std::string>& prostate_label_names();
+// The label map of prostate(n) on the same grid: prostate_label at every voxel centre, sharp (no blur,
+// no noise). The elastogram is the label map's moduli (tissue for the labels outside the gland),
+// blurred and with noise.
+OrientedImage<3> prostate_labels(int n = 120, const ProstateGeometry& g = {});
 
 // Paper Figs. 2–4: square [0,100]² mm, n×n pixels, background 1.0, diamond |x−50|+|y−50| ≤ 30 of 2.0.
 OrientedImage<2> diamond(int n = 100);
