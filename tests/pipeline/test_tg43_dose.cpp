@@ -43,7 +43,7 @@ TEST(Tg43Dose, DoseRateOnTheTableMatchesThePrintedValues) {
   const double sk = 0.5;
   // r (cm), g_L(r) (Table III) and φ_an(r) (Table V) as printed.
   const std::vector<std::array<double, 3>> rows{
-      {1.0, 1.000, 0.944}, {2.0, 0.814, 0.941}, {5.0, 0.364, 0.944}};
+      {{1.0, 1.000, 0.944}}, {{2.0, 0.814, 0.941}}, {{5.0, 0.364, 0.944}}};
   for (const auto& [r, g, phi] : rows) {
     const double expected = expected_rate(sk, r, g, phi);
     EXPECT_NEAR(dose_rate(m, sk, r), expected, 0.005 * expected) << "r = " << r << " cm";
@@ -75,8 +75,8 @@ TEST(Tg43Dose, PermanentImplantDoseIsTheInitialRateTimesTheMeanLife) {
   EXPECT_NEAR(mean_life_hours(m), tau_h, 1e-9);
   EXPECT_NEAR(total_dose_gy(m, 0.5, 1.0), 0.5 * kLambda * 0.944 * tau_h / 100.0, 1e-9);
   // Two seeds: superposition.
-  const std::vector<Point> seeds{{0, 0, 0}, {0, 0, 20}};
-  EXPECT_NEAR(seeds_dose_gy(m, 0.5, seeds, {10, 0, 0}),
+  const std::vector<Point> seeds{{{0, 0, 0}}, {{0, 0, 20}}};
+  EXPECT_NEAR(seeds_dose_gy(m, 0.5, seeds, {{10, 0, 0}}),
               total_dose_gy(m, 0.5, 1.0) + total_dose_gy(m, 0.5, std::sqrt(5.0)), 1e-9);
 }
 
@@ -94,13 +94,13 @@ TEST(Tg43Dose, D90V100V150OfASphereAroundOneSeedMatchTheBallRadii) {
     return 0.5 * (lo + hi);
   };
   for (double r = 0.6; r < 30; r += 0.1) ASSERT_GT(dose(r), dose(r + 0.1)) << "the dose must fall with r";
-  const Point seed{0.13, -0.21, 0.37};  // off the grid's nodes
+  const Point seed{{0.13, -0.21, 0.37}};  // off the grid's nodes
   std::vector<double> doses;
   const double h = 0.5;
   for (double x = -radius; x <= radius; x += h)
     for (double y = -radius; y <= radius; y += h)
       for (double z = -radius; z <= radius; z += h) {
-        const Point p{seed[0] + x + 0.5 * h, seed[1] + y + 0.25 * h, seed[2] + z + 0.125 * h};
+        const Point p{{seed[0] + x + 0.5 * h, seed[1] + y + 0.25 * h, seed[2] + z + 0.125 * h}};
         const double dx = p[0] - seed[0], dy = p[1] - seed[1], dz = p[2] - seed[2];
         if (dx * dx + dy * dy + dz * dz <= radius * radius) doses.push_back(seeds_dose_gy(m, sk, {seed}, p));
       }
