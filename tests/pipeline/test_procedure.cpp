@@ -75,6 +75,10 @@ TEST(Procedure, SeedErrorIsMinusTheTissueDisplacementAtItsReleasePoint) {
     largest = std::max(largest, seed.error().norm());
   }
   EXPECT_GT(largest, 1e-3);  // the tissue the seeds are left in has moved
+  // On the way out every station slides, friction reversed: the tissue pulls the needle inwards with the
+  // limit times the shaft length still in, −0.5 · d.
+  for (std::size_t k = 7; k < run.axial_force.size(); ++k)
+    EXPECT_NEAR(run.axial_force[k], -0.5 * run.depth[k], 1e-6) << "step " << k;
   ASSERT_TRUE(res.report.contains("seeds"));
   const auto& all = res.report["seeds"]["all"];
   EXPECT_EQ(all["count"].get<int>(), 3);
