@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cmath>
+#include <iostream>
 #include <string>
 #include <vector>
 #include <vim/pipeline/common/input_error.hpp>
@@ -110,6 +111,9 @@ TEST(Tg43Dose, D90V100V150OfASphereAroundOneSeedMatchTheBallRadii) {
   const double v150 = 100.0 * std::pow(radius_of(1.5 * prescription) / radius, 3);
   ASSERT_GT(v100, 20.0);
   ASSERT_LT(v100, 80.0);
+  std::cout << "sphere of " << radius << " mm, " << doses.size() << " points: D90 " << got.d90_gy
+            << " Gy (analytic " << d90 << "), V100 " << got.v100_percent << "% (" << v100 << "), V150 "
+            << got.v150_percent << "% (" << v150 << ")\n";
   EXPECT_NEAR(got.d90_gy, d90, 0.02 * d90);
   EXPECT_NEAR(got.v100_percent, v100, 0.02 * v100);
   EXPECT_NEAR(got.v150_percent, v150, 0.02 * v150);
