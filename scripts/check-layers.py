@@ -5,7 +5,7 @@ Libraries: core <- mesher; core <- fem <- needle <- pipeline. A source of one li
 headers of itself or of a library it may use. Inside pipeline/, the folders of src/ and of
 include/vim/pipeline/ are stacked
 
-    common < image < scenario < output < simulation < run < study < fit < app
+    common < dose < image < scenario < output < simulation < run < study < fit < app
 
 and a file includes only headers of its own folder or of a folder below it.
 
@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-PIPELINE_FOLDERS = ["common", "image", "scenario", "output", "simulation", "run", "study", "fit", "app"]
+PIPELINE_FOLDERS = ["common", "dose", "image", "scenario", "output", "simulation", "run", "study", "fit", "app"]
 # library -> the libraries whose headers it may include (itself included)
 MAY_USE = {
     "core": {"core"},

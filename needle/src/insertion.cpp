@@ -158,6 +158,44 @@ double Insertion<dim>::press_tip(double cut, double travel) {
   return std::max(reach, state_.front);
 }
 
+template <int dim>
+void Insertion<dim>::withdraw(double depth, double travel) {
+  const double cut = depth - options_.friction.cutting_distance;
+  const double eps = 1e-9 * options_.path.depth;
+  cut_ = cut;
+  std::fill(state_.joined.begin(), state_.joined.end(), false);
+  for (std::size_t j : state_.active) state_.stick[j] = state_.axial[j] + travel;
+  if (state_.cutting < n_points()) {  // the tip presses nothing on the way out
+    if (state_.cutting >= shaft_.size()) picked_[state_.cutting] = false;
+    state_.cutting = n_points();
+  }
+  state_.tip_cutting = false;
+  const auto leave = [&](std::size_t j) {
+    picked_[j] = false;
+    state_.axial[j] = state_.stick[j] = state_.carried[j] = 0.0;
+  };
+  for (std::size_t j = 0; j < shaft_.size(); ++j) {
+    if (!picked_[j]) continue;
+    if constexpr (dim == 3) {
+      const double old_length = state_.carried[j];
+      const double new_length = std::min(old_length, cut - start_[j]);
+      if (new_length <= eps) {
+        leave(j);
+        continue;
+      }
+      state_.stick[j] += 0.5 * (old_length - new_length);
+      state_.carried[j] = new_length;
+    } else {
+      if (cut <= end_[j] + eps) leave(j);
+    }
+  }
+  state_.front = std::min(state_.front, cut);
+  list_active();
+  if constexpr (dim == 2)
+    for (std::size_t j : state_.active)
+      state_.carried[j] = j == state_.tip ? depth - start_[j] : std::min(shaft_[j].length, depth - start_[j]);
+}
+
 // After the law's solve: a tip row held at the cutting force (behind its stick value) has cut the
 // tissue up to cut − w, w its value (the indentation).
 template <int dim>

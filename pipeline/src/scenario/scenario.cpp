@@ -174,11 +174,19 @@ void parse_tissues(const Reader& r, const YAML::Node& t, const std::string& path
   }
 }
 
-NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string& path, int dim) {
-  const Fields f = r.check_keys(n, path,
-                                {"name", "entry", "direction", "depth", "steps", "diameter", "model",
-                                 "friction", "sample_spacing", "cutting_distance", "cutting_force",
-                                 "coupling_radius", "tip_force", "friction_per_length", "tissues", "fit"});
+// extra_keys: keys the caller reads itself (a procedure's insertion: stay, seeds).
+NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string& path, int dim,
+                        const std::vector<std::string>& extra_keys = {}) {
+  std::vector<std::string> keys{"name",           "entry",
+                                "direction",      "depth",
+                                "steps",          "diameter",
+                                "model",          "friction",
+                                "sample_spacing", "cutting_distance",
+                                "cutting_force",  "coupling_radius",
+                                "tip_force",      "friction_per_length",
+                                "tissues",        "fit"};
+  keys.insert(keys.end(), extra_keys.begin(), extra_keys.end());
+  const Fields f = r.check_keys(n, path, keys);
   NeedleSpec s;
   s.line = Reader::line(n);
   if (f["name"]) {
@@ -487,8 +495,14 @@ void parse_boundary_conditions(const Reader& r, const Fields& top, Scenario& s, 
 // needle, or needles (a list with unique names).
 void parse_needles(const Reader& r, const Fields& top, Scenario& s, int dim) {
   {
-    const YAML::Node &one = top["needle"], &many = top["needles"];
+    const YAML::Node &one = top["needle"], &many = top["needles"], &procedure = top["procedure"];
     if (one && many) r.fail(many, "give either 'needle' or 'needles', not both");
+    if (procedure && (one || many))
+      r.fail(procedure, "give either 'procedure' or 'needle'/'needles', not both");
+    if (procedure)
+      return parse_procedure(procedure, s, [&](const YAML::Node& n, const std::string& path) {
+        return parse_needle(r, n, path, dim, {"stay", "seeds"});
+      });
     if (!one && !many) return;  // a static load case (check_static_load)
     if (one) {
       s.needles.push_back(parse_needle(r, one, "needle", dim));
@@ -607,7 +621,7 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
   if (!root || root.IsNull()) throw ScenarioError(s.where(0) + "the scenario file is empty");
   const Fields top = r.check_keys(root, "",
                                   {"units", "material", "mesh", "boundary_conditions", "needle", "needles",
-                                   "targets", "output", "solver"});
+                                   "procedure", "dose", "targets", "output", "solver"});
 
   if (const YAML::Node& u = top["units"]) {
     const Fields f = r.check_keys(u, "units", {"length", "modulus"});
@@ -620,6 +634,8 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
   parse_boundary_conditions(r, top, s, dim);
   parse_needles(r, top, s, dim);
   check_static_load(r, top, s);
+  if (const YAML::Node& d = top["dose"])
+    parse_dose(d, s, [&](const YAML::Node& n, const std::string& p) { return parse_region(r, n, p, dim); });
   parse_targets(r, top, s, dim);
   parse_output_and_solver(r, top, s);
   return s;

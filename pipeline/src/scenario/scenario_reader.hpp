@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -18,6 +19,14 @@ namespace vim::pipeline {
 // The text of a YAML input file (a scenario or a study: `what`); ScenarioError "PATH: cannot open the WHAT"
 // if it cannot be read (scenario.cpp).
 std::string read_input_text(const std::string& path, const std::string& what);
+
+// `procedure:` (scenario_procedure.cpp): its actions into s.needles (s.procedure, s.needle_list), each
+// insertion read by `needle` (the needle keys and stay, seeds) at its key path.
+void parse_procedure(const YAML::Node& procedure, Scenario& s,
+                     const std::function<NeedleSpec(const YAML::Node&, const std::string&)>& needle);
+// `dose:` (scenario_procedure.cpp) into s.dose, its region read by `region` at its key path.
+void parse_dose(const YAML::Node& dose, Scenario& s,
+                const std::function<RegionSpec(const YAML::Node&, const std::string&)>& region);
 
 namespace {
 

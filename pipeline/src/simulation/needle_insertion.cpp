@@ -57,6 +57,15 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
                                                          stepping_->n_points(), pitch_, ctx_.solver,
                                                          ctx_.opt.monolithic);
   for (const auto &t : ctx_.sc.targets) targets_.push_back(ctx_.tf.to_frame(spec_vector<dim>(t.position)));
+  for (double depth : spec.seeds) {
+    typename NeedleRun<dim>::Seed seed;
+    seed.depth = depth;
+    seed.planned = entry_world_ + depth * axis_world_;
+    seed_points_.push_back(needle_.path.entry + depth * axis_);
+    run_.seeds.push_back(seed);
+  }
+  seed_displacement_.assign(seed_points_.size(), Vec::Zero());
+  total_steps_ = needle_.steps + spec.withdraw_steps;
   if constexpr (dim == 3)
     band_check_ = check_bands(needle_.path.entry, axis_, coupling_radius_, run_.point_s, run_.point_length,
                               targets_, [this](const Vec &x) {
@@ -137,23 +146,29 @@ std::vector<needle::ShaftPoint<dim>> NeedleInsertion<dim>::make_coupling(bool sn
 
 template <int dim>
 NeedleOutcome<dim> NeedleInsertion<dim>::run() {
-  Progress progress("needle " + spec_.name, needle_.steps);
+  Progress progress("needle " + spec_.name, total_steps_);
   const auto t_run = Clock::now();
   if (!ctx_.opt.monolithic) {  // every shaft row's column K⁻¹cᵀ in one batch: no
                                // step does a sparse solve
     const auto t = Clock::now();
-    tissue_->precompute(targets_);
+    std::vector<Vec> probes = targets_;
+    probes.insert(probes.end(), seed_points_.begin(), seed_points_.end());
+    tissue_->precompute(probes);
     run_.precompute_seconds = seconds_since(t);
   }
   rest();
   if (stepping_->law().has_active_set())
-    run_.active_set_sweeps.assign(static_cast<std::size_t>(needle_.steps) + 1, 0);
+    run_.active_set_sweeps.assign(static_cast<std::size_t>(total_steps_) + 1, 0);
+  for (std::size_t i = 0; i < run_.seeds.size(); ++i) run_.seeds[i].rest_displacement = seed_displacement_[i];
   const auto t_steps = Clock::now();
-  for (int k = 1; k <= needle_.steps; ++k) {
-    advance_one_step(k);
+  for (int k = 1; k <= total_steps_; ++k) {
+    if (k <= needle_.steps)
+      advance_one_step(k);
+    else
+      withdraw_one_step(k);
     if (ctx_.opt.progress) {
       std::ostringstream msg;
-      msg << "step " << k << "/" << needle_.steps << ", depth " << run_.depth.back() << " "
+      msg << "step " << k << "/" << total_steps_ << ", depth " << run_.depth.back() << " "
           << ctx_.sc.length_unit << ", axial force " << run_.axial_force.back() << ", "
           << stepping_->state().active.size() << " shaft points";
       progress.report(k, msg.str());
@@ -162,7 +177,7 @@ NeedleOutcome<dim> NeedleInsertion<dim>::run() {
   run_.stepping_seconds = seconds_since(t_steps);
   const double run_seconds = seconds_since(t_run);
   run_.solve_seconds = tissue_->solve_seconds();
-  run_.steps_per_second = run_seconds > 0.0 ? needle_.steps / run_seconds : 0.0;
+  run_.steps_per_second = run_seconds > 0.0 ? total_steps_ / run_seconds : 0.0;
   if (ctx_.opt.output_file) {
     if (write_) write_pvd(ctx_.opt.output_file(prefix_ + "simulation.pvd"), pvd_);
     write_needle_csv<dim>(ctx_.opt.output_file(prefix_ + "needle.csv"), run_, ctx_.sc);
@@ -235,10 +250,18 @@ void NeedleInsertion<dim>::advance_one_step(int k) {
     }
     record(d, &solution, tissue_->solves() - solves_before);
   }
+  finish_step(k, t_step);
+}
+
+// The step's field, time and step file.
+template <int dim>
+void NeedleInsertion<dim>::finish_step(int k, const std::chrono::steady_clock::time_point &t_step) {
+  const needle::ShaftState &state = stepping_->state();
+  fem::Solution<dim> &solution = tissue_->solution();
   have_solution_ = !state.active.empty() || loaded_;
   run_.stats = solution.stats;
-  const bool written = write_ && (k % ctx_.sc.output_every == 0 || k == needle_.steps);
-  if (have_solution_ && (ctx_.opt.step_fields || written || k == needle_.steps)) {
+  const bool written = write_ && (k % ctx_.sc.output_every == 0 || k == total_steps_);
+  if (have_solution_ && (ctx_.opt.step_fields || written || k == total_steps_)) {
     tissue_->form_field();
     record_field(&solution, false);
   } else {
@@ -246,6 +269,49 @@ void NeedleInsertion<dim>::advance_one_step(int k) {
   }
   run_.step_seconds.push_back(seconds_since(t_step));
   if (written) output_step(k, state.active.empty() && !loaded_ ? nullptr : &solution);
+}
+
+// The needle back out by depth / withdraw_steps: the stepping's withdrawal (friction reversing where the
+// law lets the tissue slip), the law's solve, then the seeds whose planned depth the tip has reached.
+template <int dim>
+void NeedleInsertion<dim>::withdraw_one_step(int k) {
+  const int i = k - needle_.steps;
+  const double d = needle_.path.depth * (1.0 - static_cast<double>(i) / spec_.withdraw_steps);
+  const double d_prev = run_.depth.back();
+  const int solves_before = tissue_->solves();
+  const auto t_step = Clock::now();
+  stepping_->withdraw(d, d - d_prev);
+  const needle::ShaftState &state = stepping_->state();
+  fem::Solution<dim> &solution = tissue_->solution();
+  if (state.active.empty()) {  // nothing on the shaft: the tissue at rest (or under its loads alone)
+    if (loaded_)
+      tissue_->solve(state.axial);
+    else
+      tissue_->clear();
+    record(d, loaded_ ? &solution : nullptr, tissue_->solves() - solves_before);
+  } else {
+    const needle::FrictionStep step = stepping_->solve(*tissue_);
+    if (stepping_->law().has_active_set()) {
+      run_.active_set_sweeps[static_cast<std::size_t>(k)] = step.sweeps;
+      if (!step.settled) run_.unsettled_steps.push_back(k);
+    }
+    record(d, &solution, tissue_->solves() - solves_before);
+  }
+  release_seeds(d, k);
+  finish_step(k, t_step);
+}
+
+// The seeds the tip has reached on the way out (planned depth >= the tip's travel): each keeps the
+// tissue's displacement at its planned position at this step (record()).
+template <int dim>
+void NeedleInsertion<dim>::release_seeds(double depth, int step) {
+  const double eps = 1e-9 * needle_.path.depth;
+  for (std::size_t i = 0; i < run_.seeds.size(); ++i) {
+    auto &seed = run_.seeds[i];
+    if (seed.release_step >= 0 || seed.depth < depth - eps) continue;
+    seed.release_step = step;
+    seed.release_displacement = seed_displacement_[i];
+  }
 }
 
 template <int dim>
@@ -269,10 +335,14 @@ void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim> *s, int
   run_.axial_force.push_back(0.0 - ax);  // +0 at rest
   run_.lateral_force.push_back((f - ax * axis_world_).norm());
   std::vector<Vec> td(targets_.size(), Vec::Zero());
-  if (s && !targets_.empty()) {
-    const auto u = coupling_->tissue_displacements(targets_, tissue_->probe_displacements(targets_),
-                                                   stepping_->state(), *s);
-    for (std::size_t t = 0; t < u.size(); ++t) td[t] = ctx_.tf.vector_to_world(u[t]);
+  std::fill(seed_displacement_.begin(), seed_displacement_.end(), Vec::Zero());
+  if (s && (!targets_.empty() || !seed_points_.empty())) {
+    std::vector<Vec> probes = targets_;
+    probes.insert(probes.end(), seed_points_.begin(), seed_points_.end());
+    const auto u =
+        coupling_->tissue_displacements(probes, tissue_->probe_displacements(probes), stepping_->state(), *s);
+    for (std::size_t t = 0; t < u.size(); ++t)
+      (t < td.size() ? td[t] : seed_displacement_[t - td.size()]) = ctx_.tf.vector_to_world(u[t]);
   }
   run_.target_displacement.push_back(td);
   const needle::ShaftState &state = stepping_->state();

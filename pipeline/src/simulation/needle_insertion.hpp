@@ -10,6 +10,7 @@
 // (BandCoupling); 2D: points on the axis (LineCoupling).
 #pragma once
 
+#include <chrono>
 #include <memory>
 #include <optional>
 #include <string>
@@ -46,6 +47,10 @@ class NeedleInsertion {
  private:
   void rest();
   void advance_one_step(int k);
+  // Withdrawal step k (of spec.withdraw_steps; step steps + k of the run), and the seeds the tip passes.
+  void withdraw_one_step(int k);
+  void release_seeds(double depth, int step);
+  void finish_step(int k, const std::chrono::steady_clock::time_point &t_step);
   double axial_displacement(std::size_t j) const;  // ū_j of the last solution (0 before any)
   std::vector<needle::ShaftPoint<dim>> make_coupling(bool snap_to_vertices);
   void record(double depth, const fem::Solution<dim> *solution, int solves);
@@ -64,10 +69,13 @@ class NeedleInsertion {
   std::vector<needle::ShaftPoint<dim>> tip_rows_;  // 3D with a cutting force: the tip bearing's disks
   std::optional<needle::Insertion<dim>> stepping_;
   std::unique_ptr<needle::ElasticTissue<dim>> tissue_;
-  std::vector<Vec> targets_;           // frame
-  std::vector<double> station_shear_;  // 3D: the shear modulus of the tissue at each shaft station
-  BandCheck band_check_;               // 3D: the targets and modulus changes inside the bands
-  bool loaded_ = false;                // external loads act from step 0
+  std::vector<Vec> targets_;            // frame
+  std::vector<Vec> seed_points_;        // frame: the seeds' planned positions (probed after the targets)
+  std::vector<Vec> seed_displacement_;  // world: the tissue's displacement there at the last recorded step
+  int total_steps_ = 0;                 // insertion and withdrawal steps
+  std::vector<double> station_shear_;   // 3D: the shear modulus of the tissue at each shaft station
+  BandCheck band_check_;                // 3D: the targets and modulus changes inside the bands
+  bool loaded_ = false;                 // external loads act from step 0
   bool write_ = false;
   bool have_solution_ = false;
 

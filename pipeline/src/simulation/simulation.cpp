@@ -16,6 +16,7 @@
 #include "simulation/largest_strain.hpp"
 #include "simulation/needle_insertion.hpp"
 #include "simulation/needle_options.hpp"
+#include "simulation/procedure_dose.hpp"
 #include "simulation/simulation_context.hpp"
 #include "simulation/simulation_output.hpp"
 #include "simulation/solve_comm.hpp"
@@ -397,7 +398,9 @@ void NeedleSimulation<dim>::Impl::check_axial_force(const NeedleSpec& spec, Need
   const std::vector<double>& f = needle.run.axial_force;
   double largest = 0.0;
   std::vector<int> dips;
-  for (std::size_t k = 1; k < f.size(); ++k) {
+  // The insertion's steps (on the way out the force falls and reverses).
+  const std::size_t n = std::min(f.size(), static_cast<std::size_t>(spec.steps) + 1);
+  for (std::size_t k = 1; k < n; ++k) {
     largest = std::max(largest, std::abs(f[k]));
     if (f[k] < 0.0 || f[k] < f[k - 1] - 0.05 * largest) dips.push_back(static_cast<int>(k));
   }
@@ -405,7 +408,7 @@ void NeedleSimulation<dim>::Impl::check_axial_force(const NeedleSpec& spec, Need
     const std::size_t k = static_cast<std::size_t>(dips.front());
     std::ostringstream w;
     w << sc.where(spec.line) << who << ": the axial force is negative or falls at " << dips.size() << " of "
-      << f.size() - 1 << " steps (first: step " << k << ", " << f[k - 1] << " -> " << f[k]
+      << n - 1 << " steps (first: step " << k << ", " << f[k - 1] << " -> " << f[k]
       << "), which a stuck needle pushing into elastic tissue does not do: the shaft points that join at the "
          "tip "
       << "hold the tissue there at rest, and "
@@ -507,6 +510,11 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
   rep["timing"] = {{"build_seconds", m.build_seconds}};
   if (m.sc.needle_list && m.opt.output_file) {
     write_summary_csv<dim>(m.opt.output_file("summary.csv"), res.needles, m.sc);
+  }
+  if (m.sc.procedure) {
+    rep["seeds"] = seeds_report<dim>(res.needles);
+    if (m.opt.output_file) write_seeds_csv<dim>(m.opt.output_file("seeds.csv"), res.needles);
+    if (m.sc.dose) rep["dose"] = procedure_dose<dim>(m, res.needles);
   }
   return res;
 }

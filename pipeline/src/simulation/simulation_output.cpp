@@ -1,6 +1,8 @@
 // The files and report entries of a needle simulation (simulation_output.hpp).
 #include "simulation/simulation_output.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <iomanip>
 #include <limits>
@@ -172,6 +174,47 @@ void write_summary_csv(const std::filesystem::path& path, const std::vector<Need
 }
 
 template <int dim>
+void write_seeds_csv(const std::filesystem::path& path, const std::vector<NeedleRun<dim>>& needles) {
+  static const char* const axes[] = {"x", "y", "z"};
+  write_text_atomically(path, [&](std::ostream& o) {
+    o << "needle,depth";
+    for (const char* what : {"planned", "release", "final", "error"})
+      for (int d = 0; d < dim; ++d) o << "," << what << "_" << axes[d];
+    o << ",error_norm,release_step\n" << std::setprecision(12);
+    for (const auto& r : needles)
+      for (const auto& seed : r.seeds) {
+        o << r.name << "," << seed.depth;
+        for (const auto& v : {seed.planned, seed.planned, seed.final_position(), seed.error()})
+          for (int d = 0; d < dim; ++d) o << "," << v[d];
+        o << "," << seed.error().norm() << "," << seed.release_step << "\n";
+      }
+  });
+}
+
+template <int dim>
+json seeds_report(const std::vector<NeedleRun<dim>>& needles) {
+  const auto stats = [](const std::vector<double>& e) {
+    double sum = 0.0, sq = 0.0, largest = 0.0;
+    for (double x : e) sum += x, sq += x * x, largest = std::max(largest, x);
+    const double n = static_cast<double>(std::max<std::size_t>(e.size(), 1));
+    return json{{"count", e.size()},
+                {"mean_error", sum / n},
+                {"rms_error", std::sqrt(sq / n)},
+                {"max_error", largest}};
+  };
+  json per = json::object();
+  std::vector<double> all;
+  for (const auto& r : needles) {
+    if (r.seeds.empty()) continue;
+    std::vector<double> e;
+    for (const auto& seed : r.seeds) e.push_back(seed.error().norm());
+    per[r.name] = stats(e);
+    all.insert(all.end(), e.begin(), e.end());
+  }
+  return {{"file", "seeds.csv"}, {"needles", per}, {"all", stats(all)}};
+}
+
+template <int dim>
 json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const needle::FrictionLaw& law,
                    double pitch, const std::string& prefix, double run_seconds, int solves, bool monolithic,
                    const Scenario& sc) {
@@ -301,7 +344,9 @@ json model_report(const SimulationContext<dim>& m) {
                                        const Scenario&);                                                     \
   template json needle_report<dim>(const NeedleSpec&, const NeedleRun<dim>&, const needle::FrictionLaw&,     \
                                    double, const std::string&, double, int, bool, const Scenario&);          \
-  template json model_report<dim>(const SimulationContext<dim>&);
+  template json model_report<dim>(const SimulationContext<dim>&);                                            \
+  template void write_seeds_csv<dim>(const std::filesystem::path&, const std::vector<NeedleRun<dim>>&);      \
+  template json seeds_report<dim>(const std::vector<NeedleRun<dim>>&);
 VIM_SIMULATION_OUTPUT(2)
 VIM_SIMULATION_OUTPUT(3)
 #undef VIM_SIMULATION_OUTPUT

@@ -39,6 +39,14 @@ template <int dim>
 void write_summary_csv(const std::filesystem::path& path, const std::vector<NeedleRun<dim>>& needles,
                        const Scenario& sc);
 
+// A procedure's seeds (NeedleRun::seeds): seeds.csv, one row per seed (needle, planned depth, planned
+// position, position at release, final position, error vector and norm, release step), and the
+// report.json entry: mean, RMS and largest error norm per needle and over all.
+template <int dim>
+void write_seeds_csv(const std::filesystem::path& path, const std::vector<NeedleRun<dim>>& needles);
+template <int dim>
+nlohmann::json seeds_report(const std::vector<NeedleRun<dim>>& needles);
+
 // What one needle's insertion gives: its run and its entry of report.json["simulation"]["needles"].
 template <int dim>
 struct NeedleOutcome {

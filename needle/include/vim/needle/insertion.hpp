@@ -53,6 +53,14 @@ class Insertion {
   // the tissue the tip presses (if any) and the points the front reaches now. held_axial(j): the axial
   // displacement point j's rows hold in the last solution (0 before any).
   void pick_up(double depth, double travel, const std::function<double(std::size_t)>& held_axial);
+  // Withdrawal: the needle back out to travel `depth` (`travel` < 0 since the last step). Every point
+  // still on the shaft moves with it (its stick value shifts by the travel) unless the law lets it slip
+  // (the active set then finds friction reversed); the tip presses nothing; the tissue the tip passes
+  // on the way out leaves the shaft: 3D, a station keeps the part of its segment behind the tip,
+  // min(carried, cut − b_j), its stick value the mean of the stick profile (cut − s) over that part
+  // (the join rule reversed); 2D, a point leaves once the tip is back at it. Without slip, the state at
+  // a depth is the insertion's at that depth.
+  void withdraw(double depth, double travel);
   // The law's solve of the step through the tissue (its last solve is the step's solution).
   FrictionStep solve(TissueResponse& tissue);
 

@@ -103,6 +103,23 @@ struct NeedleSpec {
   std::vector<TissueSpec> tissues;   // kinematic model: parameters per tissue (needle.tissues)
   bool fit = true;                   // --fit-forces adjusts the needle's own cutting force and limit
   int line = 0;
+  // A procedure's insertion (scenario_procedure.cpp): the seeds' planned depths along the path (in
+  // (0, depth], increasing), released as the tip passes them on the way out; the withdrawal's steps
+  // (0: the needle stays in at the end of its run) and the line of the action that withdraws it.
+  std::vector<double> seeds;
+  int withdraw_steps = 0;
+  int withdraw_line = 0;
+};
+
+// `dose:` of a procedure (docs/dose.md): the TG-43U1 dose of its seeds at their planned and final
+// positions on a grid over the image box, and D90/V100/V150 over the points of `region`.
+struct DoseSpec {
+  std::string seed_model;           // a name of dose::seed_model_names()
+  double air_kerma_strength = 0.0;  // S_K per seed, U (µGy m² h⁻¹)
+  double prescription = 145.0;      // Gy (AAPM TG-137's I-125 monotherapy prescription)
+  double grid = 0.0;                // spacing of the dose grid, length units (mm)
+  RegionSpec region;                // a volume: box, sphere or cylinder
+  int line = 0;
 };
 
 struct TargetSpec {
@@ -145,6 +162,10 @@ struct Scenario {
   std::vector<BoundaryConditionSpec> boundary_conditions;
   std::vector<NeedleSpec> needles;  // empty: a static load case (the boundary conditions alone, step 0)
   bool needle_list = false;         // `needles:` given: one sub-folder per needle + summary.csv
+  // `procedure:` given: its insertions are `needles` in order (needle_list is then true), each withdrawn
+  // before the next action (docs/procedure.md).
+  bool procedure = false;
+  std::optional<DoseSpec> dose;  // only with a procedure
 
   std::vector<TargetSpec> targets;
 

@@ -155,6 +155,20 @@ struct NeedleRun {
   std::vector<double> step_seconds;  // wall time per step (step 0 = 0)
   double steps_per_second = 0.0;
   fem::SolverStats stats;  // of the last solve
+  // A procedure's seeds (docs/procedure.md), in the order of their planned depths: released at the
+  // withdrawal step at which the tip is back at or above the planned depth; the seed is the material
+  // point X = P − u_release(P) of the tissue at the planned position P, and its final position, with the
+  // tissue back at its rest state u_rest once the needle is out, X + u_rest(P) (linear model).
+  struct Seed {
+    double depth = 0.0;
+    Vec planned = Vec::Zero();               // world
+    Vec release_displacement = Vec::Zero();  // u_release(P), world axes
+    Vec rest_displacement = Vec::Zero();     // u_rest(P): the tissue without the needle (step 0)
+    int release_step = -1;
+    Vec final_position() const { return planned - release_displacement + rest_displacement; }
+    Vec error() const { return final_position() - planned; }
+  };
+  std::vector<Seed> seeds;
 };
 
 // A scenario without a needle: the model under its boundary conditions alone (step 0), solved once.
