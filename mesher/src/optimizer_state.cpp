@@ -84,7 +84,8 @@ double VimOptimizer<dim>::cost_of(const CellCache& c) const {
 }
 
 template <int dim>
-double VimOptimizer<dim>::data_variance(const Simplex& x, const typename VoxelStatistics<dim>::Sums& s) const {
+double VimOptimizer<dim>::data_variance(const Simplex& x,
+                                        const typename VoxelStatistics<dim>::Sums& s) const {
   const double var = element_variance(s.n, s.s, s.q);
   if (labels_ == nullptr || var == 0.0) return var;
   return labels_->indicator_variance(x);

@@ -1,16 +1,15 @@
 // VIM on label images (docs/labels.md): the label data term Σ_l var(1_l), the majority rule and the
-// misclassified volume, checked against the independent voxel-centre classification of
-// tests/support/label_truth.hpp.
+// misclassified volume. Truth: the independent voxel-centre classification of
+// tests/support/label_truth.hpp (barycentric tests, per-element label counts, Σ_l p_l(1−p_l)).
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <random>
 #include <vim/initial_mesh.hpp>
 #include <vim/label_statistics.hpp>
 #include <vim/optimizer.hpp>
 #include <vim/quality.hpp>
 #include <vim/vim.hpp>
-
-#include <gtest/gtest.h>
-
-#include <cstdio>
-#include <random>
 
 #include "label_truth.hpp"
 
@@ -122,7 +121,8 @@ TEST(LabelVim, PlaneThroughVoxelFacesIsFollowedExactly) {
   VimResult<3> before;
   before.mesh = grid;
   const LabelStatistics<3> stats(img);
-  for (std::size_t c = 0; c < grid.n_cells(); ++c) before.labels.push_back(stats.majority(cell_points(grid, c)));
+  for (std::size_t c = 0; c < grid.n_cells(); ++c)
+    before.labels.push_back(stats.majority(cell_points(grid, c)));
   const LabelFit f0 = fit_of(img, before);
   const VimResult<3> r = optimize_labels<3>(img, grid, VimOptions{});
   const LabelFit f = fit_of(img, r);
