@@ -221,6 +221,16 @@ void add_mesh_options(CLI::App& app, RunOptions& o) {
          "Sizing/density image (same dimension as IMAGE, values > 0; larger = denser) for an "
          "E_G-only initialisation (paper §VI-E) of at most --max-iterations iterations (default: none)")
       ->type_name("IMAGE");
+  app.add_option(
+         "--labels", o.labels,
+         "Label image (integers: a segmentation) meshed by the label energy, every label's boundary "
+         "followed (docs/labels.md); beside IMAGE (resampled nearest-neighbour into its grid) or alone "
+         "(IMAGE omitted; the label table gives the moduli) (default: none)")
+      ->type_name("LABELS");
+  app.add_option("--label-modulus", o.label_moduli,
+                 "Young's modulus of one label, LABEL=E (repeatable; over the scenario's labels: table); "
+                 "with --labels alone every label needs one")
+      ->type_name("LABEL=E");
   app.add_option("--max-memory", o.max_memory,
                  "Refuse to mesh when the estimated peak memory exceeds this many bytes; suffixes k, M, G, T "
                  "(powers of 1024), e.g. 8G (default: the memory available to the process, cgroup limit "
@@ -253,8 +263,7 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
   app.add_option("image", o.image,
                  "Input image: MetaImage (.mha/.mhd), NRRD (.nrrd/.nhdr) or NIfTI (.nii/.nii.gz); 2D or 3D, "
                  "scalar, any pixel type (read as float)")
-      ->type_name("IMAGE")
-      ->required();
+      ->type_name("IMAGE");
   app.add_option("-o,--out", o.out, "Output directory (required unless --info); must be empty or new")
       ->type_name("DIR");
   app.add_flag("--info", o.info,
@@ -312,6 +321,8 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
 
   try {
     app.parse(argc, argv);
+    if (o.image.empty() && o.labels.empty()) throw CLI::RequiredError("image");
+    if (o.image.empty()) o.image = o.labels;  // the label image alone (RunOptions::labels_alone)
     if (!o.info && o.out.empty()) throw CLI::RequiredError("--out");
     if (std::find(o.exports.begin(), o.exports.end(), "none") != o.exports.end() && o.exports.size() > 1)
       throw CLI::ValidationError("--export", "none cannot be combined with other formats (got " +

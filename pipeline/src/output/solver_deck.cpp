@@ -185,6 +185,10 @@ SolverDeck<dim> solver_deck(const MeshModel<dim>& model, const SimplexMesh<dim>&
   SolverDeck<dim> deck;
   deck.degree = degree;
   deck.modulus = modulus;
+  if (model.label.size() == model.mesh.n_cells()) {
+    deck.label = model.label;
+    deck.label_name = model.label_name;
+  }
   deck.poisson_ratio = poisson_ratio;
   deck.neo_hookean = scenario && scenario->material_model == Scenario::MaterialModel::neo_hookean;
   if (world.n_points() != model.mesh.n_points() || world.n_cells() != model.mesh.n_cells())

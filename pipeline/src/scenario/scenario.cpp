@@ -607,7 +607,7 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
   if (!root || root.IsNull()) throw ScenarioError(s.where(0) + "the scenario file is empty");
   const Fields top = r.check_keys(root, "",
                                   {"units", "material", "mesh", "boundary_conditions", "needle", "needles",
-                                   "targets", "output", "solver"});
+                                   "targets", "output", "solver", "labels"});
 
   if (const YAML::Node& u = top["units"]) {
     const Fields f = r.check_keys(u, "units", {"length", "modulus"});
@@ -616,6 +616,7 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
   }
 
   parse_material(r, top, s);
+  if (const YAML::Node& l = top["labels"]) parse_labels(l, s);
   parse_mesh(r, top, s);
   parse_boundary_conditions(r, top, s, dim);
   parse_needles(r, top, s, dim);

@@ -1,6 +1,6 @@
-// Private to scenario.cpp and study_reader.cpp: the checked accessors of the scenario parser. yaml-cpp gives
-// no position for missing keys or bad conversions, so every access goes through Reader, whose failures name
-// the key path, the YAML line and the valid values.
+// Private to scenario.cpp, scenario_labels.cpp and study_reader.cpp: the checked accessors of the scenario
+// parser. yaml-cpp gives no position for missing keys or bad conversions, so every access goes through
+// Reader, whose failures name the key path, the YAML line and the valid values.
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -18,6 +18,9 @@ namespace vim::pipeline {
 // The text of a YAML input file (a scenario or a study: `what`); ScenarioError "PATH: cannot open the WHAT"
 // if it cannot be read (scenario.cpp).
 std::string read_input_text(const std::string& path, const std::string& what);
+
+// The scenario's `labels:` table into s.labels (scenario_labels.cpp); after the material.
+void parse_labels(const YAML::Node& labels, Scenario& s);
 
 namespace {
 

@@ -210,6 +210,9 @@ NeedleSimulation<dim>::NeedleSimulation(const MeshModel<dim>& mm, const Scenario
   if (scenario.modulus_from_image)
     for (std::size_t c = 0; c < mean.size(); ++c) mean[c] = mm.values[c].mean;
   m.E = scenario_modulus(scenario, mean);
+  // --labels: a label with a modulus of its own gives it to its elements (docs/labels.md).
+  for (std::size_t c = 0; c < mm.label.size(); ++c)
+    if (const auto it = mm.label_modulus.find(mm.label[c]); it != mm.label_modulus.end()) m.E[c] = it->second;
   m.degree = m.opt.degree ? *m.opt.degree : scenario.degree ? *scenario.degree : 1u;
   m.box_min = mm.mesh.points[0];
   m.box_max = mm.mesh.points[0];

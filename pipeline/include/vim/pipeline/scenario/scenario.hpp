@@ -111,6 +111,15 @@ struct TargetSpec {
   int line = 0;
 };
 
+// One entry of the scenario's `labels:` table (docs/labels.md): a label of the label image, its name
+// and its Young's modulus (a number; nullopt: `image`, the modulus image's Eq. 15 mean).
+struct LabelSpec {
+  int label = 0;
+  std::string name;
+  std::optional<double> youngs_modulus;
+  int line = 0;
+};
+
 struct Scenario {
   std::string source;  // file name (for messages)
   std::string text;    // the YAML as read (echoed into report.json)
@@ -141,6 +150,8 @@ struct Scenario {
     double radius = 0.0;      // length units: the refined tube's 1/e radius around each path
   };
   std::optional<NeedleRefinement> needle_refinement;
+
+  std::vector<LabelSpec> labels;  // `labels:` (for --labels), in the file's order
 
   std::vector<BoundaryConditionSpec> boundary_conditions;
   std::vector<NeedleSpec> needles;  // empty: a static load case (the boundary conditions alone, step 0)
