@@ -50,6 +50,8 @@ int main(int argc, char** argv) {
       write_image(phantoms::table1(n(100)), out);
     else if (kind == "prostate")
       write_image(phantoms::prostate(n(120), seed), out);
+    else if (kind == "prostate-labels")
+      write_image(phantoms::prostate_labels(n(120)), out);
     else if (kind == "diamond")
       write_image(phantoms::diamond(n(100)), out);
     else if (kind == "two-circles")

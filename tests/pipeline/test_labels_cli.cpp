@@ -7,9 +7,11 @@
 #include <vtkCellData.h>
 #include <vtkDataArray.h>
 #include <vtkNew.h>
+#include <vtkPointData.h>
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLUnstructuredGridReader.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -30,7 +32,7 @@ using nlohmann::json;
 // 16^3 voxels of 1 mm: label 1, label 2 where x ≥ 8 mm, label 3 in a ball of radius 4.5 at (5, 8, 8).
 OrientedImage<3> three_label_image() {
   OrientedImage<3> im;
-  im.image = Image<3>({16, 16, 16}, {1.0, 1.0, 1.0}, {0.5, 0.5, 0.5}, 1.0f);
+  im.image = Image<3>({{16, 16, 16}}, {{1.0, 1.0, 1.0}}, {{0.5, 0.5, 0.5}}, 1.0f);
   for (std::size_t k = 0; k < im.image.voxel_count(); ++k) {
     const auto p = im.image.point_of(im.image.index_of(k));
     if (p[0] >= 8.0) im.image.data[k] = 2.0f;
@@ -59,8 +61,8 @@ SimplexMesh<3> read_mesh(const fs::path& vtu, std::vector<int>& label) {
     vtkIdType n;
     const vtkIdType* ids;
     g->GetCellPoints(c, n, ids);
-    m.cells.push_back({static_cast<int>(ids[0]), static_cast<int>(ids[1]), static_cast<int>(ids[2]),
-                       static_cast<int>(ids[3])});
+    m.cells.push_back({{static_cast<int>(ids[0]), static_cast<int>(ids[1]), static_cast<int>(ids[2]),
+                        static_cast<int>(ids[3])}});
     label.push_back(l ? static_cast<int>(l->GetTuple1(c)) : 0);
   }
   return m;
@@ -141,7 +143,7 @@ TEST(LabelsCli, AloneFollowsEveryLabelAndExportsPerLabelSets) {
   const auto owner = test::label_owner(im.image, mesh);
   const auto counts = test::label_counts(im.image, owner, mesh.n_cells());
   const auto majority = test::majority_labels(im.image, mesh, counts);
-  const auto misclassified = test::misclassified_volume(im.image, owner, cell_label);
+  auto misclassified = test::misclassified_volume(im.image, owner, cell_label);
   long wrong = 0;
   std::map<int, long> elements;
   for (std::size_t c = 0; c < mesh.n_cells(); ++c)
@@ -207,10 +209,10 @@ TEST(LabelsCli, BesideAModulusImageTheLabelsAreResampledIntoItsGrid) {
   // five columns x < 5: 5·12·12 voxels of 1 mm³.
   const test::TempDir dir("labels_beside");
   OrientedImage<3> modulus;
-  modulus.image = Image<3>({12, 12, 12}, {1.0, 1.0, 1.0}, {0.5, 0.5, 0.5}, 15.0f);
+  modulus.image = Image<3>({{12, 12, 12}}, {{1.0, 1.0, 1.0}}, {{0.5, 0.5, 0.5}}, 15.0f);
   write_image(modulus, dir / "modulus.mha");
   OrientedImage<3> labels;
-  labels.image = Image<3>({24, 24, 24}, {0.5, 0.5, 0.5}, {0.5, 0.5, 0.5}, 1.0f);
+  labels.image = Image<3>({{24, 24, 24}}, {{0.5, 0.5, 0.5}}, {{0.5, 0.5, 0.5}}, 1.0f);
   for (std::size_t k = 0; k < labels.image.voxel_count(); ++k)
     if (labels.image.point_of(labels.image.index_of(k))[0] < 5.0) labels.image.data[k] = 7.0f;
   write_image(labels, dir / "labels.mha");
@@ -226,16 +228,90 @@ TEST(LabelsCli, BesideAModulusImageTheLabelsAreResampledIntoItsGrid) {
   EXPECT_NEAR(l[0]["voxel_volume"].get<double>(), 7.0 * 12 * 12, 1e-9);
 }
 
+// A column of two labels (x < 8 mm: E1 = 10, beyond: E2 = 40 from the scenario's label table, beside a
+// modulus image of 15 everywhere; 16×8×8 voxels of 1 mm) on the grid mesher, whose node planes x = 0, 2, …,
+// 16 hold the interface, compressed by δ along x with ν = 0 and rollers on x_min, y_min, z_min. Truth: the
+// layered solution, one stress σ = δ / (8/E1 + 8/E2) and u_x = σ x/E1 below the interface, σ·8/E1 + σ(x −
+// 8)/E2 above, u_y = u_z = 0; and the `step 0` deck's node set of a label region is the nodes whose nearest
+// voxel holds that label.
+TEST(LabelsCli, TwoLabelColumnUnderCompressionMatchesTheLayeredSolution) {
+  const test::TempDir dir("labels_column");
+  OrientedImage<3> im;
+  im.image = Image<3>({{16, 8, 8}}, {{1.0, 1.0, 1.0}}, {{0.5, 0.5, 0.5}}, 1.0f);
+  for (std::size_t k = 0; k < im.image.voxel_count(); ++k)
+    if (im.image.index_of(k)[0] >= 8) im.image.data[k] = 2.0f;
+  write_image(im, dir / "column.mha");
+  OrientedImage<3> modulus = im;  // a constant modulus image: the label table alone makes the layers
+  std::fill(modulus.image.data.begin(), modulus.image.data.end(), 15.0f);
+  write_image(modulus, dir / "modulus.mha");
+  const double delta = 0.16;
+  std::ofstream(dir / "column.yaml")
+      << "material: {poisson_ratio: 0.0}\n"
+      << "labels:\n  1: {name: soft, youngs_modulus: 10}\n  2: {name: stiff, youngs_modulus: 40}\n"
+      << "boundary_conditions:\n"
+      << "  - {type: fixed, region: {box_face: x_min}, components: [x]}\n"
+      << "  - {type: fixed, region: {box_face: y_min}, components: [y]}\n"
+      << "  - {type: fixed, region: {box_face: z_min}, components: [z]}\n"
+      << "  - {type: displacement, region: {box_face: x_max}, value: [" << -delta
+      << ", 0, 0], components: [x]}\n"
+      << "  - {type: fixed, region: {label: stiff}, components: [y]}\n";
+  const auto r =
+      test::run_pipeline(test::quote(dir / "modulus.mha") + " --labels " + test::quote(dir / "column.mha") +
+                         " --mesher grid --nodes 225 --simulate " + test::quote(dir / "column.yaml") +
+                         " --export inp -q -o " + test::quote(dir / "out"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  vtkNew<vtkXMLUnstructuredGridReader> reader;
+  reader->SetFileName((dir.path / "out" / "steps" / "step_0000.vtu").string().c_str());
+  reader->Update();
+  vtkUnstructuredGrid* g = reader->GetOutput();
+  vtkDataArray* u = g->GetPointData()->GetArray("displacement");
+  ASSERT_NE(u, nullptr);
+  const double sigma = -delta / (8.0 / 10.0 + 8.0 / 40.0);
+  double worst = 0.0;
+  for (vtkIdType i = 0; i < g->GetNumberOfPoints(); ++i) {
+    double p[3];
+    g->GetPoint(i, p);
+    const double ux = p[0] <= 8.0 ? sigma * p[0] / 10.0 : sigma * 8.0 / 10.0 + sigma * (p[0] - 8.0) / 40.0;
+    worst = std::max({worst, std::abs(u->GetComponent(i, 0) - ux), std::abs(u->GetComponent(i, 1)),
+                      std::abs(u->GetComponent(i, 2))});
+  }
+  EXPECT_LT(worst, 1e-8 * delta);
+  // The label region's node set (BC5, 1-based ids of mesh.vtu's points).
+  std::ifstream inp(dir.path / "out" / "mesh.inp");
+  std::string line;
+  std::vector<long> in_set;
+  bool reading = false;
+  while (std::getline(inp, line)) {
+    if (line.rfind("*", 0) == 0) {
+      reading = line == "*Nset, NSET=N_BC5_fixed";
+      continue;
+    }
+    if (!reading) continue;
+    std::stringstream ids(line);
+    std::string id;
+    while (std::getline(ids, id, ',')) in_set.push_back(std::stol(id) - 1);
+  }
+  std::vector<long> truth;
+  for (vtkIdType i = 0; i < g->GetNumberOfPoints(); ++i) {
+    double p[3];
+    g->GetPoint(i, p);
+    const long ix = std::lround(std::clamp(p[0] - 0.5, 0.0, 15.0));  // nearest voxel along x
+    if (ix >= 8) truth.push_back(static_cast<long>(i));
+  }
+  std::sort(in_set.begin(), in_set.end());
+  EXPECT_EQ(in_set, truth);
+}
+
 // The label errors: one line naming the file, voxel, label or key.
 TEST(LabelsCli, BadLabelInputsAreOneLineErrors) {
   const test::TempDir dir("labels_errors");
   const OrientedImage<3> im = three_label_image();
   write_image(im, dir / "labels.mha");
   OrientedImage<3> fractional = im;
-  fractional.image.at({3, 4, 5}) = 1.5f;
+  fractional.image.at({{3, 4, 5}}) = 1.5f;
   write_image(fractional, dir / "fractional.mha");
   OrientedImage<3> far = im;
-  far.image.origin = {100.5, 0.5, 0.5};
+  far.image.origin = {{100.5, 0.5, 0.5}};
   write_image(far, dir / "far.mha");
   OrientedImage<3> modulus = im;
   write_image(modulus, dir / "modulus.mha");

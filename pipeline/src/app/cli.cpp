@@ -221,16 +221,6 @@ void add_mesh_options(CLI::App& app, RunOptions& o) {
          "Sizing/density image (same dimension as IMAGE, values > 0; larger = denser) for an "
          "E_G-only initialisation (paper §VI-E) of at most --max-iterations iterations (default: none)")
       ->type_name("IMAGE");
-  app.add_option(
-         "--labels", o.labels,
-         "Label image (integers: a segmentation) meshed by the label energy, every label's boundary "
-         "followed (docs/labels.md); beside IMAGE (resampled nearest-neighbour into its grid) or alone "
-         "(IMAGE omitted; the label table gives the moduli) (default: none)")
-      ->type_name("LABELS");
-  app.add_option("--label-modulus", o.label_moduli,
-                 "Young's modulus of one label, LABEL=E (repeatable; over the scenario's labels: table); "
-                 "with --labels alone every label needs one")
-      ->type_name("LABEL=E");
   app.add_option("--max-memory", o.max_memory,
                  "Refuse to mesh when the estimated peak memory exceeds this many bytes; suffixes k, M, G, T "
                  "(powers of 1024), e.g. 8G (default: the memory available to the process, cgroup limit "
@@ -242,6 +232,20 @@ void add_mesh_options(CLI::App& app, RunOptions& o) {
                  "by volume is the object (paper §VI-B) (default: off; unit of the image values)")
       ->type_name("T")
       ->check(finite_number(false));
+}
+
+// --labels and its label table (docs/labels.md).
+void add_label_options(CLI::App& app, RunOptions& o) {
+  app.add_option(
+         "--labels", o.labels,
+         "Label image (integers: a segmentation) meshed by the label energy, every label's boundary "
+         "followed (docs/labels.md); beside IMAGE (resampled nearest-neighbour into its grid) or alone "
+         "(IMAGE omitted; the label table gives the moduli) (default: none)")
+      ->type_name("LABELS");
+  app.add_option("--label-modulus", o.label_moduli,
+                 "Young's modulus of one label, LABEL=E (repeatable; over the scenario's labels: table); "
+                 "with --labels alone every label needs one")
+      ->type_name("LABEL=E");
 }
 
 }  // namespace
@@ -270,6 +274,7 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
                "Print the image's size, spacing, extent, direction and value statistics, then exit");
 
   add_mesh_options(app, o);
+  add_label_options(app, o);
   std::string mesher = to_string(o.mesher), mesher_help, mesher_names;
   std::vector<std::string> mesher_values;
   for (const Mesher& row : meshers()) {

@@ -98,34 +98,53 @@ OrientedImage<3> table1(int n) {
   return out;
 }
 
-OrientedImage<3> prostate(int n, std::uint64_t seed, const ProstateGeometry& g) {
-  require_size(n, 8, "prostate");
+int prostate_label(const Eigen::Vector3d& p, const ProstateGeometry& g) {
+  double e = 0.0;
+  for (int a = 0; a < 3; ++a) e += (p[a] / g.gland_semi_axes[a]) * (p[a] / g.gland_semi_axes[a]);
+  if (e > 1.0) return kProstateTissue;
+  double d2 = 0.0;
+  for (int a = 0; a < 3; ++a) d2 += (p[a] - g.lesion_centre[a]) * (p[a] - g.lesion_centre[a]);
+  if (d2 <= g.lesion_radius * g.lesion_radius) return kProstateLesion;
+  const double dy = p[1] - g.urethra_y, dz = p[2] - g.urethra_z;
+  if (dy * dy + dz * dz <= g.urethra_radius * g.urethra_radius) return kProstateUrethra;
+  return kProstateGland;
+}
+
+namespace {
+
+// The prostate phantom's grid: n voxels along x, the image (and gland) centre at 0.
+OrientedImage<3> prostate_grid(int n, const ProstateGeometry& g) {
   const double h = g.extent_mm[0] / n;
   std::array<long, 3> size{};
   std::array<double, 3> spacing{}, origin{};
   for (int a = 0; a < 3; ++a) {
     size[a] = std::max(2L, std::lround(g.extent_mm[a] / h));
     spacing[a] = h;
-    origin[a] = -0.5 * static_cast<double>(size[a] - 1) * h;  // image (and gland) centre at 0
+    origin[a] = -0.5 * static_cast<double>(size[a] - 1) * h;
   }
   OrientedImage<3> out;
   out.image = Image<3>(size, spacing, origin);
+  return out;
+}
+
+}  // namespace
+
+OrientedImage<3> prostate_labels(int n, const ProstateGeometry& g) {
+  require_size(n, 8, "prostate-labels");
+  OrientedImage<3> out = prostate_grid(n, g);
   Image<3>& img = out.image;
-  for (std::size_t k = 0; k < img.voxel_count(); ++k) {
-    const auto p = img.point_of(img.index_of(k));
-    double e = 0.0;
-    for (int a = 0; a < 3; ++a) e += (p[a] / g.gland_semi_axes[a]) * (p[a] / g.gland_semi_axes[a]);
-    double v = g.tissue_kpa;
-    if (e <= 1.0) {
-      v = g.gland_kpa;
-      const double dy = p[1] - g.urethra_y, dz = p[2] - g.urethra_z;
-      if (dy * dy + dz * dz <= g.urethra_radius * g.urethra_radius) v = g.urethra_kpa;
-      double d2 = 0.0;
-      for (int a = 0; a < 3; ++a) d2 += (p[a] - g.lesion_centre[a]) * (p[a] - g.lesion_centre[a]);
-      if (d2 <= g.lesion_radius * g.lesion_radius) v = g.lesion_kpa;
-    }
-    img.data[k] = static_cast<float>(v);
-  }
+  for (std::size_t k = 0; k < img.voxel_count(); ++k)
+    img.data[k] = static_cast<float>(prostate_label(img.point_of(img.index_of(k)), g));
+  return out;
+}
+
+OrientedImage<3> prostate(int n, std::uint64_t seed, const ProstateGeometry& g) {
+  require_size(n, 8, "prostate");
+  OrientedImage<3> out = prostate_grid(n, g);
+  Image<3>& img = out.image;
+  const double kpa[] = {0.0, g.tissue_kpa, g.gland_kpa, g.lesion_kpa, g.urethra_kpa};
+  for (std::size_t k = 0; k < img.voxel_count(); ++k)
+    img.data[k] = static_cast<float>(kpa[prostate_label(img.point_of(img.index_of(k)), g)]);
   for (int a = 0; a < 3; ++a) blur_axis(img, a);
   Normal normal(seed);
   for (float& v : img.data) v = static_cast<float>(v * std::max(0.1, 1.0 + g.noise * normal()));
@@ -166,8 +185,9 @@ OrientedImage<2> two_inclusions(int n) {
 }
 
 const std::vector<std::string>& names() {
-  static const std::vector<std::string> n = {"table1",      "prostate",           "diamond",
-                                             "two-circles", "two-circles-sizing", "two-inclusions"};
+  static const std::vector<std::string> n = {"table1",        "prostate",    "prostate-labels",
+                                             "diamond",       "two-circles", "two-circles-sizing",
+                                             "two-inclusions"};
   return n;
 }
 
@@ -177,6 +197,9 @@ std::string description(const std::string& name) {
   if (name == "prostate")
     return "3D prostate elastogram (kPa, mm): 60x50x50 mm, gland 60 kPa, lesion 150 kPa, urethra 5 kPa, "
            "tissue 15 kPa; SIZE voxels along x (default 120 = 0.5 mm)";
+  if (name == "prostate-labels")
+    return "the prostate phantom's label image (mm): 1 tissue, 2 gland, 3 lesion, 4 urethra, without blur or "
+           "noise; SIZE voxels along x (default 120), the grid of prostate";
   if (name == "diamond")
     return "paper Figs. 2-4: 100x100 mm, diamond (2.0) in 1.0, SIZE^2 pixels (default 100)";
   if (name == "two-circles")

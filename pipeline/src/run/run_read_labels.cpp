@@ -42,11 +42,26 @@ std::pair<int, double> label_modulus_option(const std::string& text) {
   return {label, e};
 }
 
+// Every label region of the scenario (boundary conditions, needle tissues), with its YAML line.
+std::vector<std::pair<RegionSpec*, int>> label_regions(Scenario& sc) {
+  std::vector<std::pair<RegionSpec*, int>> out;
+  for (BoundaryConditionSpec& bc : sc.boundary_conditions)
+    if (bc.region.kind == RegionSpec::Kind::label) out.emplace_back(&bc.region, bc.line);
+  for (NeedleSpec& n : sc.needles)
+    for (TissueSpec& t : n.tissues)
+      if (t.region && t.region->kind == RegionSpec::Kind::label) out.emplace_back(&*t.region, t.line);
+  return out;
+}
+
 }  // namespace
 
 template <int dim>
 void PipelineRun<dim>::read_label_image() {
   const RunOptions& o = options_;
+  if (o.labels.empty() && scenario_)
+    if (const auto regions = label_regions(*scenario_); !regions.empty())
+      throw ScenarioError(scenario_->where(regions.front().second) + "region {label: " +
+                          regions.front().first->label + "} needs a label image (--labels LABELS)");
   if (o.labels.empty()) {
     if (scenario_ && !scenario_->labels.empty())
       throw ScenarioError(scenario_->where(scenario_->labels.front().line) +
@@ -109,6 +124,25 @@ void PipelineRun<dim>::read_label_image() {
     // the image statistics of report.json) read it.
     for (float& v : image_->image.data) v = static_cast<float>(model_.label_modulus.at(static_cast<int>(v)));
   }
+  // Label regions: a label's name or number, resolved once; the simulation and the decks test points
+  // against the label image.
+  if (scenario_)
+    for (auto& [region, line] : label_regions(*scenario_)) {
+      bool found = false;
+      for (const auto& [label, name] : model_.label_name)
+        if (region->label == name || region->label == std::to_string(label)) {
+          region->label_value = label;
+          found = true;
+        }
+      if (!found) {
+        std::string names;
+        for (const auto& [label, name] : model_.label_name)
+          names += (names.empty() ? "" : ", ") + std::to_string(label) + " (" + name + ")";
+        throw ScenarioError(scenario_->where(line) + "region {label: " + region->label + "}: no label of " +
+                            o.labels + " has this name or number; its labels are " + names);
+      }
+    }
+  model_.label_image = std::make_shared<const Image<dim>>(*labels_);
   inputs_result_.labels =
       nlohmann::json{{"file", o.labels}, {"alone", o.labels_alone()}, {"labels", present}};
 }

@@ -45,7 +45,7 @@ struct NeedleSimulation<dim>::Impl : SimulationContext<dim> {
 
 template <int dim>
 fem::Region<dim> SimulationContext<dim>::region(const RegionSpec& r) const {
-  return scenario_region<dim>(r, box_min, box_max, tf);
+  return scenario_region<dim>(r, box_min, box_max, tf, label_image.get());
 }
 
 // Elastic support of a volume region: a lattice of pitch h anchored at the region (its centre; a box's
@@ -200,6 +200,7 @@ NeedleSimulation<dim>::NeedleSimulation(const MeshModel<dim>& mm, const Scenario
   m.sc = scenario;
   m.opt = std::move(options);
   m.tf = mm.transform;
+  m.label_image = mm.label_image;
   if (scenario.dim != dim)
     throw ScenarioError(scenario.where(0) + "scenario was parsed for a " + std::to_string(scenario.dim) +
                         "D image");

@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 #include <vim/image.hpp>
@@ -57,7 +58,8 @@ struct MeshModel {
   // labels whose Young's modulus the label table gives (the others take Eq. 15 from the image's mean).
   std::vector<int> label;
   std::map<int, double> label_modulus;
-  std::map<int, std::string> label_name;  // every label of the image: the table's name or label_N
+  std::map<int, std::string> label_name;          // every label of the image: the table's name or label_N
+  std::shared_ptr<const Image<dim>> label_image;  // the label image in the frame (label regions)
   WorldTransform<dim> transform;
 };
 

@@ -35,6 +35,11 @@ struct ProstateGeometry {
   double extent_mm[3] = {60.0, 50.0, 50.0};
 };
 OrientedImage<3> prostate(int n = 120, std::uint64_t seed = 1, const ProstateGeometry& g = {});
+// The prostate phantom's labels (docs/labels.md) at a point (mm), and as an image on prostate()'s grid:
+// the sharp label map behind its moduli, without blur or noise. The lesion wins over the urethra.
+enum ProstateLabel { kProstateTissue = 1, kProstateGland = 2, kProstateLesion = 3, kProstateUrethra = 4 };
+int prostate_label(const Eigen::Vector3d& p, const ProstateGeometry& g = {});
+OrientedImage<3> prostate_labels(int n = 120, const ProstateGeometry& g = {});
 
 // Paper Figs. 2–4: square [0,100]² mm, n×n pixels, background 1.0, diamond |x−50|+|y−50| ≤ 30 of 2.0.
 OrientedImage<2> diamond(int n = 100);

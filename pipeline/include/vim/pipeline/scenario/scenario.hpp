@@ -32,12 +32,16 @@ struct ScenarioError : InputError {
 std::vector<std::string> region_types();
 
 struct RegionSpec {
-  enum class Kind { box_face, box, sphere, cylinder } kind = Kind::box_face;
+  enum class Kind { box_face, box, sphere, cylinder, label } kind = Kind::box_face;
   int axis = 0;                                     // box_face: 0..dim-1
   bool upper = false;                               // box_face: *_max
   std::string face;                                 // box_face name as written
   std::vector<double> center, axis_vector, lo, hi;  // dim values each (world)
   double radius = 0.0;
+  // label: the label's name or number as written, and the label it names (set by the run from the
+  // label image and the `labels:` table, docs/labels.md).
+  std::string label;
+  int label_value = 0;
   std::string describe() const;
 };
 
