@@ -232,8 +232,8 @@ TEST(LabelsCli, BesideAModulusImageTheLabelsAreResampledIntoItsGrid) {
 // modulus image of 15 everywhere; 16×8×8 voxels of 1 mm) on the grid mesher, whose node planes x = 0, 2, …,
 // 16 hold the interface, compressed by δ along x with ν = 0 and rollers on x_min, y_min, z_min. Truth: the
 // layered solution, one stress σ = δ / (8/E1 + 8/E2) and u_x = σ x/E1 below the interface, σ·8/E1 + σ(x −
-// 8)/E2 above, u_y = u_z = 0; and the `step 0` deck's node set of a label region is the nodes whose nearest
-// voxel holds that label.
+// 8)/E2 above, u_y = u_z = 0, for our solve and for CalculiX on mesh.inp (a material per label); and the
+// deck's node set of a label region is the nodes whose nearest voxel holds that label.
 TEST(LabelsCli, TwoLabelColumnUnderCompressionMatchesTheLayeredSolution) {
   const test::TempDir dir("labels_column");
   OrientedImage<3> im;
@@ -300,6 +300,31 @@ TEST(LabelsCli, TwoLabelColumnUnderCompressionMatchesTheLayeredSolution) {
   }
   std::sort(in_set.begin(), in_set.end());
   EXPECT_EQ(in_set, truth);
+  // CalculiX runs mesh.inp, a material per label, as written: its displacements are the layered solution.
+  if (std::system("command -v ccx > /dev/null 2>&1") != 0) GTEST_SKIP() << "CalculiX (ccx) is not installed";
+  const fs::path out = dir.path / "out";
+  ASSERT_EQ(std::system(("cd " + test::quote(out.string()) + " && ccx -i mesh > ccx.log 2>&1").c_str()), 0);
+  std::ifstream dat(out / "mesh.dat");
+  bool block = false;
+  long nodes = 0;
+  double worst_ccx = 0.0;
+  while (std::getline(dat, line)) {
+    if (line.find("displacements") != std::string::npos) {
+      block = true;
+      continue;
+    }
+    std::istringstream row(line);
+    long node;
+    double v[3];
+    if (!block || !(row >> node >> v[0] >> v[1] >> v[2])) continue;
+    double p[3];
+    g->GetPoint(node - 1, p);
+    const double ux = p[0] <= 8.0 ? sigma * p[0] / 10.0 : sigma * 8.0 / 10.0 + sigma * (p[0] - 8.0) / 40.0;
+    worst_ccx = std::max({worst_ccx, std::abs(v[0] - ux), std::abs(v[1]), std::abs(v[2])});
+    ++nodes;
+  }
+  EXPECT_EQ(nodes, g->GetNumberOfPoints());
+  EXPECT_LT(worst_ccx, 1e-6 * delta);  // mesh.dat prints 7 significant digits
 }
 
 // The label errors: one line naming the file, voxel, label or key.
