@@ -90,7 +90,7 @@ double VimOptimizer<dim>::evaluate_candidate(const Point& p, Scratch& s, double 
     c.n = sum.n;
     c.s = sum.s;
     c.q = sum.q;
-    c.ed = varied ? discretization_energy(c.volume, element_variance(sum.n, sum.s, sum.q)) : 0.0;
+    c.ed = varied ? discretization_energy(c.volume, data_variance(x, sum)) : 0.0;
     const double d = wd_ * c.ed;
     c.cost += d;
     s.ed_cost[k] = d;

@@ -2,12 +2,25 @@
 // that E = (1−λ)·E_G/E_G0 + λ·E_D/E_D0 (Eq. 7) weighs relative gains; E_D0 is estimated when the
 // initial mesh fits a varying image exactly (E_D = 0 would switch the image term off).
 #include <cmath>
+#include <map>
 #include <vim/energy.hpp>
 #include <vim/optimizer.hpp>
 
 namespace vim {
 
 namespace {
+
+// Whether the centre of voxel idx lies in [box_min, box_max] (within tol).
+template <int dim>
+bool inside_box(const Image<dim>& img, const typename Image<dim>::Index& idx,
+                const Eigen::Matrix<double, dim, 1>& box_min, const Eigen::Matrix<double, dim, 1>& box_max,
+                double tol) {
+  for (int a = 0; a < dim; ++a) {
+    const double x = img.origin[a] + static_cast<double>(idx[a]) * img.spacing[a];
+    if (!(x >= box_min[a] - tol && x <= box_max[a] + tol)) return false;
+  }
+  return true;
+}
 
 // Population variance of the voxel values whose centres lie in [box_min, box_max] (within tol);
 // 0 for a constant set (element_variance's snapping).
@@ -17,13 +30,7 @@ double box_variance(const Image<dim>& img, const Eigen::Matrix<double, dim, 1>& 
   long n = 0;
   double first = 0.0, s = 0.0, q = 0.0;
   for (std::size_t k = 0; k < img.voxel_count(); ++k) {
-    const auto idx = img.index_of(k);
-    bool inside = true;
-    for (int a = 0; a < dim && inside; ++a) {
-      const double x = img.origin[a] + static_cast<double>(idx[a]) * img.spacing[a];
-      inside = x >= box_min[a] - tol && x <= box_max[a] + tol;
-    }
-    if (!inside) continue;
+    if (!inside_box<dim>(img, img.index_of(k), box_min, box_max, tol)) continue;
     const double h = static_cast<double>(img.data[k]);
     if (n == 0) first = h;
     ++n;
@@ -31,6 +38,24 @@ double box_variance(const Image<dim>& img, const Eigen::Matrix<double, dim, 1>& 
     q += (h - first) * (h - first);
   }
   return element_variance(n, s, q);
+}
+
+// Σ_l p_l (1 − p_l) over the labels of the voxels whose centres lie in [box_min, box_max]: the label
+// data term's variance of that voxel set (LabelStatistics::indicator_variance).
+template <int dim>
+double box_indicator_variance(const Image<dim>& img, const Eigen::Matrix<double, dim, 1>& box_min,
+                              const Eigen::Matrix<double, dim, 1>& box_max, double tol) {
+  std::map<float, long> count;
+  long n = 0;
+  for (std::size_t k = 0; k < img.voxel_count(); ++k) {
+    if (!inside_box<dim>(img, img.index_of(k), box_min, box_max, tol)) continue;
+    ++count[img.data[k]];
+    ++n;
+  }
+  double sum = 0.0;
+  for (const auto& [label, nl] : count)
+    sum += static_cast<double>(nl) * static_cast<double>(n - nl) / (static_cast<double>(n) * n);
+  return sum;
 }
 
 }  // namespace
@@ -49,7 +74,9 @@ void VimOptimizer<dim>::fix_normalization() {
     // |Ω|·var(Ω) (an upper bound of any mesh's E_D), times the element width over the box width,
     // m^(−1/d) for m elements (E_D grows with the width of the elements cut by the image's edges).
     // A constant image keeps E_D0 = 0.
-    const double var = box_variance<dim>(stats_->image(), box_min_, box_max_, 1e-9 * bbox_diagonal());
+    const double tol = 1e-9 * bbox_diagonal();
+    const double var = labels_ ? box_indicator_variance<dim>(stats_->image(), box_min_, box_max_, tol)
+                               : box_variance<dim>(stats_->image(), box_min_, box_max_, tol);
     if (var > 0.0 && n_live_ > 0) {
       double volume = 1.0;
       for (int a = 0; a < dim; ++a) volume *= box_max_[a] - box_min_[a];

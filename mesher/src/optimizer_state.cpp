@@ -13,9 +13,12 @@ namespace vim {
 
 template <int dim>
 VimOptimizer<dim>::VimOptimizer(SimplexMesh<dim> mesh, const VoxelStatistics<dim>* stats,
-                                const Image<dim>* density, const VimOptions& options)
-    : mesh_(std::move(mesh)), stats_(stats), density_(density), options_(options) {
+                                const Image<dim>* density, const VimOptions& options,
+                                const LabelStatistics<dim>* labels)
+    : mesh_(std::move(mesh)), stats_(stats), labels_(labels), density_(density), options_(options) {
   options_.validate();
+  if (labels_ && stats_ != &labels_->values())
+    throw std::invalid_argument("VimOptimizer: with labels, stats must be the label values' statistics");
   if (mesh_.cells.empty() || mesh_.points.empty()) throw std::invalid_argument("initial mesh is empty");
   for (const auto& cell : mesh_.cells)
     for (int v : cell)
@@ -81,6 +84,14 @@ double VimOptimizer<dim>::cost_of(const CellCache& c) const {
 }
 
 template <int dim>
+double VimOptimizer<dim>::data_variance(const Simplex& x,
+                                        const typename VoxelStatistics<dim>::Sums& s) const {
+  const double var = element_variance(s.n, s.s, s.q);
+  if (labels_ == nullptr || var == 0.0) return var;
+  return labels_->indicator_variance(x);
+}
+
+template <int dim>
 CellCache VimOptimizer<dim>::evaluate(const Simplex& x) const {
   CellCache c;
   c.volume = signed_volume<dim>(x);
@@ -94,7 +105,7 @@ CellCache VimOptimizer<dim>::evaluate(const Simplex& x) const {
     c.n = s.n;
     c.s = s.s;
     c.q = s.q;
-    c.ed = varied ? discretization_energy(std::abs(c.volume), element_variance(s.n, s.s, s.q)) : 0.0;
+    c.ed = varied ? discretization_energy(std::abs(c.volume), data_variance(x, s)) : 0.0;
   }
   c.cost = cost_of(c);
   return c;

@@ -5,9 +5,11 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 #include <vim/initial_mesh.hpp>
+#include <vim/label_statistics.hpp>
 #include <vim/optimizer.hpp>
 #include <vim/seconds_since.hpp>
 #include <vim/sizing.hpp>
@@ -79,17 +81,14 @@ IterationRecord iterate(VimOptimizer<dim>& opt, const VimOptions& options, int i
   return r;
 }
 
-}  // namespace
-
+// The optimisation loop shared by optimize() and optimize_labels(): the mesh, history and
+// normalisation; the caller fills values (and labels).
 template <int dim>
-VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const VimOptions& options,
-                        const ProgressCallback& progress, const Image<dim>* density) {
-  options.validate();
-  if (density) validate_density(*density);
-  check_image(image);
+VimResult<dim> run_vim(const VoxelStatistics<dim>& stats, const LabelStatistics<dim>* labels,
+                       SimplexMesh<dim> initial, const VimOptions& options, const ProgressCallback& progress,
+                       const Image<dim>* density) {
   const auto t_start = Clock::now();
-  VoxelStatistics<dim> stats(image);
-  VimOptimizer<dim> opt(std::move(initial), &stats, density, options);
+  VimOptimizer<dim> opt(std::move(initial), &stats, density, options, labels);
   if (options.check_invariants) opt.check_invariants("set-up", 0, std::numeric_limits<double>::infinity());
 
   VimResult<dim> result;
@@ -120,11 +119,54 @@ VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const
   }
 
   result.mesh = opt.compact_mesh();
+  result.boundary_kind =
+      boundary_kind<dim>(result.mesh, opt.box_min(), opt.box_max(), 1e-9 * opt.bbox_diagonal());
+  return result;
+}
+
+}  // namespace
+
+template <int dim>
+VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const VimOptions& options,
+                        const ProgressCallback& progress, const Image<dim>* density) {
+  options.validate();
+  if (density) validate_density(*density);
+  check_image(image);
+  const VoxelStatistics<dim> stats(image);
+  VimResult<dim> result = run_vim<dim>(stats, nullptr, std::move(initial), options, progress, density);
   result.values.resize(result.mesh.n_cells());
   for (std::size_t c = 0; c < result.mesh.n_cells(); ++c)
     result.values[c] = stats.value(cell_points(result.mesh, c));
-  result.boundary_kind =
-      boundary_kind<dim>(result.mesh, opt.box_min(), opt.box_max(), 1e-9 * opt.bbox_diagonal());
+  return result;
+}
+
+template <int dim>
+VimResult<dim> optimize_labels(const Image<dim>& labels, SimplexMesh<dim> initial, const VimOptions& options,
+                               const ProgressCallback& progress, const Image<dim>* density,
+                               const Image<dim>* values) {
+  options.validate();
+  if (density) validate_density(*density);
+  check_image(labels);
+  const LabelStatistics<dim> label_stats(labels);
+  VimResult<dim> result =
+      run_vim<dim>(label_stats.values(), &label_stats, std::move(initial), options, progress, density);
+  const std::size_t cells = result.mesh.n_cells();
+  result.labels.resize(cells);
+  result.values.resize(cells);
+  std::unique_ptr<VoxelStatistics<dim>> value_stats;
+  if (values) value_stats = std::make_unique<VoxelStatistics<dim>>(*values);
+  for (std::size_t c = 0; c < cells; ++c) {
+    const auto x = cell_points(result.mesh, c);
+    result.labels[c] = label_stats.majority(x);
+    if (value_stats) {
+      result.values[c] = value_stats->value(x);
+    } else {
+      ElementValue& v = result.values[c];
+      v.voxels = label_stats.values().sums(x).n;
+      v.mean = static_cast<double>(result.labels[c]);
+      v.variance = label_stats.indicator_variance(x);
+    }
+  }
   return result;
 }
 
@@ -132,5 +174,9 @@ template VimResult<2> optimize<2>(const Image<2>&, SimplexMesh<2>, const VimOpti
                                   const Image<2>*);
 template VimResult<3> optimize<3>(const Image<3>&, SimplexMesh<3>, const VimOptions&, const ProgressCallback&,
                                   const Image<3>*);
+template VimResult<2> optimize_labels<2>(const Image<2>&, SimplexMesh<2>, const VimOptions&,
+                                         const ProgressCallback&, const Image<2>*, const Image<2>*);
+template VimResult<3> optimize_labels<3>(const Image<3>&, SimplexMesh<3>, const VimOptions&,
+                                         const ProgressCallback&, const Image<3>*, const Image<3>*);
 
 }  // namespace vim

@@ -270,7 +270,8 @@ TEST(CliSimulate, ReadmeScenarioReferenceParses) {
   const auto e = sec.find("```", b + 8);
   const std::string yaml = sec.substr(b + 8, e - b - 8);
   const Scenario sc = parse_scenario_text(yaml, 3, "README.md");
-  EXPECT_EQ(sc.boundary_conditions.size(), 7u);
+  EXPECT_EQ(sc.boundary_conditions.size(), 8u);
+  EXPECT_EQ(sc.labels.size(), 2u);
   ASSERT_EQ(sc.needles.size(), 1u);
   EXPECT_EQ(sc.targets.size(), 1u);
   EXPECT_EQ(sc.nodes.value_or(0), 3000);
@@ -281,6 +282,8 @@ TEST(CliSimulate, ReadmeScenarioReferenceParses) {
   // and the shipped example parses too.
   EXPECT_NO_THROW(
       read_scenario((fs::path(VIM_SOURCE_DIR) / "examples" / "prostate_needle.yaml").string(), 3));
+  EXPECT_NO_THROW(
+      read_scenario((fs::path(VIM_SOURCE_DIR) / "examples" / "prostate_labels.yaml").string(), 3));
 }
 
 // The AMG solver uses Trilinos, which needs MPI initialised even on one process. The CLI runs without

@@ -655,7 +655,7 @@ TEST(Scenario, KeysTheModelWouldIgnoreAreErrors) {
 
 TEST(Scenario, RegionTypesAreTheParsersTableAndDocumented) {
   EXPECT_EQ(vim::pipeline::region_types(),
-            (std::vector<std::string>{"box_face", "box", "sphere", "cylinder"}));
+            (std::vector<std::string>{"box_face", "box", "sphere", "cylinder", "label"}));
   std::ifstream in(std::string(VIM_SOURCE_DIR) + "/docs/architecture.md");
   const std::string doc((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   for (const auto& name : vim::pipeline::region_types())

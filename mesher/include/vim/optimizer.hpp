@@ -12,6 +12,7 @@
 #include <vim/adjacency.hpp>
 #include <vim/image.hpp>
 #include <vim/invariants.hpp>
+#include <vim/label_statistics.hpp>
 #include <vim/quality.hpp>
 #include <vim/simplex_mesh.hpp>
 #include <vim/vim.hpp>
@@ -52,8 +53,10 @@ class VimOptimizer {
   // the density sampled at its centroid (§VI-E sizing). The box constraints use the mesh's bounding
   // box: corners fixed, edge nodes slide along their edge, face nodes within their face.
   // Throws std::invalid_argument if a cell is inverted or degenerate (signed volume <= 0).
+  // labels != nullptr: the image is a label image (stats must be &labels->values()) and E_D of an
+  // element is |τ|·Σ_l var(1_l), the variance of every label's indicator summed (docs/labels.md).
   VimOptimizer(SimplexMesh<dim> mesh, const VoxelStatistics<dim>* stats, const Image<dim>* density,
-               const VimOptions& options);
+               const VimOptions& options, const LabelStatistics<dim>* labels = nullptr);
 
   // Fixes E_G0, E_D0 from the current mesh (§IV-C) and recomputes every element's cost.
   // E_D0 == 0 (constant image, or no image) switches the image term off. If the mesh's E_D is 0 but the
@@ -142,6 +145,9 @@ class VimOptimizer {
   bool update_node_impl(int node, int iteration, Scratch& s, double* moved_sq);
   double evaluate_candidate(const Point& p, Scratch& s, double bound, bool image) const;
   double cost_of(const CellCache& c) const;
+  // The variance E_D weighs for x with voxel sums s (of the grey values, or of the label values):
+  // the grey-value variance, or with labels the indicator variance (0 where s holds one label).
+  double data_variance(const Simplex& x, const typename VoxelStatistics<dim>::Sums& s) const;
   // Replaces the n_old cells old_cells[] by the best of n_alt alternatives that lowers E; alternative
   // a is the n_new vertex tuples alternatives[a·n_new ..]. Uses the swap_* scratch below, so that a
   // swap pass allocates nothing per candidate (only the adjacency's facet map, per accepted swap).
@@ -171,6 +177,7 @@ class VimOptimizer {
   void mark_ring_dirty(int node);
 
   const VoxelStatistics<dim>* stats_;
+  const LabelStatistics<dim>* labels_;
   const Image<dim>* density_;
   VimOptions options_;
   QualityCheck<dim> quality_;

@@ -87,6 +87,8 @@ struct VimResult {
   bool ed0_estimated = false;
   bool converged = false;
   std::vector<std::uint8_t> boundary_kind;  // per node: number of box faces it lies on (dim = corner)
+  // optimize_labels only: per cell its label by the majority rule (LabelStatistics::majority).
+  std::vector<int> labels;
 };
 
 using ProgressCallback = std::function<void(const IterationRecord&)>;
@@ -110,5 +112,18 @@ using ProgressCallback = std::function<void(const IterationRecord&)>;
 template <int dim>
 VimResult<dim> optimize(const Image<dim>& image, SimplexMesh<dim> initial, const VimOptions& options,
                         const ProgressCallback& progress = {}, const Image<dim>* density = nullptr);
+
+// VIM on a label image (docs/labels.md): `labels` holds integer labels on a voxel grid; E_D of an
+// element is |τ|·Σ_l var(1_l) (the variance of every label's indicator, summed), with the same
+// normalisation, node updates, swaps and quality bound as optimize(). The result's `labels` gives
+// every cell the label of most of its voxel centres (the smallest on a tie; an element holding none,
+// the label nearest its centroid). `values` (optional, any grid covering the mesh): the cells'
+// ElementValue from that image (Eq. 4–6); without it each cell's value is its voxel count, its label
+// as the mean and its indicator variance. Throws std::invalid_argument for a non-integer label image
+// (naming the voxel) and as optimize() does.
+template <int dim>
+VimResult<dim> optimize_labels(const Image<dim>& labels, SimplexMesh<dim> initial, const VimOptions& options,
+                               const ProgressCallback& progress = {}, const Image<dim>* density = nullptr,
+                               const Image<dim>* values = nullptr);
 
 }  // namespace vim

@@ -234,6 +234,20 @@ void add_mesh_options(CLI::App& app, RunOptions& o) {
       ->check(finite_number(false));
 }
 
+// --labels and its label table (docs/labels.md).
+void add_label_options(CLI::App& app, RunOptions& o) {
+  app.add_option(
+         "--labels", o.labels,
+         "Label image (integers: a segmentation) meshed by the label energy, every label's boundary "
+         "followed (docs/labels.md); beside IMAGE (resampled nearest-neighbour into its grid) or alone "
+         "(IMAGE omitted; the label table gives the moduli) (default: none)")
+      ->type_name("LABELS");
+  app.add_option("--label-modulus", o.label_moduli,
+                 "Young's modulus of one label, LABEL=E (repeatable; over the scenario's labels: table); "
+                 "with --labels alone every label needs one")
+      ->type_name("LABEL=E");
+}
+
 }  // namespace
 
 std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_code) {
@@ -253,14 +267,14 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
   app.add_option("image", o.image,
                  "Input image: MetaImage (.mha/.mhd), NRRD (.nrrd/.nhdr) or NIfTI (.nii/.nii.gz); 2D or 3D, "
                  "scalar, any pixel type (read as float)")
-      ->type_name("IMAGE")
-      ->required();
+      ->type_name("IMAGE");
   app.add_option("-o,--out", o.out, "Output directory (required unless --info); must be empty or new")
       ->type_name("DIR");
   app.add_flag("--info", o.info,
                "Print the image's size, spacing, extent, direction and value statistics, then exit");
 
   add_mesh_options(app, o);
+  add_label_options(app, o);
   std::string mesher = to_string(o.mesher), mesher_help, mesher_names;
   std::vector<std::string> mesher_values;
   for (const Mesher& row : meshers()) {
@@ -312,6 +326,8 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
 
   try {
     app.parse(argc, argv);
+    if (o.image.empty() && o.labels.empty()) throw CLI::RequiredError("image");
+    if (o.image.empty()) o.image = o.labels;  // the label image alone (RunOptions::labels_alone)
     if (!o.info && o.out.empty()) throw CLI::RequiredError("--out");
     if (std::find(o.exports.begin(), o.exports.end(), "none") != o.exports.end() && o.exports.size() > 1)
       throw CLI::ValidationError("--export", "none cannot be combined with other formats (got " +

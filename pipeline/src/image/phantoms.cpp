@@ -214,7 +214,7 @@ std::string description(const std::string& name) {
     return "paper Table I: cube [0,3]^3, sphere r=1 (2.0) in 1.0, SIZE^3 voxels (default 100)";
   if (name == "prostate")
     return "3D prostate elastogram (kPa, mm): 60x50x50 mm, gland 60 kPa, lesion 150 kPa, urethra 5 kPa, "
-           "tissue 15 kPa; SIZE voxels along x (default 120 = 0.5 mm)";
+           "tissue 15 kPa; SIZE voxels along x (default 120 = 0.5 mm); --labels writes its label map";
   if (name == "diamond")
     return "paper Figs. 2-4: 100x100 mm, diamond (2.0) in 1.0, SIZE^2 pixels (default 100)";
   if (name == "two-circles")

@@ -2,7 +2,7 @@
 // Material (FEBio's "isotropic elastic", St Venant–Kirchhoff, whose small-strain limit is the linear
 // elasticity of the simulation, or for material.model neo-hookean FEBio's "neo-Hookean" with a
 // nonlinear static step of 10 load increments; E is the per-element map E_map, each element's exact
-// modulus), Mesh
+// modulus; with --labels a domain, a material and a map per label, named by the label), Mesh
 // (tet4, or tet10 for degree 2, nodes in world coordinates; node sets and surfaces of the image box
 // faces and of every scenario region), MeshDomains, MeshData, and with a scenario Boundary (zero and
 // prescribed displacement per world component), Loads (pressure and traction surface loads) and the
@@ -102,6 +102,25 @@ void write_boundary_and_loads(std::ostream& out, const SolverDeck<3>& deck) {
       << "  </LoadData>\n";
 }
 
+// The parts (FEBio element blocks, one domain each): Part1 holding every element, or with --labels one
+// per label, named by the label's name, in ascending label order.
+std::vector<std::pair<std::string, std::vector<long>>> feb_parts(const SolverDeck<3>& deck) {
+  if (deck.label.empty()) {
+    std::vector<long> all(deck.cells.size());
+    for (std::size_t c = 0; c < all.size(); ++c) all[c] = static_cast<long>(c);
+    return {{"Part1", all}};
+  }
+  std::map<int, std::vector<long>> by_label;
+  for (std::size_t c = 0; c < deck.cells.size(); ++c) by_label[deck.label[c]].push_back(static_cast<long>(c));
+  std::vector<std::pair<std::string, std::vector<long>>> parts;
+  for (auto& [label, cells] : by_label) {
+    const auto name = deck.label_name.find(label);
+    parts.emplace_back(name != deck.label_name.end() ? name->second : "label_" + std::to_string(label),
+                       std::move(cells));
+  }
+  return parts;
+}
+
 void write_mesh(std::ostream& out, const SolverDeck<3>& deck) {
   out << "  <Mesh>\n    <Nodes name=\"nodes\">\n";
   for (std::size_t i = 0; i < deck.nodes.size(); ++i) {
@@ -109,13 +128,16 @@ void write_mesh(std::ostream& out, const SolverDeck<3>& deck) {
     out << "      <node id=\"" << i + 1 << "\">" << p[0] << ',' << p[1] << ',' << p[2] << "</node>\n";
   }
   const char* type = deck.degree == 2 ? "tet10" : "tet4";
-  out << "    </Nodes>\n    <Elements type=\"" << type << "\" name=\"Part1\">\n";
-  for (std::size_t c = 0; c < deck.cells.size(); ++c) {
-    out << "      <elem id=\"" << c + 1 << "\">";
-    write_list(out, deck.cells[c]);
-    out << "</elem>\n";
+  out << "    </Nodes>\n";
+  for (const auto& [name, cells] : feb_parts(deck)) {
+    out << "    <Elements type=\"" << type << "\" name=\"" << name << "\">\n";
+    for (long c : cells) {
+      out << "      <elem id=\"" << c + 1 << "\">";
+      write_list(out, deck.cells[static_cast<std::size_t>(c)]);
+      out << "</elem>\n";
+    }
+    out << "    </Elements>\n";
   }
-  out << "    </Elements>\n";
   auto sets = [&](const SolverDeck<3>::Set& s) {
     if (!s.nodes.empty()) {
       out << "    <NodeSet name=\"N_" << s.name << "\">";
@@ -182,19 +204,30 @@ void write_feb(const std::filesystem::path& path, const SolverDeck<3>& deck) {
           << "    <step_size>1</step_size>\n";
     out << "  </Control>\n"
         << "  <Material>\n";
-    fem::MaterialDescription{deck.poisson_ratio, deck.neo_hookean}.write_feb_material(out, 1, "tissue",
-                                                                                      "E_map");
+    // One material per part ("tissue" with its map "E_map", or per label tissue_NAME with E_map_NAME).
+    const auto parts = feb_parts(deck);
+    const bool one = deck.label.empty();
+    const auto suffix = [&](const std::string& name) { return one ? std::string() : "_" + name; };
+    int id = 0;
+    for (const auto& part : parts)
+      fem::MaterialDescription{deck.poisson_ratio, deck.neo_hookean}.write_feb_material(
+          out, ++id, "tissue" + suffix(part.first), "E_map" + suffix(part.first));
     out << "  </Material>\n";
     write_mesh(out, deck);
-    out << "  <MeshDomains>\n"
-        << "    <SolidDomain name=\"Part1\" mat=\"tissue\"/>\n"
-        << "  </MeshDomains>\n"
-        << "  <MeshData>\n"
-        << "    <ElementData type=\"scalar\" name=\"E_map\" elem_set=\"Part1\">\n";
-    for (std::size_t c = 0; c < deck.cells.size(); ++c)
-      out << "      <e lid=\"" << c + 1 << "\">" << deck.modulus[c] << "</e>\n";
-    out << "    </ElementData>\n"
-        << "  </MeshData>\n";
+    out << "  <MeshDomains>\n";
+    for (const auto& part : parts)
+      out << "    <SolidDomain name=\"" << part.first << "\" mat=\"tissue" << suffix(part.first) << "\"/>\n";
+    out << "  </MeshDomains>\n"
+        << "  <MeshData>\n";
+    for (const auto& [name, cells] : parts) {
+      out << "    <ElementData type=\"scalar\" name=\"E_map" << suffix(name) << "\" elem_set=\"" << name
+          << "\">\n";
+      for (std::size_t i = 0; i < cells.size(); ++i)
+        out << "      <e lid=\"" << i + 1 << "\">" << deck.modulus[static_cast<std::size_t>(cells[i])]
+            << "</e>\n";
+      out << "    </ElementData>\n";
+    }
+    out << "  </MeshData>\n";
     if (deck.has_conditions) write_boundary_and_loads(out, deck);
     out << "  <Output>\n    <plotfile type=\"febio\">\n      <var type=\"displacement\"/>\n    </plotfile>\n "
            " </Output>\n"

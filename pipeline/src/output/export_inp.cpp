@@ -1,6 +1,7 @@
 // CalculiX/Abaqus input deck (mesh.inp): the heading (with the scenario features the deck does not
 // hold), *NODE (NSET=NALL), one *ELEMENT block per distinct modulus (C3D4/C3D10, CPE3/CPE6 plane strain
-// of unit thickness, as fem/), node sets and element-face surfaces of the image box faces and of every
+// of unit thickness, as fem/; with --labels one per label and modulus, and an element set L_NAME per
+// label), node sets and element-face surfaces of the image box faces and of every
 // scenario region, one *MATERIAL per distinct modulus (exact, 17 significant digits), and with a
 // scenario one *STEP with *STATIC: *BOUNDARY per held node and world component, *DSLOAD pressures,
 // *CLOAD consistent nodal forces of the tractions, *NODE PRINT / *NODE FILE of U. `ccx -i mesh`. With
@@ -66,13 +67,19 @@ void write_step(std::ostream& out, const SolverDeck<dim>& deck) {
 
 template <int dim>
 void write_inp(const std::filesystem::path& path, const SolverDeck<dim>& deck) {
-  std::map<double, std::vector<long>> by_modulus;  // exact values: no binning
-  for (std::size_t c = 0; c < deck.cells.size(); ++c)
-    by_modulus[deck.modulus[c]].push_back(static_cast<long>(c));
+  // One material per (label, exact modulus): no binning, and with --labels no material shared by two labels.
+  std::map<std::pair<int, double>, std::vector<long>> by_modulus;
+  std::map<int, std::vector<long>> by_label;
+  for (std::size_t c = 0; c < deck.cells.size(); ++c) {
+    const int label = deck.label.empty() ? 0 : deck.label[c];
+    by_modulus[{label, deck.modulus[c]}].push_back(static_cast<long>(c));
+    if (!deck.label.empty()) by_label[label].push_back(static_cast<long>(c));
+  }
   const char* type = dim == 3 ? (deck.degree == 2 ? "C3D10" : "C3D4") : (deck.degree == 2 ? "CPE6" : "CPE3");
   write_text_atomically(path, [&](std::ostream& out) {
     out << "*Heading\nvim-pipeline model, world coordinates, " << type << ", " << by_modulus.size()
         << " distinct moduli (one material each)";
+    if (!by_label.empty()) out << ", " << by_label.size() << " labels (element sets L_NAME)";
     if (!deck.has_conditions)
       out << "; mesh and materials only (no conditions: run with --simulate for a complete job)";
     out << '\n';
@@ -92,6 +99,12 @@ void write_inp(const std::filesystem::path& path, const SolverDeck<dim>& deck) {
         out << '\n';
       }
     }
+    for (const auto& [label, members] : by_label) {  // --labels: an element set per label
+      const auto name = deck.label_name.find(label);
+      out << "*Elset, ELSET=L_"
+          << (name != deck.label_name.end() ? name->second : "label_" + std::to_string(label)) << '\n';
+      write_id_list(out, members);
+    }
     write_sets(out, deck);
     k = 0;
     for (const auto& entry : by_modulus) {
@@ -102,9 +115,9 @@ void write_inp(const std::filesystem::path& path, const SolverDeck<dim>& deck) {
     }
     k = 0;
     const fem::MaterialDescription material{deck.poisson_ratio, deck.neo_hookean};
-    for (const auto& [E, members] : by_modulus) {
+    for (const auto& [key, members] : by_modulus) {
       out << "*Material, NAME=MATERIAL_" << ++k << '\n';
-      material.write_inp_card(out, E);
+      material.write_inp_card(out, key.second);
     }
     if (deck.has_conditions) write_step(out, deck);
   });

@@ -1,9 +1,10 @@
 // Gmsh 4.1 ASCII export (mesh.msh) readable by Gmsh and deal.II's GridIn::read_msh (linear meshes):
 // physical groups for the materials (one volume entity per material bin in 3D, surface in 2D, physical
-// tag = bin id, so deal.II's material_id equals the MaterialID of mesh.vtk), for the image box faces
-// and every scenario region's boundary faces (one surface entity each in 3D, curve in 2D), and for every
-// scenario region's nodes (one point entity each, holding point elements). Degree 2: 10-node
-// tetrahedra / 6-node triangles and quadratic faces. All nodes sit in the first entity block.
+// tag = bin id, named material_ID, so deal.II's material_id equals the MaterialID of mesh.vtk; with
+// --labels one per label, named by the label's name, tag = its rank among the labels), for the image box
+// faces and every scenario region's boundary faces (one surface entity each in 3D, curve in 2D), and for
+// every scenario region's nodes (one point entity each, holding point elements). Degree 2: 10-node tetrahedra
+// / 6-node triangles and quadratic faces. All nodes sit in the first entity block.
 #include <algorithm>
 #include <cmath>
 #include <vim/pipeline/common/atomic_file.hpp>
@@ -26,7 +27,7 @@ std::vector<Group> msh_groups(const SolverDeck<dim>& deck, const MaterialBins& b
   std::vector<Group> groups(bins.n_bins());
   for (std::size_t k = 0; k < bins.n_bins(); ++k) {
     groups[k].dim = dim;
-    groups[k].name = "material_" + std::to_string(k + 1);
+    groups[k].name = bins.name[k];
     groups[k].type = dim == 3 ? (quadratic ? 11 : 4) : (quadratic ? 9 : 2);
   }
   for (std::size_t c = 0; c < deck.cells.size(); ++c) {

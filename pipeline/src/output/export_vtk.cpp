@@ -1,6 +1,7 @@
 // Legacy VTK export (mesh.vtk) for deal.II's GridIn::read_vtk: version 3.0 header, ASCII,
-// UNSTRUCTURED_GRID, classic CELLS layout, cell data `SCALARS MaterialID int` (read as material_id)
-// followed by the per-element modulus (STACK.md "Mesh files for deal.II").
+// UNSTRUCTURED_GRID, classic CELLS layout, cell data `SCALARS MaterialID int` (read as material_id: the
+// material bin, or with --labels the element's label) followed by the per-element modulus (STACK.md "Mesh
+// files for deal.II").
 #include <vim/pipeline/common/atomic_file.hpp>
 #include <vim/pipeline/output/exports.hpp>
 
@@ -29,7 +30,7 @@ void write_vtk_legacy(const std::filesystem::path& path, const SimplexMesh<dim>&
     const int vtk_type = dim == 3 ? 10 : 5;  // VTK_TETRA, VTK_TRIANGLE
     for (std::size_t c = 0; c < m; ++c) out << vtk_type << '\n';
     out << "\nCELL_DATA " << m << '\n' << "SCALARS MaterialID int 1\nLOOKUP_TABLE default\n";
-    for (int k : bins.element_material) out << k << '\n';
+    for (int k : bins.element_material) out << bins.material_id[static_cast<std::size_t>(k - 1)] << '\n';
     out << "\nSCALARS youngs_modulus double 1\nLOOKUP_TABLE default\n";
     for (double e : bins.element_modulus) out << e << '\n';
   });

@@ -28,6 +28,44 @@ std::vector<std::string> parse_export_formats(const std::string& comma_separated
   return out;
 }
 
+namespace {
+
+// One bin per label of the elements (ascending), each element's modulus kept.
+template <int dim>
+MaterialBins label_bins(const MeshModel<dim>& model, std::vector<double> element_modulus) {
+  MaterialBins bins;
+  bins.by_label = true;
+  bins.element_modulus = std::move(element_modulus);
+  std::vector<int> labels(model.label.begin(), model.label.end());
+  std::sort(labels.begin(), labels.end());
+  labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
+  const std::size_t n = labels.size();
+  bins.modulus.assign(n, 0.0);
+  bins.lower.assign(n, INFINITY);
+  bins.upper.assign(n, -INFINITY);
+  bins.count.assign(n, 0);
+  bins.element_material.resize(model.label.size());
+  for (std::size_t c = 0; c < model.label.size(); ++c) {
+    const std::size_t k = static_cast<std::size_t>(
+        std::lower_bound(labels.begin(), labels.end(), model.label[c]) - labels.begin());
+    bins.element_material[c] = static_cast<int>(k) + 1;
+    const double e = bins.element_modulus[c];
+    bins.modulus[k] += e;
+    bins.lower[k] = std::min(bins.lower[k], e);
+    bins.upper[k] = std::max(bins.upper[k], e);
+    ++bins.count[k];
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    bins.modulus[k] /= static_cast<double>(bins.count[k]);
+    bins.material_id.push_back(labels[k]);
+    const auto it = model.label_name.find(labels[k]);
+    bins.name.push_back(it != model.label_name.end() ? it->second : "label_" + std::to_string(labels[k]));
+  }
+  return bins;
+}
+
+}  // namespace
+
 template <int dim>
 MaterialBins material_bins(const MeshModel<dim>& model, int max_bins) {
   if (max_bins < 1) throw std::invalid_argument("max_material_bins must be at least 1");
@@ -92,6 +130,11 @@ MaterialBins material_bins(const MeshModel<dim>& model, int max_bins) {
     ++bins.count[k - 1];
   }
   for (int k = 0; k < next; ++k) bins.modulus[k] /= static_cast<double>(bins.count[k]);
+  for (int k = 0; k < next; ++k) {
+    bins.material_id.push_back(k + 1);
+    bins.name.push_back("material_" + std::to_string(k + 1));
+  }
+  if (model.label.size() == m) return label_bins(model, std::move(bins.element_modulus));
   return bins;
 }
 
@@ -133,12 +176,14 @@ nlohmann::json write_exports(const ExportInput<dim>& input, const fs::path& dir,
   out["conditions"] = options.scenario != nullptr;
   out["not_expressed"] = deck.not_expressed;
   nlohmann::json table = nlohmann::json::array();
-  for (std::size_t k = 0; k < bins.n_bins(); ++k)
+  for (std::size_t k = 0; k < bins.n_bins(); ++k) {
     table.push_back({{"id", k + 1},
                      {"E", bins.modulus[k]},
                      {"E_min", bins.lower[k]},
                      {"E_max", bins.upper[k]},
                      {"elements", bins.count[k]}});
+    if (bins.by_label) table.back()["label"] = bins.material_id[k], table.back()["name"] = bins.name[k];
+  }
   out["material_table"] = table;
   out["element_modulus"] = bins.element_modulus;
   out["files"] = nlohmann::json::object();

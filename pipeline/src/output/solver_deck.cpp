@@ -114,7 +114,7 @@ const char* const axis_names[] = {"x", "y", "z"};
 template <int dim>
 void add_conditions(SolverDeck<dim>& deck, const Scenario& sc, const std::vector<Vec<dim>>& frame_nodes,
                     const std::vector<typename SolverDeck<dim>::Face>& boundary, const Vec<dim>& box_min,
-                    const Vec<dim>& box_max, const WorldTransform<dim>& tf) {
+                    const Vec<dim>& box_max, const WorldTransform<dim>& tf, const Image<dim>* labels) {
   deck.has_conditions = true;
   std::map<std::pair<long, int>, double> held;  // first condition wins per (node, world component)
   std::map<long, Vec<dim>> force;
@@ -122,8 +122,8 @@ void add_conditions(SolverDeck<dim>& deck, const Scenario& sc, const std::vector
     const BoundaryConditionSpec& bc = sc.boundary_conditions[i];
     static const char* const type_names[] = {"fixed", "displacement", "pressure", "traction"};
     const std::string name = "BC" + std::to_string(i + 1) + "_" + type_names[static_cast<int>(bc.type)];
-    deck.regions.push_back(
-        region_set(deck, frame_nodes, boundary, scenario_region<dim>(bc.region, box_min, box_max, tf), name));
+    deck.regions.push_back(region_set(deck, frame_nodes, boundary,
+                                      scenario_region<dim>(bc.region, box_min, box_max, tf, labels), name));
     const auto& set = deck.regions.back();
     if (bc.support == BoundaryConditionSpec::Support::elastic) {
       deck.not_expressed.push_back("boundary_conditions[" + std::to_string(i) + "]: the elastic support of " +
@@ -185,6 +185,10 @@ SolverDeck<dim> solver_deck(const MeshModel<dim>& model, const SimplexMesh<dim>&
   SolverDeck<dim> deck;
   deck.degree = degree;
   deck.modulus = modulus;
+  if (model.label.size() == model.mesh.n_cells()) {
+    deck.label = model.label;
+    deck.label_name = model.label_name;
+  }
   deck.poisson_ratio = poisson_ratio;
   deck.neo_hookean = scenario && scenario->material_model == Scenario::MaterialModel::neo_hookean;
   if (world.n_points() != model.mesh.n_points() || world.n_cells() != model.mesh.n_cells())
@@ -217,7 +221,9 @@ SolverDeck<dim> solver_deck(const MeshModel<dim>& model, const SimplexMesh<dim>&
                                           face.face));
       deck.box_faces.back().description = "image box face " + face.face;
     }
-  if (scenario) add_conditions(deck, *scenario, frame_nodes, boundary, box_min, box_max, model.transform);
+  if (scenario)
+    add_conditions(deck, *scenario, frame_nodes, boundary, box_min, box_max, model.transform,
+                   model.label_image.get());
   return deck;
 }
 

@@ -9,6 +9,7 @@
 #include <vim/adjacency.hpp>
 #include <vim/energy.hpp>
 #include <vim/initial_mesh.hpp>
+#include <vim/label_statistics.hpp>
 #include <vim/pipeline/common/memory_limit.hpp>
 #include <vim/pipeline/output/exports.hpp>
 #include <vim/pipeline/output/report.hpp>
@@ -86,6 +87,38 @@ std::function<void(const IterationRecord&)> vim_progress(
   };
 }
 
+// Per label (docs/labels.md): its elements and their volume, its voxels' volume and the volume of those
+// whose centre lies in an element of another label (the mesher's voxel enclosure, LabelStatistics).
+template <int dim>
+std::vector<LabelRecord> label_records(const Image<dim>& labels, const MeshModel<dim>& model) {
+  const LabelStatistics<dim> stats(labels);
+  const std::vector<int>& present = stats.labels();
+  double voxel = 1.0;
+  for (int a = 0; a < dim; ++a) voxel *= labels.spacing[a];
+  std::vector<LabelRecord> out(present.size());
+  for (std::size_t l = 0; l < present.size(); ++l) {
+    out[l].label = present[l];
+    const auto name = model.label_name.find(present[l]);
+    out[l].name = name != model.label_name.end() ? name->second : "label_" + std::to_string(present[l]);
+  }
+  for (float v : labels.data)
+    out[static_cast<std::size_t>(std::lower_bound(present.begin(), present.end(), static_cast<int>(v)) -
+                                 present.begin())]
+        .voxel_volume += voxel;
+  std::vector<long> n;
+  for (std::size_t c = 0; c < model.mesh.n_cells(); ++c) {
+    const auto x = cell_points(model.mesh, c);
+    const std::size_t own = static_cast<std::size_t>(
+        std::lower_bound(present.begin(), present.end(), model.label[c]) - present.begin());
+    out[own].elements += 1;
+    out[own].volume += std::abs(signed_volume<dim>(x));
+    stats.counts(x, n);
+    for (std::size_t l = 0; l < present.size(); ++l)
+      if (l != own) out[l].misclassified_volume += static_cast<double>(n[l]) * voxel;
+  }
+  return out;
+}
+
 }  // namespace
 
 // Before the grid is built: VIM's node limit (3D facet keys pack 21 bits per node) and the memory.
@@ -143,6 +176,12 @@ const MeshResult& PipelineRun<dim>::make_mesh() {
     StageTimer t(result.timing, "voxel_statistics");
     model_.mesh = std::move(initial);
     const IterationRecord r = evaluate_fixed_mesh(image, model_, o.vim_options());
+    if (labels_) {
+      const LabelStatistics<dim> stats(*labels_);
+      model_.label.resize(model_.mesh.n_cells());
+      for (std::size_t c = 0; c < model_.mesh.n_cells(); ++c)
+        model_.label[c] = stats.majority(cell_points(model_.mesh, c));
+    }
     energy_history_ = {r};
     result.optimization = OptimizationRecord{0, false, r.geometric, r.discretization, {r}};
     t.stop();
@@ -150,6 +189,16 @@ const MeshResult& PipelineRun<dim>::make_mesh() {
     optimize_mesh(std::move(initial));
   }
   if (o.threshold) segment_mesh();
+  if (labels_) result.labels = label_records<dim>(*labels_, model_);
+  if (!model_.label_modulus.empty()) {
+    // The label table's moduli (the others: the element mean) for mesh.vtu and the exports of a run
+    // without a scenario; build_model replaces them by the moduli simulated.
+    model_.youngs_modulus.resize(model_.mesh.n_cells());
+    for (std::size_t c = 0; c < model_.mesh.n_cells(); ++c) {
+      const auto it = model_.label_modulus.find(model_.label[c]);
+      model_.youngs_modulus[c] = it != model_.label_modulus.end() ? it->second : model_.values[c].mean;
+    }
+  }
   result.nodes = model_.mesh.n_points();
   result.elements = model_.mesh.n_cells();
   result.nodes_per_axis.assign(nodes_per_axis_.begin(), nodes_per_axis_.end());
@@ -190,9 +239,12 @@ void PipelineRun<dim>::optimize_mesh(SimplexMesh<dim> initial) {
   StageTimer t(mesh_result_.timing, "optimize");
   const bool lower_bound = vo.min_dihedral_deg > 0.0 || vo.min_radius_ratio > 0.0;
   const MeshQuality initial_quality = lower_bound ? mesh_quality(initial) : MeshQuality{};
+  const auto progress = vim_progress(vo.max_iterations, inputs_ ? inputs_->on_iteration : nullptr);
+  // With --labels the label energy (docs/labels.md); the element values are IMAGE's (Eq. 4–6).
   VimResult<dim> result =
-      optimize<dim>(image, std::move(initial), vo,
-                    vim_progress(vo.max_iterations, inputs_ ? inputs_->on_iteration : nullptr), density);
+      labels_ ? optimize_labels<dim>(*labels_, std::move(initial), vo, progress, density, &image)
+              : optimize<dim>(image, std::move(initial), vo, progress, density);
+  model_.label = std::move(result.labels);
   t.stop();
   if (result.ed0_estimated) {
     warn(mesh_result_.warnings, "vim",

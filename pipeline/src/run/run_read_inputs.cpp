@@ -125,6 +125,7 @@ const InputsResult& PipelineRun<dim>::read_inputs() {
   const OrientedImage<dim>& img = *image_;
   result.image = image_json(img, o.image);
   check_meshable(img, o.image);
+  read_label_image();
   if (const auto w = value_accuracy_warning(img.image, o.image)) warn(result.warnings, "input", *w);
   if (o.mesher != MesherKind::voxel && o.spacing <= 0.0 && o.nodes < (1L << dim))
     throw InputError("--nodes " + std::to_string(o.nodes) + ": a " + std::to_string(dim) +

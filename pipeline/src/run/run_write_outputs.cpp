@@ -38,6 +38,8 @@ UnstructuredGrid PipelineRun<dim>::mesh_vtu_grid() const {
     grid.cell_data["object"] = Field{1, std::vector<double>(model_.object.begin(), model_.object.end())};
   }
   if (model_.youngs_modulus.size() == nc) grid.cell_data["youngs_modulus"] = Field{1, model_.youngs_modulus};
+  if (model_.label.size() == nc)
+    grid.cell_data["label"] = Field{1, std::vector<double>(model_.label.begin(), model_.label.end())};
   const auto bmin = image_->image.box_min(), bmax = image_->image.box_max();
   const auto kind = boundary_kind<dim>(model_.mesh, bmin, bmax, 1e-9 * (bmax - bmin).norm());
   grid.point_data["boundary"] = Field{1, std::vector<double>(kind.begin(), kind.end())};

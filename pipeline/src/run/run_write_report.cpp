@@ -94,6 +94,7 @@ json PipelineRun<dim>::report() const {
   const InputsResult& in = inputs_result_;
   if (!in.image.is_null()) r["input"] = in.image;
   if (in.sizing) r["sizing"] = *in.sizing;
+  if (in.labels) r["labels"] = *in.labels;
   if (in.needle_refinement)
     r["needle_refinement"] = {{"size_ratio", in.needle_refinement->size_ratio},
                               {"radius", in.needle_refinement->radius},
@@ -104,6 +105,17 @@ json PipelineRun<dim>::report() const {
   if (mesh.elements > 0) r["mesh"] = mesh_json(mesh);
   if (mesh.optimization) r["optimization"] = optimization_json(*mesh.optimization);
   if (mesh.segmentation) r["segmentation"] = segmentation_json(*mesh.segmentation);
+  if (!mesh.labels.empty()) {
+    json labels = json::array();
+    for (const LabelRecord& l : mesh.labels)
+      labels.push_back({{"label", l.label},
+                        {"name", l.name},
+                        {"elements", l.elements},
+                        {"volume", l.volume},
+                        {"voxel_volume", l.voxel_volume},
+                        {"misclassified_volume", l.misclassified_volume}});
+    r["mesh"]["labels"] = labels;
+  }
   add_times(mesh.timing);
   // simulate
   if (simulation_result_) {

@@ -60,12 +60,18 @@ void read_cylinder(const Reader& r, const YAML::Node& v, const std::string& p, i
   reg.radius = r.positive(r.require(f, "radius", p + ".radius"), p + ".radius");
 }
 
+void read_label(const Reader& r, const YAML::Node& v, const std::string& p, int, RegionSpec& reg) {
+  reg.label = r.string(v, p);
+  if (reg.label.empty()) r.fail(v, p + " must name a label of the label image (its name or number)");
+}
+
 // The region types, in the order messages list them (region_types() gives their names).
 const RegionType kRegionTypes[] = {
     {"box_face", RegionSpec::Kind::box_face, read_box_face},
     {"box", RegionSpec::Kind::box, read_box},
     {"sphere", RegionSpec::Kind::sphere, read_sphere},
     {"cylinder", RegionSpec::Kind::cylinder, read_cylinder},
+    {"label", RegionSpec::Kind::label, read_label},
 };
 
 RegionSpec parse_region(const Reader& r, const YAML::Node& n, const std::string& path, int dim) {
@@ -292,6 +298,9 @@ std::string RegionSpec::describe() const {
     case Kind::cylinder:
       s << "cylinder center " << v(center) << " axis " << v(axis_vector) << " radius " << radius;
       break;
+    case Kind::label:
+      s << "label " << label;
+      break;
   }
   return s.str();
 }
@@ -444,7 +453,8 @@ void parse_boundary_conditions(const Reader& r, const Fields& top, Scenario& s, 
       }
       if (const YAML::Node& sn = f["support"]) {
         const std::string sp = p + ".support";
-        if (bc.type != BoundaryConditionSpec::Type::fixed || bc.region.kind == RegionSpec::Kind::box_face)
+        if (bc.type != BoundaryConditionSpec::Type::fixed || bc.region.kind == RegionSpec::Kind::box_face ||
+            bc.region.kind == RegionSpec::Kind::label)
           r.fail(sn, sp + " applies only to type fixed on a volume region (box, sphere, cylinder)");
         if (sn.IsScalar()) {
           const std::string v = r.choice(sn, sp, {"nodes", "elastic"});
@@ -621,7 +631,7 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
   if (!root || root.IsNull()) throw ScenarioError(s.where(0) + "the scenario file is empty");
   const Fields top = r.check_keys(root, "",
                                   {"units", "material", "mesh", "boundary_conditions", "needle", "needles",
-                                   "procedure", "dose", "targets", "output", "solver"});
+                                   "procedure", "dose", "targets", "output", "solver", "labels"});
 
   if (const YAML::Node& u = top["units"]) {
     const Fields f = r.check_keys(u, "units", {"length", "modulus"});
@@ -630,6 +640,7 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
   }
 
   parse_material(r, top, s);
+  if (const YAML::Node& l = top["labels"]) parse_labels(l, s);
   parse_mesh(r, top, s);
   parse_boundary_conditions(r, top, s, dim);
   parse_needles(r, top, s, dim);

@@ -1,6 +1,6 @@
-// Private to scenario.cpp and study_reader.cpp: the checked accessors of the scenario parser. yaml-cpp gives
-// no position for missing keys or bad conversions, so every access goes through Reader, whose failures name
-// the key path, the YAML line and the valid values.
+// Private to scenario.cpp, scenario_labels.cpp and study_reader.cpp: the checked accessors of the scenario
+// parser. yaml-cpp gives no position for missing keys or bad conversions, so every access goes through
+// Reader, whose failures name the key path, the YAML line and the valid values.
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -27,6 +27,8 @@ void parse_procedure(const YAML::Node& procedure, Scenario& s,
 // `dose:` (scenario_procedure.cpp) into s.dose, its region read by `region` at its key path.
 void parse_dose(const YAML::Node& dose, Scenario& s,
                 const std::function<RegionSpec(const YAML::Node&, const std::string&)>& region);
+// The scenario's `labels:` table into s.labels (scenario_labels.cpp); after the material.
+void parse_labels(const YAML::Node& labels, Scenario& s);
 
 namespace {
 

@@ -43,7 +43,9 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
     for (const auto &p : tip_rows_) positions.push_back(p.position);
     std::vector<int> tissue = point_tissues<dim>(
         spec, positions,
-        [this](const RegionSpec &r) { return scenario_region<dim>(r, ctx_.box_min, ctx_.box_max, ctx_.tf); },
+        [this](const RegionSpec &r) {
+          return scenario_region<dim>(r, ctx_.box_min, ctx_.box_max, ctx_.tf, ctx_.label_image.get());
+        },
         [this](const Vec &x) {
           const long cell = ctx_.locator().locate(x);
           return cell >= 0 ? ctx_.E[static_cast<std::size_t>(cell)] : -1.0;

@@ -46,7 +46,7 @@ struct NeedleSimulation<dim>::Impl : SimulationContext<dim> {
 
 template <int dim>
 fem::Region<dim> SimulationContext<dim>::region(const RegionSpec& r) const {
-  return scenario_region<dim>(r, box_min, box_max, tf);
+  return scenario_region<dim>(r, box_min, box_max, tf, label_image.get());
 }
 
 // Elastic support of a volume region: a lattice of pitch h anchored at the region (its centre; a box's
@@ -201,6 +201,7 @@ NeedleSimulation<dim>::NeedleSimulation(const MeshModel<dim>& mm, const Scenario
   m.sc = scenario;
   m.opt = std::move(options);
   m.tf = mm.transform;
+  m.label_image = mm.label_image;
   if (scenario.dim != dim)
     throw ScenarioError(scenario.where(0) + "scenario was parsed for a " + std::to_string(scenario.dim) +
                         "D image");
@@ -211,6 +212,9 @@ NeedleSimulation<dim>::NeedleSimulation(const MeshModel<dim>& mm, const Scenario
   if (scenario.modulus_from_image)
     for (std::size_t c = 0; c < mean.size(); ++c) mean[c] = mm.values[c].mean;
   m.E = scenario_modulus(scenario, mean);
+  // --labels: a label with a modulus of its own gives it to its elements (docs/labels.md).
+  for (std::size_t c = 0; c < mm.label.size(); ++c)
+    if (const auto it = mm.label_modulus.find(mm.label[c]); it != mm.label_modulus.end()) m.E[c] = it->second;
   m.degree = m.opt.degree ? *m.opt.degree : scenario.degree ? *scenario.degree : 1u;
   m.box_min = mm.mesh.points[0];
   m.box_max = mm.mesh.points[0];

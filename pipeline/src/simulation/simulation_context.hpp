@@ -23,12 +23,13 @@ struct SimulationContext {
   SimulationOptions opt;
   WorldTransform<dim> tf;
   std::optional<fem::ElasticModel<dim>> model;
-  std::vector<double> E;                         // per cell, as used
-  Vec box_min, box_max;                          // frame
-  std::shared_ptr<const UnstructuredGrid> grid;  // world, no fields; its points are the model's vertices
-  std::vector<std::array<int, 2>> edges;         // degree 2: vertex pairs of the grid's mid-edge points
-  std::vector<bool> blocked;                     // vertices held in every direction
-  std::vector<fem::Region<dim>> held_regions;    // regions held in every direction (clamped or supported)
+  std::vector<double> E;                          // per cell, as used
+  Vec box_min, box_max;                           // frame
+  std::shared_ptr<const Image<dim>> label_image;  // --labels in the frame: label regions
+  std::shared_ptr<const UnstructuredGrid> grid;   // world, no fields; its points are the model's vertices
+  std::vector<std::array<int, 2>> edges;          // degree 2: vertex pairs of the grid's mid-edge points
+  std::vector<bool> blocked;                      // vertices held in every direction
+  std::vector<fem::Region<dim>> held_regions;     // regions held in every direction (clamped or supported)
   // Axes of the needle's point constraints: the world axes seen from the frame when a support holds
   // world components of an oblique image, so that a shaft point on such a node leaves the held
   // directions to the support (as on an axis-aligned image); else the frame axes.

@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 #include <vim/image.hpp>
@@ -53,6 +54,12 @@ struct MeshModel {
       youngs_modulus;        // per cell (Eq. 15: scaled/clamped mean); may be empty before the model stage
   std::vector<int> segment;  // per cell component id (-1 none); empty when no threshold
   std::vector<int> object;   // per cell 1 if in the largest component; empty when no threshold
+  // --labels (docs/labels.md): per cell its label by the majority rule (empty without labels), and the
+  // labels whose Young's modulus the label table gives (the others take Eq. 15 from the image's mean).
+  std::vector<int> label;
+  std::map<int, double> label_modulus;
+  std::map<int, std::string> label_name;          // every label of the image: the table's name or label_N
+  std::shared_ptr<const Image<dim>> label_image;  // the label image in the frame (label regions)
   WorldTransform<dim> transform;
 };
 

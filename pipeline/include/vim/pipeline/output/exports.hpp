@@ -38,13 +38,19 @@ std::vector<std::string> parse_export_formats(const std::string& comma_separated
 // Per-element material index: the element modulus (youngs_modulus, or the element mean when that
 // is empty) binned into at most max_bins bins. When there are at most max_bins distinct moduli,
 // every distinct value is its own bin (exact); otherwise equal-width bins over [min, max]. Empty
-// bins are dropped, so ids are 1..n_bins, ordered by modulus.
+// bins are dropped, so ids are 1..n_bins, ordered by modulus. A model with labels (--labels) has one
+// bin per label present in its elements instead, ordered by label (docs/labels.md).
 struct MaterialBins {
   std::vector<double> element_modulus;  // per element, the value that was binned
   std::vector<int> element_material;    // per element, material id in 1..n_bins
   std::vector<double> modulus;          // per bin (index id-1): mean modulus of its elements
   std::vector<double> lower, upper;     // per bin: smallest/largest element modulus in it
   std::vector<long> count;              // per bin: number of elements
+  // Per bin: the MaterialID of mesh.vtk and the physical group name of mesh.msh: the bin id and
+  // material_ID, or with labels (MeshModel::label) the label and its name.
+  std::vector<int> material_id;
+  std::vector<std::string> name;
+  bool by_label = false;
   std::size_t n_bins() const { return modulus.size(); }
 };
 

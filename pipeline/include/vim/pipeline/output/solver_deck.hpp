@@ -8,6 +8,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <map>
 #include <string>
 #include <vector>
 #include <vim/pipeline/common/model.hpp>
@@ -25,6 +26,8 @@ struct SolverDeck {
   std::vector<std::vector<long>> cells;   // corners (positively oriented in the world), then mid-edge nodes
   std::vector<std::array<int, 2>> edges;  // degree 2: the vertices of mid-edge node n_vertices + e
   std::vector<double> modulus;            // per cell, exact
+  std::vector<int> label;                 // per cell with --labels (MeshModel::label), else empty
+  std::map<int, std::string> label_name;  // the labels' names (MeshModel::label_name)
   double poisson_ratio = kDefaultPoissonRatio;
   // material.model neo-hookean: the .inp deck holds *HYPERELASTIC, NEO HOOKE and *STEP, NLGEOM, and its
   // pressures as consistent nodal forces on the reference faces (dead loads, as solved; CalculiX's

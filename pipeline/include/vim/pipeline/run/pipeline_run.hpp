@@ -20,6 +20,7 @@
 #include <array>
 #include <chrono>
 #include <functional>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -116,6 +117,7 @@ class PipelineRun {
  private:
   void warn(std::vector<std::string>& warnings, const std::string& stage, const std::string& message);
   void read_sizing_image();
+  void read_label_image();  // run_read_labels.cpp
   void check_scenario();
   void check_node_limit(const std::array<int, dim>& nodes_per_axis, double voxels) const;
   void optimize_mesh(SimplexMesh<dim> initial);
@@ -138,6 +140,7 @@ class PipelineRun {
   std::unique_ptr<OutputDirectory> out_;
 
   std::optional<OrientedImage<dim>> image_, sizing_;
+  std::optional<Image<dim>> labels_;          // --labels in IMAGE's grid
   std::optional<Image<dim>> needle_density_;  // mesh.needle_refinement (§VI-E)
   MeshModel<dim> model_;
   std::array<int, dim> nodes_per_axis_{};

@@ -36,7 +36,12 @@ struct RunOptions : MeshOptions {
   bool info = false;          // --info: print the image's header and statistics, no meshing
 
   // Meshing, besides MeshOptions
-  std::string sizing;               // --sizing IMAGE (density for the E_G-only initialisation)
+  std::string sizing;  // --sizing IMAGE (density for the E_G-only initialisation)
+  // --labels LABELS: a label image (docs/labels.md) meshed by the label energy; beside IMAGE (resampled
+  // into its grid) or alone (then `image` names the same file and the label table gives the moduli).
+  std::string labels;
+  std::vector<std::string> label_moduli;  // --label-modulus LABEL=E, repeatable (the label table)
+  bool labels_alone() const { return !labels.empty() && labels == image; }
   std::optional<double> threshold;  // --threshold T: segment element means > T
   MesherKind mesher = MesherKind::vim;
   double max_memory = 0.0;  // --max-memory in bytes (0 = the memory available to the process)

@@ -19,6 +19,7 @@ namespace vim::pipeline {
 struct InputsResult {
   nlohmann::json image;                  // "input": image_json of IMAGE
   std::optional<nlohmann::json> sizing;  // "sizing": image_json of the --sizing image as read
+  std::optional<nlohmann::json> labels;  // "labels": the --labels file, alone or not, the labels it holds
   struct NeedleRefinement {
     double size_ratio = 0.0, radius = 0.0;
     double peak_density = 0.0;  // size_ratio^-(dim + 2)
@@ -45,6 +46,16 @@ struct SegmentationRecord {
   long object_voxels = 0;
 };
 
+// "labels" of "mesh" (--labels, docs/labels.md): per label its elements (by the majority rule), their
+// volume, the label's voxel volume and its misclassified volume (its voxels whose centre lies in an
+// element of another label, times the voxel volume).
+struct LabelRecord {
+  int label = 0;
+  std::string name;
+  long elements = 0;
+  double volume = 0.0, voxel_volume = 0.0, misclassified_volume = 0.0;
+};
+
 // make_mesh, or reuse_mesh from the run that made the mesh.
 struct MeshResult {
   MesherKind mesher = MesherKind::vim;  // "mesh": mesher, nodes, elements, nodes_per_axis, quality
@@ -53,6 +64,7 @@ struct MeshResult {
   std::optional<MeshQuality> quality;  // simplex meshers
   std::optional<OptimizationRecord> optimization;
   std::optional<SegmentationRecord> segmentation;
+  std::vector<LabelRecord> labels;
   std::vector<StageTime>
       timing;  // voxel_grid; or initial_mesh, voxel_statistics or sizing and optimize, segment
   std::vector<std::string> warnings;

@@ -32,12 +32,16 @@ struct ScenarioError : InputError {
 std::vector<std::string> region_types();
 
 struct RegionSpec {
-  enum class Kind { box_face, box, sphere, cylinder } kind = Kind::box_face;
+  enum class Kind { box_face, box, sphere, cylinder, label } kind = Kind::box_face;
   int axis = 0;                                     // box_face: 0..dim-1
   bool upper = false;                               // box_face: *_max
   std::string face;                                 // box_face name as written
   std::vector<double> center, axis_vector, lo, hi;  // dim values each (world)
   double radius = 0.0;
+  // label: the label's name or number as written, and the label it names (set by the run from the
+  // label image and the `labels:` table, docs/labels.md).
+  std::string label;
+  int label_value = 0;
   std::string describe() const;
 };
 
@@ -128,6 +132,15 @@ struct TargetSpec {
   int line = 0;
 };
 
+// One entry of the scenario's `labels:` table (docs/labels.md): a label of the label image, its name
+// and its Young's modulus (a number; nullopt: `image`, the modulus image's Eq. 15 mean).
+struct LabelSpec {
+  int label = 0;
+  std::string name;
+  std::optional<double> youngs_modulus;
+  int line = 0;
+};
+
 struct Scenario {
   std::string source;  // file name (for messages)
   std::string text;    // the YAML as read (echoed into report.json)
@@ -158,6 +171,8 @@ struct Scenario {
     double radius = 0.0;      // length units: the refined tube's 1/e radius around each path
   };
   std::optional<NeedleRefinement> needle_refinement;
+
+  std::vector<LabelSpec> labels;  // `labels:` (for --labels), in the file's order
 
   std::vector<BoundaryConditionSpec> boundary_conditions;
   std::vector<NeedleSpec> needles;  // empty: a static load case (the boundary conditions alone, step 0)
