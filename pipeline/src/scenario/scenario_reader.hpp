@@ -34,7 +34,7 @@ namespace {
 
 const char* const kFaceNames[] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};
 
-std::string join(const std::vector<std::string>& v, const char* sep = ", ") {
+inline std::string join(const std::vector<std::string>& v, const char* sep = ", ") {
   std::string s;
   for (std::size_t i = 0; i < v.size(); ++i) s += (i ? sep : "") + v[i];
   return s;
@@ -42,10 +42,10 @@ std::string join(const std::vector<std::string>& v, const char* sep = ", ") {
 
 // Hand-written equivalents of the former std::regex checks (std::regex_match dominated the parse
 // time under the fuzzer). ASCII only, like the [A-Za-z0-9] classes they replace.
-bool is_digit(char c) { return c >= '0' && c <= '9'; }
-bool is_alpha(char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); }
+inline bool is_digit(char c) { return c >= '0' && c <= '9'; }
+inline bool is_alpha(char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); }
 // [+-]?[0-9]+
-bool is_integer_text(const std::string& t) {
+inline bool is_integer_text(const std::string& t) {
   std::size_t i = (!t.empty() && (t[0] == '+' || t[0] == '-')) ? 1 : 0;
   if (i == t.size()) return false;
   for (; i < t.size(); ++i)
@@ -53,7 +53,7 @@ bool is_integer_text(const std::string& t) {
   return true;
 }
 // [A-Za-z0-9_-]+
-bool is_folder_name(const std::string& t) {
+inline bool is_folder_name(const std::string& t) {
   if (t.empty()) return false;
   for (char c : t)
     if (!is_alpha(c) && !is_digit(c) && c != '_' && c != '-') return false;
@@ -67,7 +67,7 @@ inline bool is_identifier(const std::string& t) {
   return true;
 }
 
-std::string scalar_text(const YAML::Node& n) {
+inline std::string scalar_text(const YAML::Node& n) {
   if (n.IsScalar()) return "'" + n.Scalar() + "'";
   if (n.IsSequence()) return "a list of " + std::to_string(n.size());
   if (n.IsMap()) return "a mapping";
