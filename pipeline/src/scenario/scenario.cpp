@@ -175,10 +175,11 @@ void parse_tissues(const Reader& r, const YAML::Node& t, const std::string& path
 }
 
 NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string& path, int dim) {
-  const Fields f = r.check_keys(n, path,
-                                {"name", "entry", "direction", "depth", "steps", "diameter", "model",
-                                 "friction", "sample_spacing", "cutting_distance", "cutting_force",
-                                 "coupling_radius", "tip_force", "friction_per_length", "tissues", "fit"});
+  const Fields f =
+      r.check_keys(n, path,
+                   {"name", "entry", "direction", "depth", "steps", "diameter", "model", "friction",
+                    "sample_spacing", "cutting_distance", "cutting_force", "coupling_radius", "tip_force",
+                    "friction_per_length", "tissues", "fit", "flexible"});
   NeedleSpec s;
   s.line = Reader::line(n);
   if (f["name"]) {
@@ -257,6 +258,7 @@ NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string&
     r.fail(n, path + ": needle model 'force' needs tip_force and/or friction_per_length > 0");
   if (const YAML::Node& x = f["fit"]) s.fit = r.boolean(x, path + ".fit");
   if (const YAML::Node& t = f["tissues"]) parse_tissues(r, t, path + ".tissues", dim, s);
+  if (const YAML::Node& x = f["flexible"]) parse_needle_flexible(r.scenario(), x, path + ".flexible", dim, s);
   return s;
 }
 

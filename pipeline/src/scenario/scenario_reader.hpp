@@ -19,6 +19,11 @@ namespace vim::pipeline {
 // if it cannot be read (scenario.cpp).
 std::string read_input_text(const std::string& path, const std::string& what);
 
+// needle.flexible of a needle at `path` (a mapping; the needle's diameter already read into `needle`):
+// ScenarioError naming the file, the line and the key for a bad value (scenario_needle_shape.cpp).
+void parse_needle_flexible(const Scenario& scenario, const YAML::Node& node, const std::string& path, int dim,
+                           NeedleSpec& needle);
+
 namespace {
 
 const char* const kFaceNames[] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};
@@ -97,6 +102,7 @@ class Fields {
 class Reader {
  public:
   explicit Reader(const Scenario& s) : s_(s) {}
+  const Scenario& scenario() const { return s_; }
 
   [[noreturn]] void fail(const YAML::Node& n, const std::string& msg) const {
     throw ScenarioError(s_.where(line(n)) + msg);

@@ -17,6 +17,7 @@
 #include <vector>
 #include <vim/needle/band_coupling.hpp>
 #include <vim/needle/elastic_tissue.hpp>
+#include <vim/needle/flexible/flexible_tissue.hpp>
 #include <vim/needle/insertion.hpp>
 #include <vim/needle/line_coupling.hpp>
 #include <vim/needle/needle_options.hpp>
@@ -49,6 +50,7 @@ class NeedleInsertion {
   double axial_displacement(std::size_t j) const;  // ū_j of the last solution (0 before any)
   std::vector<needle::ShaftPoint<dim>> make_coupling(bool snap_to_vertices);
   void record(double depth, const fem::Solution<dim> *solution, int solves);
+  void record_flexible(double depth);
   void record_field(const fem::Solution<dim> *solution, bool skipped);
   void record_near_field(double depth, const std::vector<double> &axial_force);
   void output_step(int k, const fem::Solution<dim> *solution);
@@ -64,6 +66,9 @@ class NeedleInsertion {
   std::vector<needle::ShaftPoint<dim>> tip_rows_;  // 3D with a cutting force: the tip bearing's disks
   std::optional<needle::Insertion<dim>> stepping_;
   std::unique_ptr<needle::ElasticTissue<dim>> tissue_;
+  // 3D with needle.flexible: the beam between the stepping and the tissue, and its rows.
+  needle::DeflectedCoupling *deflected_ = nullptr;
+  std::unique_ptr<needle::FlexibleTissue> flexible_;
   std::vector<Vec> targets_;           // frame
   std::vector<double> station_shear_;  // 3D: the shear modulus of the tissue at each shaft station
   BandCheck band_check_;               // 3D: the targets and modulus changes inside the bands
