@@ -22,6 +22,8 @@ FlexibleTissue::FlexibleTissue(ElasticTissue<3>& tissue, DeflectedCoupling& coup
       beam_(needle.bending_stiffness(), {0.0, element_length}) {
   if (!(element_length > 0.0)) throw std::invalid_argument("FlexibleTissue: element length must be > 0");
   for (const auto& p : stations) s_.push_back(p.s);
+  channel_.assign(s_.size(), Vec<3>::Zero());
+  cut_.assign(s_.size(), false);
   // The bending planes: any two directions normal to the axis (a round tube bends alike in all).
   e_[0] = axis_.unitOrthogonal();
   e_[1] = axis_.cross(e_[0]);
@@ -29,9 +31,16 @@ FlexibleTissue::FlexibleTissue(ElasticTissue<3>& tissue, DeflectedCoupling& coup
 
 // Nodes from the holder (−free_length) to the needle's end, elements at most element_ long; the entry
 // is a node when the holder is before it.
-void FlexibleTissue::set_depth(double depth, const Vec<3>& tip_force) {
+void FlexibleTissue::set_depth(double depth, const Vec<3>& bevel_direction, double bevel_ratio) {
+  const Vec<3> tip = deflection(depth_), tangent = slope(depth_);
+  for (std::size_t j = 0; j < s_.size(); ++j)
+    if (!cut_[j] && s_[j] <= depth + element_) {
+      channel_[j] = tip + (s_[j] - depth_) * tangent;
+      cut_[j] = true;
+    }
   depth_ = depth;
-  tip_force_ = tip_force - tip_force.dot(axis_) * axis_;
+  bevel_direction_ = bevel_direction - bevel_direction.dot(axis_) * axis_;
+  bevel_ratio_ = bevel_ratio;
   std::vector<double> nodes;
   const auto add = [&](double from, double to) {
     const long n = std::max(1L, static_cast<long>(std::ceil((to - from) / element_ - 1e-9)));
@@ -113,7 +122,7 @@ void FlexibleTissue::set_deflection(const Eigen::VectorXd& q) {
   std::vector<Vec<3>> d(n_points_, Vec<3>::Zero());
   for (std::size_t j : stations_) {
     const Eigen::RowVectorXd row = beam_.deflection_row(s_[j]);
-    d[j] = row.dot(q.head(nd)) * e_[0] + row.dot(q.tail(nd)) * e_[1];
+    d[j] = row.dot(q.head(nd)) * e_[0] + row.dot(q.tail(nd)) * e_[1] - channel_[j];
   }
   coupling_.set_deflection(std::move(d));
 }
@@ -122,12 +131,14 @@ const std::vector<double>& FlexibleTissue::solve(const std::vector<double>& axia
   if (a_active_ != state_.active) measure_lateral_stiffness(axial);
   if (!assembled_) assemble();
   const auto nd = static_cast<Eigen::Index>(beam_.n_dofs());
-  // F₀: the tissue's lateral forces with the needle straight.
-  coupling_.set_deflection(std::vector<Vec<3>>(n_points_, Vec<3>::Zero()));
-  tissue_.solve(axial);
+  // F₀: the tissue's forces with the needle on the planned line; the bevel's load from its tip force.
+  set_deflection(Eigen::VectorXd::Zero(2 * nd));
+  const std::vector<double>& f0 = tissue_.solve(axial);
   rhs_ = -n_.transpose() * lateral_forces();
+  const double tip_force = state_.cutting < f0.size() ? std::max(0.0, f0[state_.cutting]) : 0.0;
+  const Vec<3> bevel = bevel_ratio_ * tip_force * bevel_direction_;
   const Eigen::RowVectorXd tip = beam_.deflection_row(beam_.nodes().back());
-  for (Eigen::Index p = 0; p < 2; ++p) rhs_.segment(p * nd, nd) += tip_force_.dot(e_[p]) * tip.transpose();
+  for (Eigen::Index p = 0; p < 2; ++p) rhs_.segment(p * nd, nd) += bevel.dot(e_[p]) * tip.transpose();
   const auto nf = static_cast<Eigen::Index>(free_.size());
   Eigen::VectorXd b(nf);
   for (Eigen::Index i = 0; i < nf; ++i) b[i] = rhs_[free_[i]];

@@ -179,7 +179,7 @@ NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string&
       r.check_keys(n, path,
                    {"name", "entry", "direction", "depth", "steps", "diameter", "model", "friction",
                     "sample_spacing", "cutting_distance", "cutting_force", "coupling_radius", "tip_force",
-                    "friction_per_length", "tissues", "fit", "flexible"});
+                    "friction_per_length", "tissues", "fit", "flexible", "bevel", "rotations"});
   NeedleSpec s;
   s.line = Reader::line(n);
   if (f["name"]) {
@@ -259,6 +259,7 @@ NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string&
   if (const YAML::Node& x = f["fit"]) s.fit = r.boolean(x, path + ".fit");
   if (const YAML::Node& t = f["tissues"]) parse_tissues(r, t, path + ".tissues", dim, s);
   if (const YAML::Node& x = f["flexible"]) parse_needle_flexible(r.scenario(), x, path + ".flexible", dim, s);
+  if (f["bevel"] || f["rotations"]) parse_needle_bevel(r.scenario(), f["bevel"], f["rotations"], path, s);
   return s;
 }
 

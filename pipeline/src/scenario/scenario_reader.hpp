@@ -23,6 +23,9 @@ std::string read_input_text(const std::string& path, const std::string& what);
 // ScenarioError naming the file, the line and the key for a bad value (scenario_needle_shape.cpp).
 void parse_needle_flexible(const Scenario& scenario, const YAML::Node& node, const std::string& path, int dim,
                            NeedleSpec& needle);
+// needle.bevel and needle.rotations (either node may be undefined), after flexible and direction.
+void parse_needle_bevel(const Scenario& scenario, const YAML::Node& bevel, const YAML::Node& rotations,
+                        const std::string& path, NeedleSpec& needle);
 
 namespace {
 

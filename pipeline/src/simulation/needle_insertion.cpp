@@ -1,6 +1,7 @@
 // One needle inserted step by step (needle_insertion.hpp).
 #include "simulation/needle_insertion.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <limits>
 #include <numeric>
@@ -242,7 +243,7 @@ void NeedleInsertion<dim>::advance_one_step(int k) {
       tissue_->clear();
     record(d, loaded_ ? &solution : nullptr, tissue_->solves() - solves_before);
   } else {
-    if (flexible_) flexible_->set_depth(d);
+    if (flexible_) bend(d);
     const needle::FrictionStep step = flexible_ ? stepping_->solve(*flexible_) : stepping_->solve(*tissue_);
     if (stepping_->law().has_active_set()) {
       run_.active_set_sweeps[static_cast<std::size_t>(k)] = step.sweeps;
@@ -313,6 +314,30 @@ void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim> *s, int
   run_.point_axial_force.push_back(std::move(pa));
   run_.active_points.push_back(static_cast<int>(state.active.size()));
   run_.solves.push_back(solves);
+}
+
+// The flexible needle at needle depth d: the beam to its end, and the bevel's load. The tissue pushes
+// on the bevel's face, whose outward normal's lateral part is the bevel side (turned by the rotations
+// the needle has reached): the lateral force on the needle is along −side, cot(angle) × the tip's axial
+// force (docs/needle-model.md, the bevel).
+template <int dim>
+void NeedleInsertion<dim>::bend(double d) {
+  if constexpr (dim == 3) {
+    Vec direction = Vec::Zero();
+    double ratio = 0.0;
+    if (spec_.bevel) {
+      double turn = 0.0;
+      for (const RotationSpec &r : spec_.rotations)
+        if (r.depth <= d + 1e-9 * needle_.path.depth) turn += r.angle;
+      const Vec side =
+          Eigen::AngleAxisd(turn * M_PI / 180.0, axis_world_) * spec_vector<dim>(spec_.bevel->side);
+      direction = -ctx_.tf.vector_to_frame(side);
+      ratio = 1.0 / std::tan(spec_.bevel->angle * M_PI / 180.0);
+    }
+    flexible_->set_depth(d, direction, ratio);
+  } else {
+    (void)d;
+  }
 }
 
 // The flexible needle's tip, its deviation and angle, the base's loads and the shape (the beam's nodes)

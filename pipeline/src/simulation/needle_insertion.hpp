@@ -51,6 +51,7 @@ class NeedleInsertion {
   std::vector<needle::ShaftPoint<dim>> make_coupling(bool snap_to_vertices);
   void record(double depth, const fem::Solution<dim> *solution, int solves);
   void record_flexible(double depth);
+  void bend(double depth);  // the flexible needle's beam and bevel at this step
   void record_field(const fem::Solution<dim> *solution, bool skipped);
   void record_near_field(double depth, const std::vector<double> &axial_force);
   void output_step(int k, const fem::Solution<dim> *solution);

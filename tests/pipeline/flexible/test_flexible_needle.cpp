@@ -97,3 +97,71 @@ TEST(FlexibleNeedle, SymmetricModelWithoutBevelDoesNotDeviate) {
   }
   EXPECT_GT(r.axial_force.back(), 0.0);
 }
+
+namespace {
+
+// The symmetric block with a bevelled needle on its axis that cuts at 5 mN (the tip's axial force, which
+// the bevel turns sideways), 12 steps.
+NeedleRun<3> bevel_run(const std::string& side, const std::string& rotations = "",
+                       const std::string& e = "2.0e+5") {
+  std::string n =
+      "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 12, diameter: 1, friction: {model: stick}, "
+      "cutting_force: 5, flexible: {youngs_modulus: " +
+      e + ", inner_diameter: 0.6}, bevel: {angle: 30, side: " + side + "}";
+  if (!rotations.empty()) n += ", rotations: " + rotations;
+  const Scenario sc = parse_scenario_text(yaml(n + "}", kTargets), 3);
+  return run_simulation<3>(axis_block(), sc, quiet()).needles.at(0);
+}
+
+}  // namespace
+
+// The block and the needle are symmetric under y → −y: bevel sides +y and −y give mirror paths, and the
+// needle moves away from the side its bevel faces (the tissue pushes on the face).
+TEST(FlexibleNeedle, OppositeBevelsGiveMirrorPaths) {
+  const NeedleRun<3> up = bevel_run("[0, 1, 0]"), down = bevel_run("[0, -1, 0]");
+  ASSERT_EQ(up.tip_deviation.size(), down.tip_deviation.size());
+  const Eigen::Vector3d mirror(1, -1, 1);
+  double worst = 0.0;
+  for (std::size_t k = 0; k < up.tip_deviation.size(); ++k) {
+    worst = std::max(worst, (up.tip_deviation[k] - mirror.cwiseProduct(down.tip_deviation[k])).norm());
+    EXPECT_LT((up.force[k] - mirror.cwiseProduct(down.force[k])).norm(),
+              1e-8 * std::max(1.0, up.force[k].norm()));
+  }
+  std::printf("bevel +y: final tip deviation [%.4e, %.4e, %.4e] mm, angle %.3f deg; mirror error %.2e mm\n",
+              up.tip_deviation.back()[0], up.tip_deviation.back()[1], up.tip_deviation.back()[2],
+              up.tip_angle.back(), worst);
+  EXPECT_LT(worst, 1e-8);
+  EXPECT_LT(up.tip_deviation.back()[1], -1e-3);  // away from +y
+  // Equilibrium of the needle across its axis: the base, the tissue along the shaft and the bevel's
+  // load, −side · cot(30°) × the tip's axial force (that of the straight needle's solve, within 1% of the
+  // step's: the bend changes the tip force a little).
+  int cut = 0;
+  for (std::size_t k = 1; k < up.depth.size(); ++k) {
+    if (!(up.tip_force[k] > 0.0)) continue;
+    const V3 lateral = up.force[k] - up.force[k].dot(up.axis) * up.axis;
+    const V3 bevel = -(up.base_force[k] + lateral);
+    const V3 expected = -V3(0, 1, 0) * up.tip_force[k] / std::tan(M_PI / 6);
+    EXPECT_LT((bevel - expected).norm(), 0.01 * expected.norm()) << "step " << k;
+    ++cut;
+  }
+  EXPECT_GT(cut, 3);
+  // Nothing along x (the model's other mirror plane), to the round-off of the condensed solves.
+  EXPECT_LT(std::abs(up.tip_deviation.back()[0]), 1e-6 * up.tip_deviation.back().norm());
+}
+
+// Turning the needle by 180° at half depth turns the bevel's force (a study, not a check: on this 12 mm
+// block the insertion is shorter than the beam-on-tissue decay length 1/β for a stiff rod, so the
+// deviation is mostly the elastic bend under the present bevel force and the turn mirrors it;
+// docs/needle-model.md, the bevel). Prints the tip's lateral path, unturned and turned, for several E.
+TEST(FlexibleNeedle, DISABLED_HalfTurnStudy) {
+  for (const char* e : {"2.0e+3", "2.0e+4", "2.0e+5", "2.0e+8"}) {
+    const NeedleRun<3> a = bevel_run("[0, 1, 0]", "", e);
+    const NeedleRun<3> b = bevel_run("[0, 1, 0]", "[{depth: 6, angle: 180}]", e);
+    std::printf(
+        "E = %s: final tip deviation along y unturned %.4e mm, turned %.4e mm (ratio %.3f); turned path:", e,
+        a.tip_deviation.back()[1], b.tip_deviation.back()[1],
+        b.tip_deviation.back()[1] / a.tip_deviation.back()[1]);
+    for (const auto& d : b.tip_deviation) std::printf(" %.3e", d[1]);
+    std::printf("\n");
+  }
+}

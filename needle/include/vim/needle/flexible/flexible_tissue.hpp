@@ -1,11 +1,12 @@
 // The tissue as a flexible needle sees it (docs/needle-model.md, the flexible needle): the elastic tissue
 // behind the coupling rows, with the needle's shaft an Euler–Bernoulli beam (Beam) clamped at its base
-// (the entry, or a holder free_length before it) whose deflection enters the rows' lateral values
-// (DeflectedCoupling). A solve with the active points' axial values solves, in one linear system, the
-// beam's deflection and the stations' lateral forces together:
-//   F = F₀(w) + A d,  d_j = N(s_j) q  (the tissue's lateral stiffness of the active rows, band
-//   compliance included: the condensed Schur system),
-//   (K_beam + Nᵀ A N) q = f_tip − Nᵀ F₀(w),  base DOFs held at 0,
+// (the entry, or a holder free_length before it) whose deflection from the channel the tip cut enters
+// the rows' lateral values (DeflectedCoupling). A solve with the active points' axial values solves, in
+// one linear system, the beam's deflection and the stations' lateral forces together:
+//   F = F₀(w) + A N q  (F₀: the forces with the needle on the planned line, its rows at −c_j, c_j the
+//   channel; A the tissue's lateral stiffness of the active rows, band compliance included: the
+//   condensed Schur system),
+//   (K_beam + Nᵀ A N) q = f_bevel − Nᵀ F₀(w),  base DOFs held at 0,
 // then the tissue with those lateral values, whose axial forces it returns. A is measured once per
 // active set with 2m + 1 tissue solves (the tissue is linear); F₀ with one solve per call. No
 // alternating iteration: the stepping and the friction laws see an ordinary TissueResponse.
@@ -40,8 +41,11 @@ class FlexibleTissue final : public TissueResponse {
                  double element_length, std::size_t n_points, double probe_step);
 
   // The needle's end is at arc length `depth` from the entry at this step: the beam runs from the base to
-  // it. `tip_force`: a lateral force on the needle at its end (frame, normal to the axis).
-  void set_depth(double depth, const Vec<3>& tip_force = Vec<3>::Zero());
+  // it. The stations the tip reaches now take the channel it cuts: the last step's tip extended along
+  // its tangent (the tip advances along its own tangent). A bevel puts a lateral force on the needle's
+  // end, `bevel_ratio` × the tip's axial force (the cutting row's, ≥ 0) along the unit lateral
+  // `bevel_direction` (frame; zero: a symmetric tip).
+  void set_depth(double depth, const Vec<3>& bevel_direction = Vec<3>::Zero(), double bevel_ratio = 0.0);
   const std::vector<double>& solve(const std::vector<double>& axial) override;
   const AxialMap& axial_map() override;
 
@@ -70,7 +74,10 @@ class FlexibleTissue final : public TissueResponse {
   double element_ = 0.0, probe_step_ = 0.0, depth_ = 0.0;
   std::size_t n_points_ = 0;
   Beam beam_;
-  Vec<3> tip_force_ = Vec<3>::Zero();
+  Vec<3> bevel_direction_ = Vec<3>::Zero();
+  double bevel_ratio_ = 0.0;
+  std::vector<Vec<3>> channel_;        // per station: the lateral position of the channel the tip cut there
+  std::vector<bool> cut_;              // its channel is set
   std::vector<std::size_t> stations_;  // the active shaft stations (not tip rows), and their slot in active
   std::vector<std::size_t> slots_;
   Eigen::MatrixXd a_;                    // lateral stiffness of the active stations (2m × 2m)

@@ -82,6 +82,19 @@ struct FlexibleSpec {
   int line = 0;                 // YAML line of the key
 };
 
+// needle.bevel: the tip's bevel, its angle to the axis and the side its face faces at entry (world,
+// normal to the needle; normalised by the parser). needle.rotations: the needle turns about its axis
+// by `angle` degrees (right-handed about its direction) when its end reaches `depth`.
+struct BevelSpec {
+  double angle = 0.0;  // degrees, 0 < angle < 90
+  std::vector<double> side;
+  int line = 0;
+};
+struct RotationSpec {
+  double depth = 0.0, angle = 0.0;  // length units, degrees
+  int line = 0;
+};
+
 struct NeedleSpec {
   std::string name = "needle";
   std::vector<double> entry, direction;  // world; direction normalised by the parser
@@ -112,6 +125,8 @@ struct NeedleSpec {
   std::vector<TissueSpec> tissues;       // kinematic model: parameters per tissue (needle.tissues)
   bool fit = true;                       // --fit-forces adjusts the needle's own cutting force and limit
   std::optional<FlexibleSpec> flexible;  // absent: the rigid needle
+  std::optional<BevelSpec> bevel;        // absent: a symmetric tip (needs flexible)
+  std::vector<RotationSpec> rotations;   // in order of depth (needs bevel)
   int line = 0;
 };
 
