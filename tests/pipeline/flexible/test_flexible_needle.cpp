@@ -3,8 +3,13 @@
 // the rigid needle (forces and targets), and on a mirror-symmetric model without a lateral load it does
 // not deviate.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <vim/pipeline/simulation/simulation.hpp>
 
@@ -164,4 +169,54 @@ TEST(FlexibleNeedle, DISABLED_HalfTurnStudy) {
     for (const auto& d : b.tip_deviation) std::printf(" %.3e", d[1]);
     std::printf("\n");
   }
+}
+
+// needle.csv and report.json carry the bent needle per step: the tip (planned point plus deviation),
+// the deviation and its norm, the tip angle, the base's loads and the shape, whose ends are the holder
+// on the planned line and the tip.
+TEST(FlexibleNeedle, OutputsCarryTheBentNeedle) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("vim_flexible_outputs_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  SimulationOptions o = quiet();
+  o.output_file = [&](const std::string& rel) {
+    std::filesystem::create_directories((dir / rel).parent_path());
+    return dir / rel;
+  };
+  const std::string n =
+      "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 4, diameter: 1, friction: {model: stick}, "
+      "cutting_force: 5, flexible: {youngs_modulus: 2.0e+5, inner_diameter: 0.6, free_length: 3}, "
+      "bevel: {angle: 30, side: [1, 0, 0]}}";
+  const auto res = run_simulation<3>(axis_block(), parse_scenario_text(yaml(n, kTargets), 3), o);
+  const NeedleRun<3>& r = res.needles.at(0);
+  const nlohmann::json& per = res.report["needles"][0]["per_step"];
+  ASSERT_EQ(per["tip_deviation_norm"].size(), r.depth.size());
+  std::ifstream csv(dir / "needle.csv");
+  std::string header, line;
+  std::getline(csv, header);
+  EXPECT_NE(header.find("tip_deviation_x,tip_deviation_y,tip_deviation_z,tip_deviation_norm,tip_angle,"
+                        "base_force_x,base_force_y,base_force_z,base_moment_x,base_moment_y,base_moment_z"),
+            std::string::npos);
+  for (std::size_t k = 0; k < r.depth.size(); ++k) {
+    const V3 planned(0, 0, r.depth[k]);
+    EXPECT_NEAR((r.tip[k] - planned - r.tip_deviation[k]).norm(), 0.0, 1e-12);
+    EXPECT_NEAR(per["tip_deviation_norm"][k].get<double>(), r.tip_deviation[k].norm(), 1e-12);
+    EXPECT_NEAR(per["tip_angle"][k].get<double>(), r.tip_angle[k], 1e-12);
+    const auto& shape = per["needle_shape"][k];
+    ASSERT_GE(shape.size(), 2u);
+    EXPECT_NEAR(shape[0][2].get<double>(), -3.0, 1e-12);  // the holder, 3 mm before the entry
+    EXPECT_NEAR(std::hypot(shape[0][0].get<double>(), shape[0][1].get<double>()), 0.0, 1e-12);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(shape[shape.size() - 1][c].get<double>(), r.tip[k][c], 1e-12);
+    std::getline(csv, line);
+    std::vector<double> v;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) v.push_back(std::stod(cell));
+    ASSERT_GE(v.size(), 11u);
+    const std::size_t at = v.size() - 11;  // the flexible columns come last
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(v[at + static_cast<std::size_t>(c)], r.tip_deviation[k][c], 1e-9);
+    EXPECT_NEAR(v[at + 4], r.tip_angle[k], 1e-9);
+  }
+  EXPECT_GT(r.tip_deviation.back().norm(), 1e-3);
+  EXPECT_GT(r.tip_angle.back(), 0.0);
+  std::filesystem::remove_all(dir);
 }
