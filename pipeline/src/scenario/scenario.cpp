@@ -190,7 +190,9 @@ NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string&
                                 "sample_spacing", "cutting_distance",
                                 "cutting_force",  "coupling_radius",
                                 "tip_force",      "friction_per_length",
-                                "tissues",        "fit"};
+                                "tissues",        "fit",
+                                "flexible",       "bevel",
+                                "rotations"};
   keys.insert(keys.end(), extra_keys.begin(), extra_keys.end());
   const Fields f = r.check_keys(n, path, keys);
   NeedleSpec s;
@@ -271,6 +273,8 @@ NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string&
     r.fail(n, path + ": needle model 'force' needs tip_force and/or friction_per_length > 0");
   if (const YAML::Node& x = f["fit"]) s.fit = r.boolean(x, path + ".fit");
   if (const YAML::Node& t = f["tissues"]) parse_tissues(r, t, path + ".tissues", dim, s);
+  if (const YAML::Node& x = f["flexible"]) parse_needle_flexible(r.scenario(), x, path + ".flexible", dim, s);
+  if (f["bevel"] || f["rotations"]) parse_needle_bevel(r.scenario(), f["bevel"], f["rotations"], path, s);
   return s;
 }
 

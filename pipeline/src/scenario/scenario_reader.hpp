@@ -29,6 +29,13 @@ void parse_dose(const YAML::Node& dose, Scenario& s,
                 const std::function<RegionSpec(const YAML::Node&, const std::string&)>& region);
 // The scenario's `labels:` table into s.labels (scenario_labels.cpp); after the material.
 void parse_labels(const YAML::Node& labels, Scenario& s);
+// needle.flexible of a needle at `path` (a mapping; the needle's diameter already read into `needle`):
+// ScenarioError naming the file, the line and the key for a bad value (scenario_needle_shape.cpp).
+void parse_needle_flexible(const Scenario& scenario, const YAML::Node& node, const std::string& path, int dim,
+                           NeedleSpec& needle);
+// needle.bevel and needle.rotations (either node may be undefined), after flexible and direction.
+void parse_needle_bevel(const Scenario& scenario, const YAML::Node& bevel, const YAML::Node& rotations,
+                        const std::string& path, NeedleSpec& needle);
 
 namespace {
 
@@ -108,6 +115,7 @@ class Fields {
 class Reader {
  public:
   explicit Reader(const Scenario& s) : s_(s) {}
+  const Scenario& scenario() const { return s_; }
 
   [[noreturn]] void fail(const YAML::Node& n, const std::string& msg) const {
     throw ScenarioError(s_.where(line(n)) + msg);

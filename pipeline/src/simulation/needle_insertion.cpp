@@ -1,6 +1,7 @@
 // One needle inserted step by step (needle_insertion.hpp).
 #include "simulation/needle_insertion.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <limits>
 #include <numeric>
@@ -58,6 +59,14 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
   tissue_ = std::make_unique<needle::ElasticTissue<dim>>(*ctx_.model, *coupling_, stepping_->state(),
                                                          stepping_->n_points(), pitch_, ctx_.solver,
                                                          ctx_.opt.monolithic);
+  if constexpr (dim == 3)
+    if (spec.flexible) {
+      const FlexibleSpec &f = *spec.flexible;
+      const needle::FlexibleNeedle tube{f.youngs_modulus, spec.diameter, f.inner_diameter, f.free_length};
+      flexible_ = std::make_unique<needle::FlexibleTissue>(*tissue_, *deflected_, stepping_->state(),
+                                                           stepping_->shaft(), axis_, tube, pitch_,
+                                                           stepping_->n_points(), pitch_);
+    }
   for (const auto &t : ctx_.sc.targets) targets_.push_back(ctx_.tf.to_frame(spec_vector<dim>(t.position)));
   for (double depth : spec.seeds) {
     typename NeedleRun<dim>::Seed seed;
@@ -134,7 +143,13 @@ std::vector<needle::ShaftPoint<dim>> NeedleInsertion<dim>::make_coupling(bool sn
     tip_rows_ = band->tip_rows();
     pitch_ = shaft.empty() ? with_spacing(g).spacing : shaft.front().length;
     coupling_radius_ = band->coupling_radius();
-    coupling_ = std::move(band);
+    if (spec_.flexible) {
+      auto deflected = std::make_unique<needle::DeflectedCoupling>(std::move(band));
+      deflected_ = deflected.get();
+      coupling_ = std::move(deflected);
+    } else {
+      coupling_ = std::move(band);
+    }
   } else {
     pitch_ = needle_.sample_spacing > 0.0 ? needle_.sample_spacing : 0.5 * ctx_.locator().mean_edge_length();
     shaft = needle::sample_shaft<dim>(ctx_.locator(), path.entry, axis_, path.depth, pitch_, ctx_.blocked,
@@ -245,7 +260,8 @@ void NeedleInsertion<dim>::advance_one_step(int k) {
       tissue_->clear();
     record(d, loaded_ ? &solution : nullptr, tissue_->solves() - solves_before);
   } else {
-    const needle::FrictionStep step = stepping_->solve(*tissue_);
+    if (flexible_) bend(d);
+    const needle::FrictionStep step = flexible_ ? stepping_->solve(*flexible_) : stepping_->solve(*tissue_);
     if (stepping_->law().has_active_set()) {
       run_.active_set_sweeps[static_cast<std::size_t>(k)] = step.sweeps;
       if (!step.settled) run_.unsettled_steps.push_back(k);
@@ -328,6 +344,7 @@ template <int dim>
 void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim> *s, int solves) {
   run_.depth.push_back(depth);
   run_.tip.push_back(entry_world_ + depth * axis_world_);
+  if (flexible_) record_flexible(depth);
   Vec f = Vec::Zero();
   if (s)
     for (const auto &pf : s->point_force) f -= pf;
@@ -369,6 +386,55 @@ void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim> *s, int
   run_.point_axial_force.push_back(std::move(pa));
   run_.active_points.push_back(static_cast<int>(state.active.size()));
   run_.solves.push_back(solves);
+}
+
+// The flexible needle at needle depth d: the beam to its end, and the bevel's load. The tissue pushes
+// on the bevel's face, whose outward normal's lateral part is the bevel side (turned by the rotations
+// the needle has reached): the lateral force on the needle is along −side, cot(angle) × the tip's axial
+// force (docs/needle-model.md, the bevel).
+template <int dim>
+void NeedleInsertion<dim>::bend(double d) {
+  if constexpr (dim == 3) {
+    Vec direction = Vec::Zero();
+    double ratio = 0.0;
+    if (spec_.bevel) {
+      double turn = 0.0;
+      for (const RotationSpec &r : spec_.rotations)
+        if (r.depth <= d + 1e-9 * needle_.path.depth) turn += r.angle;
+      const Vec side =
+          Eigen::AngleAxisd(turn * M_PI / 180.0, axis_world_) * spec_vector<dim>(spec_.bevel->side);
+      direction = -ctx_.tf.vector_to_frame(side);
+      ratio = 1.0 / std::tan(spec_.bevel->angle * M_PI / 180.0);
+    }
+    flexible_->set_depth(d, direction, ratio);
+  } else {
+    (void)d;
+  }
+}
+
+// The flexible needle's tip, its deviation and angle, the base's loads and the shape (the beam's nodes)
+// of the last solve; straight before the needle touches the tissue.
+template <int dim>
+void NeedleInsertion<dim>::record_flexible(double depth) {
+  if constexpr (dim == 3) {
+    const bool bent = !stepping_->state().active.empty() && flexible_->depth() == depth;
+    const auto world = [this](const Vec &v) { return ctx_.tf.vector_to_world(v); };
+    const Vec deviation = bent ? world(flexible_->deflection(depth)) : Vec::Zero();
+    run_.tip.back() += deviation;
+    run_.tip_deviation.push_back(deviation);
+    run_.tip_angle.push_back(bent ? std::atan(flexible_->slope(depth).norm()) * 180.0 / M_PI : 0.0);
+    run_.base_force.push_back(bent ? world(flexible_->base_force()) : Vec::Zero());
+    run_.base_moment.push_back(bent ? world(flexible_->base_moment()) : Vec::Zero());
+    std::vector<Vec> shape;
+    if (bent)
+      for (double s : flexible_->beam().nodes())
+        shape.push_back(entry_world_ + s * axis_world_ + world(flexible_->deflection(s)));
+    else
+      for (double s : {-spec_.flexible->free_length, depth}) shape.push_back(entry_world_ + s * axis_world_);
+    run_.shape.push_back(std::move(shape));
+  } else {
+    (void)depth;
+  }
 }
 
 // The step's field: vertex displacements (every step with keep_step_fields,

@@ -18,6 +18,7 @@
 #include <vector>
 #include <vim/needle/band_coupling.hpp>
 #include <vim/needle/elastic_tissue.hpp>
+#include <vim/needle/flexible/flexible_tissue.hpp>
 #include <vim/needle/insertion.hpp>
 #include <vim/needle/line_coupling.hpp>
 #include <vim/needle/needle_options.hpp>
@@ -54,6 +55,8 @@ class NeedleInsertion {
   double axial_displacement(std::size_t j) const;  // ū_j of the last solution (0 before any)
   std::vector<needle::ShaftPoint<dim>> make_coupling(bool snap_to_vertices);
   void record(double depth, const fem::Solution<dim> *solution, int solves);
+  void record_flexible(double depth);
+  void bend(double depth);  // the flexible needle's beam and bevel at this step
   void record_field(const fem::Solution<dim> *solution, bool skipped);
   void record_near_field(double depth, const std::vector<double> &axial_force);
   void output_step(int k, const fem::Solution<dim> *solution);
@@ -69,6 +72,9 @@ class NeedleInsertion {
   std::vector<needle::ShaftPoint<dim>> tip_rows_;  // 3D with a cutting force: the tip bearing's disks
   std::optional<needle::Insertion<dim>> stepping_;
   std::unique_ptr<needle::ElasticTissue<dim>> tissue_;
+  // 3D with needle.flexible: the beam between the stepping and the tissue, and its rows.
+  needle::DeflectedCoupling *deflected_ = nullptr;
+  std::unique_ptr<needle::FlexibleTissue> flexible_;
   std::vector<Vec> targets_;            // frame
   std::vector<Vec> seed_points_;        // frame: the seeds' planned positions (probed after the targets)
   std::vector<Vec> seed_displacement_;  // world: the tissue's displacement there at the last recorded step

@@ -138,6 +138,13 @@ void write_needle_csv(const std::filesystem::path& path, const NeedleRun<dim>& r
       o << ",near_field_strain,small_strain_radius";
       for (const auto& t : sc.targets) o << "," << t.name << "_in_near_field";
     }
+    const bool flexible = !run.tip_deviation.empty();  // needle.flexible: the bent needle
+    if (flexible) {
+      for (int d = 0; d < dim; ++d) o << ",tip_deviation_" << axes[d];
+      o << ",tip_deviation_norm,tip_angle";
+      for (const char* name : {"base_force_", "base_moment_"})
+        for (int d = 0; d < dim; ++d) o << "," << name << axes[d];
+    }
     o << "\n" << std::setprecision(10);
     for (std::size_t k = 0; k < run.depth.size(); ++k) {
       o << k << "," << run.depth[k];
@@ -151,6 +158,12 @@ void write_needle_csv(const std::filesystem::path& path, const NeedleRun<dim>& r
       if (near) {
         o << "," << run.near_field_strain[k] << "," << run.small_strain_radius[k];
         for (int inside : run.target_in_near_field[k]) o << "," << inside;
+      }
+      if (flexible) {
+        for (int d = 0; d < dim; ++d) o << "," << run.tip_deviation[k][d];
+        o << "," << run.tip_deviation[k].norm() << "," << run.tip_angle[k];
+        for (int d = 0; d < dim; ++d) o << "," << run.base_force[k][d];
+        for (int d = 0; d < dim; ++d) o << "," << run.base_moment[k][d];
       }
       o << "\n";
     }
@@ -171,6 +184,46 @@ void write_summary_csv(const std::filesystem::path& path, const std::vector<Need
       o << "\n";
     }
   });
+}
+
+// needle.flexible: the tube and its bevel, and per step the tip (bent), its deviation from the planned
+// line, its angle to it and the base holder's force and moment on the needle.
+template <int dim>
+void add_flexible_report(const NeedleSpec& spec, const NeedleRun<dim>& run, json& rep, json& per) {
+  const FlexibleSpec& f = *spec.flexible;
+  json flexible = {{"youngs_modulus", f.youngs_modulus},
+                   {"inner_diameter", f.inner_diameter},
+                   {"free_length", f.free_length}};
+  if (spec.bevel) {
+    flexible["bevel"] = {{"angle", spec.bevel->angle}, {"side", spec.bevel->side}};
+    json rotations = json::array();
+    for (const RotationSpec& r : spec.rotations)
+      rotations.push_back({{"depth", r.depth}, {"angle", r.angle}});
+    flexible["rotations"] = rotations;
+  }
+  rep["flexible"] = flexible;
+  json tip = json::array(), deviation = json::array(), norm = json::array(), force = json::array(),
+       moment = json::array();
+  for (std::size_t k = 0; k < run.tip_deviation.size(); ++k) {
+    tip.push_back(to_json<dim>(run.tip[k]));
+    deviation.push_back(to_json<dim>(run.tip_deviation[k]));
+    norm.push_back(run.tip_deviation[k].norm());
+    force.push_back(to_json<dim>(run.base_force[k]));
+    moment.push_back(to_json<dim>(run.base_moment[k]));
+  }
+  per["tip"] = tip;
+  per["tip_deviation"] = deviation;
+  per["tip_deviation_norm"] = norm;
+  per["tip_angle"] = run.tip_angle;
+  per["base_force"] = force;
+  per["base_moment"] = moment;
+  json shapes = json::array();  // the needle as a polyline from its base to its tip
+  for (const auto& shape : run.shape) {
+    json line = json::array();
+    for (const auto& x : shape) line.push_back(to_json<dim>(x));
+    shapes.push_back(line);
+  }
+  per["needle_shape"] = shapes;
 }
 
 template <int dim>
@@ -281,6 +334,7 @@ json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const need
     }
     per["targets_in_near_field"] = inside;
   }
+  if (!run.tip_deviation.empty()) add_flexible_report<dim>(spec, run, rep, per);
   rep["per_step"] = per;
   json punctures = json::array();
   for (const auto& p : run.punctures)

@@ -77,6 +77,28 @@ struct TissueSpec {
   std::string describe() const;
 };
 
+// needle.flexible: the shaft is an Euler–Bernoulli beam, a steel tube of outer diameter
+// NeedleSpec::diameter (docs/needle-model.md, the flexible needle).
+struct FlexibleSpec {
+  double youngs_modulus = 0.0;  // the tube's E, modulus units (steel: 2e8 kPa)
+  double inner_diameter = 0.0;  // d_i, 0 ≤ d_i < diameter
+  double free_length = 0.0;     // the base is clamped this far before the entry (0: at the entry)
+  int line = 0;                 // YAML line of the key
+};
+
+// needle.bevel: the tip's bevel, its angle to the axis and the side its face faces at entry (world,
+// normal to the needle; normalised by the parser). needle.rotations: the needle turns about its axis
+// by `angle` degrees (right-handed about its direction) when its end reaches `depth`.
+struct BevelSpec {
+  double angle = 0.0;  // degrees, 0 < angle < 90
+  std::vector<double> side;
+  int line = 0;
+};
+struct RotationSpec {
+  double depth = 0.0, angle = 0.0;  // length units, degrees
+  int line = 0;
+};
+
 struct NeedleSpec {
   std::string name = "needle";
   std::vector<double> entry, direction;  // world; direction normalised by the parser
@@ -103,9 +125,12 @@ struct NeedleSpec {
   double coupling_radius = 0.0;
   double tip_force = 0.0;  // force model: cutting force at the tip (modulus × length²: kPa·mm² = mN in
                            // 3D; per unit thickness, mN/mm, in 2D)
-  double friction_per_length = 0.0;  // force model: friction force per unit shaft length
-  std::vector<TissueSpec> tissues;   // kinematic model: parameters per tissue (needle.tissues)
-  bool fit = true;                   // --fit-forces adjusts the needle's own cutting force and limit
+  double friction_per_length = 0.0;      // force model: friction force per unit shaft length
+  std::vector<TissueSpec> tissues;       // kinematic model: parameters per tissue (needle.tissues)
+  bool fit = true;                       // --fit-forces adjusts the needle's own cutting force and limit
+  std::optional<FlexibleSpec> flexible;  // absent: the rigid needle
+  std::optional<BevelSpec> bevel;        // absent: a symmetric tip (needs flexible)
+  std::vector<RotationSpec> rotations;   // in order of depth (needs bevel)
   int line = 0;
   // A procedure's insertion (scenario_procedure.cpp): the seeds' planned depths along the path (in
   // (0, depth], increasing), released as the tip passes them on the way out; the withdrawal's steps

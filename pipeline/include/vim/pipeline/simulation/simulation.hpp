@@ -107,9 +107,15 @@ template <int dim>
 struct NeedleRun {
   using Vec = Eigen::Matrix<double, dim, 1>;
   std::string name;
-  Vec axis;                                        // world, unit
-  std::vector<double> depth;                       // per step (step 0 = rest)
-  std::vector<Vec> tip;                            // world
+  Vec axis;                   // world, unit
+  std::vector<double> depth;  // per step (step 0 = rest)
+  std::vector<Vec> tip;       // world (the flexible needle: its bent end)
+  // The flexible needle (needle.flexible), per step, world: the tip's deviation from the planned line,
+  // its angle to that line (degrees), the lateral force and the bending moment its base holder applies
+  // to it, and its shape (points along the needle from the base to the tip). Empty for a rigid needle.
+  std::vector<Vec> tip_deviation, base_force, base_moment;
+  std::vector<double> tip_angle;
+  std::vector<std::vector<Vec>> shape;
   std::vector<Vec> force;                          // world: force of the tissue on the needle
   std::vector<double> axial_force, lateral_force;  // see the header comment
   // The axial force's parts: the shaft's friction (Σ over the shaft stations) and the tip's force (the

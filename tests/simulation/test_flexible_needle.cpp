@@ -1,0 +1,222 @@
+// The flexible needle (needle.flexible: the shaft an Euler–Bernoulli beam coupled to the stations in one
+// linear system per step) through the simulation: with a needle a million times stiffer than steel it is
+// the rigid needle (forces and targets), and on a mirror-symmetric model without a lateral load it does
+// not deviate.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vim/pipeline/simulation/simulation.hpp>
+
+#include "simulation_test_util.hpp"
+
+using namespace vim;
+using namespace vim::pipeline;
+using namespace vim::pipeline::simulation_test;
+
+namespace {
+
+// The needle along z from the origin (the symmetric block's axis), a target beside the path ahead of the
+// tip and one beside the shaft; `flexible`: the needle.flexible mapping, or empty (rigid).
+std::string needle_yaml(const std::string& flexible, const std::string& friction) {
+  std::string n =
+      "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, friction: " + friction;
+  if (!flexible.empty()) n += ", flexible: " + flexible;
+  return n + "}";
+}
+const char* kTargets = "[{name: ahead, position: [1, 0.5, 15]}, {name: beside, position: [2, 1, 6]}]";
+
+const char* kStickFriction = "{model: stick}";
+
+NeedleRun<3> run(const std::string& flexible, const MeshModel<3>& model,
+                 const std::string& friction = kStickFriction) {
+  const Scenario sc = parse_scenario_text(yaml(needle_yaml(flexible, friction), kTargets), 3);
+  return run_simulation<3>(model, sc, quiet()).needles.at(0);
+}
+
+}  // namespace
+
+// E × 10⁶ (steel: 2e8 kPa → 2e14): the beam barely bends, so the forces per step (axial, lateral, per
+// station) and the targets equal the rigid needle's. The block, clamped at z_max, lies off-centre about
+// the needle, so the tissue pushes it sideways: the lateral coupling is exercised.
+TEST(FlexibleNeedle, StiffNeedleIsTheRigidNeedle) {
+  const MeshModel<3> model = block(V3(-2, -3, 0), V3(6, 6, 24), {{5, 6, 13}}, [](const V3&) { return 10.0; });
+  // Stick (one solve per step) and stick-slip (the axial map's probes and the active set).
+  for (const std::string friction : {kStickFriction, "{model: stick-slip, max_shear_per_length: 0.5}"}) {
+    const NeedleRun<3> rigid = run("", model, friction);
+    const NeedleRun<3> stiff = run("{youngs_modulus: 2.0e+14, inner_diameter: 0.6}", model, friction);
+    // A soft rod (E = 2 MPa) bends visibly in 10 kPa tissue over 12 mm.
+    const NeedleRun<3> soft = run("{youngs_modulus: 2.0e+3, inner_diameter: 0.6}", model, friction);
+    ASSERT_EQ(rigid.depth.size(), stiff.depth.size());
+    ASSERT_GT(rigid.lateral_force.back(), 1e-3 * rigid.axial_force.back());  // an asymmetric mesh
+    double worst = 0.0, worst_soft = 0.0;
+    for (std::size_t k = 1; k < rigid.depth.size(); ++k) {
+      const double scale = rigid.force[k].norm();
+      worst = std::max(worst, (stiff.force[k] - rigid.force[k]).norm() / scale);
+      worst_soft = std::max(worst_soft, (soft.force[k] - rigid.force[k]).norm() / scale);
+      for (std::size_t j = 0; j < rigid.point_axial_force[k].size(); ++j)
+        EXPECT_NEAR(stiff.point_axial_force[k][j], rigid.point_axial_force[k][j], 1e-5 * scale)
+            << friction << ", step " << k << ", point " << j;
+      for (std::size_t t = 0; t < 2; ++t) {
+        const double u = rigid.target_displacement[k][t].norm();
+        EXPECT_LT((stiff.target_displacement[k][t] - rigid.target_displacement[k][t]).norm(), 1e-5 * u)
+            << friction << ", step " << k;
+      }
+      EXPECT_LT(stiff.tip_deviation[k].norm(), 1e-5 * soft.tip_deviation[k].norm() + 1e-12) << k;
+    }
+    std::printf("%s: stiff vs rigid max |dF|/|F| = %.2e; soft vs rigid %.2e; soft tip deviation %.3e mm\n",
+                friction.c_str(), worst, worst_soft, soft.tip_deviation.back().norm());
+    EXPECT_LT(worst, 1e-5) << friction;
+    // The soft rod bends: the flexible needle is not the rigid one (the comparison above can fail).
+    EXPECT_GT(worst_soft, 1e-3) << friction;
+    EXPECT_GT(soft.tip_deviation.back().norm(), 1e-3) << friction;
+  }
+}
+
+// A soft rod in the off-centre block bends (tip deviation 0.54 mm): the beam's base holds the lateral
+// force the tissue puts on the needle (global equilibrium: the beam's reaction against the tissue's
+// solved forces, which a beam solved without the tissue's lateral stiffness would not balance).
+TEST(FlexibleNeedle, BaseHoldsTheLateralForceOfTheTissue) {
+  const MeshModel<3> model = block(V3(-2, -3, 0), V3(6, 6, 24), {{5, 6, 13}}, [](const V3&) { return 10.0; });
+  const NeedleRun<3> soft = run("{youngs_modulus: 2.0e+3, inner_diameter: 0.6}", model);
+  ASSERT_GT(soft.tip_deviation.back().norm(), 0.1);
+  for (std::size_t k = 1; k < soft.depth.size(); ++k) {
+    const V3 lateral = soft.force[k] - soft.force[k].dot(soft.axis) * soft.axis;
+    EXPECT_LT((soft.base_force[k] + lateral).norm(), 1e-8 * lateral.norm()) << "step " << k;
+  }
+}
+
+// The block mirrored about x = 0 and y = 0 with the needle on its axis and no bevel: no lateral load, so
+// the flexible needle stays on the planned line.
+TEST(FlexibleNeedle, SymmetricModelWithoutBevelDoesNotDeviate) {
+  const NeedleRun<3> r = run("{youngs_modulus: 2.0e+5, inner_diameter: 0.6, free_length: 5}", axis_block());
+  ASSERT_EQ(r.tip_deviation.size(), r.depth.size());
+  for (std::size_t k = 0; k < r.depth.size(); ++k) {
+    EXPECT_LT(r.tip_deviation[k].norm(), 1e-9) << "step " << k;
+    EXPECT_LT(r.base_force[k].norm(), 1e-9 * std::max(1.0, r.axial_force[k])) << "step " << k;
+  }
+  EXPECT_GT(r.axial_force.back(), 0.0);
+}
+
+namespace {
+
+// The symmetric block with a bevelled needle on its axis that cuts at 5 mN (the tip's axial force, which
+// the bevel turns sideways), 12 steps.
+NeedleRun<3> bevel_run(const std::string& side, const std::string& rotations = "",
+                       const std::string& e = "2.0e+5") {
+  std::string n =
+      "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 12, diameter: 1, friction: {model: stick}, "
+      "cutting_force: 5, flexible: {youngs_modulus: " +
+      e + ", inner_diameter: 0.6}, bevel: {angle: 30, side: " + side + "}";
+  if (!rotations.empty()) n += ", rotations: " + rotations;
+  const Scenario sc = parse_scenario_text(yaml(n + "}", kTargets), 3);
+  return run_simulation<3>(axis_block(), sc, quiet()).needles.at(0);
+}
+
+}  // namespace
+
+// The block and the needle are symmetric under y → −y: bevel sides +y and −y give mirror paths, and the
+// needle moves away from the side its bevel faces (the tissue pushes on the face).
+TEST(FlexibleNeedle, OppositeBevelsGiveMirrorPaths) {
+  const NeedleRun<3> up = bevel_run("[0, 1, 0]"), down = bevel_run("[0, -1, 0]");
+  ASSERT_EQ(up.tip_deviation.size(), down.tip_deviation.size());
+  const Eigen::Vector3d mirror(1, -1, 1);
+  double worst = 0.0;
+  for (std::size_t k = 0; k < up.tip_deviation.size(); ++k) {
+    worst = std::max(worst, (up.tip_deviation[k] - mirror.cwiseProduct(down.tip_deviation[k])).norm());
+    EXPECT_LT((up.force[k] - mirror.cwiseProduct(down.force[k])).norm(),
+              1e-8 * std::max(1.0, up.force[k].norm()));
+  }
+  std::printf("bevel +y: final tip deviation [%.4e, %.4e, %.4e] mm, angle %.3f deg; mirror error %.2e mm\n",
+              up.tip_deviation.back()[0], up.tip_deviation.back()[1], up.tip_deviation.back()[2],
+              up.tip_angle.back(), worst);
+  EXPECT_LT(worst, 1e-8);
+  EXPECT_LT(up.tip_deviation.back()[1], -1e-3);  // away from +y
+  // Equilibrium of the needle across its axis: the base, the tissue along the shaft and the bevel's
+  // load, −side · cot(30°) × the tip's axial force (that of the straight needle's solve, within 1% of the
+  // step's: the bend changes the tip force a little).
+  int cut = 0;
+  for (std::size_t k = 1; k < up.depth.size(); ++k) {
+    if (!(up.tip_force[k] > 0.0)) continue;
+    const V3 lateral = up.force[k] - up.force[k].dot(up.axis) * up.axis;
+    const V3 bevel = -(up.base_force[k] + lateral);
+    const V3 expected = -V3(0, 1, 0) * up.tip_force[k] / std::tan(M_PI / 6);
+    EXPECT_LT((bevel - expected).norm(), 0.01 * expected.norm()) << "step " << k;
+    ++cut;
+  }
+  EXPECT_GT(cut, 3);
+  // Nothing along x (the model's other mirror plane), to the round-off of the condensed solves.
+  EXPECT_LT(std::abs(up.tip_deviation.back()[0]), 1e-6 * up.tip_deviation.back().norm());
+}
+
+// Turning the needle by 180° at half depth turns the bevel's force (a study, not a check: on this 12 mm
+// block the insertion is shorter than the beam-on-tissue decay length 1/β for a stiff rod, so the
+// deviation is mostly the elastic bend under the present bevel force and the turn mirrors it;
+// docs/needle-model.md, the bevel). Prints the tip's lateral path, unturned and turned, for several E.
+TEST(FlexibleNeedle, DISABLED_HalfTurnStudy) {
+  for (const char* e : {"2.0e+3", "2.0e+4", "2.0e+5", "2.0e+8"}) {
+    const NeedleRun<3> a = bevel_run("[0, 1, 0]", "", e);
+    const NeedleRun<3> b = bevel_run("[0, 1, 0]", "[{depth: 6, angle: 180}]", e);
+    std::printf(
+        "E = %s: final tip deviation along y unturned %.4e mm, turned %.4e mm (ratio %.3f); turned path:", e,
+        a.tip_deviation.back()[1], b.tip_deviation.back()[1],
+        b.tip_deviation.back()[1] / a.tip_deviation.back()[1]);
+    for (const auto& d : b.tip_deviation) std::printf(" %.3e", d[1]);
+    std::printf("\n");
+  }
+}
+
+// needle.csv and report.json carry the bent needle per step: the tip (planned point plus deviation),
+// the deviation and its norm, the tip angle, the base's loads and the shape, whose ends are the holder
+// on the planned line and the tip.
+TEST(FlexibleNeedle, OutputsCarryTheBentNeedle) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("vim_flexible_outputs_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  SimulationOptions o = quiet();
+  o.output_file = [&](const std::string& rel) {
+    std::filesystem::create_directories((dir / rel).parent_path());
+    return dir / rel;
+  };
+  const std::string n =
+      "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 4, diameter: 1, friction: {model: stick}, "
+      "cutting_force: 5, flexible: {youngs_modulus: 2.0e+5, inner_diameter: 0.6, free_length: 3}, "
+      "bevel: {angle: 30, side: [1, 0, 0]}}";
+  const auto res = run_simulation<3>(axis_block(), parse_scenario_text(yaml(n, kTargets), 3), o);
+  const NeedleRun<3>& r = res.needles.at(0);
+  const nlohmann::json& per = res.report["needles"][0]["per_step"];
+  ASSERT_EQ(per["tip_deviation_norm"].size(), r.depth.size());
+  std::ifstream csv(dir / "needle.csv");
+  std::string header, line;
+  std::getline(csv, header);
+  EXPECT_NE(header.find("tip_deviation_x,tip_deviation_y,tip_deviation_z,tip_deviation_norm,tip_angle,"
+                        "base_force_x,base_force_y,base_force_z,base_moment_x,base_moment_y,base_moment_z"),
+            std::string::npos);
+  for (std::size_t k = 0; k < r.depth.size(); ++k) {
+    const V3 planned(0, 0, r.depth[k]);
+    EXPECT_NEAR((r.tip[k] - planned - r.tip_deviation[k]).norm(), 0.0, 1e-12);
+    EXPECT_NEAR(per["tip_deviation_norm"][k].get<double>(), r.tip_deviation[k].norm(), 1e-12);
+    EXPECT_NEAR(per["tip_angle"][k].get<double>(), r.tip_angle[k], 1e-12);
+    const auto& shape = per["needle_shape"][k];
+    ASSERT_GE(shape.size(), 2u);
+    EXPECT_NEAR(shape[0][2].get<double>(), -3.0, 1e-12);  // the holder, 3 mm before the entry
+    EXPECT_NEAR(std::hypot(shape[0][0].get<double>(), shape[0][1].get<double>()), 0.0, 1e-12);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(shape[shape.size() - 1][c].get<double>(), r.tip[k][c], 1e-12);
+    std::getline(csv, line);
+    std::vector<double> v;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) v.push_back(std::stod(cell));
+    ASSERT_GE(v.size(), 11u);
+    const std::size_t at = v.size() - 11;  // the flexible columns come last
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(v[at + static_cast<std::size_t>(c)], r.tip_deviation[k][c], 1e-9);
+    EXPECT_NEAR(v[at + 4], r.tip_angle[k], 1e-9);
+  }
+  EXPECT_GT(r.tip_deviation.back().norm(), 1e-3);
+  EXPECT_GT(r.tip_angle.back(), 0.0);
+  std::filesystem::remove_all(dir);
+}
