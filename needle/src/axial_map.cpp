@@ -2,6 +2,7 @@
 #include <Eigen/Cholesky>
 #include <stdexcept>
 #include <vim/needle/axial_map.hpp>
+#include <vim/needle/tissue_response.hpp>
 
 namespace vim::needle {
 
@@ -53,6 +54,17 @@ void AxialMap::solve_free(Eigen::Ref<Eigen::VectorXd> w, const std::vector<bool>
     throw std::runtime_error("AxialMap::solve_free: the free points' stiffness is not positive definite");
   llt.solveInPlace(rhs);
   for (Eigen::Index a = 0; a < nf; ++a) w[work.free[static_cast<std::size_t>(a)]] = rhs[a];
+}
+
+AxialMap probe_axial_map(TissueResponse& tissue, const ShaftState& state, std::size_t n_points, double step) {
+  return AxialMap::probe(
+      static_cast<Eigen::Index>(state.active.size()),
+      [&](const Eigen::VectorXd& wc) {
+        std::vector<double> full(n_points, 0.0);
+        state.expand(wc, full);
+        return state.compact(tissue.solve(full));
+      },
+      step);
 }
 
 }  // namespace vim::needle

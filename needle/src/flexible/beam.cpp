@@ -50,12 +50,15 @@ std::size_t Beam::element_of(double s) const {
 
 // Hermite cubics on element e, ξ = (s − s_e)/l: w = (1 − 3ξ² + 2ξ³) w_e + l(ξ − 2ξ² + ξ³) θ_e
 //   + (3ξ² − 2ξ³) w_{e+1} + l(ξ³ − ξ²) θ_{e+1}.
-Eigen::RowVectorXd Beam::deflection_row(double s) const {
+Beam::Local Beam::local(double s) const {
   const std::size_t e = element_of(s);
   const double l = nodes_[e + 1] - nodes_[e];
-  const double x = std::clamp((s - nodes_[e]) / l, 0.0, 1.0);
+  return {static_cast<Eigen::Index>(2 * e), l, std::clamp((s - nodes_[e]) / l, 0.0, 1.0)};
+}
+
+Eigen::RowVectorXd Beam::deflection_row(double s) const {
+  const auto [c, l, x] = local(s);
   Eigen::RowVectorXd n = Eigen::RowVectorXd::Zero(static_cast<Eigen::Index>(n_dofs()));
-  const auto c = static_cast<Eigen::Index>(2 * e);
   n(c) = 1 - 3 * x * x + 2 * x * x * x;
   n(c + 1) = l * (x - 2 * x * x + x * x * x);
   n(c + 2) = 3 * x * x - 2 * x * x * x;
@@ -64,11 +67,8 @@ Eigen::RowVectorXd Beam::deflection_row(double s) const {
 }
 
 Eigen::RowVectorXd Beam::slope_row(double s) const {
-  const std::size_t e = element_of(s);
-  const double l = nodes_[e + 1] - nodes_[e];
-  const double x = std::clamp((s - nodes_[e]) / l, 0.0, 1.0);
+  const auto [c, l, x] = local(s);
   Eigen::RowVectorXd n = Eigen::RowVectorXd::Zero(static_cast<Eigen::Index>(n_dofs()));
-  const auto c = static_cast<Eigen::Index>(2 * e);
   n(c) = (6 * x * x - 6 * x) / l;
   n(c + 1) = 1 - 4 * x + 3 * x * x;
   n(c + 2) = (6 * x - 6 * x * x) / l;

@@ -152,14 +152,7 @@ const std::vector<double>& FlexibleTissue::solve(const std::vector<double>& axia
 
 const AxialMap& FlexibleTissue::axial_map() {
   if (map_valid_ && map_active_ == state_.active) return map_;
-  map_ = AxialMap::probe(
-      static_cast<Eigen::Index>(state_.active.size()),
-      [&](const Eigen::VectorXd& wc) {
-        std::vector<double> full(n_points_, 0.0);
-        state_.expand(wc, full);
-        return state_.compact(solve(full));
-      },
-      probe_step_);
+  map_ = probe_axial_map(*this, state_, n_points_, probe_step_);
   map_active_ = state_.active;
   map_valid_ = true;
   return map_;

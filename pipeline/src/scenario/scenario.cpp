@@ -183,16 +183,11 @@ void parse_tissues(const Reader& r, const YAML::Node& t, const std::string& path
 // extra_keys: keys the caller reads itself (a procedure's insertion: stay, seeds).
 NeedleSpec parse_needle(const Reader& r, const YAML::Node& n, const std::string& path, int dim,
                         const std::vector<std::string>& extra_keys = {}) {
-  std::vector<std::string> keys{"name",           "entry",
-                                "direction",      "depth",
-                                "steps",          "diameter",
-                                "model",          "friction",
-                                "sample_spacing", "cutting_distance",
-                                "cutting_force",  "coupling_radius",
-                                "tip_force",      "friction_per_length",
-                                "tissues",        "fit",
-                                "flexible",       "bevel",
-                                "rotations"};
+  // clang-format off
+  std::vector<std::string> keys{"name", "entry", "direction", "depth", "steps", "diameter", "model", "friction",
+      "sample_spacing", "cutting_distance", "cutting_force", "coupling_radius", "tip_force", "friction_per_length",
+      "tissues", "fit", "flexible", "bevel", "rotations"};
+  // clang-format on
   keys.insert(keys.end(), extra_keys.begin(), extra_keys.end());
   const Fields f = r.check_keys(n, path, keys);
   NeedleSpec s;

@@ -249,26 +249,33 @@ void NeedleInsertion<dim>::advance_one_step(int k) {
   const int solves_before = tissue_->solves();
   const auto t_step = Clock::now();
   stepping_->pick_up(d, d - d_prev, [this](std::size_t j) { return axial_displacement(j); });
+  solve_state(k, d, solves_before, true);
+  finish_step(k, t_step);
+}
+
+// The stepping's state after a pick-up or a withdrawal: the law's solve with the needle on the tissue
+// (`bending`: the flexible needle's beam bent to depth d first), or without a shaft point on the needle
+// (the tip has not reached the first one, or all have left it) the tissue at rest or under its loads.
+template <int dim>
+void NeedleInsertion<dim>::solve_state(int k, double d, int solves_before, bool bending) {
   const needle::ShaftState &state = stepping_->state();
   fem::Solution<dim> &solution = tissue_->solution();
   if (state.active.empty()) {
-    // The tip has not reached the first embedded point yet: the needle does not
-    // touch the tissue.
     if (loaded_)
       tissue_->solve(state.axial);
     else
       tissue_->clear();
     record(d, loaded_ ? &solution : nullptr, tissue_->solves() - solves_before);
-  } else {
-    if (flexible_) bend(d);
-    const needle::FrictionStep step = flexible_ ? stepping_->solve(*flexible_) : stepping_->solve(*tissue_);
-    if (stepping_->law().has_active_set()) {
-      run_.active_set_sweeps[static_cast<std::size_t>(k)] = step.sweeps;
-      if (!step.settled) run_.unsettled_steps.push_back(k);
-    }
-    record(d, &solution, tissue_->solves() - solves_before);
+    return;
   }
-  finish_step(k, t_step);
+  const bool flexible = bending && flexible_;
+  if (flexible) bend(d);
+  const needle::FrictionStep step = flexible ? stepping_->solve(*flexible_) : stepping_->solve(*tissue_);
+  if (stepping_->law().has_active_set()) {
+    run_.active_set_sweeps[static_cast<std::size_t>(k)] = step.sweeps;
+    if (!step.settled) run_.unsettled_steps.push_back(k);
+  }
+  record(d, &solution, tissue_->solves() - solves_before);
 }
 
 // The step's field, time and step file.
@@ -299,22 +306,7 @@ void NeedleInsertion<dim>::withdraw_one_step(int k) {
   const int solves_before = tissue_->solves();
   const auto t_step = Clock::now();
   stepping_->withdraw(d, d - d_prev);
-  const needle::ShaftState &state = stepping_->state();
-  fem::Solution<dim> &solution = tissue_->solution();
-  if (state.active.empty()) {  // nothing on the shaft: the tissue at rest (or under its loads alone)
-    if (loaded_)
-      tissue_->solve(state.axial);
-    else
-      tissue_->clear();
-    record(d, loaded_ ? &solution : nullptr, tissue_->solves() - solves_before);
-  } else {
-    const needle::FrictionStep step = stepping_->solve(*tissue_);
-    if (stepping_->law().has_active_set()) {
-      run_.active_set_sweeps[static_cast<std::size_t>(k)] = step.sweeps;
-      if (!step.settled) run_.unsettled_steps.push_back(k);
-    }
-    record(d, &solution, tissue_->solves() - solves_before);
-  }
+  solve_state(k, d, solves_before, false);
   release_seeds(d, k);
   finish_step(k, t_step);
 }

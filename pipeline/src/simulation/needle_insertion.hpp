@@ -48,6 +48,7 @@ class NeedleInsertion {
  private:
   void rest();
   void advance_one_step(int k);
+  void solve_state(int k, double d, int solves_before, bool bending);
   // Withdrawal step k (of spec.withdraw_steps; step steps + k of the run), and the seeds the tip passes.
   void withdraw_one_step(int k);
   void release_seeds(double depth, int step);

@@ -11,8 +11,10 @@
 // adds its own compliance to the rows behind this interface. Neither touches the stepping nor the laws.
 #pragma once
 
+#include <cstddef>
 #include <vector>
 #include <vim/needle/axial_map.hpp>
+#include <vim/needle/shaft_state.hpp>
 
 namespace vim::needle {
 
@@ -27,5 +29,9 @@ class TissueResponse {
   // with m + 1 solves when the active points (m of them) have changed since the last probe.
   virtual const AxialMap& axial_map() = 0;
 };
+
+// The axial map of a linear `tissue` over the active points of `state` (n_points shaft points), probed
+// through its solve() with AxialMap::probe at `step`.
+AxialMap probe_axial_map(TissueResponse& tissue, const ShaftState& state, std::size_t n_points, double step);
 
 }  // namespace vim::needle

@@ -39,6 +39,12 @@ class Beam {
 
  private:
   std::size_t element_of(double s) const;
+  // The element holding arc length s: its first DOF's index, its length l and ξ = (s − s_e)/l in [0, 1].
+  struct Local {
+    Eigen::Index dof;
+    double l, x;
+  };
+  Local local(double s) const;
   double ei_;
   std::vector<double> nodes_;
   Eigen::MatrixXd k_;
