@@ -284,6 +284,12 @@ TEST(CliSimulate, ReadmeScenarioReferenceParses) {
       read_scenario((fs::path(VIM_SOURCE_DIR) / "examples" / "prostate_needle.yaml").string(), 3));
   EXPECT_NO_THROW(
       read_scenario((fs::path(VIM_SOURCE_DIR) / "examples" / "prostate_labels.yaml").string(), 3));
+  const Scenario plan =
+      read_scenario((fs::path(VIM_SOURCE_DIR) / "examples" / "prostate_procedure.yaml").string(), 3);
+  std::size_t seeds = 0;
+  for (const auto& n : plan.needles) seeds += n.seeds.size();
+  EXPECT_EQ(plan.needles.size(), 6u);
+  EXPECT_EQ(seeds, 17u);
 }
 
 // The AMG solver uses Trilinos, which needs MPI initialised even on one process. The CLI runs without
