@@ -192,7 +192,7 @@ TEST(LabelsCli, AloneFollowsEveryLabelAndExportsPerLabelSets) {
     EXPECT_NE(feb.find("<SolidDomain name=\"label_" + std::to_string(label) + "\""), std::string::npos);
   }
   const std::string check = "/usr/bin/python3 '" + std::string(VIM_SOURCE_DIR) +
-                            "/tests/simulation/feb_structure.py' " + test::quote(dir / "out/mesh.feb");
+                            "/tests/support/feb_structure.py' " + test::quote(dir / "out/mesh.feb");
   EXPECT_EQ(std::system(check.c_str()), 0) << "mesh.feb fails the febio_spec 4.0 structure check";
   if (std::system("command -v gmsh > /dev/null 2>&1") != 0) GTEST_SKIP() << "Gmsh is not installed";
   const auto groups = gmsh_groups(dir.path / "out" / "mesh.msh");

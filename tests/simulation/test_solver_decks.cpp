@@ -366,7 +366,7 @@ TEST(SolverDecks, GmshReadsQuadraticMeshWithEveryGroup) {
 namespace {
 std::string feb_check(const fs::path& feb) {
   const std::string cmd = "/usr/bin/python3 '" + std::string(VIM_SOURCE_DIR) +
-                          "/tests/simulation/feb_structure.py' '" + feb.string() + "' > '" + feb.string() +
+                          "/tests/support/feb_structure.py' '" + feb.string() + "' > '" + feb.string() +
                           ".check' 2>&1";
   const int status = std::system(cmd.c_str());
   std::ifstream in(feb.string() + ".check");
