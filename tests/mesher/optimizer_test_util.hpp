@@ -3,16 +3,16 @@
 // VoxelStatistics: voxel-centre classification and the objective E of Eq. 7 by per-voxel enumeration.
 #pragma once
 
-#include <vim/energy.hpp>
-#include <vim/image.hpp>
-#include <vim/simplex_mesh.hpp>
-
 #include <Eigen/LU>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <vector>
+#include <vim/energy.hpp>
+#include <vim/image.hpp>
+#include <vim/simplex_mesh.hpp>
+
+#include "voxel_owner.hpp"
 
 namespace vim::testing {
 
@@ -33,13 +33,15 @@ Image<dim> phantom(long n, double extent, F inside) {
 
 // Table I phantom: cube [0,3]^3, sphere of radius 1 at the centre with value 2, background 1.
 inline Image<3> sphere_phantom(long n) {
-  return phantom<3>(n, 3.0, [](const Eigen::Vector3d& p) { return (p - Eigen::Vector3d(1.5, 1.5, 1.5)).norm() <= 1.0; });
+  return phantom<3>(
+      n, 3.0, [](const Eigen::Vector3d& p) { return (p - Eigen::Vector3d(1.5, 1.5, 1.5)).norm() <= 1.0; });
 }
 
 // Two circles of different sizes in [0,1]^2 (paper Fig. 13(a)).
 inline Image<2> two_circle_phantom(long n) {
   return phantom<2>(n, 1.0, [](const Eigen::Vector2d& p) {
-    return (p - Eigen::Vector2d(0.32, 0.35)).norm() <= 0.2 || (p - Eigen::Vector2d(0.72, 0.68)).norm() <= 0.12;
+    return (p - Eigen::Vector2d(0.32, 0.35)).norm() <= 0.2 ||
+           (p - Eigen::Vector2d(0.72, 0.68)).norm() <= 0.12;
   });
 }
 
@@ -47,43 +49,14 @@ inline Image<2> two_circle_phantom(long n) {
 // it by a barycentric test, or -1. Independent of VoxelStatistics' tie rule.
 template <int dim>
 std::vector<int> brute_force_owner(const Image<dim>& img, const SimplexMesh<dim>& mesh) {
-  std::vector<int> owner(img.voxel_count(), -1);
-  for (std::size_t c = 0; c < mesh.n_cells(); ++c) {
-    const auto x = cell_points(mesh, c);
-    Eigen::Matrix<double, dim, dim> t;
-    for (int a = 0; a < dim; ++a) t.col(a) = x[a + 1] - x[0];
-    const Eigen::Matrix<double, dim, dim> ti = t.inverse();
-    Eigen::Matrix<double, dim, 1> lo = x[0], hi = x[0];
-    for (const auto& p : x) {
-      lo = lo.cwiseMin(p);
-      hi = hi.cwiseMax(p);
-    }
-    const auto clo = img.continuous_index(lo), chi = img.continuous_index(hi);
-    std::array<long, dim> i0, i1;
-    for (int a = 0; a < dim; ++a) {
-      i0[a] = std::max(0L, static_cast<long>(std::floor(clo[a])));
-      i1[a] = std::min(img.size[a] - 1, static_cast<long>(std::ceil(chi[a])));
-      if (i0[a] > i1[a]) goto next_cell;
-    }
-    {
-      typename Image<dim>::Index j = i0;
-      while (true) {
-        const Eigen::Matrix<double, dim, 1> b = ti * (img.point_of(j) - x[0]);
-        if (b.minCoeff() >= -1e-12 && b.sum() <= 1.0 + 1e-12) {
-          int& o = owner[img.linear_index(j)];
-          if (o < 0) o = static_cast<int>(c);
-        }
-        int a = 0;
-        while (a < dim && ++j[a] > i1[a]) {
-          j[a] = i0[a];
-          ++a;
-        }
-        if (a == dim) break;
-      }
-    }
-  next_cell:;
-  }
-  return owner;
+  using Vec = Eigen::Matrix<double, dim, 1>;
+  const auto centre = [](const typename Image<dim>::Index& j) {
+    Vec p;
+    for (int a = 0; a < dim; ++a) p[a] = static_cast<double>(j[a]);
+    return p;
+  };
+  return test::voxel_owner(img, mesh, 0, centre,
+                           [](const Vec& b) { return b.minCoeff() >= -1e-12 && b.sum() <= 1.0 + 1e-12; });
 }
 
 struct BruteEnergy {

@@ -20,6 +20,7 @@
 #include <sstream>
 #include <vim/pipeline/image/image_io.hpp>
 
+#include "gmsh_view.hpp"
 #include "label_truth.hpp"
 #include "run_cli.hpp"
 
@@ -86,42 +87,6 @@ std::map<std::string, long> inp_element_sets(const fs::path& inp) {
     while (std::getline(s, id, ',')) sets[current] += 1;
   }
   return sets;
-}
-
-// Elements of every physical group as Gmsh reads mesh.msh (re-saved as MSH 2.2, which lists them).
-std::map<std::string, long> gmsh_groups(const fs::path& msh) {
-  const fs::path out = msh.parent_path() / "resaved.msh";
-  const std::string cmd = "gmsh '" + msh.string() + "' -save -format msh22 -o '" + out.string() + "' > '" +
-                          (msh.parent_path() / "gmsh.log").string() + "' 2>&1";
-  EXPECT_EQ(std::system(cmd.c_str()), 0) << "gmsh failed; see gmsh.log";
-  std::ifstream in(out);
-  std::map<int, std::string> names;
-  std::map<std::string, long> groups;
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line == "$PhysicalNames") {
-      int n;
-      in >> n;
-      for (int i = 0; i < n; ++i) {
-        int d, tag;
-        std::string name;
-        in >> d >> tag >> name;
-        names[tag] = name.substr(1, name.size() - 2);
-      }
-    } else if (line == "$Elements") {
-      long n;
-      in >> n;
-      std::getline(in, line);
-      for (long i = 0; i < n && std::getline(in, line); ++i) {
-        std::istringstream s(line);
-        long id;
-        int type, ntags, phys;
-        s >> id >> type >> ntags >> phys;
-        ++groups[names.at(phys)];
-      }
-    }
-  }
-  return groups;
 }
 
 TEST(LabelsCli, AloneFollowsEveryLabelAndExportsPerLabelSets) {
@@ -195,7 +160,7 @@ TEST(LabelsCli, AloneFollowsEveryLabelAndExportsPerLabelSets) {
                             "/tests/support/feb_structure.py' " + test::quote(dir / "out/mesh.feb");
   EXPECT_EQ(std::system(check.c_str()), 0) << "mesh.feb fails the febio_spec 4.0 structure check";
   if (std::system("command -v gmsh > /dev/null 2>&1") != 0) GTEST_SKIP() << "Gmsh is not installed";
-  const auto groups = gmsh_groups(dir.path / "out" / "mesh.msh");
+  const auto groups = test::gmsh_view(dir.path / "out" / "mesh.msh").elements_of_group;
   for (const auto& [label, n] : elements) {
     const std::string name = "label_" + std::to_string(label);
     ASSERT_TRUE(groups.count(name)) << name;

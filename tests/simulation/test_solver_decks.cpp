@@ -24,6 +24,7 @@
 #include <vim/pipeline/output/exports.hpp>
 #include <vim/pipeline/simulation/simulation.hpp>
 
+#include "gmsh_view.hpp"
 #include "oblique_grid.hpp"
 #include "run_cli.hpp"
 #include "scratch_dir.hpp"
@@ -252,56 +253,6 @@ TEST(SolverDecks, CalculixSolves3DP2DeckLikeDealII) { expect_calculix_agrees<3>(
 TEST(SolverDecks, CalculixSolves2DP1DeckLikeDealII) { expect_calculix_agrees<2>(1, {{9, 11}}); }
 TEST(SolverDecks, CalculixSolves2DP2DeckLikeDealII) { expect_calculix_agrees<2>(2, {{6, 7}}); }
 
-namespace {
-
-// What Gmsh kept after reading mesh.msh: `gmsh mesh.msh -save -format msh22` re-saves every element
-// of a physical group; the MSH 2.2 it writes lists nodes, elements (type, physical tag) and names.
-struct GmshView {
-  long nodes = 0;
-  std::map<int, long> elements_of_type;
-  std::map<std::string, long> elements_of_group;
-};
-
-GmshView gmsh_view(const fs::path& msh) {
-  const fs::path out = msh.parent_path() / "resaved.msh";
-  const std::string cmd = "gmsh '" + msh.string() + "' -save -format msh22 -o '" + out.string() + "' > '" +
-                          (msh.parent_path() / "gmsh.log").string() + "' 2>&1";
-  EXPECT_EQ(std::system(cmd.c_str()), 0) << "gmsh failed; see gmsh.log";
-  std::ifstream in(out);
-  GmshView v;
-  std::map<int, std::string> names;
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line == "$PhysicalNames") {
-      int n;
-      in >> n;
-      for (int i = 0; i < n; ++i) {
-        int d, tag;
-        std::string name;
-        in >> d >> tag >> name;
-        names[tag] = name.substr(1, name.size() - 2);
-      }
-    } else if (line == "$Nodes") {
-      in >> v.nodes;
-    } else if (line == "$Elements") {
-      long n;
-      in >> n;
-      std::getline(in, line);
-      for (long i = 0; i < n && std::getline(in, line); ++i) {
-        std::istringstream s(line);
-        long id;
-        int type, ntags, phys;
-        s >> id >> type >> ntags >> phys;
-        ++v.elements_of_type[type];
-        ++v.elements_of_group[names.at(phys)];
-      }
-    }
-  }
-  return v;
-}
-
-}  // namespace
-
 TEST(SolverDecks, GmshReadsQuadraticMeshWithEveryGroup) {
   if (!have_program("gmsh")) GTEST_SKIP() << "Gmsh (gmsh, Debian package gmsh) is not installed";
   const auto dir = vim::test::scratch_dir("decks", "gmsh");
@@ -313,7 +264,7 @@ TEST(SolverDecks, GmshReadsQuadraticMeshWithEveryGroup) {
   eo.degree = 2;
   nlohmann::json report;
   report["exports"] = write_exports<3>(m, dir, {"msh"}, eo);
-  GmshView g = gmsh_view(dir / "mesh.msh");
+  vim::test::GmshView g = vim::test::gmsh_view(dir / "mesh.msh");
 
   // Independent counts of the Kuhn grid: vertices, distinct edges, cells, triangles per box face.
   std::set<std::pair<int, int>> edges;

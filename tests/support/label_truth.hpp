@@ -15,6 +15,8 @@
 #include <vim/image.hpp>
 #include <vim/simplex_mesh.hpp>
 
+#include "voxel_owner.hpp"
+
 namespace vim::test {
 
 // Owner element of every voxel centre (-1: none). Works in continuous index space; a centre is moved
@@ -23,50 +25,18 @@ namespace vim::test {
 template <int dim>
 std::vector<int> label_owner(const Image<dim>& img, const SimplexMesh<dim>& mesh) {
   using Vec = Eigen::Matrix<double, dim, 1>;
-  std::vector<int> owner(img.voxel_count(), -1);
   Vec centre;
   for (int a = 0; a < dim; ++a) centre[a] = 0.5 * static_cast<double>(img.size[a] - 1);
-  for (std::size_t c = 0; c < mesh.n_cells(); ++c) {
-    std::array<Vec, dim + 1> x;
-    Vec lo, hi;
-    for (int k = 0; k <= dim; ++k) {
-      x[k] = img.continuous_index(mesh.points[static_cast<std::size_t>(mesh.cells[c][k])]);
-      lo = k ? lo.cwiseMin(x[k]) : x[k];
-      hi = k ? hi.cwiseMax(x[k]) : x[k];
-    }
-    Eigen::Matrix<double, dim, dim> t;
-    for (int a = 0; a < dim; ++a) t.col(a) = x[a + 1] - x[0];
-    const Eigen::Matrix<double, dim, dim> ti = t.inverse();
-    std::array<long, dim> i0, i1;
-    bool empty = false;
-    for (int a = 0; a < dim; ++a) {
-      i0[a] = std::max(0L, static_cast<long>(std::floor(lo[a])) - 1);
-      i1[a] = std::min(img.size[a] - 1, static_cast<long>(std::ceil(hi[a])) + 1);
-      empty = empty || i0[a] > i1[a];
-    }
-    if (empty) continue;
-    std::array<long, dim> j = i0;
-    while (true) {
-      Vec p;
-      for (int a = 0; a < dim; ++a) p[a] = static_cast<double>(j[a]);
-      Vec d = centre - p;
-      if (d.norm() > 0.0) d /= d.norm();
-      Vec q = p + 1e-8 * d;
-      for (int a = 0; a < dim; ++a) q[a] += std::pow(10.0, -10 - a);
-      const Vec b = ti * (q - x[0]);
-      if (b.minCoeff() > 0.0 && b.sum() < 1.0) {
-        int& o = owner[img.linear_index(j)];
-        if (o < 0) o = static_cast<int>(c);
-      }
-      int a = 0;
-      while (a < dim && ++j[a] > i1[a]) {
-        j[a] = i0[a];
-        ++a;
-      }
-      if (a == dim) break;
-    }
-  }
-  return owner;
+  const auto nudged = [&](const typename Image<dim>::Index& j) {
+    Vec p;
+    for (int a = 0; a < dim; ++a) p[a] = static_cast<double>(j[a]);
+    Vec d = centre - p;
+    if (d.norm() > 0.0) d /= d.norm();
+    Vec q = p + 1e-8 * d;
+    for (int a = 0; a < dim; ++a) q[a] += std::pow(10.0, -10 - a);
+    return q;
+  };
+  return voxel_owner(img, mesh, 1, nudged, [](const Vec& b) { return b.minCoeff() > 0.0 && b.sum() < 1.0; });
 }
 
 // Per element: label → number of voxel centres it holds.
