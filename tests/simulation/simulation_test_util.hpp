@@ -35,11 +35,13 @@ inline MeshModel<3> block(const V3& lo, const V3& hi, const std::array<int, 3>& 
   return m;
 }
 
-// Block [-6,6]x[-6,6]x[0,24] with 7x7x13 nodes, needle along +z on the axis x = y = 0: the Kuhn
-// grid of the quadrant [0,6]x[0,6]x[0,24] mirrored into the four quadrants, so that the mesh (and
-// the problem) is exactly symmetric under x -> -x, y -> -y and x <-> y.
-inline MeshModel<3> axis_block(double E = 10.0) {
-  const SimplexMesh<3> q = regular_grid_mesh<3>(V3(0, 0, 0), V3(6, 6, 24), {{4, 4, 13}});
+// Block [-w,w]x[-w,w]x[0,length] (default w = 6, length 24: 7x7x13 nodes), needle along +z on the axis
+// x = y = 0: the Kuhn grid of the quadrant [0,w]x[0,w]x[0,length] with `quadrant` nodes per axis mirrored
+// into the four quadrants, so that the mesh (and the problem) is exactly symmetric under x -> -x,
+// y -> -y and x <-> y.
+inline MeshModel<3> axis_block(double E = 10.0, double w = 6.0, double length = 24.0,
+                               const std::array<int, 3>& quadrant = {{4, 4, 13}}) {
+  const SimplexMesh<3> q = regular_grid_mesh<3>(V3(0, 0, 0), V3(w, w, length), quadrant);
   MeshModel<3> m;
   std::map<std::tuple<long, long, long>, int> ids;
   auto id = [&](const V3& p) {
