@@ -194,6 +194,12 @@ const Edit kEdits[] = {
      "  diameter: 1\n",
      "  diameter: 1\n  flexible: {youngs_modulus: 2.0e+8, stiffness: 3}\n",
      {"s.yaml:11:", "unknown key 'needle.flexible.stiffness'", "inner_diameter"}},
+    {"FlexibleNeedleHolderInsideTheImage",
+     "entry: [-8, 0, 1]\n  direction: [1, 0, 0]\n  depth: 8\n  steps: 2\n  diameter: 1\n",
+     "entry: [-6, 0, 1]\n  direction: [1, 0, 0]\n  depth: 8\n  steps: 2\n  diameter: 1\n"
+     "  flexible: {youngs_modulus: 2.0e+8, free_length: 3}\n",
+     {"s.yaml:11:", "needle.flexible.free_length = 3", "would run 2 through the image box",
+      "the entry must lie on the image's surface"}},
     {"BevelSideAlongTheNeedle",
      "  diameter: 1\n",
      "  diameter: 1\n  flexible: {youngs_modulus: 2.0e+8}\n  bevel: {angle: 30, side: [1, 1, 0]}\n",

@@ -91,6 +91,23 @@ void check_scenario_geometry(const Scenario& s, const Eigen::Matrix<double, dim,
       throw ScenarioError(s.where(n.line) + p + ".depth = " + number_text(n.depth) +
                           " takes the tip out of " + box +
                           "; the largest depth from this entry along this direction is " + number_text(tmax));
+    // A holder before the entry (needle.flexible.free_length > 0) is in the air: the needle's free part
+    // must not run through the image, so the entry must be on the image's surface, facing the holder.
+    if (n.flexible && n.flexible->free_length > 0.0) {
+      double back = std::numeric_limits<double>::infinity();
+      for (int d = 0; d < dim; ++d) {
+        if (dir[d] < -1e-12) back = std::min(back, (box_max[d] - entry[d]) / -dir[d]);
+        if (dir[d] > 1e-12) back = std::min(back, (box_min[d] - entry[d]) / -dir[d]);
+      }
+      if (back > tol)
+        throw ScenarioError(s.where(n.flexible->line) + p + ".flexible.free_length = " +
+                            number_text(n.flexible->free_length) + " puts the holder " +
+                            number_text(n.flexible->free_length) + " before the entry " +
+                            str(spec_vector<dim>(n.entry)) + ", but the needle's free part would run " +
+                            number_text(std::min(back, n.flexible->free_length)) + " through " + box +
+                            ", where it would have to touch tissue; with a holder before the entry, the "
+                            "entry must lie on the image's surface (or use free_length: 0)");
+    }
     const double width = width_across<dim>(dir, box_max - box_min);
     if (n.diameter > width)
       throw ScenarioError(
