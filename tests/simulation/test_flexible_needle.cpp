@@ -254,5 +254,12 @@ TEST(FlexibleNeedle, OutputsCarryTheBentNeedle) {
   }
   EXPECT_GT(r.tip_deviation.back().norm(), 1e-3);
   EXPECT_GT(r.tip_angle.back(), 0.0);
+  // Per target, the final tip's distance from the target where the tissue has moved it.
+  const V3 ahead = V3(1, 0.5, 15) + r.target_displacement.back()[0];
+  const V3 beside = V3(2, 1, 6) + r.target_displacement.back()[1];
+  const nlohmann::json& to_target = res.report["needles"][0]["final_tip_to_target"];
+  EXPECT_NEAR(to_target["ahead"].get<double>(), (r.tip.back() - ahead).norm(), 1e-12);
+  EXPECT_NEAR(to_target["beside"].get<double>(), (r.tip.back() - beside).norm(), 1e-12);
+  EXPECT_GT(r.target_displacement.back()[1].norm(), 1e-6);
   std::filesystem::remove_all(dir);
 }

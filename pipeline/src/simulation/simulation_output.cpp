@@ -186,10 +186,12 @@ void write_summary_csv(const std::filesystem::path& path, const std::vector<Need
   });
 }
 
-// needle.flexible: the tube and its bevel, and per step the tip (bent), its deviation from the planned
-// line, its angle to it and the base holder's force and moment on the needle.
+// needle.flexible: the tube and its bevel, per step the tip (bent), its deviation from the planned line,
+// its angle to it and the base holder's force and moment on the needle, and per target the distance of
+// the final tip from the target's final position.
 template <int dim>
-void add_flexible_report(const NeedleSpec& spec, const NeedleRun<dim>& run, json& rep, json& per) {
+void add_flexible_report(const Scenario& sc, const NeedleSpec& spec, const NeedleRun<dim>& run, json& rep,
+                         json& per) {
   const FlexibleSpec& f = *spec.flexible;
   json flexible = {{"youngs_modulus", f.youngs_modulus},
                    {"inner_diameter", f.inner_diameter},
@@ -224,6 +226,13 @@ void add_flexible_report(const NeedleSpec& spec, const NeedleRun<dim>& run, json
     shapes.push_back(line);
   }
   per["needle_shape"] = shapes;
+  json to_target = json::object();
+  for (std::size_t t = 0; t < sc.targets.size(); ++t) {
+    const Eigen::Matrix<double, dim, 1> target =
+        spec_vector<dim>(sc.targets[t].position) + run.target_displacement.back()[t];
+    to_target[sc.targets[t].name] = (run.tip.back() - target).norm();
+  }
+  rep["final_tip_to_target"] = to_target;
 }
 
 template <int dim>
@@ -334,7 +343,7 @@ json needle_report(const NeedleSpec& spec, const NeedleRun<dim>& run, const need
     }
     per["targets_in_near_field"] = inside;
   }
-  if (!run.tip_deviation.empty()) add_flexible_report<dim>(spec, run, rep, per);
+  if (!run.tip_deviation.empty()) add_flexible_report<dim>(sc, spec, run, rep, per);
   rep["per_step"] = per;
   json punctures = json::array();
   for (const auto& p : run.punctures)
