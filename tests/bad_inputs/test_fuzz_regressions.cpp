@@ -1,14 +1,15 @@
 // Every crash reproducer the fuzzers found (fuzz/corpus/image/regress_*: the first byte picks .nrrd
 // when odd, .mha when even, the rest is the file; fuzz/corpus/nifti/regress_*: a .nii file) run
-// through the real CLI. Truth: the bad-input contract (README): the run ends normally with status 0
-// or 1, never by a signal, and a failure is one "vim-pipeline: error:" line naming the file.
+// through the CLI's main in the test's own process (a crash ends the test; a process start costs more
+// than a second under the sanitizers). Truth: the bad-input contract (README): the run ends normally
+// with status 0 or 1, and a failure is one "vim-pipeline: error:" line naming the file.
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
 #include <string>
 
-#include "process_output.hpp"
+#include "cli_in_process.hpp"
 #include "scratch_dir.hpp"
 
 namespace fs = std::filesystem;
@@ -32,12 +33,9 @@ void check_reproducers(const std::string& corpus, bool ext_from_first_byte) {
     }
     const fs::path image = dir / (name + ext);
     std::ofstream(image, std::ios::binary) << bytes;
-    const ProcessResult r = wait_cli(spawn_cli({image.string(), "--nodes", "64", "--max-iterations", "1",
-                                                "--out", (dir / ("out_" + name)).string(), "-q"},
-                                               dir / "err.txt"),
-                                     dir / "err.txt");
+    const CliResult r = run_pipeline_in_process({image.string(), "--nodes", "64", "--max-iterations", "1",
+                                                 "--out", (dir / ("out_" + name)).string(), "-q"});
     SCOPED_TRACE(name);
-    EXPECT_EQ(r.signal, 0) << r.err;
     EXPECT_TRUE(r.code == 0 || r.code == 1) << "exit " << r.code << ": " << r.err;
     if (r.code == 1) {
       EXPECT_EQ(r.err.rfind("vim-pipeline: error: ", 0), 0u) << r.err;
