@@ -1,12 +1,12 @@
-// Bad study files through the CLI: each gives exit code 1, one `vim-pipeline: error:` line naming the
-// study file, the line and the key (or the base scenario's own error), and no study.csv. Truth: the
-// line and key of the mistake written into each file.
+// Bad study files through the CLI's main (in the test's process): each gives exit code 1, one `vim-pipeline:
+// error:` line naming the study file, the line and the key (or the base scenario's own error), and no
+// study.csv. Truth: the line and key of the mistake written into each file.
 #include <gtest/gtest.h>
 
-#include "run_cli.hpp"
+#include "cli_in_process.hpp"
 #include "study_inputs.hpp"
 
-using vim::test::run_pipeline;
+using vim::test::run_pipeline_in_process;
 namespace fs = std::filesystem;
 
 TEST(BadStudies, OneLineErrorNamingFileLineAndKey) {
@@ -48,7 +48,7 @@ TEST(BadStudies, OneLineErrorNamingFileLineAndKey) {
   for (const Bad& b : bad) {
     std::ofstream(dir.path / "study.yaml") << b.yaml;
     const fs::path out = dir.path / "out";
-    const auto r = run_pipeline(vim::test::study_options(dir.path, "study.yaml", out));
+    const auto r = run_pipeline_in_process(vim::test::study_options(dir.path, "study.yaml", out));
     EXPECT_EQ(r.code, 1) << b.yaml;
     EXPECT_EQ(vim::test::count_lines(r.err), 1) << b.yaml << r.err;
     EXPECT_EQ(r.err.rfind("vim-pipeline: error: ", 0), 0u) << r.err;

@@ -40,4 +40,35 @@ inline CliResult run_pipeline_in_process(std::vector<std::string> args) {
   return r;
 }
 
+// A command line as run_pipeline takes it (words separated by spaces, quote()'s single quotes) split
+// into its arguments, then run in this process.
+inline CliResult run_pipeline_in_process(const std::string& command_line) {
+  std::vector<std::string> args;
+  std::string word;
+  bool in_word = false, quoted = false;
+  for (std::size_t i = 0; i < command_line.size(); ++i) {
+    const char c = command_line[i];
+    if (quoted) {
+      if (c == '\'')
+        quoted = false;
+      else
+        word += c;
+    } else if (c == '\'') {
+      quoted = in_word = true;
+    } else if (c == '\\' && i + 1 < command_line.size()) {
+      word += command_line[++i];
+      in_word = true;
+    } else if (c == ' ') {
+      if (in_word) args.push_back(word);
+      word.clear();
+      in_word = false;
+    } else {
+      word += c;
+      in_word = true;
+    }
+  }
+  if (in_word) args.push_back(word);
+  return run_pipeline_in_process(std::move(args));
+}
+
 }  // namespace vim::test
