@@ -10,7 +10,7 @@
 #include <vector>
 #include <vim/pipeline/common/memory_limit.hpp>
 
-#include "run_cli.hpp"
+#include "cli_in_process.hpp"
 
 using namespace vim::pipeline;
 using namespace vim::test;
@@ -61,8 +61,8 @@ TEST_F(Limits, MemoryEstimateAboveMaxMemoryIsRefused) {
 
 TEST_F(Limits, MaxMemoryValuesOutsideTheGrammarAreUsageErrors) {
   for (const char* bad : {"abc", "0", "-5G", "8X", "nan"}) {
-    const CliResult r =
-        run_pipeline(quote(dir_ / "cube.mha") + " --max-memory " + bad + " --out " + quote(dir_ / "o"));
+    const CliResult r = run_pipeline_in_process(quote(dir_ / "cube.mha") + " --max-memory " + bad +
+                                                " --out " + quote(dir_ / "o"));
     EXPECT_EQ(r.code, 2) << bad << ": " << r.err;
     EXPECT_NE(r.err.find("--max-memory"), std::string::npos) << r.err;
   }
