@@ -162,6 +162,14 @@ py::dict needle_dict(const NeedleData& n, int dim, std::size_t targets, std::siz
   d["force"] = to_array<double>(n.force, {steps, dim});
   d["target_displacement"] = to_array<double>(n.target_displacement, {steps, t, dim});
   d["displacement"] = to_array<double>(n.displacement, {kept, static_cast<py::ssize_t>(nodes), dim});
+  if (!n.shape.empty()) {  // needle.flexible
+    d["tip_deviation"] = to_array<double>(n.tip_deviation, {steps, dim});
+    d["tip_angle"] = to_array<double>(n.tip_angle, {steps});
+    py::list shape;
+    for (const auto& line : n.shape)
+      shape.append(to_array<double>(line, {static_cast<py::ssize_t>(line.size()) / dim, dim}));
+    d["needle_shape"] = shape;
+  }
   return d;
 }
 

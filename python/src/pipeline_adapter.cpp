@@ -229,6 +229,12 @@ NeedleData needle_data(const vp::NeedleRun<dim>& run) {
   }
   for (const auto& step : run.vertex_displacement)
     for (const auto& u : step) append(n.displacement, u);
+  for (const auto& d : run.tip_deviation) append(n.tip_deviation, d);
+  n.tip_angle = run.tip_angle;
+  for (const auto& line : run.shape) {
+    n.shape.emplace_back();
+    for (const auto& x : line) append(n.shape.back(), x);
+  }
   return n;
 }
 

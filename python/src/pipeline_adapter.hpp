@@ -96,6 +96,10 @@ struct NeedleData {
   std::vector<double> tip, force;           // steps × dim, world
   std::vector<double> target_displacement;  // steps × targets × dim, world axes
   std::vector<double> displacement;         // steps × nodes × dim, world axes
+  // needle.flexible (empty for a rigid needle): per step the tip's deviation from the planned line
+  // (steps × dim), its angle to it (degrees) and the needle's shape (points × dim, holder to tip).
+  std::vector<double> tip_deviation, tip_angle;
+  std::vector<std::vector<double>> shape;
 };
 
 struct SimulationData {

@@ -174,3 +174,32 @@ def test_p2_and_2d_runs_equal_the_cli(cli, tmp_path, dim, degree):
         assert (tmp_path / "py" / rel).read_bytes() == (tmp_path / "cli" / rel).read_bytes(), rel
     assert result.displacements.shape == (5, len(result.mesh.points), dim)
     assert result.report["simulation"]["model"]["degree"] == degree
+
+
+def test_flexible_needle_shape_per_step(tmp_path):
+    # Truths: report.json's per-step needle_shape, tip_deviation and tip_angle (the CLI's report), the
+    # holder free_length before the entry on the planned line, the tip at the shape's end, and the
+    # deviation = tip - (entry + depth x direction).
+    write_nrrd(tmp_path / "ball.nrrd", sphere_image(n=20, radius=6.0), (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), np.eye(3))
+    scenario = json.loads(json.dumps(SCENARIO))
+    scenario["needle"].update({"entry": [9.5, 9.5, 19.5], "cutting_force": 5.0, "bevel": {"angle": 30, "side": [0, 1, 0]},
+                               "flexible": {"youngs_modulus": 2.0e5, "inner_diameter": 0.6, "free_length": 2.0}})
+    result = vp.simulate(str(tmp_path / "ball.nrrd"), scenario, max_iterations=2)
+    needle = result.needles[0]
+    per_step = result.report["simulation"]["needles"][0]["per_step"]
+    steps = len(result.depths)
+    assert needle["tip_deviation"].shape == (steps, 3)
+    assert needle["tip_angle"].shape == (steps,)
+    assert len(needle["needle_shape"]) == steps
+    entry, direction = np.array([9.5, 9.5, 19.5]), np.array([0.0, 0.0, -1.0])  # on the image's surface
+    for k in range(steps):
+        shape = needle["needle_shape"][k]
+        assert shape.ndim == 2 and shape.shape[1] == 3 and shape.shape[0] >= 2
+        assert np.allclose(shape, np.array(per_step["needle_shape"][k]), rtol=0, atol=1e-12)
+        assert np.allclose(shape[0], entry - 2.0 * direction, atol=1e-12)
+        assert np.allclose(shape[-1], needle["tip"][k], atol=1e-12)
+        planned = entry + result.depths[k] * direction
+        assert np.allclose(needle["tip_deviation"][k], needle["tip"][k] - planned, atol=1e-9)
+        assert needle["tip_angle"][k] == pytest.approx(per_step["tip_angle"][k], abs=1e-12)
+    assert np.linalg.norm(needle["tip_deviation"][-1]) > 1e-4  # the bevel bends it
+    assert "tip_deviation" not in vp.simulate(str(tmp_path / "ball.nrrd"), SCENARIO, max_iterations=2).needles[0]

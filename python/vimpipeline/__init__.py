@@ -77,7 +77,9 @@ class Result:
     ``name``, per-step ``depth``, ``axial_force`` (= ``friction_force`` of the shaft + ``tip_force``),
     ``tip_cutting`` (bool: the tip cuts, its force held at the cutting force), ``punctures`` (a list of
     dicts ``depth``, ``force_before``, ``force_after``: the steps at which the tip first cuts after pressing),
-    ``lateral_force``, ``max_strain``, ``tip`` and ``force`` (steps x dim, world), ``target_displacement`` (steps x targets x dim), ``displacement`` (steps x nodes x dim)),
+    ``lateral_force``, ``max_strain``, ``tip`` and ``force`` (steps x dim, world), ``target_displacement`` (steps x targets x dim), ``displacement`` (steps x nodes x dim);
+    with ``needle.flexible`` also ``tip_deviation`` (steps x dim), ``tip_angle`` (degrees per step) and
+    ``needle_shape`` (per step an array points x dim, world: the bent needle from its holder to its tip)),
     ``target_names``, ``warnings``, ``report`` (report.json). ``write(out_dir)`` writes the CLI's files."""
 
     def __init__(self, data, staging):
