@@ -69,6 +69,9 @@ MeshSettings settings_from(const py::dict& d) {
     s.given.insert(k);
   });
   if (has("sizing")) s.sizing = image_from(d["sizing"]);
+  if (has("labels")) s.labels = image_from(d["labels"]);
+  if (has("labels_alone")) s.labels_alone = py::cast<bool>(d["labels_alone"]);
+  if (has("label_modulus")) s.label_moduli = py::cast<std::vector<std::string>>(d["label_modulus"]);
   if (has("threshold")) s.threshold = py::cast<double>(d["threshold"]);
   if (has("mesher")) s.mesher = py::cast<std::string>(d["mesher"]);
   return s;

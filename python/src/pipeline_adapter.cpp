@@ -137,6 +137,9 @@ vp::RunOptions run_options(const MeshSettings& s, const std::string& image, cons
   if (s.has("degree")) given("--degree", o.degree);
   if (s.has("min_dihedral")) given("--min-dihedral", o.min_dihedral_deg);
   if (s.sizing) o.sizing = s.sizing->source;
+  if (s.labels_alone) o.labels = image;
+  if (s.labels) o.labels = s.labels->source == image ? s.labels->source + " (labels)" : s.labels->source;
+  o.label_moduli = s.label_moduli;
   o.threshold = s.threshold;
   o.mesher = *vp::mesher_kind(s.mesher);  // vim or grid (check_settings)
   o.verbosity = vp::Verbosity::quiet;
@@ -158,6 +161,12 @@ vp::RunInputs<dim> run_inputs(vp::OrientedImage<dim> image, const MeshSettings& 
       throw vp::InputError(s.sizing->source + ": sizing image is " + std::to_string(s.sizing->dim) +
                            "D but the image is " + std::to_string(dim) + "D; they must match");
     in.sizing = to_oriented<dim>(*s.sizing);
+  }
+  if (s.labels) {
+    if (s.labels->dim != dim)
+      throw vp::InputError(s.labels->source + ": the label image is " + std::to_string(s.labels->dim) +
+                           "D but the image is " + std::to_string(dim) + "D; they must match");
+    in.labels = to_oriented<dim>(*s.labels);
   }
   in.scenario = std::move(scenario);
   in.tool = "vimpipeline";

@@ -35,6 +35,9 @@ struct MeshSettings {
   vp::MeshOptions options;
   std::set<std::string> given;  // the Python keywords set (names as in for_each_mesh_keyword)
   std::optional<ImageData> sizing;
+  std::optional<ImageData> labels;        // beside the image (--labels LABELS)
+  bool labels_alone = false;              // the image is the label image (--labels IMAGE)
+  std::vector<std::string> label_moduli;  // --label-modulus LABEL=E
   std::optional<double> threshold;
   std::string mesher = "vim";  // vim | grid
   bool has(const std::string& keyword) const { return given.count(keyword) > 0; }

@@ -224,3 +224,56 @@ def test_version_is_the_project_version(cli):
     if source:
         text = open(os.path.join(source, "CMakeLists.txt")).read()
         assert re.search(r"project\(vim_pipeline VERSION ([0-9.]+)", text).group(1) == vp.__version__
+
+
+def _label_array(shape):
+    """Three labels on [z, y, x]: 1 everywhere, 2 in a slab of x, 7 in a ball."""
+    z, y, x = np.indices(shape)
+    labels = np.ones(shape, dtype=np.int16)
+    labels[:, :, shape[2] // 2:] = 2
+    labels[(x - 4) ** 2 + (y - 5) ** 2 + (z - 5) ** 2 <= 9] = 7
+    return labels
+
+
+@pytest.mark.parametrize("alone", [True, False])
+def test_label_mesh_equals_the_cli_bit_for_bit(cli, tmp_path, alone):
+    # Truth: the CLI's mesh.vtu with --labels on the same files and options (points, cells and every cell
+    # array, the label included, exactly equal); the labels as an array on the image's grid give the same.
+    shape, spacing, origin = (11, 12, 13), (1.0, 1.5, 1.2), (-3.0, 2.0, 0.5)
+    labels = _label_array(shape)
+    write_nrrd(tmp_path / "labels.nrrd", labels, spacing, origin, np.eye(3))
+    modulus = {1: 10.0, 2: 20.0, 7: 45.0}
+    args = ["--nodes", 250, "--max-iterations", 6, "--export", "none", "-q"]
+    if alone:
+        image_args = [tmp_path / "labels.nrrd", "--labels", tmp_path / "labels.nrrd"]
+        image_args += [a for l, e in modulus.items() for a in ("--label-modulus", "%d=%g" % (l, e))]
+    else:
+        modulus_image = np.where(labels == 7, 45.0, 12.0).astype(np.float32)
+        write_nrrd(tmp_path / "modulus.nrrd", modulus_image, spacing, origin, np.eye(3))
+        image_args = [tmp_path / "modulus.nrrd", "--labels", tmp_path / "labels.nrrd"]
+    run_cli(cli, *image_args, *args, "--out", tmp_path / "cli")
+    ref = meshio.read(tmp_path / "cli" / "mesh.vtu")
+    options = dict(nodes=250, max_iterations=6)
+    if alone:
+        meshes = [vp.mesh(None, labels=str(tmp_path / "labels.nrrd"), label_modulus=modulus, **options),
+                  vp.mesh(None, labels=labels, spacing=spacing, origin=origin, label_modulus=modulus, **options)]
+    else:
+        image = vp.read_image(tmp_path / "modulus.nrrd")
+        meshes = [vp.mesh(str(tmp_path / "modulus.nrrd"), labels=str(tmp_path / "labels.nrrd"), **options),
+                  vp.mesh(image, labels=labels, **options)]
+    for m in meshes:
+        assert np.array_equal(m.points, ref.points)
+        assert np.array_equal(m.cells, ref.cells_dict["tetra"])
+        assert set(np.unique(m.cell_data["label"])) == {1, 2, 7}
+        assert set(m.cell_data) == set(ref.cell_data)
+        for name in ref.cell_data:
+            assert np.array_equal(m.cell_data[name], ref.cell_data[name][0]), name
+
+
+def test_label_errors_raise_value_error_with_the_cli_message(tmp_path):
+    # Truth: the CLI's one-line errors (a label without a modulus alone; a non-integer label image).
+    labels = _label_array((8, 8, 8))
+    with pytest.raises(ValueError, match=r"label 7 .* has no Young's modulus"):
+        vp.mesh(None, labels=labels, label_modulus={1: 10, 2: 20}, nodes=64)
+    with pytest.raises(ValueError, match="integer"):
+        vp.mesh(labels.astype(float) + 10.0, labels=labels + 0.5, nodes=64)

@@ -185,7 +185,7 @@ def read_image(path):
 
 def _settings(nodes=None, spacing=None, lam=None, max_dihedral=None, min_dihedral=None, max_iterations=None,
               threads=None, sizing=None, threshold=None, mesher=None, degree=None, min_radius_ratio=None,
-              convergence=None, energy_convergence=None, search_width=None, seed=None):
+              convergence=None, energy_convergence=None, search_width=None, seed=None, label_modulus=None):
     s = {"nodes": nodes, "spacing": spacing, "lam": lam, "max_dihedral": max_dihedral,
          "min_dihedral": min_dihedral, "max_iterations": max_iterations, "threads": threads,
          "threshold": threshold, "mesher": mesher, "degree": degree, "min_radius_ratio": min_radius_ratio,
@@ -193,7 +193,16 @@ def _settings(nodes=None, spacing=None, lam=None, max_dihedral=None, min_dihedra
          "seed": seed}
     if sizing is not None:
         s["sizing"] = _image(sizing)._as_dict()
+    if label_modulus is not None:  # the CLI's --label-modulus LABEL=E, one per label
+        s["label_modulus"] = ["%s=%r" % (label, float(e)) for label, e in dict(label_modulus).items()]
     return {k: v for k, v in s.items() if v is not None}
+
+
+def _label_image(labels, img):
+    """The label image beside ``img``: a path or an Image as given, an array on ``img``'s grid."""
+    if isinstance(labels, (str, os.PathLike, Image)):
+        return _image(labels)
+    return Image(labels, img.spacing, img.origin, img.direction, source="labels (array)")
 
 
 # The defaults of the mesh keywords: the C++ MeshOptions' (vim/pipeline/scenario/mesh_options.hpp), the CLI's.
@@ -204,16 +213,26 @@ def mesh(image_or_array, spacing=None, origin=None, direction=None, nodes=_MESH_
          lam=_MESH_DEFAULTS["lam"], max_dihedral=_MESH_DEFAULTS["max_dihedral"],
          min_dihedral=_MESH_DEFAULTS["min_dihedral"], max_iterations=_MESH_DEFAULTS["max_iterations"],
          threads=_MESH_DEFAULTS["threads"], sizing=None, threshold=None, mesher="vim", grid_spacing=None,
-         progress=None, **options):
+         progress=None, labels=None, label_modulus=None, **options):
     """Meshes an image (a path, an Image, or an array[z, y, x] with spacing/origin/direction) as
     ``vim-pipeline IMAGE --nodes ... --out DIR`` does; returns a Mesh. ``mesher``: "vim" or "grid";
     ``grid_spacing``: initial grid edge length instead of ``nodes``; ``options``: the CLI's
     min_radius_ratio, convergence, energy_convergence, search_width, seed; ``progress(stage, record)``
-    is called after each iteration. Bad input raises ValueError with the CLI's message."""
-    img = _image(image_or_array, spacing, origin, direction)
+    is called after each iteration. ``labels``: a label image (a path, an Image, or an integer array on
+    the image's grid), meshed by the label energy as ``--labels``; with ``image_or_array`` None the
+    label image alone (an array takes spacing/origin/direction), its moduli from ``label_modulus``
+    ({label: E}, as ``--label-modulus``). The mesh's ``cell_data["label"]`` is each element's label. Bad
+    input raises ValueError with the CLI's message."""
+    alone = image_or_array is None and labels is not None
+    img = _image(labels if alone else image_or_array, spacing, origin, direction)
     settings = _settings(nodes=None if grid_spacing else nodes, spacing=grid_spacing, lam=lam,
                          max_dihedral=max_dihedral, min_dihedral=min_dihedral, max_iterations=max_iterations,
-                         threads=threads, sizing=sizing, threshold=threshold, mesher=mesher, **options)
+                         threads=threads, sizing=sizing, threshold=threshold, mesher=mesher,
+                         label_modulus=label_modulus, **options)
+    if alone:
+        settings["labels_alone"] = True
+    elif labels is not None:
+        settings["labels"] = _label_image(labels, img)._as_dict()
     return Mesh(_core.mesh(img._as_dict(), settings, progress))
 
 

@@ -76,11 +76,16 @@ void PipelineRun<dim>::read_label_image() {
   if (o.labels_alone()) {
     labels_ = image_->image;
   } else {
-    const ImageFile file(o.labels);
-    if (file.dimension() != dim)
-      throw InputError(o.labels + ": the label image is " + std::to_string(file.dimension()) +
-                       "D but IMAGE is " + std::to_string(dim) + "D; they must match");
-    const OrientedImage<dim> read = file.read<dim>();
+    OrientedImage<dim> read;
+    if (inputs_ && inputs_->labels) {
+      read = std::move(*inputs_->labels);
+    } else {
+      const ImageFile file(o.labels);
+      if (file.dimension() != dim)
+        throw InputError(o.labels + ": the label image is " + std::to_string(file.dimension()) +
+                         "D but IMAGE is " + std::to_string(dim) + "D; they must match");
+      read = file.read<dim>();
+    }
     check_label_image(read.image, o.labels);
     labels_ = labels_in_grid_of<dim>(*image_, read, o.labels);
   }

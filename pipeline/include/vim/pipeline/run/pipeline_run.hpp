@@ -42,6 +42,9 @@ template <int dim>
 struct RunInputs {
   OrientedImage<dim> image;                  // checked by the caller as read_image checks a file
   std::optional<OrientedImage<dim>> sizing;  // a density image with the image's direction (§VI-E)
+  // a label image beside `image` (options.labels names it; options.labels == options.image: `image` is
+  // the label image itself)
+  std::optional<OrientedImage<dim>> labels;
   std::optional<Scenario> scenario;          // read for this dimension; its mesh keys apply as the CLI's
   std::string tool = "vim-pipeline";         // report.json "tool" name
   bool keep_step_fields = false;             // SimulationResult keeps every step's displacements
