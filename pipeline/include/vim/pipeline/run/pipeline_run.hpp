@@ -45,9 +45,9 @@ struct RunInputs {
   // a label image beside `image` (options.labels names it; options.labels == options.image: `image` is
   // the label image itself)
   std::optional<OrientedImage<dim>> labels;
-  std::optional<Scenario> scenario;          // read for this dimension; its mesh keys apply as the CLI's
-  std::string tool = "vim-pipeline";         // report.json "tool" name
-  bool keep_step_fields = false;             // SimulationResult keeps every step's displacements
+  std::optional<Scenario> scenario;   // read for this dimension; its mesh keys apply as the CLI's
+  std::string tool = "vim-pipeline";  // report.json "tool" name
+  bool keep_step_fields = false;      // SimulationResult keeps every step's displacements
   // Called after each iteration of the density-weighted initialisation ("sizing") and of VIM ("vim").
   std::function<void(const std::string& stage, const IterationRecord&)> on_iteration;
 };
