@@ -8,7 +8,8 @@
 //   default band and its tip rows, ElasticTissue's condensed rows and the registered law) on one scenario
 //   — stick-slip with a cutting distance, P2, two tissues of different modulus, without and with a
 //   cutting force — station by station and in the tip's force at every step;
-// - stepping allocates no memory after the first step (a counting operator new).
+// - stepping allocates no memory after the first step (a counting operator new), with and without a
+//   cutting force.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -233,24 +234,33 @@ TEST(HapticNeedle, StationAndTipForcesEqualTheCliSteppingWithACuttingForceP2TwoT
   haptic_vs_cli(0.03);
 }
 
+namespace {
+
 // Truth: a counting operator new. After the first step a step allocates nothing, stations joining
-// included, with stick-slip sweeps.
-TEST(HapticNeedle, SteppingAllocatesNothingAfterWarmUp) {
+// included, with stick-slip sweeps, and with a cutting force the tip's disks being formed.
+void allocations_after_warm_up(double cutting_force) {
   auto model = block(1);
-  HapticNeedle needle(model, around_path(), {Vec<3>(0.3, 0.6, 0.9)}, options(0.02));
+  HapticNeedle needle(model, around_path(), {Vec<3>(0.3, 0.6, 0.9)}, options(0.02, cutting_force));
   Vec<3> tip, dir;
   pose(0, tip, dir);
   needle.step(tip, dir);
   g_allocations = 0;
   g_counting = true;
   int stations = 0, sweeps = 0;
+  bool cut = false;
   for (int k = 1; k <= 14; ++k) {
     pose(k, tip, dir);
     const auto& s = needle.step(tip, dir);
-    stations = static_cast<int>(s.stations), sweeps = std::max(sweeps, s.sweeps);
+    stations = static_cast<int>(s.stations), sweeps = std::max(sweeps, s.sweeps), cut = cut || s.tip_cutting;
   }
   g_counting = false;
   EXPECT_GT(stations, 5);
   EXPECT_GT(sweeps, 1);
+  EXPECT_EQ(cut, cutting_force > 0.0);
   EXPECT_EQ(g_allocations.load(), 0);
 }
+
+}  // namespace
+
+TEST(HapticNeedle, SteppingAllocatesNothingAfterWarmUp) { allocations_after_warm_up(0.0); }
+TEST(HapticNeedle, SteppingWithACuttingForceAllocatesNothingAfterWarmUp) { allocations_after_warm_up(0.01); }

@@ -20,7 +20,8 @@
 // vim/needle/tip_bearing.hpp): disks every tip_spacing of travel from the entry, those of the first
 // pose's axis that lie in the tissue (at least half of their samples in the mesh), their depth below the
 // free surface measured along that axis; the disk the tip presses is placed on the current axis when the
-// tip reaches it. deal.II-free.
+// tip reaches it, and once the tip presses a disk every station up to the cut is placed before the law's
+// solve (a puncture joins the tissue it cuts within that solve). deal.II-free.
 #pragma once
 
 #include <Eigen/Core>
