@@ -6,9 +6,11 @@
 // nothing.
 //   bench_needle [--steps N] [--mono-steps N] [--mono-max-dofs N] [--friction stick|stick-slip]
 //                [--sizes 1k,10k] [--degrees 1,2] [--solver auto|direct|amg] [--haptic 0|1]
+//                [--cutting-force F]
 // --haptic 1 adds a table of vim::needle::HapticNeedle (the real-time needle in a condensed region) on the
-// same blocks. The monolithic solve of a ~10k-node P2 block factorises a ~280k-DoF saddle-point matrix per
-// step (minutes and many GB): it runs only up to --mono-max-dofs DoFs (default 100000).
+// same blocks; --cutting-force F (mN, default 0) gives its tip that cutting force (the tip bearing). The
+// monolithic solve of a ~10k-node P2 block factorises a ~280k-DoF saddle-point matrix per step (minutes and
+// many GB): it runs only up to --mono-max-dofs DoFs (default 100000).
 #include <mpi.h>
 
 #include <algorithm>
@@ -86,7 +88,7 @@ Timing time_run(const MeshModel<3>& model, unsigned degree, int steps, const std
 // (the target), stick-slip at 0.5 mN/mm (the registered law), the tip advanced along the path in `steps`
 // calls. Returns the precomputation (s), the region's DoFs and the per-call times (wall, and the thread's
 // CPU time, which time slices taken by other processes do not inflate).
-Timing time_haptic(const MeshModel<3>& model, unsigned degree, double h, int steps) {
+Timing time_haptic(const MeshModel<3>& model, unsigned degree, double h, int steps, double cutting_force) {
   const std::string y =
       "material: {poisson_ratio: 0.45}\n"
       "boundary_conditions: [{type: fixed, region: {box_face: z_max}}]\n"
@@ -102,6 +104,7 @@ Timing time_haptic(const MeshModel<3>& model, unsigned degree, double h, int ste
   o.spacing = h;
   o.friction.law = "stick-slip";
   o.friction.max_shear_per_length = 0.5;
+  o.friction.cutting_force = cutting_force;
   const double reach = vim::needle::default_coupling_radius(o.radius, h, degree) + h;
   const fem::Region<3> region{
       "path", [reach](const fem::Vec<3>& x) { return std::hypot(x[0] - 0.3, x[1] + 0.2) < reach; }};
@@ -156,6 +159,7 @@ int main(int argc, char** argv) {
   unsigned mono_max_dofs = 100000;
   std::string friction = "stick", sizes = "1k,10k", degrees = "1,2", solver = "auto";
   bool haptic = false;
+  double cutting_force = 0.0;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--steps")
@@ -174,6 +178,8 @@ int main(int argc, char** argv) {
       solver = v;
     else if (k == "--haptic")
       haptic = v == "1";
+    else if (k == "--cutting-force")
+      cutting_force = std::atof(v.c_str());
     else {
       std::fprintf(stderr, "bench_needle: unknown option %s\n", k.c_str());
       return 2;
@@ -203,7 +209,10 @@ int main(int argc, char** argv) {
     }
   }
   if (haptic) {
-    std::printf("\nreal-time needle (vim::needle::HapticNeedle), stick-slip, %d calls over 40 mm\n", steps);
+    std::printf(
+        "\nreal-time needle (vim::needle::HapticNeedle), stick-slip, cutting force %g mN, %d calls over 40 "
+        "mm\n",
+        cutting_force, steps);
     std::printf("%6s %3s %11s %9s %11s %10s %10s %10s %10s %10s\n", "nodes", "P", "region_DoFs", "stations",
                 "precomp_s", "mean_st/s", "cpu_st/s", "median_ms", "p99_ms", "force");
     for (const std::string& size : split(sizes)) {
@@ -212,7 +221,7 @@ int main(int argc, char** argv) {
       const double h = big ? 40.0 / 16.0 : 40.0 / 7.0;  // grid edge
       for (const std::string& deg : split(degrees)) {
         const auto degree = static_cast<unsigned>(std::atoi(deg.c_str()));
-        const Timing t = time_haptic(m, degree, h, steps);
+        const Timing t = time_haptic(m, degree, h, steps, cutting_force);
         std::printf("%6zu %3u %11u %9d %11.2f %10.0f %10.0f %10.3f %10.3f %10.5g\n", m.mesh.n_points(),
                     degree, t.dofs, t.points, t.precompute, 1.0 / t.mean, 1.0 / t.cpu_mean, 1e3 * t.median,
                     1e3 * t.p99, t.force);

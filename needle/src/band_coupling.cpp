@@ -75,15 +75,11 @@ void BandCoupling::add_stations(const Geometry& g, const CellLocator<3>& locator
 // mesh if the entry lies outside it (or on its boundary), else unbounded (embedded).
 void BandCoupling::add_tip_rows(const Geometry& g, const CellLocator<3>& locator,
                                 const std::vector<double>& cell_modulus, double poisson_ratio) {
-  tip_disk_radius_ = std::max(coupling_radius_, 2.0 * g.radius);
-  const double spacing = 0.5 * std::min(g.element_size, tip_disk_radius_);
+  tip_disk_radius_ = needle::tip_disk_radius(coupling_radius_, g.radius);
+  const double spacing = tip_sample_spacing(g.element_size, tip_disk_radius_);
   const long n = static_cast<long>(std::floor(g.depth / g.tip_spacing + 1e-9)) + 1;
   const Vec world_axis = g.to_world * g.axis;
-  double surface = -std::numeric_limits<double>::infinity();
-  if (locator.locate(g.entry - 1e-6 * g.depth * g.axis) < 0) {
-    const double dt = 1e-3 * g.depth;
-    for (surface = 0.0; surface < g.depth && locator.locate(g.entry + surface * g.axis) < 0;) surface += dt;
-  }
+  const double surface = free_surface_along(locator, g.entry, g.axis, g.depth);
   for (long k = 0; k < n; ++k) {
     const double t = static_cast<double>(k) * g.tip_spacing;
     const Vec centre = g.entry + t * g.axis;
@@ -93,15 +89,15 @@ void BandCoupling::add_tip_rows(const Geometry& g, const CellLocator<3>& locator
     p.axes = g.to_world.transpose() * p.axes;
     for (Vec& o : p.offsets) o = g.to_world.transpose() * o;
     double e_sum = 0.0;
-    int inside = 0;
+    std::size_t inside = 0;
     for (const Vec& o : p.offsets) {
       const long c = locator.locate(centre + o);
       if (c < 0) continue;
       e_sum += cell_modulus[static_cast<std::size_t>(c)];
       ++inside;
     }
-    if (inside < static_cast<int>(p.offsets.size()) / 2) continue;  // the disk is not in the tissue
-    p.compliance /= e_sum / inside;
+    if (!tip_disk_in_tissue(inside, p.offsets.size())) continue;
+    p.compliance /= e_sum / static_cast<double>(inside);
     tips_.push_back({centre, t, 0.0});
     tip_bands_.push_back(std::move(p));
   }

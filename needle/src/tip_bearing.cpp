@@ -1,6 +1,7 @@
 // The tip's end bearing (vim/needle/tip_bearing.hpp).
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vim/fem/material.hpp>
@@ -65,10 +66,31 @@ PointConstraint<3> tip_bearing_constraint(const Vec<3>& centre, const Vec<3>& ax
       p.weights.push_back(r / n_theta);  // a uniform mean over the disk: ring weight ∝ r
     }
   }
+  p.compliance =
+      Vec<3>(0.0, 0.0, tip_bearing_compliance(radius, disk_radius, youngs_modulus, poisson_ratio, depth));
+  return p;
+}
+
+double tip_bearing_compliance(double radius, double disk_radius, double youngs_modulus, double poisson_ratio,
+                              double depth) {
   const double kappa = punch_compliance(radius, youngs_modulus, poisson_ratio) -
                        disk_compliance(disk_radius, youngs_modulus, poisson_ratio, depth);
-  p.compliance = Vec<3>(0.0, 0.0, std::max(0.0, kappa));
-  return p;
+  return std::max(0.0, kappa);
+}
+
+double tip_disk_radius(double band_radius, double radius) { return std::max(band_radius, 2.0 * radius); }
+
+double tip_sample_spacing(double element_size, double disk_radius) {
+  return 0.5 * (element_size > 0.0 ? std::min(element_size, disk_radius) : disk_radius);
+}
+
+double free_surface_along(const CellLocator<3>& locator, const Vec<3>& entry, const Vec<3>& axis,
+                          double length) {
+  if (locator.locate(entry - 1e-6 * length * axis) >= 0) return -std::numeric_limits<double>::infinity();
+  const double dt = 1e-3 * length;
+  double surface = 0.0;
+  while (surface < length && locator.locate(entry + surface * axis) < 0) surface += dt;
+  return surface;
 }
 
 }  // namespace vim::needle

@@ -16,7 +16,12 @@
 // pose. Station j stands for arc length [j·ℓ, (j + 1)·ℓ] of the needle's axial travel; its band is
 // placed on the current pose's axis the first time the stepping reads its tissue, and from then on its
 // tissue is held on the current needle axis across it (the lateral rows) and axially at the value the
-// law gives it. deal.II-free.
+// law gives it. With a cutting force the tip has the CLI's end bearing (BandCoupling::tip_rows,
+// vim/needle/tip_bearing.hpp): disks every tip_spacing of travel from the entry, those of the first
+// pose's axis that lie in the tissue (at least half of their samples in the mesh), their depth below the
+// free surface measured along that axis; the disk the tip presses is placed on the current axis when the
+// tip reaches it, and once the tip presses a disk every station up to the cut is placed before the law's
+// solve (a puncture joins the tissue it cuts within that solve). deal.II-free.
 #pragma once
 
 #include <Eigen/Core>
@@ -40,11 +45,16 @@ class HapticNeedle {
     double spacing = 1.0;           // station length ℓ along the needle's travel
     FrictionOptions friction;       // the law and its parameters, as a scenario's needle gives them
     std::size_t max_stations = 64;  // capacity: stations beyond it do not join
+    // The tip bearing's disks (with a cutting force) every tip_spacing of travel; 0: half the element
+    // size, at most half the disk radius (the CLI takes min(h/2, depth / steps)).
+    double tip_spacing = 0.0;
   };
   struct Step {
-    std::size_t stations = 0;           // stations on the shaft (the stepping's active points)
+    std::size_t stations = 0;           // stations on the shaft (the stepping's active shaft points)
     std::vector<Vec<3>> station_force;  // per active station, in shaft order: the force on the tissue
-    Vec<3> force = Vec<3>::Zero();      // the force of the tissue on the needle, −Σ station_force
+    Vec<3> tip_force = Vec<3>::Zero();  // the force on the tissue the tip presses (0: it presses none)
+    bool tip_cutting = false;           // the tip cuts, held at the cutting force
+    Vec<3> force = Vec<3>::Zero();  // the force of the tissue on the needle, −(Σ station_force + tip_force)
     std::vector<Vec<3>> probe_displacement;
     int sweeps = 0;       // the law's active-set sweeps of this step
     bool settled = true;  // false: the set still changed after max_sweeps
@@ -68,7 +78,8 @@ class HapticNeedle {
   // The stepping's state after the last step (active stations, their axial values and carried lengths).
   const ShaftState& state() const;
   // The last step's constraints (one per active station: band samples, axes, compliances and the values
-  // held: lateral across the axis, axial the law's value), for fem::ElasticModel::solve_monolithic.
+  // held: lateral across the axis, axial the law's value; then the tip's disk, axial only, if it
+  // presses one), for fem::ElasticModel::solve_monolithic.
   std::vector<PointConstraint<3>> constraints() const;
 
  private:

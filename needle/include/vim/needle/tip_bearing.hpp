@@ -15,6 +15,7 @@
 // t = 0 and for t ≫ R, an assumed rational interpolation between. deal.II-free.
 #pragma once
 
+#include <cstddef>
 #include <vim/needle/fem_types.hpp>
 
 namespace vim::needle {
@@ -28,6 +29,10 @@ double punch_compliance(double radius, double youngs_modulus, double poisson_rat
 // free surface (0: on it; +∞: inside a full space).
 double disk_compliance(double disk_radius, double youngs_modulus, double poisson_ratio, double depth);
 
+// κ_tip = C_punch − C_disk(R, depth) (≥ 0): the compliance in series with the disk's mean.
+double tip_bearing_compliance(double radius, double disk_radius, double youngs_modulus, double poisson_ratio,
+                              double depth);
+
 // The tip's row at `centre` (the tissue point ahead of the tip) for a needle of radius a along the unit
 // `axis`: the axial component only (axes.col(2) = axis), the uniform mean over the disk of radius R
 // (rings at the midpoints of equal radial parts, weight ∝ radius, samples spaced at most `spacing`,
@@ -36,5 +41,18 @@ double disk_compliance(double disk_radius, double youngs_modulus, double poisson
 PointConstraint<3> tip_bearing_constraint(const Vec<3>& centre, const Vec<3>& axis, double radius,
                                           double disk_radius, double spacing, double youngs_modulus,
                                           double poisson_ratio, double depth);
+
+// The disks of the CLI and of the real-time needle alike (BandCoupling::tip_rows, HapticNeedle):
+// radius max(R_band, 2a); samples spaced half the element size h (at most half the disk radius; h ≤ 0:
+// half the disk radius).
+double tip_disk_radius(double band_radius, double radius);
+double tip_sample_spacing(double element_size, double disk_radius);
+// A disk is in the tissue when at least half of its samples lie in the mesh.
+inline bool tip_disk_in_tissue(std::size_t inside, std::size_t samples) { return inside >= samples / 2; }
+// Where a straight path from `entry` along the unit `axis` enters the mesh: when the entry lies outside
+// it or on its boundary (the point 10⁻⁶·length before it is outside), the arc length of the first point
+// inside, in steps of length / 1000; −∞ when the entry lies inside (the disks are embedded).
+double free_surface_along(const CellLocator<3>& locator, const Vec<3>& entry, const Vec<3>& axis,
+                          double length);
 
 }  // namespace vim::needle
