@@ -29,6 +29,7 @@ void ElasticTissue<dim>::precompute(const std::vector<Vec<dim>>& probes) {
   if (monolithic_) return;
   std::vector<fem::PointConstraint<dim>> rows;
   for (std::size_t j = 0; j < n_points_; ++j) rows.push_back(coupling_.row_template(j));
+  rows.insert(rows.end(), held_rows_.begin(), held_rows_.end());
   condensed_ = std::make_unique<fem::CondensedConstraints<dim>>(model_, rows, probes, solver_);
 }
 
@@ -38,13 +39,24 @@ template <int dim>
 const std::vector<double>& ElasticTissue<dim>::solve(const std::vector<double>& axial) {
   const auto t = Clock::now();
   if (monolithic_) {
-    solution_ = model_.solve_monolithic(coupling_.rows(state_.active, axial), solver_);
+    std::vector<fem::PointConstraint<dim>> rows = coupling_.rows(state_.active, axial);
+    rows.insert(rows.end(), held_rows_.begin(), held_rows_.end());
+    solution_ = model_.solve_monolithic(rows, solver_);
   } else {
     coupling_.held_values(state_.active, axial, held_);
-    condensed_->solve(state_.active, held_);
+    active_ = state_.active;
+    for (std::size_t i = 0; i < held_rows_.size(); ++i) {
+      active_.push_back(n_points_ + i);
+      held_.push_back(held_rows_[i].displacement);
+    }
+    condensed_->solve(active_, held_);
     condensed_->point_forces(solution_.point_force);
     solution_.stats = condensed_->stats();
   }
+  // The shaft's rows' forces; the held rows' come after them.
+  held_forces_.assign(solution_.point_force.begin() + static_cast<long>(state_.active.size()),
+                      solution_.point_force.end());
+  solution_.point_force.resize(state_.active.size());
   field_ = monolithic_;
   solve_seconds_ += seconds_since(t);
   ++solves_;
@@ -57,6 +69,7 @@ void ElasticTissue<dim>::form_field() {
   if (field_) return;
   const auto t = Clock::now();
   solution_ = condensed_->field();
+  solution_.point_force.resize(state_.active.size());
   solve_seconds_ += seconds_since(t);
   field_ = true;
 }

@@ -120,3 +120,37 @@ TEST(Insertion, TipPressesUntilTheCuttingForceThenCutsAtIt) {
     }
   }
 }
+
+// Withdrawn stuck (stick law, no cutting distance): the tissue on the shaft moves back with the needle
+// and leaves it where the tip passes back over it, so at every depth d on the way out a station
+// carries [b, min(e, d)] and holds the mean over it of d − s, the same closed form as on the way in.
+// Steps of 1 cut each station of length 2 back halfway before it leaves.
+TEST(Insertion, WithdrawnStationsHoldTheMeanStickValueOfTheirRemainingPart) {
+  Insertion<3> ins(options_for("stick", 5, 0.0), five_stations());
+  Springs tissue(std::vector<double>(5, 3.0), ins.state());
+  double prev = 0.0;
+  for (int k = 1; k <= 5; ++k) {
+    const double d = ins.depth(k);
+    ins.pick_up(d, d - prev, [](std::size_t) { return 0.0; });
+    ins.solve(tissue);
+    prev = d;
+  }
+  for (int i = 1; i <= 10; ++i) {
+    const double d = 10.0 - i;
+    ins.withdraw(d, d - prev);
+    if (!ins.state().active.empty()) ins.solve(tissue);
+    prev = d;
+    const ShaftState& s = ins.state();
+    for (std::size_t j = 0; j < 5; ++j) {
+      const double b = 2.0 * static_cast<double>(j);
+      const bool on = d > b + 1e-9;
+      ASSERT_EQ(std::count(s.active.begin(), s.active.end(), j) == 1, on)
+          << "depth " << d << " station " << j;
+      if (!on) continue;
+      const double carried = std::min(2.0, d - b);
+      EXPECT_NEAR(s.carried[j], carried, 1e-12) << "depth " << d << " station " << j;
+      EXPECT_NEAR(s.axial[j], d - (b + 0.5 * carried), 1e-12) << "depth " << d << " station " << j;
+    }
+  }
+  EXPECT_TRUE(ins.state().active.empty());
+}

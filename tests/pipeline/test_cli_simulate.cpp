@@ -273,7 +273,8 @@ TEST(CliSimulate, ReadmeScenarioReferenceParses) {
   EXPECT_EQ(sc.boundary_conditions.size(), 8u);
   EXPECT_EQ(sc.labels.size(), 2u);
   ASSERT_EQ(sc.needles.size(), 1u);
-  EXPECT_EQ(sc.targets.size(), 1u);
+  ASSERT_EQ(sc.targets.size(), 2u);
+  EXPECT_EQ(sc.targets[1].label, "lesion");  // at a label's centroid (with --labels)
   EXPECT_EQ(sc.nodes.value_or(0), 3000);
   EXPECT_TRUE(sc.needle_refinement.has_value());
   EXPECT_NEAR(sc.needles[0].depth, 40.0, 0);
@@ -288,7 +289,8 @@ TEST(CliSimulate, ReadmeScenarioReferenceParses) {
       read_scenario((fs::path(VIM_SOURCE_DIR) / "examples" / "prostate_procedure.yaml").string(), 3);
   std::size_t seeds = 0;
   for (const auto& n : plan.needles) seeds += n.seeds.size();
-  EXPECT_EQ(plan.needles.size(), 6u);
+  ASSERT_EQ(plan.needles.size(), 7u);  // a stabilising needle, then six with seeds
+  EXPECT_TRUE(plan.needles[0].stay);
   EXPECT_EQ(seeds, 17u);
 }
 

@@ -156,3 +156,42 @@ TEST(StudyCli, ReadmeStudyAndExampleParse) {
   EXPECT_EQ(study.cases[1].scenario.poisson_ratio, 0.49);
   EXPECT_EQ((std::vector<std::string>{"entry", "depth", "scale", "poisson_ratio"}), study.varied);
 }
+
+// A procedure as the base: study.csv gets the seed error and the dose of each case's report.json; a
+// stuck needle moves the tissue kinematically, so with a fixed face and no loads neither depends on the
+// modulus scale (linear elasticity: the displacements of prescribed displacements are independent of it).
+TEST(StudyCli, ProcedureColumnsAreTheCaseReportsSeedErrorAndDose) {
+  vim::test::TempDir dir("study_procedure");
+  vim::test::write_study_inputs(dir.path);
+  write_file(dir.path / "plan.yaml",
+             "units: {length: mm, modulus: kPa}\n"
+             "material: {youngs_modulus: image, scale: 10.0, poisson_ratio: 0.3}\n"
+             "boundary_conditions: [{type: fixed, region: {box_face: x_max}}]\n"
+             "procedure:\n"
+             "  - insert: {name: a, entry: [0, 1.4, 1.6], direction: [1, 0, 0], depth: 1.5, steps: 3,\n"
+             "             diameter: 0.2, friction: {model: stick}, seeds: [0.5, 1.0, 1.5]}\n"
+             "  - withdraw: {needle: a, steps: 3}\n"
+             "dose: {seed_model: amersham_6711, air_kerma_strength: 0.5, grid: 0.25,\n"
+             "       region: {sphere: {center: [1.5, 1.5, 1.5], radius: 1}}}\n"
+             "output: {every: 0}\n");
+  write_file(dir.path / "study.yaml", "scenario: plan.yaml\ngrid:\n  scale: [10, 25]\n");
+  const fs::path out = dir.path / "out";
+  const auto r = run_pipeline(study_options(dir.path, "study.yaml", out));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto rows = read_study_csv(out / "study.csv");
+  ASSERT_EQ(rows.size(), 2u);
+  for (const auto& row : rows) {
+    ASSERT_EQ(row.at("status"), "done") << row.at("message");
+    const auto report = nlohmann::json::parse(slurp(out / "cases" / row.at("case") / "report.json"));
+    const auto& sim = report["simulation"];
+    EXPECT_EQ(number(row, "seed_error_max"), sim["seeds"]["all"]["max_error"].get<double>());
+    EXPECT_EQ(number(row, "seed_error_rms"), sim["seeds"]["all"]["rms_error"].get<double>());
+    EXPECT_EQ(number(row, "d90_final"), sim["dose"]["final"]["d90_gy"].get<double>());
+    EXPECT_EQ(number(row, "v100_planned"), sim["dose"]["planned"]["v100_percent"].get<double>());
+  }
+  EXPECT_GT(number(rows[0], "seed_error_max"), 1e-4);
+  EXPECT_NEAR(number(rows[1], "seed_error_max"), number(rows[0], "seed_error_max"),
+              1e-8 * number(rows[0], "seed_error_max"));
+  EXPECT_NEAR(number(rows[1], "d90_final"), number(rows[0], "d90_final"),
+              1e-8 * number(rows[0], "d90_final"));
+}

@@ -75,6 +75,16 @@ inline std::string yaml(const std::string& needle, const std::string& targets = 
 inline const std::string kStick =
     "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, friction: {model: stick}}";
 
+// The message of the ScenarioError a scenario text (3D, file name plan.yaml) is refused with, or "no error".
+inline std::string procedure_parse_error(const std::string& text) {
+  try {
+    parse_scenario_text(text, 3, "plan.yaml");
+  } catch (const ScenarioError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
 inline SimulationOptions quiet() {
   SimulationOptions o;
   o.progress = false;

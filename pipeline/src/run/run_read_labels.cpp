@@ -42,15 +42,31 @@ std::pair<int, double> label_modulus_option(const std::string& text) {
   return {label, e};
 }
 
-// Every label region of the scenario (boundary conditions, needle tissues), with its YAML line.
+// Every label region of the scenario (boundary conditions, needle tissues, the dose region), with its
+// YAML line.
 std::vector<std::pair<RegionSpec*, int>> label_regions(Scenario& sc) {
   std::vector<std::pair<RegionSpec*, int>> out;
+  if (sc.dose && sc.dose->region.kind == RegionSpec::Kind::label)
+    out.emplace_back(&sc.dose->region, sc.dose->line);
   for (BoundaryConditionSpec& bc : sc.boundary_conditions)
     if (bc.region.kind == RegionSpec::Kind::label) out.emplace_back(&bc.region, bc.line);
   for (NeedleSpec& n : sc.needles)
     for (TissueSpec& t : n.tissues)
       if (t.region && t.region->kind == RegionSpec::Kind::label) out.emplace_back(&*t.region, t.line);
   return out;
+}
+
+// The centroid (frame) of the voxel centres of `label` in `labels` (the label is present).
+template <int dim>
+Eigen::Matrix<double, dim, 1> label_centroid(const Image<dim>& labels, int label) {
+  Eigen::Matrix<double, dim, 1> sum = Eigen::Matrix<double, dim, 1>::Zero();
+  double n = 0.0;
+  for (std::size_t v = 0; v < labels.voxel_count(); ++v)
+    if (static_cast<int>(labels.data[v]) == label) {
+      sum += labels.point_of(labels.index_of(v));
+      n += 1.0;
+    }
+  return sum / n;
 }
 
 }  // namespace
@@ -62,6 +78,11 @@ void PipelineRun<dim>::read_label_image() {
     if (const auto regions = label_regions(*scenario_); !regions.empty())
       throw ScenarioError(scenario_->where(regions.front().second) + "region {label: " +
                           regions.front().first->label + "} needs a label image (--labels LABELS)");
+  if (o.labels.empty() && scenario_)
+    for (const TargetSpec& t : scenario_->targets)
+      if (!t.label.empty())
+        throw ScenarioError(scenario_->where(t.line) + "target '" + t.name + "' {label: " + t.label +
+                            "} needs a label image (--labels LABELS)");
   if (o.labels.empty()) {
     if (scenario_ && !scenario_->labels.empty())
       throw ScenarioError(scenario_->where(scenario_->labels.front().line) +
@@ -129,24 +150,27 @@ void PipelineRun<dim>::read_label_image() {
     // the image statistics of report.json) read it.
     for (float& v : image_->image.data) v = static_cast<float>(model_.label_modulus.at(static_cast<int>(v)));
   }
-  // Label regions: a label's name or number, resolved once; the simulation and the decks test points
-  // against the label image.
-  if (scenario_)
-    for (auto& [region, line] : label_regions(*scenario_)) {
-      bool found = false;
-      for (const auto& [label, name] : model_.label_name)
-        if (region->label == name || region->label == std::to_string(label)) {
-          region->label_value = label;
-          found = true;
-        }
-      if (!found) {
-        std::string names;
-        for (const auto& [label, name] : model_.label_name)
-          names += (names.empty() ? "" : ", ") + std::to_string(label) + " (" + name + ")";
-        throw ScenarioError(scenario_->where(line) + "region {label: " + region->label + "}: no label of " +
-                            o.labels + " has this name or number; its labels are " + names);
+  // Label regions and targets: a label's name or number, resolved once; the simulation and the decks
+  // test points against the label image; a label target is the centroid of the label's voxels.
+  const auto label_of = [&](const std::string& text, int line, const std::string& what) {
+    for (const auto& [label, name] : model_.label_name)
+      if (text == name || text == std::to_string(label)) return label;
+    std::string names;
+    for (const auto& [label, name] : model_.label_name)
+      names += (names.empty() ? "" : ", ") + std::to_string(label) + " (" + name + ")";
+    throw ScenarioError(scenario_->where(line) + what + " {label: " + text + "}: no label of " + o.labels +
+                        " has this name or number; its labels are " + names);
+  };
+  if (scenario_) {
+    for (auto& [region, line] : label_regions(*scenario_))
+      region->label_value = label_of(region->label, line, "region");
+    for (TargetSpec& t : scenario_->targets)
+      if (!t.label.empty()) {
+        const Eigen::Matrix<double, dim, 1> c =
+            image_->to_world(label_centroid(*labels_, label_of(t.label, t.line, "target '" + t.name + "'")));
+        t.position.assign(c.data(), c.data() + dim);
       }
-    }
+  }
   model_.label_image = std::make_shared<const Image<dim>>(*labels_);
   inputs_result_.labels =
       nlohmann::json{{"file", o.labels}, {"alone", o.labels_alone()}, {"labels", present}};

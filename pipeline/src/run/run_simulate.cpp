@@ -118,6 +118,17 @@ json PipelineRun<dim>::write_simulation_figures(const SimulationResult<dim>& res
       fig["deformed"]["file"] = "figures/" + prefix + "deformed.png";
     }
   }
+  std::vector<Eigen::Matrix<double, dim, 1>> planned, final_position;  // a procedure's seeds
+  for (const auto& run : result.needles)
+    for (const auto& seed : run.seeds) {
+      planned.push_back(seed.planned);
+      final_position.push_back(seed.final_position());
+    }
+  if (!planned.empty()) {
+    figures["seeds"] =
+        write_seed_figure<dim>(out().file("figures/seeds.png"), planned, final_position, length);
+    figures["seeds"]["file"] = "figures/seeds.png";
+  }
   return figures;
 }
 

@@ -564,11 +564,12 @@ void check_static_load(const Reader& r, const Fields& top, const Scenario& s) {
 // targets: named points whose displacement is recorded.
 void parse_targets(const Reader& r, const Fields& top, Scenario& s, int dim) {
   if (const YAML::Node& t = top["targets"]) {
-    if (!t.IsSequence()) r.fail(t, "targets must be a list of {name, position}");
+    if (!t.IsSequence())
+      r.fail(t, "targets must be a list of {name, position} or {name, label, at: centroid}");
     std::set<std::string> names;
     for (std::size_t i = 0; i < t.size(); ++i) {
       const std::string p = "targets[" + std::to_string(i) + "]";
-      const Fields f = r.check_keys(t[i], p, {"name", "position"});
+      const Fields f = r.check_keys(t[i], p, {"name", "position", "label", "at"});
       TargetSpec ts;
       ts.line = Reader::line(t[i]);
       const YAML::Node& nn = r.require(f, "name", p + ".name");
@@ -578,7 +579,15 @@ void parse_targets(const Reader& r, const Fields& top, Scenario& s, int dim) {
                        "' must be an identifier (letters, digits, '_'; it names CSV columns)");
       if (!names.insert(ts.name).second)
         r.fail(nn, p + ".name = '" + ts.name + "' is used twice; names must be unique");
-      ts.position = r.vector(r.require(f, "position", p + ".position"), p + ".position", dim);
+      if (const YAML::Node& l = f["label"]) {  // the centroid of a label (docs/labels.md)
+        if (f["position"])
+          r.fail(f["position"], p + " has both position and label; give one (label: NAME, at: centroid)");
+        ts.label = r.string(l, p + ".label");
+        if (const YAML::Node& at = f["at"]) r.choice(at, p + ".at", {"centroid"});
+      } else {
+        if (const YAML::Node& at = f["at"]) r.fail(at, p + ".at goes with label (label: NAME, at: centroid)");
+        ts.position = r.vector(r.require(f, "position", p + ".position"), p + ".position", dim);
+      }
       s.targets.push_back(ts);
     }
   }

@@ -116,6 +116,9 @@ void check_scenario_geometry(const Scenario& s, const Eigen::Matrix<double, dim,
           number_text(width) + "); the needle must fit inside the image");
   }
   for (const auto& t : s.targets) {
+    if (t.position.size() != static_cast<std::size_t>(dim))  // a label target not resolved by a run
+      throw ScenarioError(s.where(t.line) + "target '" + t.name + "' {label: " + t.label +
+                          "} needs a label image (--labels LABELS)");
     const V position = tf.to_frame(spec_vector<dim>(t.position));
     if (!inside(position))
       throw ScenarioError(s.where(t.line) + "target '" + t.name + "' position " +

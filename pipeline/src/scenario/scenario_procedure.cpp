@@ -2,7 +2,7 @@
 // actions, `insert` (a needle as in `needles`, with stay and seeds) and `withdraw` (a needle back out in
 // steps). Each insertion becomes an entry of Scenario::needles, in order, with its seeds and its withdrawal;
 // a needle not withdrawn by an action is withdrawn with its insertion's steps before the next action (stay:
-// false).
+// false); one with stay: true stays in to the end, its stations holding the tissue for the later ones.
 #include <algorithm>
 #include <set>
 #include <string>
@@ -41,6 +41,7 @@ void parse_procedure(const YAML::Node& procedure, Scenario& s,
   s.procedure = s.needle_list = true;
   std::set<std::string> names;
   std::size_t in = s.needles.size();  // the needle in the tissue (none: needles.size())
+  bool seeds_released = false;        // an insertion before has seeds
   const auto withdraw_implicitly = [&] {
     if (in < s.needles.size()) s.needles[in].withdraw_steps = s.needles[in].steps;
     in = s.needles.size();
@@ -58,15 +59,22 @@ void parse_procedure(const YAML::Node& procedure, Scenario& s,
       if (!n["name"]) spec.name = "needle_" + std::to_string(s.needles.size() + 1);
       if (!names.insert(spec.name).second)
         r.fail(n, at + ".name = '" + spec.name + "' is used twice; names must be unique");
-      if (const YAML::Node& stay = n["stay"]; stay && r.boolean(stay, at + ".stay"))
-        r.fail(stay,
-               at + ".stay = true (a needle left in during later actions) is not supported; leave it out "
-                    "or false: the needle is withdrawn before the next action");
+      if (const YAML::Node& stay = n["stay"]) {
+        spec.stay = r.boolean(stay, at + ".stay");
+        if (spec.stay && n["seeds"])
+          r.fail(stay, at + ".stay = true with seeds: a needle that stays in is never withdrawn, so it "
+                            "releases no seeds; leave out stay or seeds");
+        if (spec.stay && seeds_released)
+          r.fail(stay, at + ".stay = true after a needle that released seeds: a needle left in moves the "
+                            "tissue those seeds are in; insert the needles that stay first");
+      }
       if (const YAML::Node& seeds = n["seeds"]) spec.seeds = read_seeds(r, seeds, at + ".seeds", spec.depth);
       if (spec.model == NeedleSpec::Model::force)
         r.fail(n, at + ": a procedure's needles use the kinematic model (the force model has no withdrawal)");
+      seeds_released = seeds_released || !spec.seeds.empty();
+      const bool stays = spec.stay;
       s.needles.push_back(std::move(spec));
-      in = s.needles.size() - 1;
+      in = stays ? s.needles.size() : s.needles.size() - 1;  // a needle that stays is never withdrawn
       continue;
     }
     const std::string at = path + ".withdraw";
@@ -82,6 +90,9 @@ void parse_procedure(const YAML::Node& procedure, Scenario& s,
       r.fail(name_node, at + ".needle = '" + name + "' names no needle inserted before it (inserted: " +
                             (known.empty() ? "none" : known) + ")");
     }
+    if (it->stay)
+      r.fail(name_node, at + ".needle = '" + name + "' stays in (its insertion has stay: true, line " +
+                            std::to_string(it->line) + "): a needle that stays is not withdrawn");
     if (static_cast<std::size_t>(it - s.needles.begin()) != in)
       r.fail(name_node, at + ".needle = '" + name + "' is not in the tissue (it was withdrawn before" +
                             (it->withdraw_line > 0 ? ", on line " + std::to_string(it->withdraw_line) : "") +
@@ -121,7 +132,7 @@ void parse_dose(const YAML::Node& dose, Scenario& s,
   const YAML::Node& reg = r.require(f, "region", "dose.region");
   d.region = region(reg, "dose.region");
   if (d.region.kind == RegionSpec::Kind::box_face)
-    r.fail(reg, "dose.region must be a volume (box, sphere or cylinder), not a box face");
+    r.fail(reg, "dose.region must be a volume (box, sphere, cylinder or label), not a box face");
   if (s.length_unit != "mm")
     r.fail(dose,
            "dose needs lengths in mm (units.length = '" + s.length_unit + "'): the TG-43 tables are in cm");

@@ -3,6 +3,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <cstdio>
 #include <limits>
 #include <numeric>
 #include <sstream>
@@ -59,6 +60,7 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
   tissue_ = std::make_unique<needle::ElasticTissue<dim>>(*ctx_.model, *coupling_, stepping_->state(),
                                                          stepping_->n_points(), pitch_, ctx_.solver,
                                                          ctx_.opt.monolithic);
+  tissue_->hold(ctx_.staying);
   if constexpr (dim == 3)
     if (spec.flexible) {
       const FlexibleSpec &f = *spec.flexible;
@@ -76,6 +78,10 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
     run_.seeds.push_back(seed);
   }
   seed_displacement_.assign(seed_points_.size(), Vec::Zero());
+  for (const auto &r : ctx_.released) earlier_points_.push_back(r.planned_frame);
+  earlier_displacement_.assign(earlier_points_.size(), Vec::Zero());
+  for (std::size_t i = 0; i < ctx_.sc.needles.size(); ++i)
+    if (ctx_.sc.needles[i].name == spec.name) number_ = static_cast<int>(i) + 1;
   total_steps_ = needle_.steps + spec.withdraw_steps;
   if constexpr (dim == 3)
     band_check_ = check_bands(needle_.path.entry, axis_, coupling_radius_, run_.point_s, run_.point_length,
@@ -90,12 +96,14 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
           cell >= 0 ? fem::shear_modulus(ctx_.E[static_cast<std::size_t>(cell)], ctx_.sc.poisson_ratio)
                     : 0.0);
     }
-  // External loads (a prescribed displacement, a pressure, a traction) act from
+  // External loads (a prescribed displacement, a pressure, a traction) and the needles left in act from
   // the start: before the tip reaches the first shaft point (step 0 included)
   // the tissue deforms under them alone, not rest.
-  loaded_ = std::any_of(
-      ctx_.sc.boundary_conditions.begin(), ctx_.sc.boundary_conditions.end(),
-      [](const BoundaryConditionSpec &bc) { return bc.type != BoundaryConditionSpec::Type::fixed; });
+  loaded_ =
+      tissue_->holds() || std::any_of(ctx_.sc.boundary_conditions.begin(), ctx_.sc.boundary_conditions.end(),
+                                      [](const BoundaryConditionSpec &bc) {
+                                        return bc.type != BoundaryConditionSpec::Type::fixed;
+                                      });
   write_ = writes_steps(ctx_.opt) && ctx_.sc.output_every > 0;
 }
 
@@ -168,9 +176,7 @@ NeedleOutcome<dim> NeedleInsertion<dim>::run() {
   if (!ctx_.opt.monolithic) {  // every shaft row's column K⁻¹cᵀ in one batch: no
                                // step does a sparse solve
     const auto t = Clock::now();
-    std::vector<Vec> probes = targets_;
-    probes.insert(probes.end(), seed_points_.begin(), seed_points_.end());
-    tissue_->precompute(probes);
+    tissue_->precompute(probe_points());
     run_.precompute_seconds = seconds_since(t);
   }
   rest();
@@ -192,11 +198,24 @@ NeedleOutcome<dim> NeedleInsertion<dim>::run() {
     }
   }
   run_.stepping_seconds = seconds_since(t_steps);
+  if (spec_.stay) {  // left in: its stations keep holding the tissue as this last step left it
+    const needle::ShaftState &state = stepping_->state();
+    const auto rows = coupling_->rows(state.active, state.axial);
+    ctx_.staying.insert(ctx_.staying.end(), rows.begin(), rows.end());
+    ctx_.staying_needles.push_back({coupling_, state, rows.size()});
+  }
   const double run_seconds = seconds_since(t_run);
   run_.solve_seconds = tissue_->solve_seconds();
   run_.steps_per_second = run_seconds > 0.0 ? total_steps_ / run_seconds : 0.0;
+  for (std::size_t i = 0; i < run_.seeds.size(); ++i) {  // later runs carry this needle's seeds
+    const auto &seed = run_.seeds[i];
+    if (seed.release_step >= 0)
+      ctx_.released.push_back(
+          {seed_points_[i], seed.planned, seed.planned - seed.release_displacement, number_});
+  }
   if (ctx_.opt.output_file) {
     if (write_) write_pvd(ctx_.opt.output_file(prefix_ + "simulation.pvd"), pvd_);
+    if (write_ && ctx_.sc.procedure) write_pvd(ctx_.opt.output_file(prefix_ + "seeds.pvd"), seeds_pvd_);
     write_needle_csv<dim>(ctx_.opt.output_file(prefix_ + "needle.csv"), run_, ctx_.sc);
   }
   nlohmann::json report = needle_report<dim>(spec_, run_, stepping_->law(), pitch_, prefix_, run_seconds,
@@ -347,13 +366,26 @@ void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim> *s, int
   run_.lateral_force.push_back((f - ax * axis_world_).norm());
   std::vector<Vec> td(targets_.size(), Vec::Zero());
   std::fill(seed_displacement_.begin(), seed_displacement_.end(), Vec::Zero());
-  if (s && (!targets_.empty() || !seed_points_.empty())) {
-    std::vector<Vec> probes = targets_;
-    probes.insert(probes.end(), seed_points_.begin(), seed_points_.end());
-    const auto u =
+  std::fill(earlier_displacement_.begin(), earlier_displacement_.end(), Vec::Zero());
+  const std::vector<Vec> probes = probe_points();
+  if (s && !probes.empty()) {
+    auto u =
         coupling_->tissue_displacements(probes, tissue_->probe_displacements(probes), stepping_->state(), *s);
+    // The needles left in: their near fields too, with the forces their rows carry now.
+    const std::vector<Vec> &held = tissue_->held_forces();
+    std::size_t first = 0;
+    for (const auto &staying : ctx_.staying_needles) {
+      fem::Solution<dim> rows;
+      rows.point_force.assign(held.begin() + static_cast<long>(first),
+                              held.begin() + static_cast<long>(first + staying.rows));
+      u = staying.coupling->tissue_displacements(probes, std::move(u), staying.state, rows);
+      first += staying.rows;
+    }
+    const std::size_t own = td.size() + seed_points_.size();
     for (std::size_t t = 0; t < u.size(); ++t)
-      (t < td.size() ? td[t] : seed_displacement_[t - td.size()]) = ctx_.tf.vector_to_world(u[t]);
+      (t < td.size() ? td[t]
+       : t < own     ? seed_displacement_[t - td.size()]
+                     : earlier_displacement_[t - own]) = ctx_.tf.vector_to_world(u[t]);
   }
   run_.target_displacement.push_back(td);
   const needle::ShaftState &state = stepping_->state();
@@ -485,6 +517,40 @@ void NeedleInsertion<dim>::output_step(int k, const fem::Solution<dim> *solution
   const std::string file = "steps/" + step_file(k, ctx_.opt.mpi_ranks);
   write_step_vtu<dim>(ctx_, prefix_ + file, solution);
   pvd_.emplace_back(run_.depth.back(), file);
+  if (ctx_.sc.procedure && ctx_.opt.output_file) output_seeds(k);
+}
+
+template <int dim>
+std::vector<typename NeedleInsertion<dim>::Vec> NeedleInsertion<dim>::probe_points() const {
+  std::vector<Vec> probes = targets_;
+  probes.insert(probes.end(), seed_points_.begin(), seed_points_.end());
+  probes.insert(probes.end(), earlier_points_.begin(), earlier_points_.end());
+  return probes;
+}
+
+// The seeds released so far (by the needles before, then this one's) where the tissue has moved them at
+// step k: X + u_k(P), X the material point each was released at (the seed rule, docs/procedure.md).
+template <int dim>
+void NeedleInsertion<dim>::output_seeds(int k) {
+  std::vector<Vec> position, planned;
+  std::vector<int> needle;
+  for (std::size_t i = 0; i < ctx_.released.size(); ++i) {
+    const auto &r = ctx_.released[i];
+    position.push_back(r.material + earlier_displacement_[i]);
+    planned.push_back(r.planned);
+    needle.push_back(r.needle);
+  }
+  for (std::size_t i = 0; i < run_.seeds.size(); ++i) {
+    const auto &seed = run_.seeds[i];
+    if (seed.release_step < 0) continue;
+    position.push_back(seed.planned - seed.release_displacement + seed_displacement_[i]);
+    planned.push_back(seed.planned);
+    needle.push_back(number_);
+  }
+  char name[32];
+  std::snprintf(name, sizeof name, "steps/seeds_%04d.vtu", k);
+  write_seed_points<dim>(ctx_.opt.output_file(prefix_ + name), position, planned, needle);
+  seeds_pvd_.emplace_back(run_.depth.back(), name);
 }
 
 template class NeedleInsertion<2>;

@@ -61,6 +61,8 @@ class NeedleInsertion {
   void record_field(const fem::Solution<dim> *solution, bool skipped);
   void record_near_field(double depth, const std::vector<double> &axial_force);
   void output_step(int k, const fem::Solution<dim> *solution);
+  void output_seeds(int k);               // a procedure's seeds released so far, at step k
+  std::vector<Vec> probe_points() const;  // targets, this needle's seeds, the earlier seeds (frame)
 
   SimulationContext<dim> &ctx_;
   const NeedleSpec &spec_;
@@ -69,8 +71,8 @@ class NeedleInsertion {
   Vec axis_world_, entry_world_, axis_;  // axis_: frame
   double pitch_ = 0.0;                   // spacing of the shaft points (3D: the stations' band length)
   double coupling_radius_ = 0.0;         // 3D: R of the bands
-  std::unique_ptr<needle::NeedleCoupling<dim>> coupling_;
-  std::vector<needle::ShaftPoint<dim>> tip_rows_;  // 3D with a cutting force: the tip bearing's disks
+  std::shared_ptr<needle::NeedleCoupling<dim>> coupling_;  // shared: kept by a needle that stays
+  std::vector<needle::ShaftPoint<dim>> tip_rows_;          // 3D with a cutting force: the tip bearing's disks
   std::optional<needle::Insertion<dim>> stepping_;
   std::unique_ptr<needle::ElasticTissue<dim>> tissue_;
   // 3D with needle.flexible: the beam between the stepping and the tissue, and its rows.
@@ -79,15 +81,18 @@ class NeedleInsertion {
   std::vector<Vec> targets_;            // frame
   std::vector<Vec> seed_points_;        // frame: the seeds' planned positions (probed after the targets)
   std::vector<Vec> seed_displacement_;  // world: the tissue's displacement there at the last recorded step
-  int total_steps_ = 0;                 // insertion and withdrawal steps
-  std::vector<double> station_shear_;   // 3D: the shear modulus of the tissue at each shaft station
-  BandCheck band_check_;                // 3D: the targets and modulus changes inside the bands
-  bool loaded_ = false;                 // external loads act from step 0
+  std::vector<Vec> earlier_points_;     // frame: the planned positions of the seeds released before this run
+  std::vector<Vec> earlier_displacement_;  // world: the tissue's displacement there at the last recorded step
+  int number_ = 0;                         // the needle's number in the scenario (1, 2, …)
+  int total_steps_ = 0;                    // insertion and withdrawal steps
+  std::vector<double> station_shear_;      // 3D: the shear modulus of the tissue at each shaft station
+  BandCheck band_check_;                   // 3D: the targets and modulus changes inside the bands
+  bool loaded_ = false;                    // external loads act from step 0
   bool write_ = false;
   bool have_solution_ = false;
 
   NeedleRun<dim> run_;
-  std::vector<std::pair<double, std::string>> pvd_;
+  std::vector<std::pair<double, std::string>> pvd_, seeds_pvd_;
 };
 
 }  // namespace vim::pipeline

@@ -35,7 +35,8 @@ nlohmann::json procedure_dose(const SimulationContext<dim>& ctx, const std::vect
       im.image = Image<3>(n, {{h, h, h}}, {{first_world[0], first_world[1], first_world[2]}});
       im.direction = ctx.tf.direction;
     }
-    const fem::Region<3> region = scenario_region<3>(spec.region, ctx.box_min, ctx.box_max, ctx.tf);
+    const fem::Region<3> region =
+        scenario_region<3>(spec.region, ctx.box_min, ctx.box_max, ctx.tf, ctx.label_image.get());
     std::vector<double> in_planned, in_final;
     for (std::size_t v = 0; v < images[0].image.voxel_count(); ++v) {
       const auto i = images[0].image.index_of(v);

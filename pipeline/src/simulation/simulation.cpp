@@ -434,7 +434,10 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
   json& rep = res.report;
   rep["scenario"] = {{"file", m.sc.source}, {"yaml", m.sc.text}};
   rep["units"] = {{"length", m.sc.length_unit}, {"modulus", m.sc.modulus_unit}};
-  for (const auto& t : m.sc.targets) res.target_names.push_back(t.name);
+  for (const auto& t : m.sc.targets) {
+    res.target_names.push_back(t.name);
+    rep["target_positions"][t.name] = t.position;  // world (a label target's centroid, docs/labels.md)
+  }
   rep["model"] = model_report<dim>(m);
   rep["boundary_conditions"] = m.sc.boundary_conditions.size();
   json needles = json::array();

@@ -10,6 +10,7 @@
 #include <optional>
 #include <vector>
 #include <vim/fem/elasticity.hpp>
+#include <vim/needle/coupling.hpp>
 #include <vim/pipeline/simulation/simulation.hpp>
 #include <vim/seconds_since.hpp>
 
@@ -34,6 +35,26 @@ struct SimulationContext {
   // world components of an oblique image, so that a shaft point on such a node leaves the held
   // directions to the support (as on an axis-aligned image); else the frame axes.
   Mat point_axes = Mat::Identity();
+  // A procedure's needles left in (stay: true): their stations' rows at the values of their last step,
+  // held in every later insertion (docs/procedure.md).
+  std::vector<fem::PointConstraint<dim>> staying;
+  // Per needle left in: its coupling and last state (its rows are `rows` consecutive entries of
+  // `staying`), so that the later runs read the tissue near it with its near field (the coupling's
+  // tissue_displacements) as its own run did.
+  struct StayingNeedle {
+    std::shared_ptr<const needle::NeedleCoupling<dim>> coupling;
+    needle::ShaftState state;
+    std::size_t rows = 0;
+  };
+  std::vector<StayingNeedle> staying_needles;
+  // A procedure's seeds released by the needles run so far (docs/procedure.md): the planned position P
+  // (frame and world), the material point X = P − u_release(P) (world) and the needle's number (1, 2, …
+  // in the procedure's order). A seed is at X + u(P) in any later state u of the tissue.
+  struct ReleasedSeed {
+    Vec planned_frame, planned, material;
+    int needle = 0;
+  };
+  std::vector<ReleasedSeed> released;
   bool voxel = false;
   unsigned degree = 1;
   double build_seconds = 0.0;

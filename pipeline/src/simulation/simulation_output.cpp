@@ -254,6 +254,28 @@ void write_seeds_csv(const std::filesystem::path& path, const std::vector<Needle
 }
 
 template <int dim>
+void write_seed_points(const std::filesystem::path& path,
+                       const std::vector<Eigen::Matrix<double, dim, 1>>& position,
+                       const std::vector<Eigen::Matrix<double, dim, 1>>& planned,
+                       const std::vector<int>& needle) {
+  UnstructuredGrid g;
+  g.vtk_cell_type = 1;  // VTK_VERTEX
+  g.nodes_per_cell = 1;
+  Field number{1, {}}, error{3, {}};
+  for (std::size_t i = 0; i < position.size(); ++i) {
+    std::array<double, 3> x{};
+    for (int d = 0; d < dim; ++d) x[d] = position[i][d];
+    g.points.push_back(x);
+    g.connectivity.push_back(static_cast<long>(i));
+    number.values.push_back(needle[i]);
+    for (int d = 0; d < 3; ++d) error.values.push_back(d < dim ? position[i][d] - planned[i][d] : 0.0);
+  }
+  g.point_data["needle"] = std::move(number);
+  g.point_data["error"] = std::move(error);
+  write_vtu(path, g);
+}
+
+template <int dim>
 json seeds_report(const std::vector<NeedleRun<dim>>& needles) {
   const auto stats = [](const std::vector<double>& e) {
     double sum = 0.0, sq = 0.0, largest = 0.0;
@@ -409,6 +431,9 @@ json model_report(const SimulationContext<dim>& m) {
                                    double, const std::string&, double, int, bool, const Scenario&);          \
   template json model_report<dim>(const SimulationContext<dim>&);                                            \
   template void write_seeds_csv<dim>(const std::filesystem::path&, const std::vector<NeedleRun<dim>>&);      \
+  template void write_seed_points<dim>(                                                                      \
+      const std::filesystem::path&, const std::vector<Eigen::Matrix<double, dim, 1>>&,                       \
+      const std::vector<Eigen::Matrix<double, dim, 1>>&, const std::vector<int>&);                           \
   template json seeds_report<dim>(const std::vector<NeedleRun<dim>>&);
 VIM_SIMULATION_OUTPUT(2)
 VIM_SIMULATION_OUTPUT(3)

@@ -44,6 +44,14 @@ void write_summary_csv(const std::filesystem::path& path, const std::vector<Need
 // report.json entry: mean, RMS and largest error norm per needle and over all.
 template <int dim>
 void write_seeds_csv(const std::filesystem::path& path, const std::vector<NeedleRun<dim>>& needles);
+// A procedure's seeds in a step (steps/seeds_NNNN.vtu beside the step file): one vertex cell per seed
+// released so far at `position` (world), with point data `needle` (its needle's number) and `error`
+// (position − planned).
+template <int dim>
+void write_seed_points(const std::filesystem::path& path,
+                       const std::vector<Eigen::Matrix<double, dim, 1>>& position,
+                       const std::vector<Eigen::Matrix<double, dim, 1>>& planned,
+                       const std::vector<int>& needle);
 template <int dim>
 nlohmann::json seeds_report(const std::vector<NeedleRun<dim>>& needles);
 

@@ -44,7 +44,8 @@ std::string read_text(const fs::path& path) {
 
 // The results of an earlier run of the case, if its folder is complete (report.json and case.yaml);
 // throws InputError if the folder holds a run of another scenario or other options.
-std::optional<json> earlier_results(const RunOptions& o, const Study& study, const StudyCase& c) {
+std::optional<std::pair<json, json>> earlier_results(const RunOptions& o, const Study& study,
+                                                     const StudyCase& c) {
   const fs::path dir = case_folder(o, c);
   if (o.overwrite || !fs::exists(dir / "report.json") || !fs::exists(dir / "case.yaml")) return std::nullopt;
   if (read_text(dir / "case.yaml") != case_file_text(o, c))
@@ -54,7 +55,8 @@ std::optional<json> earlier_results(const RunOptions& o, const Study& study, con
                      "--overwrite to run every case again");
   try {
     std::ifstream in(dir / "report.json");
-    return final_results(json::parse(in));
+    const json report = json::parse(in);
+    return std::make_pair(final_results(report), procedure_results(report));
   } catch (const std::exception&) {
     return std::nullopt;  // not a complete report: the case runs again
   }
@@ -102,7 +104,11 @@ class CaseRunner {
     const StudyCase& c = study_.cases[index];
     CaseOutcome outcome;
     outcome.index = index;
-    const std::string error = error_of([&] { outcome.needles = run_case(c); });
+    const std::string error = error_of([&] {
+      const json report = run_case(c);
+      outcome.needles = final_results(report);
+      outcome.procedure = procedure_results(report);
+    });
     outcome.status = error.empty() ? "done" : "failed";
     outcome.message = error;
     if (!error.empty()) Log::warning("study", "case '" + c.name + "' failed: " + error);
@@ -131,7 +137,7 @@ class CaseRunner {
     run.simulate();
     run.write_outputs();
     run.write_report();
-    return final_results(run.report());
+    return run.report();
   }
 
   RunInputs<dim> inputs(Scenario scenario) const {
@@ -195,7 +201,7 @@ std::vector<CaseOutcome> run_cases(const RunOptions& o, const Study& study, cons
     const StudyCase& c = study.cases[i];
     ++count;
     if (const auto earlier = earlier_results(o, study, c)) {
-      CaseOutcome done{i, "done", "", true, *earlier};
+      CaseOutcome done{i, "done", "", true, earlier->first, earlier->second};
       outcomes.push_back(std::move(done));
       Log::info("study", fmt("case '%s' (%zu of %zu on rank %d): done by an earlier run", c.name.c_str(),
                              count, mine.size(), ranks.rank()));

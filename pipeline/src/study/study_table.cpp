@@ -1,6 +1,7 @@
 // The outcomes of a study's cases and study.csv (study_table.hpp).
 #include "study/study_table.hpp"
 
+#include <algorithm>
 #include <vim/pipeline/common/atomic_file.hpp>
 
 namespace vim::pipeline {
@@ -19,6 +20,40 @@ json final_results(const json& report) {
                        {"targets", targets}});
   }
   return needles;
+}
+
+namespace {
+
+// study.csv's procedure columns of a base scenario: the seed error with seeds, the dose with `dose:`.
+std::vector<std::string> procedure_columns(const Scenario& sc) {
+  std::vector<std::string> columns;
+  const bool seeds =
+      std::any_of(sc.needles.begin(), sc.needles.end(), [](const NeedleSpec& n) { return !n.seeds.empty(); });
+  if (sc.procedure && seeds) columns = {"seed_error_mean", "seed_error_rms", "seed_error_max"};
+  if (sc.dose)
+    for (const char* c : {"d90_planned", "d90_final", "v100_planned", "v100_final"}) columns.push_back(c);
+  return columns;
+}
+
+}  // namespace
+
+json procedure_results(const json& report) {
+  json r = json::object();
+  const json& sim = report.at("simulation");
+  if (sim.contains("seeds")) {
+    const json& all = sim.at("seeds").at("all");
+    r["seed_error_mean"] = all.at("mean_error");
+    r["seed_error_rms"] = all.at("rms_error");
+    r["seed_error_max"] = all.at("max_error");
+  }
+  if (sim.contains("dose")) {
+    const json& d = sim.at("dose");
+    for (const char* when : {"planned", "final"}) {
+      r[std::string("d90_") + when] = d.at(when).at("d90_gy");
+      r[std::string("v100_") + when] = d.at(when).at("v100_percent");
+    }
+  }
+  return r;
 }
 
 namespace {
@@ -93,6 +128,7 @@ void write_study_csv(const std::filesystem::path& path, const Study& study,
   std::vector<std::string> header = {"case", "status"};
   input_columns(study, header);
   result_columns(study, header);
+  for (const std::string& c : procedure_columns(study.base)) header.push_back(c);
   header.push_back("message");
   write_text_atomically(path, [&](std::ostream& s) {
     for (std::size_t i = 0; i < header.size(); ++i) s << (i ? "," : "") << header[i];
@@ -101,6 +137,9 @@ void write_study_csv(const std::filesystem::path& path, const Study& study,
       std::vector<std::string> row = {study.cases[o.index].name, o.status};
       input_values(study, study.cases[o.index].scenario, row);
       result_values(study, o, row);
+      for (const std::string& c : procedure_columns(study.base))
+        row.push_back(o.status == "done" && o.procedure.contains(c) ? number(o.procedure.at(c).get<double>())
+                                                                    : "");
       row.push_back(o.message.empty() ? "" : quoted(o.message));
       for (std::size_t i = 0; i < row.size(); ++i) s << (i ? "," : "") << row[i];
       s << "\n";

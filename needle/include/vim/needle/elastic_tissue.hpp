@@ -23,8 +23,17 @@ class ElasticTissue final : public TissueResponse {
                 std::size_t n_points, double probe_step, const fem::SolverOptions& solver, bool monolithic);
   ~ElasticTissue() override;
 
-  // Before stepping: the rows of every shaft point and the probes, and their columns K⁻¹cᵀ in one
-  // batch, so that no step does a sparse solve (nothing with the monolithic reference).
+  // Before precompute: rows held at their displacements in every solve (the stations of needles left in
+  // the tissue, as their last step left them). Their forces are not the needle's: solution().point_force
+  // has the shaft's rows alone, the field has all.
+  void hold(std::vector<fem::PointConstraint<dim>> rows) { held_rows_ = std::move(rows); }
+  bool holds() const { return !held_rows_.empty(); }
+  // The force on the body of each held row in the last solve (model axes; hold()'s order).
+  const std::vector<Vec<dim>>& held_forces() const { return held_forces_; }
+
+  // Before stepping: the rows of every shaft point (and the held rows) and the probes, and their
+  // columns K⁻¹cᵀ in one batch, so that no step does a sparse solve (nothing with the monolithic
+  // reference).
   void precompute(const std::vector<Vec<dim>>& probes);
 
   const std::vector<double>& solve(const std::vector<double>& axial) override;
@@ -52,8 +61,11 @@ class ElasticTissue final : public TissueResponse {
   fem::SolverOptions solver_;
   bool monolithic_;
   std::unique_ptr<fem::CondensedConstraints<dim>> condensed_;
-  std::vector<Vec<dim>> held_;  // the active rows' displacements of a solve
-  std::vector<double> forces_;  // the axial forces of the last solve
+  std::vector<fem::PointConstraint<dim>> held_rows_;  // hold(): after the shaft's rows
+  std::vector<std::size_t> active_;                   // the active shaft rows, then the held rows
+  std::vector<Vec<dim>> held_forces_;                 // of the held rows in the last solve
+  std::vector<Vec<dim>> held_;                        // the active rows' displacements of a solve
+  std::vector<double> forces_;                        // the axial forces of the last solve
   fem::Solution<dim> solution_;
   bool field_ = false;  // solution_ holds the whole field of the last solve
   AxialMap map_;

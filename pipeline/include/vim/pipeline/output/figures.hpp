@@ -95,4 +95,19 @@ nlohmann::json write_deformed_slice(const MeshModel<dim>& model,
                                     const Eigen::Matrix<double, dim, 1>& slice_point,
                                     int normal_axis = dim - 1, const std::string& caption = "|u|");
 
+// figures/seeds.png (seed_figure.cpp): a procedure's seeds in world coordinates, each planned position
+// an open blue ring of radius 5 px and its final position a red disk of radius 3 px, with a dark line
+// from the plan along the error, magnified by a power of 10 (`error_magnified`) when the largest error
+// is under 10 px; 3D: three square projections side by side along the world axes (x–y, x–z, y–z), 2D:
+// x–y, one scale for all (the cube around the seeds, padded). Returns per panel its axes, `u_min`,
+// `v_min`, `scale` (pixels per unit) and `x_offset`, `y_offset`: a point (p_u, p_v) is at pixel
+// (x_offset + (p_u − u_min)·scale, y_offset + (p_v − v_min)·scale).
+template <int dim>
+nlohmann::json write_seed_figure(const std::filesystem::path& path,
+                                 const std::vector<Eigen::Matrix<double, dim, 1>>& planned,
+                                 const std::vector<Eigen::Matrix<double, dim, 1>>& final_position,
+                                 const std::string& length_unit);
+inline constexpr Rgb kPlannedSeed{30, 80, 220};
+inline constexpr Rgb kFinalSeed{220, 30, 30};
+
 }  // namespace vim::pipeline

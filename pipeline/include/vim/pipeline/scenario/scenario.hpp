@@ -135,9 +135,12 @@ struct NeedleSpec {
   // A procedure's insertion (scenario_procedure.cpp): the seeds' planned depths along the path (in
   // (0, depth], increasing), released as the tip passes them on the way out; the withdrawal's steps
   // (0: the needle stays in at the end of its run) and the line of the action that withdraws it.
+  // stay: the needle is left in the tissue to the end of the procedure; its stations keep holding the
+  // tissue where its last step left it during the later insertions (docs/procedure.md).
   std::vector<double> seeds;
   int withdraw_steps = 0;
   int withdraw_line = 0;
+  bool stay = false;
 };
 
 // `dose:` of a procedure (docs/dose.md): the TG-43U1 dose of its seeds at their planned and final
@@ -153,7 +156,10 @@ struct DoseSpec {
 
 struct TargetSpec {
   std::string name;
-  std::vector<double> position;  // world
+  std::vector<double> position;  // world (a label target: set by the run, docs/labels.md)
+  // `{label: NAME, at: centroid}`: the centroid of the label's voxels in the label image, in world
+  // coordinates; the label's name or number as written.
+  std::string label;
   int line = 0;
 };
 
