@@ -56,14 +56,23 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
     run_.point_tissue = std::move(tissue);
   }
   stepping_.emplace(needle_, std::move(shaft), std::move(tip_rows_));
-  tissue_ = std::make_unique<needle::ElasticTissue<dim>>(*ctx_.model, *coupling_, stepping_->state(),
-                                                         stepping_->n_points(), pitch_, ctx_.solver,
-                                                         ctx_.opt.monolithic);
+  if (ctx_.sc.material_model == Scenario::MaterialModel::neo_hookean) {
+    auto tissue = std::make_unique<needle::NeoHookeanTissue<dim>>(*ctx_.model, *coupling_, stepping_->state(),
+                                                                  stepping_->n_points());
+    neo_hookean_ = tissue.get();
+    tissue_ = std::move(tissue);
+  } else {
+    auto tissue = std::make_unique<needle::ElasticTissue<dim>>(*ctx_.model, *coupling_, stepping_->state(),
+                                                               stepping_->n_points(), pitch_, ctx_.solver,
+                                                               ctx_.opt.monolithic);
+    elastic_ = tissue.get();
+    tissue_ = std::move(tissue);
+  }
   if constexpr (dim == 3)
-    if (spec.flexible) {
+    if (spec.flexible && elastic_) {  // the scenario refuses a flexible needle on neo-Hookean tissue
       const FlexibleSpec &f = *spec.flexible;
       const needle::FlexibleNeedle tube{f.youngs_modulus, spec.diameter, f.inner_diameter, f.free_length};
-      flexible_ = std::make_unique<needle::FlexibleTissue>(*tissue_, *deflected_, stepping_->state(),
+      flexible_ = std::make_unique<needle::FlexibleTissue>(*elastic_, *deflected_, stepping_->state(),
                                                            stepping_->shaft(), axis_, tube, pitch_,
                                                            stepping_->n_points(), pitch_);
     }
@@ -165,8 +174,8 @@ template <int dim>
 NeedleOutcome<dim> NeedleInsertion<dim>::run() {
   Progress progress("needle " + spec_.name, total_steps_);
   const auto t_run = Clock::now();
-  if (!ctx_.opt.monolithic) {  // every shaft row's column K⁻¹cᵀ in one batch: no
-                               // step does a sparse solve
+  if (!ctx_.opt.monolithic || neo_hookean_) {  // every shaft row's column K⁻¹cᵀ in one batch: no
+                                               // step does a sparse solve (neo-Hookean: the rows)
     const auto t = Clock::now();
     std::vector<Vec> probes = targets_;
     probes.insert(probes.end(), seed_points_.begin(), seed_points_.end());
@@ -174,15 +183,23 @@ NeedleOutcome<dim> NeedleInsertion<dim>::run() {
     run_.precompute_seconds = seconds_since(t);
   }
   rest();
+  record_newton(0);
   if (stepping_->law().has_active_set())
     run_.active_set_sweeps.assign(static_cast<std::size_t>(total_steps_) + 1, 0);
   for (std::size_t i = 0; i < run_.seeds.size(); ++i) run_.seeds[i].rest_displacement = seed_displacement_[i];
   const auto t_steps = Clock::now();
   for (int k = 1; k <= total_steps_; ++k) {
-    if (k <= needle_.steps)
-      advance_one_step(k);
-    else
-      withdraw_one_step(k);
+    try {
+      if (k <= needle_.steps)
+        advance_one_step(k);
+      else
+        withdraw_one_step(k);
+    } catch (const fem::NewtonFailure &e) {
+      throw ScenarioError(ctx_.sc.where(ctx_.sc.material_model_line) + "material.model = 'neo-hookean': " +
+                          (spec_.name.empty() ? std::string("the needle") : "needle '" + spec_.name + "'") +
+                          ", step " + std::to_string(k) + ": " + e.what());
+    }
+    record_newton(k);
     if (ctx_.opt.progress) {
       std::ostringstream msg;
       msg << "step " << k << "/" << total_steps_ << ", depth " << run_.depth.back() << " "
@@ -202,6 +219,8 @@ NeedleOutcome<dim> NeedleInsertion<dim>::run() {
   nlohmann::json report = needle_report<dim>(spec_, run_, stepping_->law(), pitch_, prefix_, run_seconds,
                                              tissue_->solves(), ctx_.opt.monolithic, ctx_.sc);
   std::vector<std::string> warnings;
+  report["material_model"] = neo_hookean_ ? "neo-hookean" : "linear";
+  if (neo_hookean_) report["newton"] = {{"per_step", std::move(newton_steps_)}};
   if (dim == 3) {
     report["coupling_radius"] = coupling_radius_;
     nlohmann::json band = {{"radius", coupling_radius_},
@@ -271,6 +290,14 @@ void NeedleInsertion<dim>::solve_state(int k, double d, int solves_before, bool 
   const bool flexible = bending && flexible_;
   if (flexible) bend(d);
   const needle::FrictionStep step = flexible ? stepping_->solve(*flexible_) : stepping_->solve(*tissue_);
+  rounds_ = step.rounds;
+  if (neo_hookean_ && !step.settled)
+    throw ScenarioError(ctx_.sc.where(ctx_.sc.material_model_line) + "material.model = 'neo-hookean': " +
+                        (spec_.name.empty() ? std::string("the needle") : "needle '" + spec_.name + "'") +
+                        ", step " + std::to_string(k) +
+                        ": the friction active set and the Newton solve did not " + "settle in " +
+                        std::to_string(needle::kMaxNonlinearRounds) + " rounds of " +
+                        std::to_string(ctx_.max_sweeps()) + " sweeps (try more steps)");
   if (stepping_->law().has_active_set()) {
     run_.active_set_sweeps[static_cast<std::size_t>(k)] = step.sweeps;
     if (!step.settled) run_.unsettled_steps.push_back(k);
@@ -322,6 +349,34 @@ void NeedleInsertion<dim>::release_seeds(double depth, int step) {
     seed.release_step = step;
     seed.release_displacement = seed_displacement_[i];
   }
+}
+
+// Neo-Hookean: step k's Newton solves (report.json needle "newton".per_step): per solve its
+// continuation steps, each with its fraction of the way and the residual norms per Newton iteration.
+template <int dim>
+void NeedleInsertion<dim>::record_newton(int k) {
+  if (!neo_hookean_) return;
+  nlohmann::json solves = nlohmann::json::array();
+  unsigned iterations = 0, halvings = 0;
+  for (const needle::NewtonSolveRecord &r : neo_hookean_->take_records()) {
+    nlohmann::json steps = nlohmann::json::array();
+    for (const fem::LoadStepRecord &s : r.steps) {
+      iterations += static_cast<unsigned>(s.update_norm.size());
+      steps.push_back({{"fraction", s.load_factor},
+                       {"residual_norm", s.residual_norm},
+                       {"update_norm", s.update_norm},
+                       {"line_search", s.line_search}});
+    }
+    halvings += r.halvings;
+    solves.push_back({{"steps", std::move(steps)}, {"halvings", r.halvings}});
+  }
+  newton_steps_.push_back({{"step", k},
+                           {"solves", solves.size()},
+                           {"iterations", iterations},
+                           {"halvings", halvings},
+                           {"rounds", rounds_},
+                           {"newton", std::move(solves)}});
+  rounds_ = 0;
 }
 
 template <int dim>

@@ -14,6 +14,7 @@
 #include <vim/pipeline/simulation/simulation.hpp>
 
 #include "simulation/largest_strain.hpp"
+#include "simulation/needle_compare_linear.hpp"
 #include "simulation/needle_insertion.hpp"
 #include "simulation/needle_options.hpp"
 #include "simulation/procedure_dose.hpp"
@@ -38,6 +39,23 @@ struct NeedleSimulation<dim>::Impl : SimulationContext<dim> {
     return NeedleInsertion<dim>(*this, spec, prefix, snap_to_vertices).run();
   }
   std::vector<std::string> held_path_warnings(const NeedleSpec& spec) const;
+  // --compare-linear: the needle on the other material model, nothing written.
+  NeedleOutcome<dim> insert_with_other_model(const NeedleSpec& spec, const std::string& prefix) {
+    const Scenario::MaterialModel own = sc.material_model;
+    const SimulationOptions saved = opt;
+    sc.material_model = own == Scenario::MaterialModel::neo_hookean ? Scenario::MaterialModel::linear
+                                                                    : Scenario::MaterialModel::neo_hookean;
+    opt.output_file = nullptr, opt.piece_file = nullptr, opt.progress = false;
+    std::vector<std::string> ignored;
+    try {
+      NeedleOutcome<dim> out = insert_needle(spec, prefix, ignored);
+      sc.material_model = own, opt = saved;
+      return out;
+    } catch (...) {
+      sc.material_model = own, opt = saved;
+      throw;
+    }
+  }
   NeedleOutcome<dim> insert_needle(const NeedleSpec& spec, const std::string& prefix,
                                    std::vector<std::string>& warnings);
   void check_axial_force(const NeedleSpec& spec, NeedleOutcome<dim>& needle,
@@ -437,7 +455,11 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
   for (const auto& t : m.sc.targets) res.target_names.push_back(t.name);
   rep["model"] = model_report<dim>(m);
   rep["boundary_conditions"] = m.sc.boundary_conditions.size();
-  json needles = json::array();
+  json needles = json::array(), compared = json::array();
+  const bool finite_strain = m.sc.material_model == Scenario::MaterialModel::neo_hookean;
+  if ((finite_strain || m.opt.compare_linear) && !m.sc.needles.empty() && m.opt.mpi_ranks > 1)
+    throw ScenarioError(m.sc.where(m.sc.material_model_line) +
+                        "material.model = 'neo-hookean' is solved on one process; run without --mpi-ranks");
   for (const auto& spec : m.sc.needles) {
     const std::string prefix = m.sc.needle_list ? spec.name + "/" : "";
     const std::string who = spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'";
@@ -456,8 +478,16 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
            "use degree 2";
       res.warnings.push_back(w.str());
     }
+    std::optional<NeedleOutcome<dim>> other;
+    if (m.opt.compare_linear) other = m.insert_with_other_model(spec, prefix);
     NeedleOutcome<dim> needle = m.insert_needle(spec, prefix, res.warnings);
-    const std::string strain = small_strain_warning(m.sc.where(spec.line), who, needle.run.mesh_strain);
+    if (other)
+      compared.push_back(finite_strain ? compare_needle_runs<dim>(other->run, needle.run, res.target_names)
+                                       : compare_needle_runs<dim>(needle.run, other->run, res.target_names));
+    // A finite-strain run has no small-strain warning (its mesh strain is Green–Lagrange's).
+    const std::string strain = finite_strain
+                                   ? std::string()
+                                   : small_strain_warning(m.sc.where(spec.line), who, needle.run.mesh_strain);
     if (!strain.empty()) res.warnings.push_back(strain);
     for (auto& w : needle.warnings) res.warnings.push_back(std::move(w));
     std::vector<std::string> target_names;
@@ -471,6 +501,13 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
     needles.push_back(std::move(needle.report));
   }
   rep["needles"] = needles;
+  if (!compared.empty())  // --compare-linear with needles: the first needle's at the top, every needle's
+    rep["compare_linear"] = {{"definition", "|linear - neo-hookean| / |neo-hookean|"},
+                             {"targets", compared.front()["targets"]},
+                             {"axial_force", compared.front()["axial_force"]},
+                             {"max_displacement", compared.front()["max_displacement"]},
+                             {"reactions", json::array()},
+                             {"needles", compared}};
   if (m.sc.needles.empty()) {  // a static load case: step 0 only
     StaticLoadOutcome<dim> load = run_static_load<dim>(m, res.warnings);
     res.static_load = std::move(load.run);
