@@ -74,4 +74,16 @@ nlohmann::json compare_needle_runs(const NeedleRun<dim>& lin, const NeedleRun<di
                [](double v) { return std::abs(v); }, num)}};
 }
 
+// report.json simulation.compare_linear of the needles' comparisons: the first needle's at the top (the
+// keys of a static load case's: targets, reactions — none —, max_displacement; and axial_force), every
+// needle's in `needles`.
+inline nlohmann::json compare_linear_needles(const nlohmann::json& compared) {
+  return {{"definition", "|linear - neo-hookean| / |neo-hookean|"},
+          {"targets", compared.front()["targets"]},
+          {"axial_force", compared.front()["axial_force"]},
+          {"max_displacement", compared.front()["max_displacement"]},
+          {"reactions", nlohmann::json::array()},
+          {"needles", compared}};
+}
+
 }  // namespace vim::pipeline

@@ -60,6 +60,8 @@ struct NeedleSimulation<dim>::Impl : SimulationContext<dim> {
                                    std::vector<std::string>& warnings);
   void check_axial_force(const NeedleSpec& spec, NeedleOutcome<dim>& needle,
                          std::vector<std::string>& warnings) const;
+  void check_sample_spacing(const NeedleSpec& spec, const std::string& who,
+                            std::vector<std::string>& warnings) const;
 };
 
 template <int dim>
@@ -445,6 +447,26 @@ void NeedleSimulation<dim>::Impl::check_axial_force(const NeedleSpec& spec, Need
   }
 }
 
+// A sample spacing below half the mean edge of a linear element: a warning.
+template <int dim>
+void NeedleSimulation<dim>::Impl::check_sample_spacing(const NeedleSpec& spec, const std::string& who,
+                                                       std::vector<std::string>& warnings) const {
+  const double edge = locator().mean_edge_length();
+  if ((this->voxel || this->degree == 1) && spec.sample_spacing > 0.0 && spec.sample_spacing < 0.5 * edge) {
+    // Several joined points per linear element impose the linear field of their displacements on
+    // the whole element, also beyond the tip (a probe: 1 mm spacing on 6 mm tetrahedra moved the tissue
+    // 3 mm ahead of the tip 2.5 mm backwards, and the axial force went negative).
+    std::ostringstream w;
+    w << sc.where(spec.line) << who << ": needle.sample_spacing = " << spec.sample_spacing
+      << " is below half the mean element edge (" << edge << "): linear elements impose the displacements of "
+      << "the shaft points in one element on all of it, also ahead of the tip, so the tissue there can be "
+         "pulled "
+      << "back and the forces can drop or change sign; leave sample_spacing out (half the mean edge) or "
+         "use degree 2";
+    warnings.push_back(w.str());
+  }
+}
+
 template <int dim>
 SimulationResult<dim> NeedleSimulation<dim>::run() {
   Impl& m = *impl_;
@@ -463,21 +485,7 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
   for (const auto& spec : m.sc.needles) {
     const std::string prefix = m.sc.needle_list ? spec.name + "/" : "";
     const std::string who = spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'";
-    const double edge = m.locator().mean_edge_length();
-    if ((m.voxel || m.degree == 1) && spec.sample_spacing > 0.0 && spec.sample_spacing < 0.5 * edge) {
-      // Several joined points per linear element impose the linear field of their displacements on
-      // the whole element, also beyond the tip (a probe: 1 mm spacing on 6 mm tetrahedra moved the tissue
-      // 3 mm ahead of the tip 2.5 mm backwards, and the axial force went negative).
-      std::ostringstream w;
-      w << m.sc.where(spec.line) << who << ": needle.sample_spacing = " << spec.sample_spacing
-        << " is below half the mean element edge (" << edge
-        << "): linear elements impose the displacements of "
-        << "the shaft points in one element on all of it, also ahead of the tip, so the tissue there can be "
-           "pulled "
-        << "back and the forces can drop or change sign; leave sample_spacing out (half the mean edge) or "
-           "use degree 2";
-      res.warnings.push_back(w.str());
-    }
+    m.check_sample_spacing(spec, who, res.warnings);
     std::optional<NeedleOutcome<dim>> other;
     if (m.opt.compare_linear) other = m.insert_with_other_model(spec, prefix);
     NeedleOutcome<dim> needle = m.insert_needle(spec, prefix, res.warnings);
@@ -501,13 +509,7 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
     needles.push_back(std::move(needle.report));
   }
   rep["needles"] = needles;
-  if (!compared.empty())  // --compare-linear with needles: the first needle's at the top, every needle's
-    rep["compare_linear"] = {{"definition", "|linear - neo-hookean| / |neo-hookean|"},
-                             {"targets", compared.front()["targets"]},
-                             {"axial_force", compared.front()["axial_force"]},
-                             {"max_displacement", compared.front()["max_displacement"]},
-                             {"reactions", json::array()},
-                             {"needles", compared}};
+  if (!compared.empty()) rep["compare_linear"] = compare_linear_needles(compared);
   if (m.sc.needles.empty()) {  // a static load case: step 0 only
     StaticLoadOutcome<dim> load = run_static_load<dim>(m, res.warnings);
     res.static_load = std::move(load.run);
