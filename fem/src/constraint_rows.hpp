@@ -4,6 +4,7 @@
 #pragma once
 
 #include <deal.II/base/timer.h>
+#include <deal.II/lac/vector.h>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
@@ -84,5 +85,56 @@ template <int dim>
 Solution<dim> finish_constrained_solve(State<dim>& m, const RowSet& set, const std::vector<bool>& keep,
                                        std::size_t n_points, const dealii::Timer& timer,
                                        double* solve_seconds);
+
+// The ordered Cholesky of the rows' Schur complement S (ElasticModel::solve's rule): row a is dropped
+// when its pivot vanishes (a combination of the earlier kept rows); solve() gives 0 on dropped rows.
+struct KeptCholesky {
+  std::vector<Eigen::Index> kept;
+  Eigen::MatrixXd L;
+  void factor(const Eigen::MatrixXd& S) {
+    const Eigen::Index n = S.rows();
+    kept.clear();
+    L.setZero(n, n);
+    Eigen::VectorXd l(n);
+    for (Eigen::Index a = 0; a < n; ++a) {
+      const auto k = static_cast<Eigen::Index>(kept.size());
+      for (Eigen::Index i = 0; i < k; ++i) {
+        double v = S(kept[static_cast<std::size_t>(i)], a);
+        for (Eigen::Index j = 0; j < i; ++j) v -= L(i, j) * l[j];
+        l[i] = v / L(i, i);
+      }
+      const double d = S(a, a) - l.head(k).squaredNorm();
+      if (!(S(a, a) > 0.0) || !(d > 1e-10 * S(a, a))) continue;
+      for (Eigen::Index j = 0; j < k; ++j) L(k, j) = l[j];
+      L(k, k) = std::sqrt(d);
+      kept.push_back(a);
+    }
+  }
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) const {
+    const auto k = static_cast<Eigen::Index>(kept.size());
+    Eigen::VectorXd y(k), x = Eigen::VectorXd::Zero(b.size());
+    for (Eigen::Index i = 0; i < k; ++i) y[i] = b[kept[static_cast<std::size_t>(i)]];
+    const auto Lk = L.topLeftCorner(k, k);
+    Lk.triangularView<Eigen::Lower>().solveInPlace(y);
+    Lk.transpose().triangularView<Eigen::Upper>().solveInPlace(y);
+    for (Eigen::Index i = 0; i < k; ++i) x[kept[static_cast<std::size_t>(i)]] = y[i];
+    return x;
+  }
+};
+
+// c·U of a row built with g = 0 (its Dirichlet part row.g = −c_D·u_D at full load, scaled by t).
+inline double row_value(const ConstraintRow& row, const dealii::Vector<double>& U, double t) {
+  double v = -t * row.g;
+  for (std::size_t i = 0; i < row.dofs.size(); ++i) v += row.values[i] * U[row.dofs[i]];
+  return v;
+}
+inline void add_row(const ConstraintRow& row, double a, dealii::Vector<double>& v) {
+  for (std::size_t i = 0; i < row.dofs.size(); ++i) v[row.dofs[i]] += a * row.values[i];
+}
+inline double row_dot(const ConstraintRow& row, const double* x) {
+  double v = 0.0;
+  for (std::size_t i = 0; i < row.dofs.size(); ++i) v += row.values[i] * x[row.dofs[i]];
+  return v;
+}
 
 }  // namespace vim::fem

@@ -12,160 +12,17 @@
 #include <cmath>
 #include <sstream>
 #include <vim/fem/finite_strain.hpp>
+#include <vim/fem/finite_strain_rows.hpp>
 
-#include "model_state.hpp"
+#include "constraint_rows.hpp"
 #include "neo_hookean_material.hpp"
+#include "newton_system.hpp"
 
 namespace vim::fem {
 
 using namespace dealii;
 
 namespace {
-
-template <int dim>
-using State = ModelAccess::State<dim>;
-
-// One constrained DoF of the model: u_i = t · inhomogeneity + Σ a_f u_f.
-struct Line {
-  types::global_dof_index dof;
-  double inhomogeneity;
-  std::vector<std::pair<types::global_dof_index, double>> entries;
-};
-
-template <int dim>
-class NewtonSystem {
- public:
-  explicit NewtonSystem(State<dim>& m) : m_(m), law_(m.E, m.nu) {
-    const unsigned n = m.dof.n_dofs();
-    for (types::global_dof_index i = 0; i < n; ++i) {
-      if (!m.constraints.is_constrained(i)) continue;
-      Line l{i, m.constraints.get_inhomogeneity(i), {}};
-      if (const auto* e = m.constraints.get_constraint_entries(i)) l.entries = *e;
-      homogeneous_.add_line(i);
-      homogeneous_.add_entries(i, l.entries);
-      lines_.push_back(std::move(l));
-    }
-    homogeneous_.close();
-    DynamicSparsityPattern dsp(n, n);
-    DoFTools::make_sparsity_pattern(m.dof, dsp);
-    homogeneous_.condense(dsp);
-    sparsity_.copy_from(dsp);
-  }
-
-  const NeoHookeanMaterial<dim>& law() const { return law_; }
-
-  // r(U) of every DoF and, if K is given, the tangent (unconstrained, supports in). False if some
-  // quadrature point has J ≤ 0 (r and K are then incomplete).
-  bool assemble(const Vector<double>& U, double t, Vector<double>& r, SparseMatrix<double>* K) const {
-    const unsigned dpc = m_.fe->n_dofs_per_cell();
-    auto fv = m_.make_fe_values();
-    r.reinit(U.size());
-    if (K) K->reinit(sparsity_);
-    if (K && !m_.K_support.empty()) {
-      for (unsigned i = 0; i < m_.K_support.m(); ++i)
-        for (auto it = m_.K_support.begin(i); it != m_.K_support.end(i); ++it)
-          K->add(i, it->column(), it->value());
-    }
-    FullMatrix<double> Ke(dpc, dpc);
-    Vector<double> Re(dpc);
-    std::vector<types::global_dof_index> idx(dpc);
-    std::vector<Tensor<1, dim>> grad(dpc);
-    std::vector<unsigned> comp(dpc);
-    for (unsigned i = 0; i < dpc; ++i) comp[i] = m_.fe->system_to_component_index(i).first;
-    for (const auto& cell : m_.dof.active_cell_iterators()) {
-      fv->reinit(cell);
-      cell->get_dof_indices(idx);
-      const unsigned j = cell->material_id();
-      Ke = 0.0;
-      Re = 0.0;
-      for (unsigned q = 0; q < fv->n_quadrature_points; ++q) {
-        Tensor<2, dim> H;
-        for (unsigned i = 0; i < dpc; ++i) {
-          grad[i] = fv->shape_grad(i, q);
-          H[comp[i]] += U[idx[i]] * grad[i];
-        }
-        if (!(determinant(unit_symmetric_plus(H)) > 0.0)) return false;
-        const double w = fv->JxW(q);
-        const Tensor<2, dim> P = law_.stress(j, H);
-        for (unsigned i = 0; i < dpc; ++i) Re(i) += (P[comp[i]] * grad[i]) * w;
-        if (!K) continue;
-        // Ke_ik += Σ_JL ∂_J N_i A_{c_i J c_k L} ∂_L N_k
-        const Tensor<4, dim> A = law_.tangent(j, H);
-        for (unsigned i = 0; i < dpc; ++i) {
-          Tensor<2, dim> T;  // T_kL = Σ_J ∂_J N_i A_{c_i J k L}
-          for (unsigned J = 0; J < dim; ++J) T += grad[i][J] * A[comp[i]][J];
-          for (unsigned k = 0; k < dpc; ++k) Ke(i, k) += (T[comp[k]] * grad[k]) * w;
-        }
-      }
-      r.add(idx, Re);
-      if (K) K->add(idx, Ke);
-    }
-    r.add(-t, m_.f_full);
-    if (!m_.K_support.empty()) m_.K_support.vmult_add(r, U);
-    return true;
-  }
-
-  // ‖r‖ over the free DoFs: r with the conditions eliminated.
-  double free_norm(const Vector<double>& r) const {
-    Vector<double> c(r);
-    homogeneous_.condense(c);
-    return c.l2_norm();
-  }
-
-  // g_i = t · inhomogeneity + Σ a u_f − u_i on the constrained DoFs (0 elsewhere): what an update
-  // must add there for U to satisfy the conditions at load factor t.
-  Vector<double> condition_gap(const Vector<double>& U, double t) const {
-    Vector<double> g(U.size());
-    for (const Line& l : lines_) g[l.dof] = target(l, U, t) - U[l.dof];
-    return g;
-  }
-  // Sets the constrained DoFs of U to their values at load factor t (exactly: condition_gap is 0).
-  void impose(Vector<double>& U, double t) const {
-    for (const Line& l : lines_) U[l.dof] = target(l, U, t);
-  }
-
-  // The Newton update du: K du = −r with du = g on the conditions' DoFs (g from condition_gap), K and
-  // r as assembled (K is condensed in place). Throws std::runtime_error if K is not positive definite.
-  Vector<double> update(SparseMatrix<double>& K, const Vector<double>& r, const Vector<double>& g,
-                        double* rhs_norm) const {
-    Vector<double> rhs(r.size());
-    K.vmult(rhs, g);
-    rhs += r;
-    rhs *= -1.0;
-    homogeneous_.condense(K, rhs);
-    // the conditions' rows and columns: a unit-scaled diagonal, nothing else
-    double diag = 0.0;
-    for (unsigned i = 0; i < K.m(); ++i) diag = std::max(diag, std::abs(K.diag_element(i)));
-    for (unsigned i = 0; i < K.m(); ++i)
-      for (auto it = K.begin(i); it != K.end(i); ++it)
-        if (homogeneous_.is_constrained(i) || homogeneous_.is_constrained(it->column())) it->value() = 0.0;
-    for (const Line& l : lines_) {
-      K.set(l.dof, l.dof, diag > 0.0 ? diag : 1.0);
-      rhs[l.dof] = 0.0;
-    }
-    *rhs_norm = rhs.l2_norm();
-    const auto factor = cholmod_factor(K);
-    factor->solve(rhs.data());
-    homogeneous_.distribute(rhs);
-    rhs += g;
-    return rhs;
-  }
-
- private:
-  static double target(const Line& l, const Vector<double>& U, double t) {
-    double v = t * l.inhomogeneity;
-    for (const auto& [f, a] : l.entries) v += a * U[f];
-    return v;
-  }
-  static Tensor<2, dim> unit_symmetric_plus(const Tensor<2, dim>& H) {
-    return Physics::Elasticity::Kinematics::F(H);
-  }
-  State<dim>& m_;
-  NeoHookeanMaterial<dim> law_;
-  std::vector<Line> lines_;
-  AffineConstraints<double> homogeneous_;
-  SparsityPattern sparsity_;
-};
 
 // Von Mises of a dim×dim Cauchy stress with σ₃₃ (plane strain) or of the 3×3 stress.
 inline double von_mises(const Eigen::Matrix3d& s) {
@@ -341,11 +198,376 @@ void neo_hookean_system(ElasticModel<dim>& model, const Eigen::VectorXd& u, doub
   }
 }
 
+// ---- point-constraint rows on the finite-strain model (vim/fem/finite_strain_rows.hpp) -------------
+
+template <int dim>
+struct FiniteStrainRows<dim>::Impl {
+  State<dim>* m = nullptr;
+  NewtonOptions opt;
+  std::unique_ptr<NewtonSystem<dim>> sys;
+  std::vector<ConstraintRow> rows, probe_rows;  // per (point, selected component); per (probe, axis)
+  std::vector<std::size_t> first_row, point;
+  std::vector<unsigned> comp;
+  std::vector<Eigen::Matrix<double, dim, dim>> axes;
+  std::vector<Vec<dim>> probe_u;
+  Vector<double> U;
+  double t = 0.0;  // the load factor of U (1 once the first solve has converged)
+  // the last solve: its rows (indices into rows), their slot in `active`, multipliers
+  std::vector<std::size_t> used, used_slot;
+  std::vector<double> mu, mu_all;  // mu per used row; mu_all per row (0 where not used)
+  std::size_t n_active = 0;
+  std::vector<LoadStepRecord> steps;
+  unsigned halvings = 0;
+  SolverStats stats;
+  // The factorised tangent (of U when factor_at_U, else of an earlier state: Newton then iterates with
+  // it while it contracts the residual by 10 per iteration) and its columns K⁻¹cᵀ per row.
+  std::unique_ptr<CholmodLLT> factor;
+  bool factor_at_U = false;
+  std::vector<long> column_of;  // per row: its column in `columns`, or −1
+  std::vector<double> columns;
+  bool have_tangent = false;  // `tangent` holds S of the used rows at U
+  KeptCholesky tangent;
+
+  // Assembles the tangent at X (load factor tt) and factorises it, with the condensed right-hand side
+  // −(r + K gD) in rhs; false if some point of X has J ≤ 0 or K is not positive definite.
+  bool refactor(const Vector<double>& X, double tt, const Vector<double>& gD, Vector<double>& rhs) {
+    Vector<double> r;
+    SparseMatrix<double> K;
+    if (!sys->assemble(X, tt, r, &K)) return false;
+    for (std::size_t a = 0; a < used.size(); ++a) add_row(rows[used[a]], mu[a], r);
+    try {
+      factor = sys->factorise(K, r, gD, rhs);
+    } catch (const std::runtime_error&) {
+      return false;  // the old factor is kept (see newton)
+    }
+    column_of.assign(rows.size(), -1);
+    columns.clear();
+    return true;
+  }
+  // S = C K⁻¹ Cᵀ + diag(κ) over the used rows, their columns solved with `factor` where not cached.
+  Eigen::MatrixXd schur() {
+    const std::size_t n = U.size();
+    std::vector<std::size_t> missing;
+    for (std::size_t a : used)
+      if (column_of[a] < 0) missing.push_back(a);
+    if (!missing.empty()) {
+      const std::size_t first = columns.size() / n;
+      columns.resize(columns.size() + missing.size() * n, 0.0);
+      Vector<double> c(n);
+      for (std::size_t k = 0; k < missing.size(); ++k) {
+        c = 0.0;
+        add_row(rows[missing[k]], 1.0, c);
+        sys->condense(c);
+        std::copy(c.begin(), c.end(), columns.begin() + static_cast<std::ptrdiff_t>((first + k) * n));
+        column_of[missing[k]] = static_cast<long>(first + k);
+      }
+      factor->solve(columns.data() + first * n, missing.size());
+    }
+    const auto ni = static_cast<Eigen::Index>(used.size());
+    Eigen::MatrixXd S(ni, ni);
+    for (Eigen::Index a = 0; a < ni; ++a)
+      for (Eigen::Index b = 0; b < ni; ++b)
+        S(a, b) = row_dot(rows[used[static_cast<std::size_t>(a)]], column(used[static_cast<std::size_t>(b)]));
+    S = (0.5 * (S + S.transpose())).eval();
+    for (Eigen::Index a = 0; a < ni; ++a) S(a, a) += rows[used[static_cast<std::size_t>(a)]].compliance;
+    return S;
+  }
+  const double* column(std::size_t row) const {
+    return columns.data() + static_cast<std::size_t>(column_of[row]) * U.size();
+  }
+  // One continuation step to load factor tt with the used rows at targets gt and the rows left out
+  // carrying the dead multipliers `dead`: Newton on (U, mu); false if it fails.
+  bool newton(double tt, const std::vector<double>& gt,
+              const std::vector<std::pair<std::size_t, double>>& dead, LoadStepRecord& rec);
+};
+
+template <int dim>
+bool FiniteStrainRows<dim>::Impl::newton(double tt, const std::vector<double>& gt,
+                                         const std::vector<std::pair<std::size_t, double>>& dead,
+                                         LoadStepRecord& rec) {
+  const std::size_t nu = used.size(), n = U.size();
+  const auto residual = [&](const Vector<double>& X, const std::vector<double>& mx, Vector<double>& r) {
+    if (!sys->assemble(X, tt, r, nullptr)) return false;
+    for (std::size_t a = 0; a < nu; ++a) add_row(rows[used[a]], mx[a], r);
+    for (const auto& [row, md] : dead) add_row(rows[row], md, r);
+    return true;
+  };
+  const auto scale = [&](const std::vector<double>& mx) {  // the rows' and loads' forces on the free DoFs
+    Vector<double> f(n);
+    f.add(tt, m->f_full);
+    for (std::size_t a = 0; a < nu; ++a) add_row(rows[used[a]], mx[a], f);
+    return sys->free_norm(f);
+  };
+  Vector<double> r, r_trial, rhs;
+  if (!residual(U, mu, r)) return false;
+  double norm = sys->free_norm(r), r0 = 0.0;
+  bool fresh = false;
+  for (unsigned it = 0; it < opt.max_iterations; ++it) {
+    const Vector<double> gD = sys->condition_gap(U, tt);
+    const bool whole = it == 0;  // the first iteration moves the conditions and the rows: taken whole
+    // A fresh tangent when the conditions move, when there is none, or after a slow contraction (then,
+    // if the tangent at U is not positive definite by itself, the last one is kept).
+    const bool moves = gD.linfty_norm() > 0.0;
+    if ((moves || !factor || fresh) && refactor(U, tt, gD, rhs)) {
+      for (const auto& [row, md] : dead) add_row(rows[row], -md, rhs);  // refactor's rhs lacks them
+      factor_at_U = true;
+    } else if (moves || !factor) {
+      return false;
+    } else {
+      rhs = r;
+      rhs *= -1.0;
+      sys->condense(rhs);
+    }
+    const double rhs_norm = rhs.l2_norm();
+    factor->solve(rhs.data());
+    const auto ni = static_cast<Eigen::Index>(nu);
+    const Eigen::MatrixXd S = schur();
+    Eigen::VectorXd b(ni);
+    for (std::size_t a = 0; a < nu; ++a)  // C K⁻¹ r₁ + r₂, r₂ = C U − κ μ − g
+      b[static_cast<Eigen::Index>(a)] = row_dot(rows[used[a]], rhs.data()) + row_value(rows[used[a]], U, tt) -
+                                        rows[used[a]].compliance * mu[a] - gt[a];
+    KeptCholesky kc;
+    kc.factor(S);
+    const Eigen::VectorXd dmu = kc.solve(b);
+    Vector<double> du(rhs);
+    for (std::size_t a = 0; a < nu; ++a) {
+      const double* col = column(used[a]);
+      for (std::size_t i = 0; i < n; ++i) du[i] -= col[i] * dmu[static_cast<Eigen::Index>(a)];
+    }
+    sys->distribute(du);
+    du += gD;
+    if (it == 0) r0 = std::max(rhs_norm, norm);
+    rec.residual_norm.push_back(norm);
+    double alpha = 1.0, trial_norm = 0.0;
+    Vector<double> trial;
+    std::vector<double> mu_trial(nu);
+    for (;;) {
+      trial = U;
+      trial.add(alpha, du);
+      if (whole) sys->impose(trial, tt);
+      for (std::size_t a = 0; a < nu; ++a) mu_trial[a] = mu[a] + alpha * dmu[static_cast<Eigen::Index>(a)];
+      const bool valid = residual(trial, mu_trial, r_trial);
+      trial_norm = valid ? sys->free_norm(r_trial) : 0.0;
+      if (valid && (whole || trial_norm < norm || norm <= 1e-6 * r0)) break;
+      if (whole || alpha < 1.0 / 64) return false;
+      alpha *= 0.5;
+    }
+    rec.update_norm.push_back(alpha * du.l2_norm());
+    rec.line_search.push_back(alpha);
+    const double previous = norm;
+    U = trial, mu = mu_trial, r = r_trial, norm = trial_norm;
+    factor_at_U = false;
+    const double ref = std::max(r0, scale(mu));
+    // converged; or at the round-off floor of the residual (a tiny load: it no longer falls, 1e-6 below)
+    const bool floor = norm <= 1e-6 * ref && norm > 0.5 * previous;
+    if (!whole && (ref == 0.0 || norm <= opt.tolerance * ref || floor)) {
+      rec.residual_norm.push_back(norm);
+      return true;
+    }
+    fresh = !whole && norm > 0.1 * previous;  // slow contraction: a fresh tangent
+  }
+  return false;
+}
+
+template <int dim>
+FiniteStrainRows<dim>::FiniteStrainRows(ElasticModel<dim>& model,
+                                        const std::vector<PointConstraint<dim>>& points,
+                                        const std::vector<Vec<dim>>& probes, const NewtonOptions& opt)
+    : impl_(std::make_unique<Impl>()) {
+  Impl& c = *impl_;
+  c.m = &ModelAccess::state(model);
+  State<dim>& m = *c.m;
+  if (m.solves_over_ranks()) throw std::invalid_argument("FiniteStrainRows: serial models only");
+  check_points<dim>(points);
+  m.ensure_mesh();
+  m.assemble();
+  c.opt = opt;
+  c.sys = std::make_unique<NewtonSystem<dim>>(m);
+  c.first_row.push_back(0);
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    c.axes.push_back(points[k].axes);
+    for (unsigned d = 0; d < unsigned(dim); ++d)
+      if (points[k].components[d]) {
+        c.rows.push_back(constraint_row<dim>(m, points[k], d, 0.0, k, true));
+        c.point.push_back(k), c.comp.push_back(d);
+      }
+    c.first_row.push_back(c.rows.size());
+  }
+  for (std::size_t p = 0; p < probes.size(); ++p)
+    for (unsigned d = 0; d < unsigned(dim); ++d)
+      c.probe_rows.push_back(constraint_row<dim>(m, PointConstraint<dim>(probes[p]), d, 0.0, p, true));
+  c.probe_u.assign(probes.size(), Vec<dim>::Zero());
+  c.U.reinit(m.dof.n_dofs());
+  c.mu_all.assign(c.rows.size(), 0.0);
+  c.column_of.assign(c.rows.size(), -1);
+  c.stats.method = "newton+cholmod";
+  c.stats.n_dofs = m.dof.n_dofs();
+}
+
+template <int dim>
+FiniteStrainRows<dim>::~FiniteStrainRows() = default;
+template <int dim>
+FiniteStrainRows<dim>::FiniteStrainRows(FiniteStrainRows&&) noexcept = default;
+
+template <int dim>
+std::size_t FiniteStrainRows<dim>::n_points() const {
+  return impl_->first_row.size() - 1;
+}
+
+// Continuation from the last state (load factor t₀, the rows' values h₀ = C U − κ μ) to the full loads
+// and the new values g: at s ∈ (0, 1] the loads t₀ + s(1 − t₀), the rows h₀ + s(g − h₀), the rows left
+// out with (1 − s) of their multipliers; s = 0 is the last state itself, an equilibrium.
+template <int dim>
+void FiniteStrainRows<dim>::solve(const std::vector<std::size_t>& active,
+                                  const std::vector<Vec<dim>>& displacement) {
+  Impl& c = *impl_;
+  if (displacement.size() < active.size())
+    throw std::invalid_argument("FiniteStrainRows::solve: one displacement per active point");
+  std::vector<std::size_t> used, slot;
+  std::vector<double> g, h0, mu0;
+  std::vector<bool> in(c.rows.size(), false);
+  for (std::size_t i = 0; i < active.size(); ++i) {
+    if (active[i] >= n_points()) throw std::invalid_argument("FiniteStrainRows: point index out of range");
+    for (std::size_t a = c.first_row[active[i]]; a < c.first_row[active[i] + 1]; ++a) {
+      if (!c.rows[a].active) continue;
+      used.push_back(a), slot.push_back(i), in[a] = true;
+      g.push_back(displacement[i][c.comp[a]]);
+      mu0.push_back(c.mu_all[a]);
+      h0.push_back(row_value(c.rows[a], c.U, c.t) - c.rows[a].compliance * c.mu_all[a]);
+    }
+  }
+  std::vector<std::pair<std::size_t, double>> dead0;
+  for (std::size_t a = 0; a < c.rows.size(); ++a)
+    if (!in[a] && c.mu_all[a] != 0.0) dead0.emplace_back(a, c.mu_all[a]);
+  c.used = used, c.used_slot = slot, c.n_active = active.size();
+  c.steps.clear();
+  c.halvings = 0;
+  const double t0 = c.t;
+  double s = 0.0, ds = 1.0;
+  unsigned in_row = 0;
+  std::vector<double> gt(g.size());
+  while (s < 1.0) {
+    const double s_next = (1.0 - s) <= ds * (1.0 + 1e-12) ? 1.0 : s + ds;
+    const Vector<double> saved = c.U;
+    const std::vector<double> saved_mu = c.mu;
+    c.mu = c.steps.empty() && s == 0.0 ? mu0 : c.mu;
+    for (std::size_t a = 0; a < g.size(); ++a) gt[a] = h0[a] + s_next * (g[a] - h0[a]);
+    auto dead = dead0;
+    for (auto& d : dead) d.second *= 1.0 - s_next;
+    LoadStepRecord rec;
+    rec.load_factor = s_next;
+    if (c.newton(t0 + s_next * (1.0 - t0), gt, dead, rec)) {
+      c.stats.iterations += static_cast<unsigned>(rec.update_norm.size());
+      c.steps.push_back(std::move(rec));
+      s = s_next;
+      in_row = 0;
+      ds = std::min(2.0 * ds, 1.0);
+      continue;
+    }
+    c.U = saved;
+    c.mu = s == 0.0 ? mu0 : saved_mu;
+    c.factor.reset();  // the failed iterate's tangent
+    c.factor_at_U = false;
+    if (++in_row > c.opt.max_halvings) {
+      std::ostringstream msg;
+      msg << "neo-Hookean solve with " << g.size() << " point-constraint rows: the step from " << s << " to "
+          << s_next << " of the way to the new row values did not converge after " << c.opt.max_halvings
+          << " halvings (Newton: " << c.opt.max_iterations << " iterations, tolerance " << c.opt.tolerance
+          << ")";
+      throw NewtonFailure(msg.str());
+    }
+    ++c.halvings;
+    ds *= 0.5;
+  }
+  c.t = 1.0;
+  std::fill(c.mu_all.begin(), c.mu_all.end(), 0.0);
+  for (std::size_t a = 0; a < used.size(); ++a) c.mu_all[used[a]] = c.mu[a];
+  for (std::size_t p = 0; p < c.probe_u.size(); ++p)
+    for (int d = 0; d < dim; ++d) c.probe_u[p][d] = row_value(c.probe_rows[p * dim + d], c.U, c.t);
+  c.have_tangent = false;
+  c.stats.constraint_rows = static_cast<unsigned>(used.size());
+}
+
+template <int dim>
+void FiniteStrainRows<dim>::point_forces(std::vector<Vec<dim>>& force) const {
+  const Impl& c = *impl_;
+  force.assign(c.n_active, Vec<dim>::Zero());
+  for (std::size_t a = 0; a < c.used.size(); ++a)
+    force[c.used_slot[a]] -= c.mu[a] * c.axes[c.point[c.used[a]]].col(c.comp[c.used[a]]);
+}
+
+template <int dim>
+const std::vector<Vec<dim>>& FiniteStrainRows<dim>::probe_displacements() const {
+  return impl_->probe_u;
+}
+
+template <int dim>
+Vec<dim> FiniteStrainRows<dim>::held_displacement(std::size_t k) const {
+  const Impl& c = *impl_;
+  Vec<dim> u = Vec<dim>::Zero();
+  for (std::size_t a = c.first_row[k]; a < c.first_row[k + 1]; ++a)
+    u += row_value(c.rows[a], c.U, c.t) * c.axes[k].col(c.comp[a]);
+  return u;
+}
+
+template <int dim>
+const std::vector<LoadStepRecord>& FiniteStrainRows<dim>::steps() const {
+  return impl_->steps;
+}
+template <int dim>
+unsigned FiniteStrainRows<dim>::halvings() const {
+  return impl_->halvings;
+}
+template <int dim>
+const SolverStats& FiniteStrainRows<dim>::stats() const {
+  return impl_->stats;
+}
+
+template <int dim>
+void FiniteStrainRows<dim>::linearised_forces(const std::vector<Vec<dim>>& dg, std::vector<Vec<dim>>& df) {
+  Impl& c = *impl_;
+  if (!c.have_tangent) {
+    Vector<double> rhs;
+    if (!c.factor_at_U) {
+      if (!c.refactor(c.U, c.t, Vector<double>(c.U.size()), rhs))
+        throw std::runtime_error("FiniteStrainRows: no positive definite tangent at the state");
+      c.factor_at_U = true;
+    }
+    c.tangent.factor(c.schur());
+    c.have_tangent = true;
+  }
+  Eigen::VectorXd b(static_cast<Eigen::Index>(c.used.size()));
+  for (std::size_t a = 0; a < c.used.size(); ++a)
+    b[static_cast<Eigen::Index>(a)] = dg[c.used_slot[a]][c.comp[c.used[a]]];
+  const Eigen::VectorXd x = c.tangent.solve(b);  // −Δμ
+  df.assign(c.n_active, Vec<dim>::Zero());
+  for (std::size_t a = 0; a < c.used.size(); ++a)
+    df[c.used_slot[a]] += x[static_cast<Eigen::Index>(a)] * c.axes[c.point[c.used[a]]].col(c.comp[c.used[a]]);
+}
+
+template <int dim>
+Solution<dim> FiniteStrainRows<dim>::field() {
+  Impl& c = *impl_;
+  State<dim>& m = *c.m;
+  m.u = c.U;
+  m.have_solution = true;
+  m.grid_vertex_u.clear();
+  Solution<dim> s = m.postprocess();
+  finite_strain_fields<dim>(m, c.sys->law(), c.U, c.t, s);
+  for (std::size_t a = 0; a < c.used.size(); ++a)
+    add_constraint_reactions<dim>(c.rows[c.used[a]], c.mu[a], s);
+  point_forces(s.point_force);
+  s.stats = c.stats;
+  return s;
+}
+
 #define VIM_FEM_FINITE_STRAIN(dim)                                                                       \
   template FiniteStrainSolution<dim> solve_neo_hookean(ElasticModel<dim>&, const NewtonOptions&);        \
   template void neo_hookean_system(ElasticModel<dim>&, const Eigen::VectorXd&, double, Eigen::VectorXd&, \
                                    Eigen::MatrixXd&);
 VIM_FEM_FINITE_STRAIN(2)
 VIM_FEM_FINITE_STRAIN(3)
+template class FiniteStrainRows<2>;
+template class FiniteStrainRows<3>;
 
 }  // namespace vim::fem

@@ -34,7 +34,6 @@ FrictionStep settle_active_set(ShaftState& state, TissueResponse& tissue, const 
     for (std::size_t j : state.active) need = need || exceeds(fa[j], limit[j]);
   }
   if (!need) return {};
-  const AxialMap& map = tissue.axial_map();
   const std::size_t m = state.active.size();
   work.reserve(m);
   const auto mi = static_cast<Eigen::Index>(m);
@@ -48,32 +47,50 @@ FrictionStep settle_active_set(ShaftState& state, TissueResponse& tissue, const 
     sl[i] = sliding[j];
   }
   FrictionStep step;
-  step.settled = false;
-  for (; step.sweeps < std::max(1, max_sweeps) && !step.settled; ++step.sweeps) {
-    target = sg.cwiseProduct(lim);
-    map.solve_free(wc, sl, target, work.map);
-    map.apply(wc, f);
-    bool changed = false;
+  for (;; ++step.rounds) {
+    const AxialMap& map = tissue.axial_map();
+    step.settled = false;
+    for (int sweeps = 0; sweeps < std::max(1, max_sweeps) && !step.settled; ++sweeps, ++step.sweeps) {
+      target = sg.cwiseProduct(lim);
+      map.solve_free(wc, sl, target, work.map);
+      map.apply(wc, f);
+      bool changed = false;
+      for (std::size_t i = 0; i < m; ++i) {
+        const auto e = static_cast<Eigen::Index>(i);
+        if (!sl[i] && exceeds(f[e], lim[e])) {
+          sl[i] = true;
+          sg[e] = f[e] > 0.0 ? 1.0 : -1.0;
+          changed = true;
+        } else if (sl[i] && (wc[e] - ws[e]) * sg[e] > 1e-12 * std::max(1.0, std::abs(ws[e]))) {
+          sl[i] = false;
+          wc[e] = ws[e];
+          changed = true;
+        }
+      }
+      step.settled = !changed;
+    }
+    for (std::size_t i = 0; i < m; ++i) {
+      const std::size_t j = state.active[i];
+      const auto e = static_cast<Eigen::Index>(i);
+      state.axial[j] = wc[e], sliding[j] = sl[i], sign[j] = sg[e];
+    }
+    const std::vector<double>& fa = tissue.solve(state.axial);
+    if (!tissue.nonlinear() || !step.settled) break;
+    // The nonlinear solve's forces against the limits the map's settling met.
+    double scale = 0.0, misfit = 0.0;
     for (std::size_t i = 0; i < m; ++i) {
       const auto e = static_cast<Eigen::Index>(i);
-      if (!sl[i] && exceeds(f[e], lim[e])) {
-        sl[i] = true;
-        sg[e] = f[e] > 0.0 ? 1.0 : -1.0;
-        changed = true;
-      } else if (sl[i] && (wc[e] - ws[e]) * sg[e] > 1e-12 * std::max(1.0, std::abs(ws[e]))) {
-        sl[i] = false;
-        wc[e] = ws[e];
-        changed = true;
-      }
+      const double force = fa[state.active[i]];
+      scale = std::max(scale, std::abs(force));
+      if (std::isfinite(lim[e])) scale = std::max(scale, lim[e]);
+      misfit = std::max(misfit, sl[i] ? std::abs(force - sg[e] * lim[e]) : std::abs(force) - lim[e]);
     }
-    step.settled = !changed;
+    if (misfit <= kNonlinearForceTolerance * scale) break;
+    if (step.rounds + 1 >= kMaxNonlinearRounds) {
+      step.settled = false;
+      break;
+    }
   }
-  for (std::size_t i = 0; i < m; ++i) {
-    const std::size_t j = state.active[i];
-    const auto e = static_cast<Eigen::Index>(i);
-    state.axial[j] = wc[e], sliding[j] = sl[i], sign[j] = sg[e];
-  }
-  tissue.solve(state.axial);
   return step;
 }
 

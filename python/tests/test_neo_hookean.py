@@ -78,3 +78,27 @@ def test_dict_scenario_is_the_neo_hookean_uniaxial_state(case):
     assert abs(NU * PUSH / HEIGHT * 7 - expected[0]) > 1e-2
     for step in sl["newton"]["load_steps"]:
         assert step["residual_norm"][-1] <= 1e-10 * step["residual_norm"][0]
+
+
+def test_needle_on_neo_hookean_tissue_equals_the_cli_run(cli, tmp_path):
+    """A needle scenario dict with material.model neo-hookean: the same axial forces, targets and Newton
+    record as the CLI's run of the YAML of the same dict; the linear model gives other forces."""
+    needle = {"entry": [5.2, 4.9, 20.0], "direction": [0, 0, -1], "depth": 8.0, "steps": 4, "diameter": 1.0,
+              "friction": {"model": "stick-slip", "max_shear_per_length": 4.0}}
+    scenario = {"material": {"model": "neo-hookean", "youngs_modulus": "image", "poisson_ratio": NU},
+                "boundary_conditions": [{"type": "fixed", "region": {"box_face": "z_min"}}],
+                "needle": needle, "targets": [{"name": "side", "position": [8.0, 6.0, 14.0]}]}
+    write_nrrd(tmp_path / "block.nrrd", np.full((20, 10, 10), E), (1.0, 1.0, 1.0), (0.5, 0.5, 0.5), np.eye(3))
+    (tmp_path / "scenario.yaml").write_text(json.dumps(scenario))
+    ours = vp.simulate(str(tmp_path / "block.nrrd"), scenario, mesher="grid", nodes=300).report["simulation"]
+    run_cli(cli, tmp_path / "block.nrrd", "--simulate", tmp_path / "scenario.yaml", "--mesher", "grid", "--nodes",
+            300, "--export", "none", "-q", "--out", tmp_path / "cli")
+    theirs = json.loads((tmp_path / "cli" / "report.json").read_text())["simulation"]
+    a, b = ours["needles"][0], theirs["needles"][0]
+    assert a["material_model"] == b["material_model"] == "neo-hookean"
+    assert a["per_step"]["axial_force"] == b["per_step"]["axial_force"]
+    assert a["per_step"]["target_displacement"] == b["per_step"]["target_displacement"]
+    assert [s["iterations"] for s in a["newton"]["per_step"]] == [s["iterations"] for s in b["newton"]["per_step"]]
+    scenario["material"]["model"] = "linear"
+    lin = vp.simulate(str(tmp_path / "block.nrrd"), scenario, mesher="grid", nodes=300).report["simulation"]
+    assert lin["needles"][0]["per_step"]["axial_force"] != a["per_step"]["axial_force"]

@@ -330,25 +330,52 @@ TEST(StaticLoad, CompareLinearReportsTheClosedFormDifferences) {
   }
 }
 
-// --compare-linear with a needle scenario: refused before meshing with one line naming the scenario's
-// file and the needle's line, nothing written.
-TEST(StaticLoad, CompareLinearWithANeedleIsRefused) {
+// --compare-linear with a needle scenario (neo-Hookean in the scenario): report.json's
+// simulation.compare_linear holds per step both models' axial forces and target displacements, equal
+// to those of two separate runs of the scenario with each model, and the relative differences
+// recomputed from them; the summary prints the axial force's.
+TEST(StaticLoad, CompareLinearWithANeedleMatchesTwoSeparateRuns) {
   vim::test::TempDir dir("static_compare_needle");
   write_block(dir.path / "block.mha");
-  std::ofstream(dir / "needle.yaml")
-      << "material: {youngs_modulus: image, poisson_ratio: 0.3}\n"
-         "boundary_conditions: [{type: fixed, region: {box_face: z_min}}]\n"
-         "needle: {entry: [5, 5, 20], direction: [0, 0, -1], depth: 5, steps: 2, "
-         "diameter: 1, friction: {model: stick}}\n";
-  const auto r = run_pipeline(quote(dir / "block.mha") +
-                              " --mesher grid --nodes 300 --export none -q "
-                              "--compare-linear --simulate " +
-                              quote(dir / "needle.yaml") + " --out " + quote(dir / "out"));
-  EXPECT_NE(r.code, 0);
-  EXPECT_NE(r.err.find("needle.yaml:3: needle: --compare-linear compares the two material models on a static "
-                       "load case"),
-            std::string::npos)
-      << r.err;
-  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-  EXPECT_FALSE(fs::exists(dir.path / "out" / "report.json"));
+  const auto scenario = [&](const std::string& model) {
+    const fs::path p = dir / (model + ".yaml");
+    std::ofstream(p) << "material: {youngs_modulus: image, poisson_ratio: 0.3, model: " << model
+                     << "}\n"
+                        "boundary_conditions: [{type: fixed, region: {box_face: z_min}}]\n"
+                        "needle: {entry: [5.2, 4.9, 20], direction: [0, 0, -1], depth: 8, steps: 4, "
+                        "diameter: 1, friction: {model: stick-slip, max_shear_per_length: 4}}\n"
+                        "targets: [{name: side, position: [8, 6, 14]}]\n";
+    return p;
+  };
+  const auto run_one = [&](const fs::path& yaml, const std::string& out, const std::string& extra) {
+    const auto r = run_pipeline(quote(dir / "block.mha") + " --mesher grid --nodes 300 --export none " + extra +
+                                " --simulate " + quote(yaml) + " --out " + quote(dir / out));
+    EXPECT_EQ(r.code, 0) << r.err;
+    std::ifstream in(dir.path / out / "report.json");
+    return std::make_pair(nlohmann::json::parse(in)["simulation"], r.out);
+  };
+  const auto [both, summary] = run_one(scenario("neo-hookean"), "both", "--compare-linear");
+  const nlohmann::json lin = run_one(scenario("linear"), "lin", "-q").first["needles"][0]["per_step"];
+  const nlohmann::json nh = run_one(scenario("neo-hookean"), "nh", "-q").first["needles"][0]["per_step"];
+  const nlohmann::json& c = both["compare_linear"];
+  ASSERT_TRUE(c.contains("axial_force")) << both.dump();
+  const nlohmann::json& f = c["axial_force"]["per_step"];
+  double largest = 0.0;
+  for (std::size_t k = 0; k < lin["axial_force"].size(); ++k) {
+    const double l = lin["axial_force"][k].get<double>(), n = nh["axial_force"][k].get<double>();
+    EXPECT_NEAR(f["linear"][k].get<double>(), l, 1e-12 * (1.0 + std::abs(l))) << k;
+    EXPECT_NEAR(f["neo-hookean"][k].get<double>(), n, 1e-9 * (1.0 + std::abs(n))) << k;
+    if (f["relative_difference"][k].is_number()) {
+      EXPECT_NEAR(f["relative_difference"][k].get<double>(), std::abs(l - n) / std::abs(n), 1e-8) << k;
+      largest = std::max(largest, std::abs(l - n) / std::abs(n));
+    }
+  }
+  EXPECT_NEAR(c["axial_force"]["largest_relative_difference"].get<double>(), largest, 1e-8);
+  EXPECT_GT(largest, 0.0);
+  const nlohmann::json& t = c["targets"]["side"]["per_step"];
+  const std::size_t last = lin["axial_force"].size() - 1;
+  for (int d = 0; d < 3; ++d)
+    EXPECT_NEAR(t["linear"][last][d].get<double>(), lin["target_displacement"]["side"][last][d].get<double>(), 1e-9)
+        << d;
+  EXPECT_NE(summary.find("axial force:"), std::string::npos) << summary;
 }

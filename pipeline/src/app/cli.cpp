@@ -315,9 +315,10 @@ std::optional<RunOptions> parse_command_line(int argc, char** argv, int& exit_co
       ->delimiter(',')
       ->check(CLI::IsMember(export_values));
   app.add_flag("--compare-linear", o.compare_linear,
-               "With a static load scenario (no needle): solve it with the linear and the neo-Hookean "
-               "material and report per target and per displacement condition's reaction the relative "
-               "difference |linear - neo-Hookean| / |neo-Hookean| (report.json simulation.compare_linear)")
+               "Solve the scenario with the linear and the neo-Hookean material and report the relative "
+               "difference |linear - neo-Hookean| / |neo-Hookean| (report.json simulation.compare_linear): "
+               "a static load case per target and per displacement condition's reaction, a needle per "
+               "target and for the axial force at each step")
       ->needs(simulate);
   app.add_flag("--overwrite", o.overwrite, "Write into a non-empty DIR, replacing files of the same name");
   bool quiet = false, verbose = false;

@@ -191,6 +191,12 @@ void print_summary(std::ostream& out, const json& r) {
         out << buf;
       };
       for (const auto& [name, e] : c["targets"].items()) line("target " + name, e);
+      if (c.contains("axial_force")) {  // a needle: the last step's, and the largest over the steps
+        line("axial force", c["axial_force"]);
+        if (c["axial_force"]["largest_relative_difference"].is_number())
+          line("axial force, largest over the steps",
+               {{"relative_difference", c["axial_force"]["largest_relative_difference"]}});
+      }
       for (const auto& e : c["reactions"])
         line("reaction " + e.value("condition", std::string()) + " " + e.value("region", std::string()), e);
       line("max_displacement", c["max_displacement"]);

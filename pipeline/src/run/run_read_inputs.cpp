@@ -176,10 +176,6 @@ void PipelineRun<dim>::check_scenario() {
   const Scenario& sc = *scenario_;
   check_scenario_geometry<dim>(sc, image_->image.box_min(), image_->image.box_max(), model_.transform);
   check_modulus_image<dim>(sc, image_->image);
-  if (o.compare_linear && !sc.needles.empty())
-    throw ScenarioError(sc.where(sc.needles.front().line) +
-                        "needle: --compare-linear compares the two material models on a static load case "
-                        "(a scenario without needle); remove the option or the needle");
   if (o.degree == 2 && o.mesher == MesherKind::voxel)
     warn(inputs_result_.warnings, "simulate",
          "--mesher voxel builds the voxel reference model of trilinear hexahedra (Q1) whatever the degree; "

@@ -544,10 +544,14 @@ bool is_load(const BoundaryConditionSpec& bc) {
 // A scenario without a needle is a static load case (solved once, step 0): it needs a load, and
 // mesh.needle_refinement has no path to refine along.
 void check_static_load(const Reader& r, const Fields& top, const Scenario& s) {
-  if (!s.needles.empty() && s.material_model == Scenario::MaterialModel::neo_hookean)
-    r.fail(top["material"]["model"],
-           "material.model = 'neo-hookean' is solved for static load cases only (no 'needle' or 'needles'); "
-           "needle insertion runs on the linear model: use material.model: linear or remove the needle");
+  if (s.material_model == Scenario::MaterialModel::neo_hookean)
+    for (const NeedleSpec& n : s.needles)
+      if (n.flexible)
+        r.fail(top["material"]["model"],
+               "material.model = 'neo-hookean' with a flexible needle (needle.flexible, line " +
+                   std::to_string(n.line) +
+                   ") is not built: the flexible needle runs on the linear model; use material.model: linear "
+                   "or remove needle.flexible");
   if (!s.needles.empty()) return;
   if (std::none_of(s.boundary_conditions.begin(), s.boundary_conditions.end(), is_load))
     r.fail(top["boundary_conditions"],

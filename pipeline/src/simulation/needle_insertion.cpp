@@ -57,15 +57,28 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
     run_.point_tissue = std::move(tissue);
   }
   stepping_.emplace(needle_, std::move(shaft), std::move(tip_rows_));
-  tissue_ = std::make_unique<needle::ElasticTissue<dim>>(*ctx_.model, *coupling_, stepping_->state(),
-                                                         stepping_->n_points(), pitch_, ctx_.solver,
-                                                         ctx_.opt.monolithic);
-  tissue_->hold(ctx_.staying);
+  if (ctx_.sc.material_model == Scenario::MaterialModel::neo_hookean) {
+    if (!ctx_.staying.empty())
+      throw ScenarioError(ctx_.sc.where(spec.line) + "needle '" + spec.name +
+                          "': a needle left in the tissue (stay: true) is held on the linear model only; "
+                          "use material.model: linear or remove stay");
+    auto tissue = std::make_unique<needle::NeoHookeanTissue<dim>>(*ctx_.model, *coupling_, stepping_->state(),
+                                                                  stepping_->n_points());
+    neo_hookean_ = tissue.get();
+    tissue_ = std::move(tissue);
+  } else {
+    auto tissue = std::make_unique<needle::ElasticTissue<dim>>(*ctx_.model, *coupling_, stepping_->state(),
+                                                               stepping_->n_points(), pitch_, ctx_.solver,
+                                                               ctx_.opt.monolithic);
+    tissue->hold(ctx_.staying);
+    elastic_ = tissue.get();
+    tissue_ = std::move(tissue);
+  }
   if constexpr (dim == 3)
-    if (spec.flexible) {
+    if (spec.flexible && elastic_) {  // the scenario refuses a flexible needle on neo-Hookean tissue
       const FlexibleSpec &f = *spec.flexible;
       const needle::FlexibleNeedle tube{f.youngs_modulus, spec.diameter, f.inner_diameter, f.free_length};
-      flexible_ = std::make_unique<needle::FlexibleTissue>(*tissue_, *deflected_, stepping_->state(),
+      flexible_ = std::make_unique<needle::FlexibleTissue>(*elastic_, *deflected_, stepping_->state(),
                                                            stepping_->shaft(), axis_, tube, pitch_,
                                                            stepping_->n_points(), pitch_);
     }
@@ -99,11 +112,11 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
   // External loads (a prescribed displacement, a pressure, a traction) and the needles left in act from
   // the start: before the tip reaches the first shaft point (step 0 included)
   // the tissue deforms under them alone, not rest.
-  loaded_ =
-      tissue_->holds() || std::any_of(ctx_.sc.boundary_conditions.begin(), ctx_.sc.boundary_conditions.end(),
-                                      [](const BoundaryConditionSpec &bc) {
-                                        return bc.type != BoundaryConditionSpec::Type::fixed;
-                                      });
+  loaded_ = (elastic_ && elastic_->holds()) ||
+            std::any_of(ctx_.sc.boundary_conditions.begin(), ctx_.sc.boundary_conditions.end(),
+                        [](const BoundaryConditionSpec &bc) {
+                          return bc.type != BoundaryConditionSpec::Type::fixed;
+                        });
   write_ = writes_steps(ctx_.opt) && ctx_.sc.output_every > 0;
 }
 
@@ -173,22 +186,30 @@ template <int dim>
 NeedleOutcome<dim> NeedleInsertion<dim>::run() {
   Progress progress("needle " + spec_.name, total_steps_);
   const auto t_run = Clock::now();
-  if (!ctx_.opt.monolithic) {  // every shaft row's column K⁻¹cᵀ in one batch: no
-                               // step does a sparse solve
+  if (!ctx_.opt.monolithic || neo_hookean_) {  // every shaft row's column K⁻¹cᵀ in one batch: no
+                                               // step does a sparse solve (neo-Hookean: the rows)
     const auto t = Clock::now();
     tissue_->precompute(probe_points());
     run_.precompute_seconds = seconds_since(t);
   }
   rest();
+  record_newton(0);
   if (stepping_->law().has_active_set())
     run_.active_set_sweeps.assign(static_cast<std::size_t>(total_steps_) + 1, 0);
   for (std::size_t i = 0; i < run_.seeds.size(); ++i) run_.seeds[i].rest_displacement = seed_displacement_[i];
   const auto t_steps = Clock::now();
   for (int k = 1; k <= total_steps_; ++k) {
-    if (k <= needle_.steps)
-      advance_one_step(k);
-    else
-      withdraw_one_step(k);
+    try {
+      if (k <= needle_.steps)
+        advance_one_step(k);
+      else
+        withdraw_one_step(k);
+    } catch (const fem::NewtonFailure &e) {
+      throw ScenarioError(ctx_.sc.where(ctx_.sc.material_model_line) + "material.model = 'neo-hookean': " +
+                          (spec_.name.empty() ? std::string("the needle") : "needle '" + spec_.name + "'") +
+                          ", step " + std::to_string(k) + ": " + e.what());
+    }
+    record_newton(k);
     if (ctx_.opt.progress) {
       std::ostringstream msg;
       msg << "step " << k << "/" << total_steps_ << ", depth " << run_.depth.back() << " "
@@ -221,6 +242,8 @@ NeedleOutcome<dim> NeedleInsertion<dim>::run() {
   nlohmann::json report = needle_report<dim>(spec_, run_, stepping_->law(), pitch_, prefix_, run_seconds,
                                              tissue_->solves(), ctx_.opt.monolithic, ctx_.sc);
   std::vector<std::string> warnings;
+  report["material_model"] = neo_hookean_ ? "neo-hookean" : "linear";
+  if (neo_hookean_) report["newton"] = {{"per_step", std::move(newton_steps_)}};
   if (dim == 3) {
     report["coupling_radius"] = coupling_radius_;
     nlohmann::json band = {{"radius", coupling_radius_},
@@ -290,6 +313,14 @@ void NeedleInsertion<dim>::solve_state(int k, double d, int solves_before, bool 
   const bool flexible = bending && flexible_;
   if (flexible) bend(d);
   const needle::FrictionStep step = flexible ? stepping_->solve(*flexible_) : stepping_->solve(*tissue_);
+  rounds_ = step.rounds;
+  if (neo_hookean_ && !step.settled)
+    throw ScenarioError(ctx_.sc.where(ctx_.sc.material_model_line) + "material.model = 'neo-hookean': " +
+                        (spec_.name.empty() ? std::string("the needle") : "needle '" + spec_.name + "'") +
+                        ", step " + std::to_string(k) +
+                        ": the friction active set and the Newton solve did not " + "settle in " +
+                        std::to_string(needle::kMaxNonlinearRounds) + " rounds of " +
+                        std::to_string(ctx_.max_sweeps()) + " sweeps (try more steps)");
   if (stepping_->law().has_active_set()) {
     run_.active_set_sweeps[static_cast<std::size_t>(k)] = step.sweeps;
     if (!step.settled) run_.unsettled_steps.push_back(k);
@@ -343,6 +374,34 @@ void NeedleInsertion<dim>::release_seeds(double depth, int step) {
   }
 }
 
+// Neo-Hookean: step k's Newton solves (report.json needle "newton".per_step): per solve its
+// continuation steps, each with its fraction of the way and the residual norms per Newton iteration.
+template <int dim>
+void NeedleInsertion<dim>::record_newton(int k) {
+  if (!neo_hookean_) return;
+  nlohmann::json solves = nlohmann::json::array();
+  unsigned iterations = 0, halvings = 0;
+  for (const needle::NewtonSolveRecord &r : neo_hookean_->take_records()) {
+    nlohmann::json steps = nlohmann::json::array();
+    for (const fem::LoadStepRecord &s : r.steps) {
+      iterations += static_cast<unsigned>(s.update_norm.size());
+      steps.push_back({{"fraction", s.load_factor},
+                       {"residual_norm", s.residual_norm},
+                       {"update_norm", s.update_norm},
+                       {"line_search", s.line_search}});
+    }
+    halvings += r.halvings;
+    solves.push_back({{"steps", std::move(steps)}, {"halvings", r.halvings}});
+  }
+  newton_steps_.push_back({{"step", k},
+                           {"solves", solves.size()},
+                           {"iterations", iterations},
+                           {"halvings", halvings},
+                           {"rounds", rounds_},
+                           {"newton", std::move(solves)}});
+  rounds_ = 0;
+}
+
 template <int dim>
 double NeedleInsertion<dim>::axial_displacement(std::size_t j) const {
   return have_solution_ ? tissue_->held_axial(j, axis_) : 0.0;
@@ -372,7 +431,9 @@ void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim> *s, int
     auto u =
         coupling_->tissue_displacements(probes, tissue_->probe_displacements(probes), stepping_->state(), *s);
     // The needles left in: their near fields too, with the forces their rows carry now.
-    const std::vector<Vec> &held = tissue_->held_forces();
+    // (only the linear tissue holds them: a neo-Hookean run refuses them)
+    static const std::vector<Vec> none;
+    const std::vector<Vec> &held = elastic_ ? elastic_->held_forces() : none;
     std::size_t first = 0;
     for (const auto &staying : ctx_.staying_needles) {
       fem::Solution<dim> rows;

@@ -5,7 +5,8 @@
 // (forces, target displacements), output (simulation_output.hpp). The physics
 // is the needle library's (vim/needle/): the stepping (needle::Insertion) talks
 // to the tissue only through needle::TissueResponse, here the condensed elastic
-// model (needle::ElasticTissue), and to the contact only through a
+// model (needle::ElasticTissue) or the neo-Hookean model solved by Newton per step
+// (needle::NeoHookeanTissue), and to the contact only through a
 // needle::FrictionLaw and a needle::NeedleCoupling. 3D: band stations
 // (BandCoupling); 2D: points on the axis (LineCoupling).
 #pragma once
@@ -22,6 +23,7 @@
 #include <vim/needle/insertion.hpp>
 #include <vim/needle/line_coupling.hpp>
 #include <vim/needle/needle_options.hpp>
+#include <vim/needle/neo_hookean_tissue.hpp>
 #include <vim/pipeline/common/progress.hpp>
 #include <vim/pipeline/simulation/simulation.hpp>
 
@@ -74,7 +76,14 @@ class NeedleInsertion {
   std::shared_ptr<needle::NeedleCoupling<dim>> coupling_;  // shared: kept by a needle that stays
   std::vector<needle::ShaftPoint<dim>> tip_rows_;          // 3D with a cutting force: the tip bearing's disks
   std::optional<needle::Insertion<dim>> stepping_;
-  std::unique_ptr<needle::ElasticTissue<dim>> tissue_;
+  // The tissue: the linear model condensed (elastic_) or, with material.model neo-hookean, the
+  // finite-strain model solved by Newton per step (neo_hookean_).
+  std::unique_ptr<needle::ModelTissue<dim>> tissue_;
+  needle::ElasticTissue<dim> *elastic_ = nullptr;
+  needle::NeoHookeanTissue<dim> *neo_hookean_ = nullptr;
+  nlohmann::json newton_steps_ = nlohmann::json::array();  // neo-Hookean: per step, its Newton solves
+  int rounds_ = 0;  // the last solve's rounds of map and Newton solve (FrictionStep::rounds)
+  void record_newton(int k);
   // 3D with needle.flexible: the beam between the stepping and the tissue, and its rows.
   needle::DeflectedCoupling *deflected_ = nullptr;
   std::unique_ptr<needle::FlexibleTissue> flexible_;

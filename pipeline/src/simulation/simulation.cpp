@@ -14,6 +14,7 @@
 #include <vim/pipeline/simulation/simulation.hpp>
 
 #include "simulation/largest_strain.hpp"
+#include "simulation/needle_compare_linear.hpp"
 #include "simulation/needle_insertion.hpp"
 #include "simulation/needle_options.hpp"
 #include "simulation/procedure_dose.hpp"
@@ -38,10 +39,29 @@ struct NeedleSimulation<dim>::Impl : SimulationContext<dim> {
     return NeedleInsertion<dim>(*this, spec, prefix, snap_to_vertices).run();
   }
   std::vector<std::string> held_path_warnings(const NeedleSpec& spec) const;
+  // --compare-linear: the needle on the other material model, nothing written.
+  NeedleOutcome<dim> insert_with_other_model(const NeedleSpec& spec, const std::string& prefix) {
+    const Scenario::MaterialModel own = sc.material_model;
+    const SimulationOptions saved = opt;
+    sc.material_model = own == Scenario::MaterialModel::neo_hookean ? Scenario::MaterialModel::linear
+                                                                    : Scenario::MaterialModel::neo_hookean;
+    opt.output_file = nullptr, opt.piece_file = nullptr, opt.progress = false;
+    std::vector<std::string> ignored;
+    try {
+      NeedleOutcome<dim> out = insert_needle(spec, prefix, ignored);
+      sc.material_model = own, opt = saved;
+      return out;
+    } catch (...) {
+      sc.material_model = own, opt = saved;
+      throw;
+    }
+  }
   NeedleOutcome<dim> insert_needle(const NeedleSpec& spec, const std::string& prefix,
                                    std::vector<std::string>& warnings);
   void check_axial_force(const NeedleSpec& spec, NeedleOutcome<dim>& needle,
                          std::vector<std::string>& warnings) const;
+  void check_sample_spacing(const NeedleSpec& spec, const std::string& who,
+                            std::vector<std::string>& warnings) const;
 };
 
 template <int dim>
@@ -427,6 +447,26 @@ void NeedleSimulation<dim>::Impl::check_axial_force(const NeedleSpec& spec, Need
   }
 }
 
+// A sample spacing below half the mean edge of a linear element: a warning.
+template <int dim>
+void NeedleSimulation<dim>::Impl::check_sample_spacing(const NeedleSpec& spec, const std::string& who,
+                                                       std::vector<std::string>& warnings) const {
+  const double edge = locator().mean_edge_length();
+  if ((this->voxel || this->degree == 1) && spec.sample_spacing > 0.0 && spec.sample_spacing < 0.5 * edge) {
+    // Several joined points per linear element impose the linear field of their displacements on
+    // the whole element, also beyond the tip (a probe: 1 mm spacing on 6 mm tetrahedra moved the tissue
+    // 3 mm ahead of the tip 2.5 mm backwards, and the axial force went negative).
+    std::ostringstream w;
+    w << sc.where(spec.line) << who << ": needle.sample_spacing = " << spec.sample_spacing
+      << " is below half the mean element edge (" << edge << "): linear elements impose the displacements of "
+      << "the shaft points in one element on all of it, also ahead of the tip, so the tissue there can be "
+         "pulled "
+      << "back and the forces can drop or change sign; leave sample_spacing out (half the mean edge) or "
+         "use degree 2";
+    warnings.push_back(w.str());
+  }
+}
+
 template <int dim>
 SimulationResult<dim> NeedleSimulation<dim>::run() {
   Impl& m = *impl_;
@@ -440,27 +480,25 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
   }
   rep["model"] = model_report<dim>(m);
   rep["boundary_conditions"] = m.sc.boundary_conditions.size();
-  json needles = json::array();
+  json needles = json::array(), compared = json::array();
+  const bool finite_strain = m.sc.material_model == Scenario::MaterialModel::neo_hookean;
+  if ((finite_strain || m.opt.compare_linear) && !m.sc.needles.empty() && m.opt.mpi_ranks > 1)
+    throw ScenarioError(m.sc.where(m.sc.material_model_line) +
+                        "material.model = 'neo-hookean' is solved on one process; run without --mpi-ranks");
   for (const auto& spec : m.sc.needles) {
     const std::string prefix = m.sc.needle_list ? spec.name + "/" : "";
     const std::string who = spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'";
-    const double edge = m.locator().mean_edge_length();
-    if ((m.voxel || m.degree == 1) && spec.sample_spacing > 0.0 && spec.sample_spacing < 0.5 * edge) {
-      // Several joined points per linear element impose the linear field of their displacements on
-      // the whole element, also beyond the tip (a probe: 1 mm spacing on 6 mm tetrahedra moved the tissue
-      // 3 mm ahead of the tip 2.5 mm backwards, and the axial force went negative).
-      std::ostringstream w;
-      w << m.sc.where(spec.line) << who << ": needle.sample_spacing = " << spec.sample_spacing
-        << " is below half the mean element edge (" << edge
-        << "): linear elements impose the displacements of "
-        << "the shaft points in one element on all of it, also ahead of the tip, so the tissue there can be "
-           "pulled "
-        << "back and the forces can drop or change sign; leave sample_spacing out (half the mean edge) or "
-           "use degree 2";
-      res.warnings.push_back(w.str());
-    }
+    m.check_sample_spacing(spec, who, res.warnings);
+    std::optional<NeedleOutcome<dim>> other;
+    if (m.opt.compare_linear) other = m.insert_with_other_model(spec, prefix);
     NeedleOutcome<dim> needle = m.insert_needle(spec, prefix, res.warnings);
-    const std::string strain = small_strain_warning(m.sc.where(spec.line), who, needle.run.mesh_strain);
+    if (other)
+      compared.push_back(finite_strain ? compare_needle_runs<dim>(other->run, needle.run, res.target_names)
+                                       : compare_needle_runs<dim>(needle.run, other->run, res.target_names));
+    // A finite-strain run has no small-strain warning (its mesh strain is Green–Lagrange's).
+    const std::string strain = finite_strain
+                                   ? std::string()
+                                   : small_strain_warning(m.sc.where(spec.line), who, needle.run.mesh_strain);
     if (!strain.empty()) res.warnings.push_back(strain);
     for (auto& w : needle.warnings) res.warnings.push_back(std::move(w));
     std::vector<std::string> target_names;
@@ -474,6 +512,7 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
     needles.push_back(std::move(needle.report));
   }
   rep["needles"] = needles;
+  if (!compared.empty()) rep["compare_linear"] = compare_linear_needles(compared);
   if (m.sc.needles.empty()) {  // a static load case: step 0 only
     StaticLoadOutcome<dim> load = run_static_load<dim>(m, res.warnings);
     res.static_load = std::move(load.run);

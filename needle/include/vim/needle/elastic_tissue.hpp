@@ -10,12 +10,12 @@
 #include <vim/fem/condensed_constraints.hpp>
 #include <vim/fem/model.hpp>
 #include <vim/needle/coupling.hpp>
-#include <vim/needle/tissue_response.hpp>
+#include <vim/needle/model_tissue.hpp>
 
 namespace vim::needle {
 
 template <int dim>
-class ElasticTissue final : public TissueResponse {
+class ElasticTissue final : public ModelTissue<dim> {
  public:
   // `state` is the stepping's (its active points are the rows of each solve); `probe_step`: the axial
   // value of the axial map's probes (the shaft pitch). monolithic: every solve with solve_monolithic.
@@ -34,23 +34,23 @@ class ElasticTissue final : public TissueResponse {
   // Before stepping: the rows of every shaft point (and the held rows) and the probes, and their
   // columns K⁻¹cᵀ in one batch, so that no step does a sparse solve (nothing with the monolithic
   // reference).
-  void precompute(const std::vector<Vec<dim>>& probes);
+  void precompute(const std::vector<Vec<dim>>& probes) override;
 
   const std::vector<double>& solve(const std::vector<double>& axial) override;
   const AxialMap& axial_map() override;
 
   // The whole field of the last solve into solution() (once per solve; the monolithic solve has it).
-  void form_field();
+  void form_field() override;
   // No contact: an empty solution that counts as formed.
-  void clear();
-  fem::Solution<dim>& solution() { return solution_; }
+  void clear() override;
+  fem::Solution<dim>& solution() override { return solution_; }
   // The displacement along `axis` that point j's rows hold in the last solution.
-  double held_axial(std::size_t j, const Vec<dim>& axis) const;
+  double held_axial(std::size_t j, const Vec<dim>& axis) const override;
   // The probes' displacements in the last solve (the model's samples with the monolithic reference).
-  std::vector<Vec<dim>> probe_displacements(const std::vector<Vec<dim>>& probes) const;
+  std::vector<Vec<dim>> probe_displacements(const std::vector<Vec<dim>>& probes) const override;
 
-  int solves() const { return solves_; }
-  double solve_seconds() const { return solve_seconds_; }
+  int solves() const override { return solves_; }
+  double solve_seconds() const override { return solve_seconds_; }
 
  private:
   fem::ElasticModel<dim>& model_;

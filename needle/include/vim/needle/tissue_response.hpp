@@ -6,9 +6,10 @@
 //
 // Implementations: the linear elastic model condensed onto the needle's rows
 // (fem::CondensedConstraints, one dense Schur solve per call; pipeline's NeedleInsertion), or its
-// monolithic reference; the real-time needle's condensed region (HapticNeedle). A nonlinear tissue implements
-// solve() with its own iteration and axial_map() with the tangent at the current state; a flexible needle
-// adds its own compliance to the rows behind this interface. Neither touches the stepping nor the laws.
+// monolithic reference; the real-time needle's condensed region (HapticNeedle); the neo-Hookean model,
+// one Newton solve per call (NeoHookeanTissue), whose axial_map() is the tangent at the last solve's
+// state (nonlinear(): the laws repeat map and solve until the forces agree). A flexible needle adds its
+// own compliance to the rows behind this interface. Neither touches the stepping.
 #pragma once
 
 #include <cstddef>
@@ -28,7 +29,15 @@ class TissueResponse {
   // The affine map from the active points' axial values to their axial forces (axial_map.hpp), probed
   // with m + 1 solves when the active points (m of them) have changed since the last probe.
   virtual const AxialMap& axial_map() = 0;
+  // A nonlinear tissue: its axial map is the tangent at the last solve's state, so a law that solves
+  // forces on the map repeats map and solve until the solve's forces meet them (settle_active_set).
+  virtual bool nonlinear() const { return false; }
 };
+
+// The rounds of map and solve a law makes on a nonlinear tissue before it gives up on a step, and the
+// agreement it asks of the solve's forces (relative to the largest force or limit of the step).
+inline constexpr int kMaxNonlinearRounds = 50;
+inline constexpr double kNonlinearForceTolerance = 1e-8;
 
 // The axial map of a linear `tissue` over the active points of `state` (n_points shaft points), probed
 // through its solve() with AxialMap::probe at `step`.

@@ -38,7 +38,8 @@
 //
 // Code: NeedleSimulation builds the model once (simulation.cpp); each needle runs in
 // needle_insertion.cpp, with the needle library's stepping (needle::Insertion), which talks to the
-// tissue only through needle::TissueResponse (here needle::ElasticTissue, the condensed model) and to
+// tissue only through needle::TissueResponse (here needle::ElasticTissue, the condensed linear model, or
+// needle::NeoHookeanTissue with material.model neo-hookean) and to
 // the contact through a needle::FrictionLaw and a needle::NeedleCoupling (vim/needle/); the needle is
 // translated from the scenario in needle_options.cpp; the files and report entries are written by
 // simulation_output.cpp.
@@ -77,8 +78,9 @@ struct SimulationOptions {
   // Stick-slip: active-set sweeps per step (each one condensed solve). A step whose set still changes
   // after this many keeps the last iterate and is listed in NeedleRun::unsettled_steps and the warnings.
   int max_active_set_iterations = 100;
-  // A static load case is also solved by the other material model (linear and neo-Hookean), and
-  // report.json's simulation.compare_linear holds the relative differences (static_load.hpp).
+  // The scenario (a static load case or its needles) is also solved by the other material model (linear
+  // and neo-Hookean), and report.json's simulation.compare_linear holds the relative differences
+  // (static_load.hpp, needle_compare_linear.hpp).
   bool compare_linear = false;
   // The model's grid in world coordinates when the caller has built it (PipelineRun's world grid, the
   // geometry of mesh.vtu): simplex_grid of the mesh, or voxel_grid of the image. Null: the simulation
