@@ -145,4 +145,12 @@ TEST(ProcedureStay, BadStayNamesTheFileLineAndKey) {
       << e;
   e = procedure_parse_error(kStayHead + "procedure:\n  - insert: " + a + ", stay: maybe}\n");
   EXPECT_NE(e.find("procedure[0].insert.stay"), std::string::npos) << e;
+  // A staying needle is held on the linear model only.
+  std::string neo = kStayHead;
+  ASSERT_EQ(neo.rfind("material: {}", 0), 0u) << neo;
+  neo.replace(0, std::string("material: {}").size(), "material: {model: neo-hookean}");
+  e = procedure_parse_error(neo + "procedure:\n  - insert: " + a + ", stay: true}\n  - insert: " + b + "}\n");
+  EXPECT_NE(e.find("material.model = 'neo-hookean' with a needle left in the tissue (stay: true"),
+            std::string::npos)
+      << e;
 }

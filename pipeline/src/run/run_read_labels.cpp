@@ -69,6 +69,16 @@ Eigen::Matrix<double, dim, 1> label_centroid(const Image<dim>& labels, int label
   return sum / n;
 }
 
+// The label image file beside IMAGE, of IMAGE's dimension.
+template <int dim>
+OrientedImage<dim> label_file(const std::string& path) {
+  const ImageFile file(path);
+  if (file.dimension() != dim)
+    throw InputError(path + ": the label image is " + std::to_string(file.dimension()) + "D but IMAGE is " +
+                     std::to_string(dim) + "D; they must match");
+  return file.read<dim>();
+}
+
 }  // namespace
 
 template <int dim>
@@ -97,16 +107,8 @@ void PipelineRun<dim>::read_label_image() {
   if (o.labels_alone()) {
     labels_ = image_->image;
   } else {
-    OrientedImage<dim> read;
-    if (inputs_ && inputs_->labels) {
-      read = std::move(*inputs_->labels);
-    } else {
-      const ImageFile file(o.labels);
-      if (file.dimension() != dim)
-        throw InputError(o.labels + ": the label image is " + std::to_string(file.dimension()) +
-                         "D but IMAGE is " + std::to_string(dim) + "D; they must match");
-      read = file.read<dim>();
-    }
+    const OrientedImage<dim> read =
+        inputs_ && inputs_->labels ? std::move(*inputs_->labels) : label_file<dim>(o.labels);
     check_label_image(read.image, o.labels);
     labels_ = labels_in_grid_of<dim>(*image_, read, o.labels);
   }

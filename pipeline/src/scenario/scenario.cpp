@@ -545,13 +545,20 @@ bool is_load(const BoundaryConditionSpec& bc) {
 // mesh.needle_refinement has no path to refine along.
 void check_static_load(const Reader& r, const Fields& top, const Scenario& s) {
   if (s.material_model == Scenario::MaterialModel::neo_hookean)
-    for (const NeedleSpec& n : s.needles)
+    for (const NeedleSpec& n : s.needles) {
       if (n.flexible)
         r.fail(top["material"]["model"],
                "material.model = 'neo-hookean' with a flexible needle (needle.flexible, line " +
                    std::to_string(n.line) +
                    ") is not built: the flexible needle runs on the linear model; use material.model: linear "
                    "or remove needle.flexible");
+      if (n.stay)
+        r.fail(top["material"]["model"],
+               "material.model = 'neo-hookean' with a needle left in the tissue (stay: true, line " +
+                   std::to_string(n.line) +
+                   ") is not built: a staying needle is held on the linear model; "
+                   "use material.model: linear or remove stay");
+    }
   if (!s.needles.empty()) return;
   if (std::none_of(s.boundary_conditions.begin(), s.boundary_conditions.end(), is_load))
     r.fail(top["boundary_conditions"],

@@ -57,23 +57,7 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
     run_.point_tissue = std::move(tissue);
   }
   stepping_.emplace(needle_, std::move(shaft), std::move(tip_rows_));
-  if (ctx_.sc.material_model == Scenario::MaterialModel::neo_hookean) {
-    if (!ctx_.staying.empty())
-      throw ScenarioError(ctx_.sc.where(spec.line) + "needle '" + spec.name +
-                          "': a needle left in the tissue (stay: true) is held on the linear model only; "
-                          "use material.model: linear or remove stay");
-    auto tissue = std::make_unique<needle::NeoHookeanTissue<dim>>(*ctx_.model, *coupling_, stepping_->state(),
-                                                                  stepping_->n_points());
-    neo_hookean_ = tissue.get();
-    tissue_ = std::move(tissue);
-  } else {
-    auto tissue = std::make_unique<needle::ElasticTissue<dim>>(*ctx_.model, *coupling_, stepping_->state(),
-                                                               stepping_->n_points(), pitch_, ctx_.solver,
-                                                               ctx_.opt.monolithic);
-    tissue->hold(ctx_.staying);
-    elastic_ = tissue.get();
-    tissue_ = std::move(tissue);
-  }
+  make_tissue(spec);
   if constexpr (dim == 3)
     if (spec.flexible && elastic_) {  // the scenario refuses a flexible needle on neo-Hookean tissue
       const FlexibleSpec &f = *spec.flexible;
@@ -118,6 +102,25 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
                           return bc.type != BoundaryConditionSpec::Type::fixed;
                         });
   write_ = writes_steps(ctx_.opt) && ctx_.sc.output_every > 0;
+}
+
+// The tissue behind the rows: the linear model (holding the needles left in), or the neo-Hookean one
+// (the scenario refuses needles left in with it).
+template <int dim>
+void NeedleInsertion<dim>::make_tissue(const NeedleSpec &spec) {
+  if (ctx_.sc.material_model == Scenario::MaterialModel::neo_hookean) {
+    auto tissue = std::make_unique<needle::NeoHookeanTissue<dim>>(*ctx_.model, *coupling_, stepping_->state(),
+                                                                  stepping_->n_points());
+    neo_hookean_ = tissue.get();
+    tissue_ = std::move(tissue);
+  } else {
+    auto tissue = std::make_unique<needle::ElasticTissue<dim>>(*ctx_.model, *coupling_, stepping_->state(),
+                                                               stepping_->n_points(), pitch_, ctx_.solver,
+                                                               ctx_.opt.monolithic);
+    tissue->hold(ctx_.staying);
+    elastic_ = tissue.get();
+    tissue_ = std::move(tissue);
+  }
 }
 
 // 3D: band stations, uniform along the path (needle.sample_spacing, else the

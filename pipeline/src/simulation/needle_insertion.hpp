@@ -57,6 +57,7 @@ class NeedleInsertion {
   void finish_step(int k, const std::chrono::steady_clock::time_point &t_step);
   double axial_displacement(std::size_t j) const;  // ū_j of the last solution (0 before any)
   std::vector<needle::ShaftPoint<dim>> make_coupling(bool snap_to_vertices);
+  void make_tissue(const NeedleSpec &spec);  // tissue_ (and elastic_ or neo_hookean_) on the coupling
   void record(double depth, const fem::Solution<dim> *solution, int solves);
   void record_flexible(double depth);
   void bend(double depth);  // the flexible needle's beam and bevel at this step
