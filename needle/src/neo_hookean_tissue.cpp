@@ -4,8 +4,10 @@
 
 namespace vim::needle {
 
+namespace {
 using Clock = std::chrono::steady_clock;
-using detail::seconds_since;
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+}  // namespace
 
 template <int dim>
 NeoHookeanTissue<dim>::NeoHookeanTissue(fem::ElasticModel<dim>& model, const NeedleCoupling<dim>& coupling,
