@@ -4,10 +4,8 @@
 
 namespace vim::needle {
 
-namespace {
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-}  // namespace
+using detail::seconds_since;
 
 template <int dim>
 ElasticTissue<dim>::ElasticTissue(fem::ElasticModel<dim>& model, const NeedleCoupling<dim>& coupling,

@@ -546,18 +546,17 @@ bool is_load(const BoundaryConditionSpec& bc) {
 void check_static_load(const Reader& r, const Fields& top, const Scenario& s) {
   if (s.material_model == Scenario::MaterialModel::neo_hookean)
     for (const NeedleSpec& n : s.needles) {
+      const auto refuse = [&](const std::string& what, const std::string& why, const std::string& key) {
+        r.fail(top["material"]["model"], "material.model = 'neo-hookean' with " + what + ", line " +
+                                             std::to_string(n.line) + ") is not built: " + why +
+                                             "; use material.model: linear or remove " + key);
+      };
       if (n.flexible)
-        r.fail(top["material"]["model"],
-               "material.model = 'neo-hookean' with a flexible needle (needle.flexible, line " +
-                   std::to_string(n.line) +
-                   ") is not built: the flexible needle runs on the linear model; use material.model: linear "
-                   "or remove needle.flexible");
+        refuse("a flexible needle (needle.flexible", "the flexible needle runs on the linear model",
+               "needle.flexible");
       if (n.stay)
-        r.fail(top["material"]["model"],
-               "material.model = 'neo-hookean' with a needle left in the tissue (stay: true, line " +
-                   std::to_string(n.line) +
-                   ") is not built: a staying needle is held on the linear model; "
-                   "use material.model: linear or remove stay");
+        refuse("a needle left in the tissue (stay: true", "a staying needle is held on the linear model",
+               "stay");
     }
   if (!s.needles.empty()) return;
   if (std::none_of(s.boundary_conditions.begin(), s.boundary_conditions.end(), is_load))

@@ -5,6 +5,7 @@
 // solved by Newton per step (NeoHookeanTissue).
 #pragma once
 
+#include <chrono>
 #include <cstddef>
 #include <vector>
 #include <vim/fem/model.hpp>
@@ -12,6 +13,13 @@
 #include <vim/needle/tissue_response.hpp>
 
 namespace vim::needle {
+
+namespace detail {
+// Wall-clock seconds since `t` (the tissues' solve timings).
+inline double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+}  // namespace detail
 
 template <int dim>
 class ModelTissue : public TissueResponse {
