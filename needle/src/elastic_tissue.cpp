@@ -5,16 +5,12 @@
 namespace vim::needle {
 
 using Clock = std::chrono::steady_clock;
-using detail::seconds_since;
 
 template <int dim>
 ElasticTissue<dim>::ElasticTissue(fem::ElasticModel<dim>& model, const NeedleCoupling<dim>& coupling,
                                   const ShaftState& state, std::size_t n_points, double probe_step,
                                   const fem::SolverOptions& solver, bool monolithic)
-    : model_(model),
-      coupling_(coupling),
-      state_(state),
-      n_points_(n_points),
+    : ModelTissue<dim>(model, coupling, state, n_points),
       probe_step_(probe_step),
       solver_(solver),
       monolithic_(monolithic) {}
@@ -56,20 +52,14 @@ const std::vector<double>& ElasticTissue<dim>::solve(const std::vector<double>& 
                       solution_.point_force.end());
   solution_.point_force.resize(state_.active.size());
   field_ = monolithic_;
-  solve_seconds_ += seconds_since(t);
-  ++solves_;
+  this->count_solve(t);
   forces_ = coupling_.axial_forces(state_.active, solution_);
   return forces_;
 }
 
 template <int dim>
-void ElasticTissue<dim>::form_field() {
-  if (field_) return;
-  const auto t = Clock::now();
-  solution_ = condensed_->field();
-  solution_.point_force.resize(state_.active.size());
-  solve_seconds_ += seconds_since(t);
-  field_ = true;
+fem::Solution<dim> ElasticTissue<dim>::whole_field() {
+  return condensed_->field();
 }
 
 template <int dim>

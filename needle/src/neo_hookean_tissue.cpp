@@ -11,7 +11,7 @@ template <int dim>
 NeoHookeanTissue<dim>::NeoHookeanTissue(fem::ElasticModel<dim>& model, const NeedleCoupling<dim>& coupling,
                                         const ShaftState& state, std::size_t n_points,
                                         const fem::NewtonOptions& newton)
-    : model_(model), coupling_(coupling), state_(state), n_points_(n_points), newton_(newton) {}
+    : ModelTissue<dim>(model, coupling, state, n_points), newton_(newton) {}
 
 template <int dim>
 NeoHookeanTissue<dim>::~NeoHookeanTissue() = default;
@@ -37,8 +37,7 @@ const std::vector<double>& NeoHookeanTissue<dim>::solve(const std::vector<double
   solved_active_ = state_.active;
   axial_ = axial;
   loaded_rows_ = !state_.active.empty();
-  solve_seconds_ += seconds_since(t);
-  ++solves_;
+  this->count_solve(t);
   forces_ = coupling_.axial_forces(state_.active, solution_);
   return forces_;
 }
@@ -74,12 +73,8 @@ const AxialMap& NeoHookeanTissue<dim>::axial_map() {
 }
 
 template <int dim>
-void NeoHookeanTissue<dim>::form_field() {
-  if (field_) return;
-  const auto t = Clock::now();
-  solution_ = rows_->field();
-  solve_seconds_ += seconds_since(t);
-  field_ = true;
+fem::Solution<dim> NeoHookeanTissue<dim>::whole_field() {
+  return rows_->field();
 }
 
 // No contact and no loads: the rows of an earlier solve released (the tissue back at rest).
@@ -90,8 +85,7 @@ void NeoHookeanTissue<dim>::clear() {
     const auto t = Clock::now();
     rows_->solve(none, {});
     records_.push_back({rows_->steps(), rows_->halvings()});
-    solve_seconds_ += seconds_since(t);
-    ++solves_;
+    this->count_solve(t);
     loaded_rows_ = false;
     solved_active_.clear();
     map_current_ = false;

@@ -39,24 +39,20 @@ class ElasticTissue final : public ModelTissue<dim> {
   const std::vector<double>& solve(const std::vector<double>& axial) override;
   const AxialMap& axial_map() override;
 
-  // The whole field of the last solve into solution() (once per solve; the monolithic solve has it).
-  void form_field() override;
   // No contact: an empty solution that counts as formed.
   void clear() override;
-  fem::Solution<dim>& solution() override { return solution_; }
   // The displacement along `axis` that point j's rows hold in the last solution.
   double held_axial(std::size_t j, const Vec<dim>& axis) const override;
   // The probes' displacements in the last solve (the model's samples with the monolithic reference).
   std::vector<Vec<dim>> probe_displacements(const std::vector<Vec<dim>>& probes) const override;
 
-  int solves() const override { return solves_; }
-  double solve_seconds() const override { return solve_seconds_; }
-
  private:
-  fem::ElasticModel<dim>& model_;
-  const NeedleCoupling<dim>& coupling_;
-  const ShaftState& state_;
-  std::size_t n_points_;
+  using Base = ModelTissue<dim>;
+  using Base::coupling_, Base::field_, Base::map_, Base::model_, Base::n_points_, Base::solution_,
+      Base::state_;
+  // The condensed rows' field (the monolithic solve formed it in solve()).
+  fem::Solution<dim> whole_field() override;
+
   double probe_step_;
   fem::SolverOptions solver_;
   bool monolithic_;
@@ -66,12 +62,7 @@ class ElasticTissue final : public ModelTissue<dim> {
   std::vector<Vec<dim>> held_forces_;                 // of the held rows in the last solve
   std::vector<Vec<dim>> held_;                        // the active rows' displacements of a solve
   std::vector<double> forces_;                        // the axial forces of the last solve
-  fem::Solution<dim> solution_;
-  bool field_ = false;  // solution_ holds the whole field of the last solve
-  AxialMap map_;
-  std::vector<std::size_t> map_active_;  // the active points of the map's probe
-  int solves_ = 0;
-  double solve_seconds_ = 0.0;
+  std::vector<std::size_t> map_active_;               // the active points of the map's probe
 };
 
 }  // namespace vim::needle

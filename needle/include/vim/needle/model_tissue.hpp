@@ -9,7 +9,9 @@
 #include <cstddef>
 #include <vector>
 #include <vim/fem/model.hpp>
+#include <vim/needle/coupling.hpp>
 #include <vim/needle/fem_types.hpp>
+#include <vim/needle/shaft_state.hpp>
 #include <vim/needle/tissue_response.hpp>
 
 namespace vim::needle {
@@ -27,17 +29,51 @@ class ModelTissue : public TissueResponse {
   // Before stepping: the rows of every shaft point and the probes (points whose displacement each
   // solve gives).
   virtual void precompute(const std::vector<Vec<dim>>& probes) = 0;
-  // The whole field of the last solve into solution() (once per solve).
-  virtual void form_field() = 0;
   // No contact: an empty solution that counts as formed.
   virtual void clear() = 0;
-  virtual fem::Solution<dim>& solution() = 0;
   // The displacement along `axis` that point j's rows hold in the last solution.
   virtual double held_axial(std::size_t j, const Vec<dim>& axis) const = 0;
   // The probes' displacements in the last solve.
   virtual std::vector<Vec<dim>> probe_displacements(const std::vector<Vec<dim>>& probes) const = 0;
-  virtual int solves() const = 0;
-  virtual double solve_seconds() const = 0;
+
+  // The whole field of the last solve into solution() (once per solve): the point forces are the
+  // shaft's active rows'.
+  void form_field() {
+    if (field_) return;
+    const auto t = std::chrono::steady_clock::now();
+    solution_ = whole_field();
+    solution_.point_force.resize(state_.active.size());
+    solve_seconds_ += detail::seconds_since(t);
+    field_ = true;
+  }
+  fem::Solution<dim>& solution() { return solution_; }
+  int solves() const { return solves_; }
+  double solve_seconds() const { return solve_seconds_; }
+
+ protected:
+  // `state` is the stepping's (its active points are the rows of each solve); n_points: the shaft's.
+  ModelTissue(fem::ElasticModel<dim>& model, const NeedleCoupling<dim>& coupling, const ShaftState& state,
+              std::size_t n_points)
+      : model_(model), coupling_(coupling), state_(state), n_points_(n_points) {}
+  // The whole field of the last solve (form_field keeps it).
+  virtual fem::Solution<dim> whole_field() = 0;
+  // A solve that started at `t` done: its time and count.
+  void count_solve(std::chrono::steady_clock::time_point t) {
+    solve_seconds_ += detail::seconds_since(t);
+    ++solves_;
+  }
+
+  fem::ElasticModel<dim>& model_;
+  const NeedleCoupling<dim>& coupling_;
+  const ShaftState& state_;
+  std::size_t n_points_;
+  fem::Solution<dim> solution_;
+  bool field_ = false;  // solution_ holds the whole field of the last solve
+  AxialMap map_;
+  double solve_seconds_ = 0.0;
+
+ private:
+  int solves_ = 0;
 };
 
 }  // namespace vim::needle

@@ -35,34 +35,26 @@ class NeoHookeanTissue final : public ModelTissue<dim> {
   const AxialMap& axial_map() override;
   bool nonlinear() const override { return true; }
 
-  void form_field() override;
   void clear() override;
-  fem::Solution<dim>& solution() override { return solution_; }
   double held_axial(std::size_t j, const Vec<dim>& axis) const override;
   std::vector<Vec<dim>> probe_displacements(const std::vector<Vec<dim>>& probes) const override;
-  int solves() const override { return solves_; }
-  double solve_seconds() const override { return solve_seconds_; }
   // The Newton records of the solves since the last call (a step's), and forgets them.
   std::vector<NewtonSolveRecord> take_records();
 
  private:
-  fem::ElasticModel<dim>& model_;
-  const NeedleCoupling<dim>& coupling_;
-  const ShaftState& state_;
-  std::size_t n_points_;
+  using Base = ModelTissue<dim>;
+  using Base::coupling_, Base::field_, Base::map_, Base::model_, Base::n_points_, Base::solution_,
+      Base::solve_seconds_, Base::state_;
+  fem::Solution<dim> whole_field() override;
+
   fem::NewtonOptions newton_;
   std::unique_ptr<fem::FiniteStrainRows<dim>> rows_;
   std::vector<Vec<dim>> held_, d_held_, d_force_;
   std::vector<double> forces_, axial_;  // of the last solve
   std::vector<std::size_t> solved_active_;
   bool loaded_rows_ = false;  // the last solve held some rows
-  fem::Solution<dim> solution_;
-  bool field_ = false;
-  AxialMap map_;
   bool map_current_ = false;
   std::vector<NewtonSolveRecord> records_;
-  int solves_ = 0;
-  double solve_seconds_ = 0.0;
 };
 
 }  // namespace vim::needle
