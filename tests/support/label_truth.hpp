@@ -108,4 +108,24 @@ inline double total(const std::map<int, double>& per_label) {
   return s;
 }
 
+// The misclassified volume of a label mesh, its elements whose label is not the majority, and the
+// voxel centres no element holds.
+struct LabelFit {
+  double misclassified = 0.0;
+  long wrong_majority = 0;
+  long outside = 0;
+};
+
+template <int dim>
+LabelFit label_fit(const Image<dim>& img, const SimplexMesh<dim>& mesh, const std::vector<int>& labels) {
+  const auto owner = label_owner(img, mesh);
+  const auto counts = label_counts(img, owner, mesh.n_cells());
+  const auto truth = majority_labels(img, mesh, counts);
+  LabelFit f;
+  for (std::size_t c = 0; c < mesh.n_cells(); ++c) f.wrong_majority += labels[c] != truth[c];
+  f.misclassified = total(misclassified_volume(img, owner, labels));
+  f.outside = std::count(owner.begin(), owner.end(), -1);
+  return f;
+}
+
 }  // namespace vim::test
