@@ -7,6 +7,7 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <cmath>
 #include <type_traits>
 
 #include "pipeline_adapter.hpp"
@@ -199,6 +200,26 @@ void bind_mesh(py::module_& m) {
       });
 }
 
+// result.seeds: arrays over the procedure's seeds (SeedData).
+py::dict seeds_dict(const SeedData& s, int dim) {
+  const auto k = static_cast<py::ssize_t>(s.depth.size());
+  py::array_t<double> norm(k);
+  for (py::ssize_t i = 0; i < k; ++i) {
+    double sq = 0.0;
+    for (int a = 0; a < dim; ++a) sq += std::pow(s.error[static_cast<std::size_t>(i * dim + a)], 2);
+    norm.mutable_at(i) = std::sqrt(sq);
+  }
+  py::dict d;
+  d["needle"] = s.needle;
+  d["depth"] = to_array<double>(s.depth, {k});
+  d["planned"] = to_array<double>(s.planned, {k, dim});
+  d["final"] = to_array<double>(s.final_position, {k, dim});
+  d["error"] = to_array<double>(s.error, {k, dim});
+  d["error_norm"] = norm;
+  d["release_step"] = to_array<int>(s.release_step, {k});
+  return d;
+}
+
 void bind_simulation(py::module_& m) {
   py::class_<SimulationData>(m, "SimulationData")
       .def_property_readonly("mesh", [](const SimulationData& s) { return s.mesh; })
@@ -210,6 +231,7 @@ void bind_simulation(py::module_& m) {
                                  l.append(needle_dict(n, s.mesh.dim, s.target_names.size(), nodes));
                                return l;
                              })
+      .def_property_readonly("seeds", [](const SimulationData& s) { return seeds_dict(s.seeds, s.mesh.dim); })
       .def_property_readonly("target_names", [](const SimulationData& s) { return s.target_names; })
       .def_property_readonly("warnings", [](const SimulationData& s) { return s.warnings; })
       .def_property_readonly("files", [](const SimulationData& s) { return s.files; })

@@ -247,6 +247,21 @@ NeedleData needle_data(const vp::NeedleRun<dim>& run) {
   return n;
 }
 
+template <int dim>
+void append_seeds(const vp::NeedleRun<dim>& run, SeedData& out) {
+  const auto append = [](std::vector<double>& v, const Eigen::Matrix<double, dim, 1>& x) {
+    v.insert(v.end(), x.data(), x.data() + dim);
+  };
+  for (const auto& seed : run.seeds) {
+    out.needle.push_back(run.name);
+    out.depth.push_back(seed.depth);
+    append(out.planned, seed.planned);
+    append(out.final_position, seed.final_position());
+    append(out.error, seed.error());
+    out.release_step.push_back(seed.release_step);
+  }
+}
+
 // The stages after the mesh: the model, the needle insertion, the CLI's files and report.json.
 template <int dim>
 SimulationData simulate_run(std::shared_ptr<vp::PipelineRun<dim>> run, const ProgressFunction& progress) {
@@ -257,7 +272,10 @@ SimulationData simulate_run(std::shared_ptr<vp::PipelineRun<dim>> run, const Pro
   const vp::ReportResult& written = run->write_report();
   SimulationData out;
   const vp::SimulationResult<dim>& result = *run->simulation_result();
-  for (const auto& needle : result.needles) out.needles.push_back(needle_data(needle));
+  for (const auto& needle : result.needles) {
+    out.needles.push_back(needle_data(needle));
+    append_seeds(needle, out.seeds);
+  }
   out.target_names = result.target_names;
   out.files = written.outputs;
   out.report_json = run->report().dump(2);

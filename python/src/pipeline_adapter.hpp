@@ -105,9 +105,19 @@ struct NeedleData {
   std::vector<std::vector<double>> shape;
 };
 
+// A procedure's seeds (seeds.csv), needle by needle in their planned depths' order: the needle's name,
+// the planned depth, and (seeds × dim, world) the planned and final positions and the error (final −
+// planned); the withdrawal step of the release.
+struct SeedData {
+  std::vector<std::string> needle;
+  std::vector<double> depth, planned, final_position, error;
+  std::vector<int> release_step;
+};
+
 struct SimulationData {
   MeshData mesh;  // with cell data youngs_modulus
   std::vector<NeedleData> needles;
+  SeedData seeds;
   std::vector<std::string> target_names, warnings, files;  // files: written under the staging folder
   std::string report_json;                                 // report.json as written
 };

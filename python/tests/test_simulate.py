@@ -203,3 +203,42 @@ def test_flexible_needle_shape_per_step(tmp_path):
         assert needle["tip_angle"][k] == pytest.approx(per_step["tip_angle"][k], abs=1e-12)
     assert np.linalg.norm(needle["tip_deviation"][-1]) > 1e-4  # the bevel bends it
     assert "tip_deviation" not in vp.simulate(str(tmp_path / "ball.nrrd"), SCENARIO, max_iterations=2).needles[0]
+
+
+def test_procedure_seeds_as_arrays(tmp_path):
+    # Truths: seeds.csv of the same result (the CLI's file), the planned positions on the planned line
+    # (entry + depth x direction), error = final - planned, and report.json's seed statistics.
+    write_nrrd(tmp_path / "ball.nrrd", sphere_image(n=20, radius=6.0), (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), np.eye(3))
+    scenario = json.loads(json.dumps(SCENARIO))
+    needle = scenario.pop("needle")
+    needle["friction"] = {"model": "stick-slip", "max_shear_per_length": 2.0}
+    first = dict(needle, name="a", seeds=[3.0, 6.0])
+    second = dict(needle, name="b", entry=[7.5, 9.5, 19.0], seeds=[5.0])
+    scenario["procedure"] = [{"insert": first}, {"withdraw": {"needle": "a", "steps": 4}},
+                             {"insert": second}, {"withdraw": {"needle": "b", "steps": 2}}]
+    result = vp.simulate(str(tmp_path / "ball.nrrd"), scenario, max_iterations=2)
+    seeds = result.seeds
+    assert seeds["needle"] == ["a", "a", "b"]
+    assert np.array_equal(seeds["depth"], [3.0, 6.0, 5.0])
+    for key in ("planned", "final", "error"):
+        assert seeds[key].shape == (3, 3)
+    direction = np.array([0.0, 0.0, -1.0])
+    entries = [np.array(first["entry"]), np.array(first["entry"]), np.array(second["entry"])]
+    for i in range(3):
+        assert np.allclose(seeds["planned"][i], entries[i] + seeds["depth"][i] * direction, atol=1e-12)
+    assert np.array_equal(seeds["error"], seeds["final"] - seeds["planned"])
+    assert np.allclose(seeds["error_norm"], np.linalg.norm(seeds["error"], axis=1), rtol=1e-15, atol=0)
+    assert np.max(seeds["error_norm"]) > 1e-6  # the friction moved the tissue at the releases
+    result.write(tmp_path / "out")
+    with open(tmp_path / "out" / "seeds.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["needle"] for r in rows] == seeds["needle"]
+    for i, r in enumerate(rows):
+        for key, column in (("planned", "planned"), ("final", "final"), ("error", "error")):
+            written = [float(r[column + "_" + a]) for a in "xyz"]
+            assert np.allclose(seeds[key][i], written, rtol=1e-11, atol=1e-12)
+        assert int(r["release_step"]) == seeds["release_step"][i]
+    stats = result.report["simulation"]["seeds"]["all"]
+    assert stats["count"] == 3
+    assert stats["mean_error"] == pytest.approx(np.mean(seeds["error_norm"]), rel=1e-12)
+    assert stats["max_error"] == pytest.approx(np.max(seeds["error_norm"]), rel=1e-12)

@@ -80,13 +80,17 @@ class Result:
     ``lateral_force``, ``max_strain``, ``tip`` and ``force`` (steps x dim, world), ``target_displacement`` (steps x targets x dim), ``displacement`` (steps x nodes x dim);
     with ``needle.flexible`` also ``tip_deviation`` (steps x dim), ``tip_angle`` (degrees per step) and
     ``needle_shape`` (per step an array points x dim, world: the bent needle from its holder to its tip)),
-    ``target_names``, ``warnings``, ``report`` (report.json). ``write(out_dir)`` writes the CLI's files."""
+    ``seeds`` (a procedure's seeds, as seeds.csv: a dict of ``needle`` (names), ``depth`` (planned depth),
+    ``planned``, ``final`` and ``error`` (seeds x dim, world; error = final - planned), ``error_norm`` and
+    ``release_step``), ``target_names``, ``warnings``, ``report`` (report.json). ``write(out_dir)`` writes
+    the CLI's files."""
 
     def __init__(self, data, staging):
         self._data = data
         self._staging = staging
         self.mesh = Mesh(data.mesh)
         self.needles = data.needles
+        self.seeds = data.seeds
         self.target_names = data.target_names
         self.warnings = data.warnings
         self.files = data.files
