@@ -5,8 +5,11 @@
 # built with the mesh-invariant checks on (VIM_CHECKED=ON: every VIM stage of every test run is
 # checked) in BUILD_DIR; any others in BUILD_DIR-unchecked without them (the instrumented mesher is
 # then compiled twice). The instrumented code is compiled at -O1 with
-# line tables (-g1), enough for the sanitizers' stacks. Each suite runs through CTest, every test in
-# its own process, JOBS at a time. CI (scripts/test.sh) runs the mesher, pipeline and bad-input
+# line tables (-g1), enough for the sanitizers' stacks. Each suite runs as 2 x JOBS GoogleTest shards
+# (GTEST_TOTAL_SHARDS), JOBS processes at a time: an instrumented process linking deal.II takes 1-3 s
+# of CPU to start (its dynamic loading under ASan), so one process per test would spend minutes on
+# starts; PER_TEST=1 runs every test in its own process through CTest instead (a crash or sanitizer
+# report then names its test alone). CI (scripts/test.sh) runs the mesher, pipeline and bad-input
 # suites this way (SANITIZE_TARGETS chooses); the fem suite and the validation smoke run from this
 # script (docs/robustness.md records the last run and its commit).
 #   scripts/sanitize.sh [BUILD_DIR]            (default: ../build-sanitize next to the checkout)
@@ -79,11 +82,36 @@ filter_regex() {
   [ -n "$1" ] || return 0
   printf '^(%s)$' "$(printf '%s' "$1" | sed -e 's/[].+()|^$[{}\\]/\\&/g' -e 's/\*/.*/g' -e 's/?/./g' -e 's/:/|/g')"
 }
+# One suite as 2 x JOBS GoogleTest shards, JOBS at a time, in the tests' folder (CTest's working
+# directory for them): run_shards DIR SUITE FILTER LOG. Each shard's output goes to LOG.I, then all of
+# it to LOG in shard order; a shard that fails or gives no summary makes it fail. No test runs when
+# FILTER matches none (an error, as CTest's --no-tests=error).
+run_shards() {
+  local dir=$1 suite=$2 filter=$3 log=$4 shards=$((2 * jobs)) i rc=0
+  local listed
+  listed=$("$dir/$suite" --gtest_list_tests --gtest_filter="$filter") || return 1
+  if ! grep -q '^  ' <<<"$listed"; then
+    echo "run_shards: no test of $suite matches '$filter'" >"$log"
+    return 1
+  fi
+  seq 0 $((shards - 1)) | xargs -P "$jobs" -I{} sh -c \
+    'cd "$1" && GTEST_TOTAL_SHARDS=$2 GTEST_SHARD_INDEX=$3 timeout 3600 "./$4" --gtest_filter="$5" >"$6.$3" 2>&1 ||
+     { echo "shard $3 of $4 exited with status $?" >>"$6.$3"; exit 1; }' \
+    shard "$dir" "$shards" {} "$suite" "$filter" "$log" || rc=1
+  : >"$log"
+  for i in $(seq 0 $((shards - 1))); do
+    cat "$log.$i" >>"$log"
+    grep -q '^\[==========\] .* ran\.' "$log.$i" || rc=1
+    rm -f "$log.$i"
+  done
+  return $rc
+}
 status=0
 summary=""
 # CTest lists the tests of every built suite (gtest_discover_tests, PRE_TEST) the first time it runs,
-# whichever suite it selects: list them all once here, in each build dir.
+# whichever suite it selects: with PER_TEST=1, list them all once here, in each build dir.
 for d in "${dirs[@]}"; do
+  [ "${PER_TEST:-0}" = 1 ] || break
   set +e
   (cd "$d" &&
     ASAN_OPTIONS=detect_leaks=1:halt_on_error=1:log_path="$reports_dir/discovery" \
@@ -110,22 +138,30 @@ for t in $targets; do
   case "$filter" in *-*) select+=(-E "$(filter_regex "${filter#*-}")") ;; esac
   t0=$(date +%s)
   set +e
-  # Every test in its own process (CTest runs the discovered tests), JOBS at a time. The stacks of
-  # allocations are the fast unwinder's (ASan's default; FAST_UNWIND=0 for full stacks): OpenMPI's
-  # plugins stay loaded until exit in a sanitizer build (cmake/keep_libraries_loaded.cpp), so the
-  # suppressions name them.
-  (cd "${dir_of[$t]}" &&
-    ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:halt_on_error=1:fast_unwind_on_malloc=${FAST_UNWIND:-1}:log_path="$reports_dir/$t" \
-    UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1:log_path="$reports_dir/$t" \
-    env -u GTEST_FILTER ctest -j"$jobs" --no-tests=error --output-on-failure "${select[@]}") >"$log" 2>&1
+  # The stacks of allocations are the fast unwinder's (ASan's default; FAST_UNWIND=0 for full stacks):
+  # OpenMPI's plugins stay loaded until exit in a sanitizer build (cmake/keep_libraries_loaded.cpp), so
+  # the suppressions name them.
+  export ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:halt_on_error=1:fast_unwind_on_malloc=${FAST_UNWIND:-1}:log_path="$reports_dir/$t"
+  export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1:log_path="$reports_dir/$t"
+  if [ "${PER_TEST:-0}" = 1 ]; then
+    (cd "${dir_of[$t]}" && env -u GTEST_FILTER ctest -j"$jobs" --no-tests=error --output-on-failure "${select[@]}") >"$log" 2>&1
+  else
+    run_shards "${dir_of[$t]}/tests" "$t" "$filter" "$log"
+  fi
   rc=$?
+  unset ASAN_OPTIONS UBSAN_OPTIONS
   set -e
   run_seconds=$(( $(date +%s) - t0 ))
   reports=$(cat "$reports_dir/$t".* 2>/dev/null | grep -cE 'ERROR: AddressSanitizer|runtime error:|ERROR: LeakSanitizer' || true)
   [ "$reports" -eq 0 ] || { echo "sanitizer reports of $t:"; head -c 20000 "$reports_dir/$t".*; }
-  counts=$(grep -oE '[0-9]+ tests failed out of [0-9]+' "$log" | tail -1 || true)
-  failed=$(echo "${counts:-0 tests failed out of 0}" | awk '{print $1}')
-  passed=$(echo "${counts:-0 tests failed out of 0}" | awk '{print $NF - $1}')
+  if [ "${PER_TEST:-0}" = 1 ]; then
+    counts=$(grep -oE '[0-9]+ tests failed out of [0-9]+' "$log" | tail -1 || true)
+    failed=$(echo "${counts:-0 tests failed out of 0}" | awk '{print $1}')
+    passed=$(echo "${counts:-0 tests failed out of 0}" | awk '{print $NF - $1}')
+  else
+    passed=$(grep -hoE '^\[  PASSED  \] [0-9]+ test' "$log" | awk '{s += $4} END {print s + 0}')
+    failed=$(grep -oE '^\[  FAILED  \] [A-Za-z_0-9/]+\.[A-Za-z_0-9/]+' "$log" | sort -u | wc -l)
+  fi
   { [ "$rc" -ne 0 ] || [ "$reports" -ne 0 ]; } && status=1
   summary+=$(printf '%-16s exit %-3s passed %-4s failed %-4s sanitizer reports %-3s build %5s s run %5s s' \
     "$t" "$rc" "$passed" "$failed" "$reports" "${build_seconds[$t]}" "$run_seconds")$'\n'

@@ -39,7 +39,7 @@ else
   ctest --output-on-failure --timeout 1800 "$@"
 fi
 # The sanitized suites (scripts/sanitize.sh): leak detection on (scripts/lsan.supp), every mesh
-# invariant checked, each test in its own process, two at a time. The mesher suite; the pipeline
+# invariant checked, each suite as four GoogleTest shards, two at a time. The mesher suite; the pipeline
 # suite, whose tests drive the instrumented vim-pipeline through meshing, simulation, exports, figures
 # and studies; the bad-input suite, through every image, scenario and study reader and the fault paths
 # (SIGKILL, full disk). fem is linked uninstrumented from this build (FEM_FROM), so its deal.II units
