@@ -180,12 +180,12 @@ NeedleRun<3> long_bevel_run(const std::string& e, const std::string& rotations) 
 // Steering by rotation: the tip advances along its own tangent, so the channel it cuts curves away from
 // the bevel's face and the shaft follows the channel; turned by 180° at half depth, the bevel's load
 // reverses and the tip curves back. For a bending stiffness at which the insertion (60 mm) is several
-// decay lengths 1/β (E = 2 GPa, the order of a polymer tube: 1/β ≈ 13 mm with a Winkler modulus k ≈ 3E of
-// the tissue, assumed) the path the tip has cut
-// dominates the present elastic bend: the final deviation is less than half the unturned one and the
-// path crosses back toward the planned line. (An 18 G steel needle in this 10 kPa block has 1/β ≈ 41 mm:
-// its deviation, 0.16 mm at 60 mm, is mostly the present bend, which the turn mirrors:
-// docs/needle-model.md, the bevel.) A channel that stayed on the planned line would mirror it too.
+// decay lengths 1/β (E = 2 GPa, the order of a polymer tube: 1/β ≈ 15 mm with the foundation modulus
+// k = 16.7 kPa measured in this block, LateralDeflectionDecaysOverTheFoundationLength) the path the tip has
+// cut dominates the present elastic bend: the final deviation is less than half the unturned one and the path
+// crosses back toward the planned line. (An 18 G steel needle in this 10 kPa block has 1/β ≈ 47 mm: its
+// deviation, 0.16 mm at 60 mm, is mostly the present bend, which the turn mirrors: docs/needle-model.md, the
+// bevel.) A channel that stayed on the planned line would mirror it too.
 TEST(FlexibleNeedle, HalfTurnAtHalfDepthSteersTheTipBack) {
   const NeedleRun<3> a = long_bevel_run("2.0e+6", "");
   const NeedleRun<3> b = long_bevel_run("2.0e+6", "[{depth: 30, angle: 180}]");
