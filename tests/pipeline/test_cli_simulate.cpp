@@ -149,12 +149,13 @@ TEST(CliSimulate, ObliqueAnisotropicNeedleRunWritesWorldResultsAndFigures) {
   ASSERT_EQ(r.code, 0) << r.err;
 
   for (const char* f : {"mesh.vtu", "mesh.vtk", "mesh.msh", "mesh.inp", "mesh.feb", "simulation.pvd",
-                        "needle.csv", "report.json", "steps/step_0000.vtu", "steps/step_0006.vtu"})
+                        "needle.csv", "report.json", "steps/step_0000.vtu", "steps/step_0006.vtu",
+                        "steps/needle_0000.vtp", "steps/needle_0006.vtp"})
     EXPECT_TRUE(fs::is_regular_file(out / f)) << f;
 
   // Figures: present, of a plausible size, not blank.
   for (const char* f : {"slice_sagittal", "slice_coronal", "slice_axial", "energy", "needle_force",
-                        "target_displacement", "deformed"}) {
+                        "target_displacement", "deformed", "needle_path"}) {
     const fs::path p = out / "figures" / (std::string(f) + ".png");
     ASSERT_TRUE(fs::is_regular_file(p)) << p;
     const Canvas c = Canvas::read_png(p);

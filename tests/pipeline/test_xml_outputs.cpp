@@ -34,12 +34,12 @@ bool parses(const fs::path& file, std::string* root = nullptr) {
   return parser->GetRootElement() != nullptr;
 }
 
-// Every .feb, .vtu, .pvtu and .pvd under `dir` parses; returns how many of each extension there are.
+// Every .feb, .vtu, .vtp, .pvtu and .pvd under `dir` parses; returns how many of each extension there are.
 std::map<std::string, int> check_xml_files(const fs::path& dir) {
   std::map<std::string, int> count;
   for (const auto& e : fs::recursive_directory_iterator(dir)) {
     const std::string ext = e.path().extension().string();
-    if (ext != ".feb" && ext != ".vtu" && ext != ".pvtu" && ext != ".pvd") continue;
+    if (ext != ".feb" && ext != ".vtu" && ext != ".vtp" && ext != ".pvtu" && ext != ".pvd") continue;
     ++count[ext];
     std::string root;
     EXPECT_TRUE(parses(e.path(), &root)) << e.path() << " is not well-formed XML";
@@ -96,6 +96,7 @@ TEST(XmlOutputs, SimulationRunWritesWellFormedXml) {
   const auto count = check_xml_files(out);
   EXPECT_EQ(count.count(".feb") ? count.at(".feb") : 0, 1);      // with the needle's name in a comment
   EXPECT_GE(count.count(".vtu") ? count.at(".vtu") : 0, 1 + 4);  // mesh.vtu and steps 0..3
+  EXPECT_EQ(count.count(".vtp") ? count.at(".vtp") : 0, 4);      // the needle at steps 0..3
   EXPECT_EQ(count.count(".pvd") ? count.at(".pvd") : 0, 1);
 }
 

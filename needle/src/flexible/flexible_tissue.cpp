@@ -31,7 +31,8 @@ FlexibleTissue::FlexibleTissue(ElasticTissue<3>& tissue, DeflectedCoupling& coup
 
 // Nodes from the holder (−free_length) to the needle's end, elements at most element_ long; the entry
 // is a node when the holder is before it.
-void FlexibleTissue::set_depth(double depth, const Vec<3>& bevel_direction, double bevel_ratio) {
+void FlexibleTissue::set_depth(double depth, const Vec<3>& bevel_direction, double bevel_ratio,
+                               const Vec<3>& base_offset) {
   const Vec<3> tip = deflection(depth_), tangent = slope(depth_);
   for (std::size_t j = 0; j < s_.size(); ++j)
     if (!cut_[j] && s_[j] <= depth + element_) {
@@ -41,6 +42,7 @@ void FlexibleTissue::set_depth(double depth, const Vec<3>& bevel_direction, doub
   depth_ = depth;
   bevel_direction_ = bevel_direction - bevel_direction.dot(axis_) * axis_;
   bevel_ratio_ = bevel_ratio;
+  base_offset_ = base_offset - base_offset.dot(axis_) * axis_;
   std::vector<double> nodes;
   const auto add = [&](double from, double to) {
     const long n = std::max(1L, static_cast<long>(std::ceil((to - from) / element_ - 1e-9)));
@@ -139,11 +141,14 @@ const std::vector<double>& FlexibleTissue::solve(const std::vector<double>& axia
   const Vec<3> bevel = bevel_ratio_ * tip_force * bevel_direction_;
   const Eigen::RowVectorXd tip = beam_.deflection_row(beam_.nodes().back());
   for (Eigen::Index p = 0; p < 2; ++p) rhs_.segment(p * nd, nd) += bevel.dot(e_[p]) * tip.transpose();
+  // The held DOFs: the base's deflection at the holder's offset, its slope 0; their columns to the right.
+  q_ = Eigen::VectorXd::Zero(2 * nd);
+  for (Eigen::Index p = 0; p < 2; ++p) q_[p * nd] = base_offset_.dot(e_[p]);
+  const Eigen::VectorXd load = rhs_ - system_ * q_;
   const auto nf = static_cast<Eigen::Index>(free_.size());
   Eigen::VectorXd b(nf);
-  for (Eigen::Index i = 0; i < nf; ++i) b[i] = rhs_[free_[i]];
+  for (Eigen::Index i = 0; i < nf; ++i) b[i] = load[free_[i]];
   const Eigen::VectorXd x = factor_.solve(b);
-  q_ = Eigen::VectorXd::Zero(2 * nd);
   for (Eigen::Index i = 0; i < nf; ++i) q_[free_[i]] = x[i];
   set_deflection(q_);
   forces_ = tissue_.solve(axial);

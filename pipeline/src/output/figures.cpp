@@ -140,6 +140,51 @@ SliceView make_slice_view(int axis, int u, int v, const Eigen::Vector2d& lo, con
   return view;
 }
 
+std::vector<SliceView> projection_panels(const std::vector<std::array<Eigen::Vector2d, 2>>& boxes,
+                                         int panel_pixels, int margin, int top, bool stacked) {
+  double longest = 0.0;
+  for (const auto& [lo, hi] : boxes) {
+    const Eigen::Vector2d extent = hi - lo;
+    if (!(extent.minCoeff() > 0.0) || !extent.allFinite())
+      throw std::invalid_argument("figure panel needs a rectangle with positive extent");
+    longest = std::max(longest, extent.maxCoeff());
+  }
+  std::vector<SliceView> views;
+  int x = margin, y = top;
+  for (const auto& [lo, hi] : boxes) {
+    const Eigen::Vector2d extent = hi - lo;
+    SliceView view;
+    view.u_min = lo.x();
+    view.v_min = lo.y();
+    view.scale = panel_pixels / longest;  // one scale for all
+    view.width = std::max(1, static_cast<int>(std::ceil(extent.x() * view.scale - 1e-9)));
+    view.height = std::max(1, static_cast<int>(std::ceil(extent.y() * view.scale - 1e-9)));
+    view.x_offset = x;
+    view.y_offset = y;
+    if (stacked)
+      y += view.height + top;
+    else
+      x += view.width + margin;
+    views.push_back(view);
+  }
+  return views;
+}
+
+void draw_panel(Canvas& canvas, const SliceView& view, const std::string& caption, int caption_y) {
+  canvas.polyline_closed({{view.x_offset, view.y_offset},
+                          {view.x_offset + view.width, view.y_offset},
+                          {view.x_offset + view.width, view.y_offset + view.height},
+                          {view.x_offset, view.y_offset + view.height}},
+                         colors::light_grey);
+  canvas.text(view.x_offset, caption_y, caption, colors::axis, 12);
+}
+
+nlohmann::json panel_report(const SliceView& view) {
+  return {{"u_min", view.u_min},       {"v_min", view.v_min},       {"scale", view.scale},
+          {"x_offset", view.x_offset}, {"y_offset", view.y_offset}, {"width", view.width},
+          {"height", view.height}};
+}
+
 std::vector<Eigen::Vector2d> tet_slice_polygon(const std::array<Eigen::Vector3d, 4>& x, int axis, double s) {
   const auto [u, v] = plane_axes(axis);
   double d[4];

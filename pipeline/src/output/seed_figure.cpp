@@ -30,33 +30,25 @@ nlohmann::json write_seed_figure(const std::filesystem::path& path,
   hi = centre.array() + half;
   std::vector<std::pair<int, int>> planes{{0, 1}};
   if constexpr (dim == 3) planes = {{0, 1}, {0, 2}, {1, 2}};
-  std::vector<SliceView> views;
-  int x = kMargin;
-  for (const auto& [u, v] : planes) {
-    SliceView view = make_slice_view(-1, u, v, {lo[u], lo[v]}, {hi[u], hi[v]}, kPanel);
-    view.x_offset = x;
-    view.y_offset = kMargin + kTitle;
-    x += view.width + kMargin;
-    views.push_back(view);
+  std::vector<std::array<Eigen::Vector2d, 2>> boxes;
+  for (const auto& [u, v] : planes)
+    boxes.push_back({{Eigen::Vector2d(lo[u], lo[v]), Eigen::Vector2d(hi[u], hi[v])}});
+  std::vector<SliceView> views = projection_panels(boxes, kPanel, kMargin, kMargin + kTitle);
+  for (std::size_t p = 0; p < views.size(); ++p) {
+    views[p].u = planes[p].first;
+    views[p].v = planes[p].second;
   }
+  const int x = views.back().x_offset + views.back().width + kMargin;
   const double scale = views.front().scale;
-  // The errors drawn magnified by a power of 10 when the largest is under 10 pixels.
-  double magnify = 1.0;
-  while (largest_error > 0.0 && largest_error * scale * magnify < 10.0) magnify *= 10.0;
+  const double magnify = magnification(largest_error, scale);
   const int height = views.front().height;
   Canvas canvas(x, kMargin + kTitle + height + kMargin + kTitle);
   const char* names = "xyz";
   nlohmann::json panels = nlohmann::json::array();
   for (const SliceView& view : views) {
     const int u = view.u, v = view.v;
-    canvas.polyline_closed({{view.x_offset, view.y_offset},
-                            {view.x_offset + view.width, view.y_offset},
-                            {view.x_offset + view.width, view.y_offset + view.height},
-                            {view.x_offset, view.y_offset + view.height}},
-                           colors::light_grey);
-    canvas.text(view.x_offset, kMargin,
-                std::string(1, names[u]) + " right, " + names[v] + " down [" + length_unit + "]",
-                colors::axis, 12);
+    draw_panel(canvas, view, std::string(1, names[u]) + " right, " + names[v] + " down [" + length_unit + "]",
+               kMargin);
     const auto at = [&](const Eigen::Matrix<double, dim, 1>& p) { return view.to_pixel(p[u], p[v]); };
     for (std::size_t i = 0; i < planned.size(); ++i) {
       const Eigen::Matrix<double, dim, 1> tip = planned[i] + magnify * (final_position[i] - planned[i]);
@@ -77,13 +69,10 @@ nlohmann::json write_seed_figure(const std::filesystem::path& path,
         disk.push_back(c + kDot * Eigen::Vector2d(std::cos(k * M_PI / 16), std::sin(k * M_PI / 16)));
       canvas.fill_polygon(disk, kFinalSeed);
     }
-    panels.push_back({{"u", u},
-                      {"v", v},
-                      {"u_min", view.u_min},
-                      {"v_min", view.v_min},
-                      {"scale", view.scale},
-                      {"x_offset", view.x_offset},
-                      {"y_offset", view.y_offset}});
+    nlohmann::json panel = panel_report(view);
+    panel["u"] = u;
+    panel["v"] = v;
+    panels.push_back(panel);
   }
   char legend[128];
   std::snprintf(legend, sizeof legend, "blue ring: planned seed, red dot: final seed, line: error x %g",

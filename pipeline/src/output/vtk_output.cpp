@@ -1,6 +1,6 @@
-// VTK XML writers (see vtk_output.hpp): vtkUnstructuredGrid with double-precision points and
-// data arrays, written by vtkXMLUnstructuredGridWriter (appended binary, zlib) under a temporary
-// name; the .pvd collection is a few lines of XML written by hand.
+// VTK XML writers (see vtk_output.hpp): vtkUnstructuredGrid and vtkPolyData with double-precision points
+// and data arrays, written by VTK's XML writers (appended binary, zlib) under a temporary name; the .pvd
+// collection is a few lines of XML written by hand.
 #include <vtkCallbackCommand.h>
 #include <vtkCellArray.h>
 #include <vtkCellData.h>
@@ -12,7 +12,9 @@
 #include <vtkNew.h>
 #include <vtkPointData.h>
 #include <vtkPoints.h>
+#include <vtkPolyData.h>
 #include <vtkUnstructuredGrid.h>
+#include <vtkXMLPolyDataWriter.h>
 #include <vtkXMLUnstructuredGridWriter.h>
 
 #include <algorithm>
@@ -184,6 +186,41 @@ void add_arrays(vtkDataSetAttributes* attributes, const FieldMap& fields, std::s
   }
 }
 
+// Writes `data` with the XML writer `w` (appended binary, zlib, 64-bit headers) under a temporary name.
+// VTK reports a failed write (a full disk, a file-size limit) through its error code and an error
+// event, while Write() still returns 1: the event is caught (so that it is not printed as a VTK log)
+// and the code and the file's closing tag are checked.
+void write_xml_data(const fs::path& path, vtkXMLWriter* w, vtkDataObject* data) {
+  write_atomically(path, [&](const fs::path& tmp) {
+    w->SetFileName(tmp.string().c_str());
+    w->SetInputData(data);
+    w->SetDataModeToAppended();
+    w->SetCompressorTypeToZLib();
+    w->SetHeaderTypeToUInt64();
+    std::string vtk_error;
+    vtkNew<vtkCallbackCommand> on_error;
+    on_error->SetClientData(&vtk_error);
+    on_error->SetCallback([](vtkObject*, unsigned long, void* client, void* call) {
+      if (call) *static_cast<std::string*>(client) = static_cast<const char*>(call);
+    });
+    const unsigned long observer = w->AddObserver(vtkCommand::ErrorEvent, on_error);
+    vtkNew<vtkCallbackCommand> ignore;  // the pipeline's own "returned failure" report of the same error
+    const unsigned long pipeline_observer = w->GetExecutive()->AddObserver(vtkCommand::ErrorEvent, ignore);
+    const int ok = w->Write();
+    w->RemoveObserver(observer);
+    w->GetExecutive()->RemoveObserver(pipeline_observer);
+    if (ok != 1 || w->GetErrorCode() != vtkErrorCode::NoError || !vtk_error.empty() ||
+        !ends_with_closing_tag(tmp)) {
+      std::string why =
+          vtk_error.empty() ? vtkErrorCode::GetStringFromErrorCode(w->GetErrorCode()) : vtk_error;
+      const auto nl = why.find_last_not_of(" \n");
+      why.erase(nl == std::string::npos ? 0 : nl + 1);
+      throw std::runtime_error("cannot write " + path.string() + (why.empty() ? "" : ": " + why) +
+                               " (is the disk full?)");
+    }
+  });
+}
+
 }  // namespace
 
 void write_vtu(const fs::path& path, const UnstructuredGrid& grid) {
@@ -218,46 +255,42 @@ void write_vtu(const fs::path& path, const UnstructuredGrid& grid) {
   add_arrays(ug->GetPointData(), grid.point_data, np, "point", path);
   add_arrays(ug->GetCellData(), grid.cell_data, nc, "cell", path);
 
-  write_atomically(path, [&](const fs::path& tmp) {
-    vtkNew<vtkXMLUnstructuredGridWriter> w;
-    w->SetFileName(tmp.string().c_str());
-    w->SetInputData(ug);
-    w->SetDataModeToAppended();
-    w->SetCompressorTypeToZLib();
-    w->SetHeaderTypeToUInt64();
-    // VTK reports a failed write (a full disk, a file-size limit) through its error code and an error
-    // event, while Write() still returns 1: catch the event (so that it is not printed as a VTK log)
-    // and check the code and the file's closing tag.
-    std::string vtk_error;
-    vtkNew<vtkCallbackCommand> on_error;
-    on_error->SetClientData(&vtk_error);
-    on_error->SetCallback([](vtkObject*, unsigned long, void* client, void* call) {
-      if (call) *static_cast<std::string*>(client) = static_cast<const char*>(call);
-    });
-    w->AddObserver(vtkCommand::ErrorEvent, on_error);
-    vtkNew<vtkCallbackCommand> ignore;  // the pipeline's own "returned failure" report of the same error
-    w->GetExecutive()->AddObserver(vtkCommand::ErrorEvent, ignore);
-    const int ok = w->Write();
-    if (ok != 1 || w->GetErrorCode() != vtkErrorCode::NoError || !vtk_error.empty() ||
-        !ends_with_closing_tag(tmp)) {
-      std::string why =
-          vtk_error.empty() ? vtkErrorCode::GetStringFromErrorCode(w->GetErrorCode()) : vtk_error;
-      const auto nl = why.find_last_not_of(" \n");
-      why.erase(nl == std::string::npos ? 0 : nl + 1);
-      throw std::runtime_error("cannot write " + path.string() + (why.empty() ? "" : ": " + why) +
-                               " (is the disk full?)");
-    }
-  });
+  vtkNew<vtkXMLUnstructuredGridWriter> w;
+  write_xml_data(path, w, ug);
 }
 
-void write_pvd(const fs::path& path, const std::vector<std::pair<double, std::string>>& entries) {
+void write_vtp(const fs::path& path, const PolyLines& lines) {
+  const std::size_t np = lines.points.size();
+  vtkNew<vtkPoints> points;
+  points->SetDataTypeToDouble();
+  points->SetNumberOfPoints(static_cast<vtkIdType>(np));
+  for (std::size_t i = 0; i < np; ++i) points->SetPoint(static_cast<vtkIdType>(i), lines.points[i].data());
+  vtkNew<vtkCellArray> cells;
+  for (std::size_t l = 0; l < lines.lines.size(); ++l) {
+    cells->InsertNextCell(static_cast<vtkIdType>(lines.lines[l].size()));
+    for (const long v : lines.lines[l]) {
+      if (v < 0 || static_cast<std::size_t>(v) >= np)
+        throw std::invalid_argument(path.string() + ": line " + std::to_string(l) + " refers to point " +
+                                    std::to_string(v) + " of " + std::to_string(np));
+      cells->InsertCellPoint(static_cast<vtkIdType>(v));
+    }
+  }
+  vtkNew<vtkPolyData> pd;
+  pd->SetPoints(points);
+  pd->SetLines(cells);
+  add_arrays(pd->GetPointData(), lines.point_data, np, "point", path);
+  vtkNew<vtkXMLPolyDataWriter> w;
+  write_xml_data(path, w, pd);
+}
+
+void write_pvd(const fs::path& path, const std::vector<PvdDataSet>& entries) {
   write_text_atomically(path, [&](std::ostream& out) {
     out << "<?xml version=\"1.0\"?>\n"
         << "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
         << "  <Collection>\n";
-    for (const auto& [t, file] : entries)
-      out << "    <DataSet timestep=\"" << t << "\" group=\"\" part=\"0\" file=\"" << xml_escape(file)
-          << "\"/>\n";
+    for (const PvdDataSet& e : entries)
+      out << "    <DataSet timestep=\"" << e.time << "\" group=\"\" part=\"" << e.part << "\" file=\""
+          << xml_escape(e.file) << "\"/>\n";
     out << "  </Collection>\n</VTKFile>\n";
   });
 }

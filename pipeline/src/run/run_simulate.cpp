@@ -55,8 +55,8 @@ const SimulateResult& PipelineRun<dim>::simulate() {
   return simulate_result_;
 }
 
-// Figures of a needle run: axial/lateral force against depth for every needle and, on a simplex
-// model, the deformed mesh at the last step cut through the final tip position; of a static load case
+// Figures of a needle run: axial/lateral force against depth and the needle's path for every needle and, on a
+// simplex model, the deformed mesh at the last step cut through the final tip position; of a static load case
 // the deformed mesh cut through the model's centre (3D: normal to the first axis).
 template <int dim>
 json PipelineRun<dim>::write_simulation_figures(const SimulationResult<dim>& result) {
@@ -104,6 +104,18 @@ json PipelineRun<dim>::write_simulation_figures(const SimulationResult<dim>& res
           write_line_plot(out().file("figures/" + prefix + "target_displacement.png"), run.depth, series,
                           names, "needle depth [" + length + "]", "target displacement |u| [" + length + "]");
       fig["targets"]["file"] = "figures/" + prefix + "target_displacement.png";
+    }
+    {  // the needle's path in views normal to its planned line, with the targets
+      std::vector<Eigen::Matrix<double, dim, 1>> moved;
+      for (std::size_t t = 0; t < result.target_positions.size(); ++t)
+        moved.push_back(result.target_positions[t] + run.target_displacement.back().at(t));
+      const auto shape = run.shape.empty()
+                             ? std::vector<Eigen::Matrix<double, dim, 1>>{run.entry, run.tip.back()}
+                             : run.shape.back();
+      fig["path"] =
+          write_needle_path_figure<dim>(out().file("figures/" + prefix + "needle_path.png"), run.entry,
+                                        run.axis, shape, run.tip, result.target_positions, moved, length);
+      fig["path"]["file"] = "figures/" + prefix + "needle_path.png";
     }
     if (model && !run.vertex_displacement.empty() &&
         run.vertex_displacement.back().size() == model->mesh.n_points()) {

@@ -11,7 +11,8 @@ void parse_needle_flexible(const Scenario& scenario, const YAML::Node& node, con
                            NeedleSpec& needle) {
   const Reader r(scenario);
   if (dim != 3) r.fail(node, path + " applies only to 3D scenarios (a 2D needle is a plane-strain blade)");
-  const Fields f = r.check_keys(node, path, {"youngs_modulus", "inner_diameter", "free_length"});
+  const Fields f =
+      r.check_keys(node, path, {"youngs_modulus", "inner_diameter", "free_length", "base_offset"});
   FlexibleSpec flex;
   flex.line = Reader::line(node);
   const YAML::Node& e = r.require(f, "youngs_modulus", path + ".youngs_modulus");
@@ -28,6 +29,21 @@ void parse_needle_flexible(const Scenario& scenario, const YAML::Node& node, con
     if (!(flex.free_length >= 0.0))
       r.fail(l, path + ".free_length must be >= 0 (the holder's distance before the entry), got " +
                     number_text(flex.free_length));
+  }
+  if (const YAML::Node& o = f["base_offset"]) {
+    flex.base_offset = r.vector(o, path + ".base_offset", 3);
+    double along = 0.0, length = 0.0, norm = 0.0;
+    for (std::size_t i = 0; i < 3; ++i) {
+      along += flex.base_offset[i] * needle.direction[i];
+      length += flex.base_offset[i] * flex.base_offset[i];
+      norm += needle.direction[i] * needle.direction[i];
+    }
+    along /= std::sqrt(norm);
+    if (std::abs(along) > 1e-6 * std::sqrt(length))
+      r.fail(o, path + ".base_offset [" + Reader::join_numbers(flex.base_offset) +
+                    "] must be normal to the needle's direction [" + Reader::join_numbers(needle.direction) +
+                    "] (the holder moves across the needle; its component along it is " + number_text(along) +
+                    ")");
   }
   needle.flexible = flex;
 }

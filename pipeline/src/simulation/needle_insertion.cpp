@@ -34,6 +34,7 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
                         "mesh (is it inside a fixed region?)");
   run_.name = spec.name;
   run_.axis = axis_world_;
+  run_.entry = entry_world_;
   for (const auto &p : shaft) {
     run_.point_s.push_back(p.s);
     run_.point_length.push_back(p.length);
@@ -476,7 +477,8 @@ void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim> *s, int
   run_.solves.push_back(solves);
 }
 
-// The flexible needle at needle depth d: the beam to its end, and the bevel's load. The tissue pushes
+// The flexible needle at needle depth d: the beam to its end, the bevel's load and, at the last insertion
+// step, the holder's offset. The tissue pushes
 // on the bevel's face, whose outward normal's lateral part is the bevel side (turned by the rotations
 // the needle has reached): the lateral force on the needle is along −side, cot(angle) × the tip's axial
 // force (docs/needle-model.md, the bevel).
@@ -494,7 +496,11 @@ void NeedleInsertion<dim>::bend(double d) {
       direction = -ctx_.tf.vector_to_frame(side);
       ratio = 1.0 / std::tan(spec_.bevel->angle * M_PI / 180.0);
     }
-    flexible_->set_depth(d, direction, ratio);
+    // The holder's sideways move (needle.flexible.base_offset) at the last insertion step.
+    const bool last = d >= needle_.path.depth * (1.0 - 1e-9);
+    const Vec offset =
+        last ? ctx_.tf.vector_to_frame(spec_vector<dim>(spec_.flexible->base_offset)) : Vec::Zero();
+    flexible_->set_depth(d, direction, ratio, offset);
   } else {
     (void)d;
   }
@@ -580,7 +586,14 @@ template <int dim>
 void NeedleInsertion<dim>::output_step(int k, const fem::Solution<dim> *solution) {
   const std::string file = "steps/" + step_file(k, ctx_.opt.mpi_ranks);
   write_step_vtu<dim>(ctx_, prefix_ + file, solution);
-  pvd_.emplace_back(run_.depth.back(), file);
+  pvd_.push_back({run_.depth.back(), file, 0});
+  if (ctx_.opt.output_file) {  // the needle beside the tissue: its shape, or the rigid needle's straight line
+    const std::string needle = "steps/" + needle_step_file(k);
+    const std::vector<Vec> straight{entry_world_, run_.tip.back()};
+    write_needle_vtp<dim>(ctx_.opt.output_file(prefix_ + needle), flexible_ ? run_.shape.back() : straight,
+                          entry_world_, axis_world_);
+    pvd_.push_back({run_.depth.back(), needle, 1});
+  }
   if (ctx_.sc.procedure && ctx_.opt.output_file) output_seeds(k);
 }
 
@@ -614,7 +627,7 @@ void NeedleInsertion<dim>::output_seeds(int k) {
   char name[32];
   std::snprintf(name, sizeof name, "steps/seeds_%04d.vtu", k);
   write_seed_points<dim>(ctx_.opt.output_file(prefix_ + name), position, planned, needle);
-  seeds_pvd_.emplace_back(run_.depth.back(), name);
+  seeds_pvd_.push_back({run_.depth.back(), name, 0});
 }
 
 template class NeedleInsertion<2>;

@@ -102,7 +102,7 @@ class NeedleInsertion {
   bool have_solution_ = false;
 
   NeedleRun<dim> run_;
-  std::vector<std::pair<double, std::string>> pvd_, seeds_pvd_;
+  std::vector<PvdDataSet> pvd_, seeds_pvd_;
 };
 
 }  // namespace vim::pipeline

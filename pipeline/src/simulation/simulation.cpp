@@ -476,6 +476,7 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
   rep["units"] = {{"length", m.sc.length_unit}, {"modulus", m.sc.modulus_unit}};
   for (const auto& t : m.sc.targets) {
     res.target_names.push_back(t.name);
+    res.target_positions.push_back(spec_vector<dim>(t.position));
     rep["target_positions"][t.name] = t.position;  // world (a label target's centroid, docs/labels.md)
   }
   rep["model"] = model_report<dim>(m);

@@ -33,6 +33,31 @@ std::string step_file(int k, int mpi_ranks) {
   return buf;
 }
 
+std::string needle_step_file(int k) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "needle_%04d.vtp", k);
+  return buf;
+}
+
+template <int dim>
+void write_needle_vtp(const std::filesystem::path& path,
+                      const std::vector<Eigen::Matrix<double, dim, 1>>& shape,
+                      const Eigen::Matrix<double, dim, 1>& entry, const Eigen::Matrix<double, dim, 1>& axis) {
+  PolyLines lines;
+  Field deflection{3, {}};
+  lines.lines.emplace_back();
+  for (const auto& x : shape) {
+    std::array<double, 3> p{};
+    const Eigen::Matrix<double, dim, 1> along = entry + (x - entry).dot(axis) * axis;
+    for (int d = 0; d < dim; ++d) p[d] = x[d];
+    for (int d = 0; d < 3; ++d) deflection.values.push_back(d < dim ? x[d] - along[d] : 0.0);
+    lines.lines.back().push_back(static_cast<long>(lines.points.size()));
+    lines.points.push_back(p);
+  }
+  lines.point_data["deflection"] = std::move(deflection);
+  write_vtp(path, lines);
+}
+
 namespace {
 
 // The scenario's output fields of a solution (zero fields when null: rest) on `g`, whose points and
@@ -195,7 +220,8 @@ void add_flexible_report(const Scenario& sc, const NeedleSpec& spec, const Needl
   const FlexibleSpec& f = *spec.flexible;
   json flexible = {{"youngs_modulus", f.youngs_modulus},
                    {"inner_diameter", f.inner_diameter},
-                   {"free_length", f.free_length}};
+                   {"free_length", f.free_length},
+                   {"base_offset", f.base_offset}};
   if (spec.bevel) {
     flexible["bevel"] = {{"angle", spec.bevel->angle}, {"side", spec.bevel->side}};
     json rotations = json::array();
@@ -434,7 +460,10 @@ json model_report(const SimulationContext<dim>& m) {
   template void write_seed_points<dim>(                                                                      \
       const std::filesystem::path&, const std::vector<Eigen::Matrix<double, dim, 1>>&,                       \
       const std::vector<Eigen::Matrix<double, dim, 1>>&, const std::vector<int>&);                           \
-  template json seeds_report<dim>(const std::vector<NeedleRun<dim>>&);
+  template json seeds_report<dim>(const std::vector<NeedleRun<dim>>&);                                       \
+  template void write_needle_vtp<dim>(                                                                       \
+      const std::filesystem::path&, const std::vector<Eigen::Matrix<double, dim, 1>>&,                       \
+      const Eigen::Matrix<double, dim, 1>&, const Eigen::Matrix<double, dim, 1>&);
 VIM_SIMULATION_OUTPUT(2)
 VIM_SIMULATION_OUTPUT(3)
 #undef VIM_SIMULATION_OUTPUT

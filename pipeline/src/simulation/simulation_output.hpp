@@ -23,6 +23,17 @@ template <int dim>
 void write_step_vtu(const SimulationContext<dim>& ctx, const std::string& relative,
                     const fem::Solution<dim>* solution);
 
+// "needle_0007.vtp": the needle at step k (write_needle_vtp), beside the step file.
+std::string needle_step_file(int k);
+
+// The needle at a step: one polyline through `shape` (world: from the needle's base to its tip) with
+// point data `deflection`, each point's offset from the planned line through `entry` along the unit
+// `axis` (world; zero for the rigid needle).
+template <int dim>
+void write_needle_vtp(const std::filesystem::path& path,
+                      const std::vector<Eigen::Matrix<double, dim, 1>>& shape,
+                      const Eigen::Matrix<double, dim, 1>& entry, const Eigen::Matrix<double, dim, 1>& axis);
+
 // Whether this process writes step files: rank 0 of a run with an output folder (output_file), or
 // another rank of such a run over MPI ranks (piece_file: its pieces of the .pvtu).
 inline bool writes_steps(const SimulationOptions& o) {

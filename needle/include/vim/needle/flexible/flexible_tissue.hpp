@@ -6,7 +6,7 @@
 //   F = F₀(w) + A N q  (F₀: the forces with the needle on the planned line, its rows at −c_j, c_j the
 //   channel; A the tissue's lateral stiffness of the active rows, band compliance included: the
 //   condensed Schur system),
-//   (K_beam + Nᵀ A N) q = f_bevel − Nᵀ F₀(w),  base DOFs held at 0,
+//   (K_beam + Nᵀ A N) q = f_bevel − Nᵀ F₀(w),  base DOFs held (w at the holder's offset, θ = 0),
 // then the tissue with those lateral values, whose axial forces it returns. A is measured once per
 // active set with 2m + 1 tissue solves (the tissue is linear); F₀ with one solve per call. No
 // alternating iteration: the stepping and the friction laws see an ordinary TissueResponse.
@@ -44,8 +44,10 @@ class FlexibleTissue final : public TissueResponse {
   // it. The stations the tip reaches now take the channel it cuts: the last step's tip extended along
   // its tangent (the tip advances along its own tangent). A bevel puts a lateral force on the needle's
   // end, `bevel_ratio` × the tip's axial force (the cutting row's, ≥ 0) along the unit lateral
-  // `bevel_direction` (frame; zero: a symmetric tip).
-  void set_depth(double depth, const Vec<3>& bevel_direction = Vec<3>::Zero(), double bevel_ratio = 0.0);
+  // `bevel_direction` (frame; zero: a symmetric tip). `base_offset` (frame, its lateral part): the base
+  // held there across the planned line, in the line's direction (the holder moved sideways).
+  void set_depth(double depth, const Vec<3>& bevel_direction = Vec<3>::Zero(), double bevel_ratio = 0.0,
+                 const Vec<3>& base_offset = Vec<3>::Zero());
   const std::vector<double>& solve(const std::vector<double>& axial) override;
   const AxialMap& axial_map() override;
 
@@ -76,6 +78,7 @@ class FlexibleTissue final : public TissueResponse {
   Beam beam_;
   Vec<3> bevel_direction_ = Vec<3>::Zero();
   double bevel_ratio_ = 0.0;
+  Vec<3> base_offset_ = Vec<3>::Zero();
   std::vector<Vec<3>> channel_;        // per station: the lateral position of the channel the tip cut there
   std::vector<bool> cut_;              // its channel is set
   std::vector<std::size_t> stations_;  // the active shaft stations (not tip rows), and their slot in active

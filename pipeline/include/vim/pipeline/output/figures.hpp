@@ -41,6 +41,25 @@ struct SliceView {
 SliceView make_slice_view(int axis, int u, int v, const Eigen::Vector2d& lo, const Eigen::Vector2d& hi,
                           int max_pixels);
 
+// Projection panels (the seed and needle-path figures): panel p shows the rectangle boxes[p] = {lo, hi}
+// of its own in-plane coordinates (u right, v down), all at one scale (`panel_pixels` on the longest side
+// of any box), side by side from (margin, top) `margin` apart, or `stacked` one under another with `top`
+// between them (room for each panel's caption). Throws std::invalid_argument for an empty box.
+std::vector<SliceView> projection_panels(const std::vector<std::array<Eigen::Vector2d, 2>>& boxes,
+                                         int panel_pixels, int margin, int top, bool stacked = false);
+// The power of 10 (≥ 1) by which a figure magnifies small offsets (the seeds' errors, the needle's
+// deflection) so that the largest, `largest` units at `scale` pixels per unit, is at least 10 pixels.
+inline double magnification(double largest, double scale) {
+  double m = 1.0;
+  while (largest > 0.0 && largest * scale * m < 10.0) m *= 10.0;
+  return m;
+}
+// A projection panel's light grey frame, and its caption (12 px) at height caption_y.
+void draw_panel(Canvas& canvas, const SliceView& view, const std::string& caption, int caption_y);
+// A panel for report.json: u_min, v_min, scale (pixels per unit), x_offset, y_offset, width, height: a
+// point (p_u, p_v) is at pixel (x_offset + (p_u − u_min)·scale, y_offset + (p_v − v_min)·scale).
+nlohmann::json panel_report(const SliceView& view);
+
 // Cross-section of a tetrahedron with the plane x[axis] = s, as in-plane (u, v) points ordered
 // around the polygon (3 or 4 points; fewer when the plane only touches an edge or a vertex).
 std::vector<Eigen::Vector2d> tet_slice_polygon(const std::array<Eigen::Vector3d, 4>& x, int axis, double s);
@@ -109,5 +128,25 @@ nlohmann::json write_seed_figure(const std::filesystem::path& path,
                                  const std::string& length_unit);
 inline constexpr Rgb kPlannedSeed{30, 80, 220};
 inline constexpr Rgb kFinalSeed{220, 30, 30};
+
+// figures/needle_path.png (needle_path_figure.cpp): a needle in views normal to its planned line (3D: two,
+// the planes through the line along `lateral`[0] and [1]; 2D: one), depth along the line to the right and
+// the lateral coordinate down, one scale for all: the planned line (light grey), the tip's path over the
+// steps (`tips`, thin, kPathColour), the needle's final shape (`shape`, base to tip, 2 px, black), their
+// deviations from the line magnified by a power of 10 (`deviation_magnified`) when the largest is under
+// 10 px, and each target at rest (a kPlannedSeed ring) and where the tissue moved it (a kFinalSeed dot),
+// at their true positions. Returns the file, the magnification and per panel panel_report() with its
+// `lateral` direction (world): a point x is drawn at (u, v) = ((x − entry)·axis, m (x − entry)·lateral),
+// m the magnification for the needle and 1 for the targets.
+template <int dim>
+nlohmann::json write_needle_path_figure(const std::filesystem::path& path,
+                                        const Eigen::Matrix<double, dim, 1>& entry,
+                                        const Eigen::Matrix<double, dim, 1>& axis,
+                                        const std::vector<Eigen::Matrix<double, dim, 1>>& shape,
+                                        const std::vector<Eigen::Matrix<double, dim, 1>>& tips,
+                                        const std::vector<Eigen::Matrix<double, dim, 1>>& targets,
+                                        const std::vector<Eigen::Matrix<double, dim, 1>>& moved_targets,
+                                        const std::string& length_unit);
+inline constexpr Rgb kPathColour{0, 150, 60};
 
 }  // namespace vim::pipeline

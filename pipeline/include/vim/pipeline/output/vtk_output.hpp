@@ -1,4 +1,4 @@
-// VTK XML output (.vtu, .pvd) through VTK 9, in world coordinates, for ParaView and 3D Slicer.
+// VTK XML output (.vtu, .vtp, .pvd) through VTK 9, in world coordinates, for ParaView and 3D Slicer.
 // Every file goes through write_atomically (temporary name, then rename).
 #pragma once
 
@@ -55,6 +55,18 @@ UnstructuredGrid voxel_grid(const Image<dim>& image, const WorldTransform<dim>& 
 
 void write_vtu(const std::filesystem::path& path, const UnstructuredGrid& grid);
 
+// Polylines (VTK XML PolyData, .vtp): 3D points, each line a list of point indices in order, and point
+// data (2D vectors padded to 3 components, as write_vtu does).
+struct PolyLines {
+  std::vector<std::array<double, 3>> points;
+  std::vector<std::vector<long>> lines;
+  FieldMap point_data;
+};
+
+// Written by vtkXMLPolyDataWriter under a temporary name (the checks of write_vtu); throws
+// std::invalid_argument for a line that refers to a missing point or a field of the wrong size.
+void write_vtp(const std::filesystem::path& path, const PolyLines& lines);
+
 // The cells `cells` (indices into `grid`, in this order) of `grid` with the points they use
 // (renumbered in order of first use; `points_used`, if given, gets the grid point of each) and their
 // point and cell fields: a piece of a parallel VTU. Throws std::invalid_argument for a cell index out
@@ -70,7 +82,15 @@ std::string pvtu_piece(const std::string& relative, int r);
 // written atomically. Write it after its pieces, so that it never names a missing one.
 void write_pvtu(const std::filesystem::path& path, int pieces, const UnstructuredGrid& fields);
 
-// ParaView collection: (time, file relative to the .pvd) pairs.
-void write_pvd(const std::filesystem::path& path, const std::vector<std::pair<double, std::string>>& entries);
+// A data set of a ParaView collection: its time, its file (relative to the .pvd) and its part; the
+// parts of one time are shown together (a step's tissue grid, part 0, and its needle, part 1).
+struct PvdDataSet {
+  double time = 0.0;
+  std::string file;
+  int part = 0;
+};
+
+// ParaView collection of `entries`, in order.
+void write_pvd(const std::filesystem::path& path, const std::vector<PvdDataSet>& entries);
 
 }  // namespace vim::pipeline

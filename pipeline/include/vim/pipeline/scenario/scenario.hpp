@@ -83,7 +83,11 @@ struct FlexibleSpec {
   double youngs_modulus = 0.0;  // the tube's E, modulus units (steel: 2e8 kPa)
   double inner_diameter = 0.0;  // d_i, 0 ≤ d_i < diameter
   double free_length = 0.0;     // the base is clamped this far before the entry (0: at the entry)
-  int line = 0;                 // YAML line of the key
+  // The holder moved across the needle by this vector (world, normal to the needle) at the last
+  // insertion step, the needle fully inserted along the channel it cut: the base held there, in the
+  // needle's direction. Zero: the holder stays on the planned line.
+  std::vector<double> base_offset{0.0, 0.0, 0.0};
+  int line = 0;  // YAML line of the key
 };
 
 // needle.bevel: the tip's bevel, its angle to the axis and the side its face faces at entry (world,

@@ -110,6 +110,7 @@ struct NeedleRun {
   using Vec = Eigen::Matrix<double, dim, 1>;
   std::string name;
   Vec axis;                   // world, unit
+  Vec entry = Vec::Zero();    // world: the planned line's entry point
   std::vector<double> depth;  // per step (step 0 = rest)
   std::vector<Vec> tip;       // world (the flexible needle: its bent end)
   // The flexible needle (needle.flexible), per step, world: the tip's deviation from the planned line,
@@ -195,8 +196,9 @@ struct SimulationResult {
   std::vector<NeedleRun<dim>> needles;
   std::optional<StaticLoadRun<dim>> static_load;  // the scenario has no needle
   std::vector<std::string> target_names;  // the scenario's targets, in the order of target_displacement
-  std::vector<std::string> warnings;      // results the user should not take at face value (also in report)
-  nlohmann::json report;                  // for report.json["simulation"]
+  std::vector<Eigen::Matrix<double, dim, 1>> target_positions;  // their rest positions, world
+  std::vector<std::string> warnings;  // results the user should not take at face value (also in report)
+  nlohmann::json report;              // for report.json["simulation"]
 };
 
 template <int dim>
