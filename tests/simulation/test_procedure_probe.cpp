@@ -170,7 +170,7 @@ TEST(ProcedureProbe, BadProbeActionsNameTheFileLineAndKey) {
   EXPECT_NE(e.find("material.model = 'neo-hookean' with a probe motion"), std::string::npos) << e;
 }
 
-TEST(ProcedureProbe, RefusedOverMpiRanks) {
+TEST(ProcedureProbe, RefusedOverMpiRanksAndWithCompareLinear) {
   const Scenario sc =
       parse_scenario_text(kHead + "procedure:\n  - probe: {rotate: 5, steps: 1}\n", 3, "plan.yaml");
   SimulationOptions o = quiet();
@@ -182,6 +182,17 @@ TEST(ProcedureProbe, RefusedOverMpiRanks) {
     EXPECT_NE(
         std::string(e.what()).find("plan.yaml:3: probe: the probe's elastic foundation is solved on one "
                                    "process; run without --mpi-ranks"),
+        std::string::npos)
+        << e.what();
+  }
+  o.mpi_ranks = 1;
+  o.compare_linear = true;
+  try {
+    run_simulation<3>(axis_block(), sc, o);
+    FAIL() << "no error";
+  } catch (const ScenarioError& e) {
+    EXPECT_NE(
+        std::string(e.what()).find("plan.yaml:3: probe: --compare-linear with a probe motion is not built"),
         std::string::npos)
         << e.what();
   }

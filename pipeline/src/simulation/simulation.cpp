@@ -218,6 +218,10 @@ void NeedleSimulation<dim>::Impl::setup_probe() {
     throw ScenarioError(where +
                         ": the probe's elastic foundation is solved on one process; run without "
                         "--mpi-ranks");
+  if (opt.compare_linear && !spec.motions.empty())
+    throw ScenarioError(where +
+                        ": --compare-linear with a probe motion is not built (the neo-Hookean model "
+                        "has no moving foundation base); leave out --compare-linear");
   if (voxel && sc.solver_type == "multigrid")
     throw ScenarioError(where + ": the probe's elastic foundation needs solver.type auto, direct or amg");
   const fem::VolumeSupport<dim> sup = volume_support(spec.hold, where);
