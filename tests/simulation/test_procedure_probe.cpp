@@ -141,6 +141,39 @@ TEST(ProcedureProbe, NeedleAfterTheMotionStartsFromTheMovedTissue) {
   }
 }
 
+// A needle left in keeps holding its tissue while the probe moves: the motion's solves hold its rows, and
+// the next needle's step 0 (the same held rows and moved base, read through the same near fields) finds the
+// targets where the motion's last step put them; without the needle left in the motion moves them elsewhere.
+TEST(ProcedureProbe, NeedleLeftInHoldsItsTissueThroughTheMotion) {
+  const auto plan = [](bool stay) {
+    return kHead +
+           "procedure:\n  - insert: {name: a, entry: [2.1, 0.2, 0], direction: [0, 0, 1], depth: 12, "
+           "steps: 4, diameter: 1, friction: {model: stick}, stay: " +
+           (stay ? "true" : "false") +
+           "}\n  - probe: {translate: [0, 0, 0.5], steps: 2}\n"
+           "  - insert: {name: b, entry: [-2.1, 0.2, 0], direction: [0, 0, 1], depth: 12, steps: 4, "
+           "diameter: 1, friction: {model: stick}}\n";
+  };
+  const SimulationResult<3> held =
+      run_simulation<3>(axis_block(), parse_scenario_text(plan(true), 3, "plan.yaml"), quiet());
+  const SimulationResult<3> free =
+      run_simulation<3>(axis_block(), parse_scenario_text(plan(false), 3, "plan.yaml"), quiet());
+  ASSERT_EQ(held.probe_steps.size(), 2u);
+  ASSERT_EQ(held.needles.size(), 2u);
+  for (std::size_t t = 0; t < 2; ++t) {
+    const V3 left = held.probe_steps.back().target_displacement[t];
+    EXPECT_LT((held.needles[1].target_displacement.front()[t] - left).norm(), 1e-9) << t;
+    EXPECT_LT(
+        (free.needles[1].target_displacement.front()[t] - free.probe_steps.back().target_displacement[t])
+            .norm(),
+        1e-9)
+        << t;
+  }
+  EXPECT_GT((held.probe_steps.back().target_displacement[0] - free.probe_steps.back().target_displacement[0])
+                .norm(),
+            1e-3);
+}
+
 TEST(ProcedureProbe, BadProbeActionsNameTheFileLineAndKey) {
   const std::string procedure = "procedure:\n  - probe: ";
   std::string e = procedure_parse_error(
