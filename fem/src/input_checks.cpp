@@ -194,6 +194,19 @@ void check_simplex_mesh(const SimplexMesh<dim>& mesh) {
   throw std::invalid_argument(m.str());
 }
 
+template <int dim>
+void check_support_base(const std::vector<Vec<dim>>& base, std::size_t n_points, const std::string& where) {
+  if (!base.empty() && base.size() != n_points)
+    throw std::invalid_argument(where + ": " + std::to_string(base.size()) + " base displacements for " +
+                                std::to_string(n_points) + " points (give one per point, or none)");
+  for (std::size_t i = 0; i < base.size(); ++i)
+    if (!base[i].allFinite())
+      throw std::invalid_argument(where + ": the base displacement of point " + std::to_string(i) +
+                                  " is not finite");
+}
+
+template void check_support_base<2>(const std::vector<Vec<2>>&, std::size_t, const std::string&);
+template void check_support_base<3>(const std::vector<Vec<3>>&, std::size_t, const std::string&);
 template void check_voxel_grid<2>(const std::array<long, 2>&, const Vec<2>&, const Vec<2>&);
 template void check_voxel_grid<3>(const std::array<long, 3>&, const Vec<3>&, const Vec<3>&);
 template void check_rigid_modes_removed<2>(const ConstrainedDirections<2>&, const std::vector<Vec<2>>&,

@@ -8,6 +8,7 @@
 #include <array>
 #include <cstddef>
 #include <functional>
+#include <string>
 #include <utility>
 #include <vector>
 #include <vim/fem/conditions.hpp>
@@ -33,6 +34,11 @@ void check_voxel_grid(const std::array<long, dim>& cells, const Vec<dim>& box_mi
 // other orientation is fine: deal.II's invert_cells_with_negative_measure reorders those.
 template <int dim>
 void check_simplex_mesh(const SimplexMesh<dim>& mesh);
+
+// A volume support's base (VolumeSupport::base): empty or one finite displacement per point; `where`
+// names the caller in the message.
+template <int dim>
+void check_support_base(const std::vector<Vec<dim>>& base, std::size_t n_points, const std::string& where);
 
 // Directions held by the Dirichlet conditions: (support point, unit direction) per held direction.
 template <int dim>

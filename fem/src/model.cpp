@@ -252,13 +252,9 @@ void ElasticModel<dim>::add_volume_support(const VolumeSupport<dim>& sup) {
     if (!sup.points[i].allFinite() || !(sup.weights[i] >= 0.0) || !std::isfinite(sup.weights[i]))
       throw std::invalid_argument(where + ": point " + std::to_string(i) +
                                   " or its weight is not finite (or the weight < 0)");
+  check_support_base<dim>(sup.base, sup.points.size(), where);
   impl_->supports.push_back(sup);
   impl_->invalidate();
-}
-
-template <int dim>
-std::size_t ElasticModel<dim>::volume_support_points_outside() const {
-  return impl_->support_outside;
 }
 
 template <int dim>
@@ -537,7 +533,7 @@ template <int dim>
 void ElasticModel<dim>::Impl::assemble_matrices() {
   if (matrices_assembled) return;
   assemble_cells();
-  assemble_supports();
+  assemble_supports(), assemble_support_load();
   matrices_assembled = true;
 }
 
@@ -631,6 +627,7 @@ void ElasticModel<dim>::Impl::assemble_cells() {
 // Points are grouped by their cell, one FEValues per cell.
 template <int dim>
 void ElasticModel<dim>::Impl::assemble_supports() {
+  f_support.reinit(0);  // f is new: no base load in it yet (assemble_support_load adds it)
   support_outside = 0;
   K_support.clear();
   if (supports.empty()) return;

@@ -320,6 +320,7 @@ struct ElasticModel<dim>::Impl {
   // The volume supports alone, unconstrained (sparsity of K; empty without supports): the springs of
   // the finite-strain solve (finite_strain.cpp).
   dealii::SparseMatrix<double> K_support;
+  dealii::Vector<double> f_support;  // the load k w_p b_p of the supports' bases (a part of f)
   double assemble_seconds = 0.0;
 
   // ---- solvers (cached across solve() calls) -----------------------------------------------
@@ -437,6 +438,10 @@ struct ElasticModel<dim>::Impl {
   void assemble_cells();
   void assemble_supports();
   void build_post_cache();
+
+ public:
+  // f_support from the supports' bases (solvers.cpp), replacing the previous one in f.
+  void assemble_support_load();
 };
 
 // The model's state, for the functions outside ElasticModel that need it (solve_distributed).

@@ -8,6 +8,8 @@
 //    can use before it steps, so that its steps do no sparse solve. On the AMG path each column is one
 //    CG solve with the same AMG preconditioner.
 //  * solve_monolithic() (constraint_rows.cpp) is the UMFPACK saddle-point reference.
+//  * set_volume_support_base() changes f alone (the load of a moved foundation base): u0 is solved
+//    again with the same factor and the cached rows' c·u0 follow it.
 // Both satisfy K u + Cᵀ μ = f; the force of the constraint on the body is −Cᵀμ (point_force = −μ).
 #include <deal.II/base/timer.h>
 #include <deal.II/lac/solver_cg.h>
@@ -25,6 +27,7 @@
 
 #include "amg.hpp"
 #include "constraint_rows.hpp"
+#include "input_checks.hpp"
 
 namespace vim::fem {
 
@@ -147,6 +150,60 @@ void ElasticModel<dim>::Impl::ensure_u0(const SolverOptions& opt, double* residu
   u0_iterations =
       distributed ? distributed->apply(nullptr, u0, opt, residual) : apply_inverse(f, u0, opt, residual);
   have_u0 = true;
+  // A new load (set_volume_support_base): the cached rows keep their columns, their c·u0 follow u0.
+  for (auto& [key, e] : columns.entries) {
+    e.cu0 = 0.0;
+    if (e.row.active)
+      for (std::size_t i = 0; i < e.row.dofs.size(); ++i) e.cu0 += e.row.values[i] * u0[e.row.dofs[i]];
+  }
+}
+
+// ================================================================================================
+// the load of the volume supports' bases: a change of f alone
+
+// f_support = Σ_p k w_p N_i(x_p) b_p,c(i) over the points whose base has moved (Dirichlet DoFs dropped,
+// as for f), replacing the previous f_support in f.
+template <int dim>
+void ElasticModel<dim>::Impl::assemble_support_load() {
+  if (f_support.size() == f.size()) f -= f_support;
+  f_support.reinit(f.size());
+  const unsigned dpc = fe->n_dofs_per_cell();
+  std::vector<types::global_dof_index> idx(dpc);
+  Vector<double> Fe(dpc);
+  for (const auto& sup : supports)
+    for (std::size_t p = 0; p < sup.base.size(); ++p) {
+      if (sup.weights[p] == 0.0 || sup.base[p].isZero(0.0)) continue;
+      const auto found = locate(to_point<dim>(sup.points[p]));
+      if (found.first == tria.end()) continue;  // outside the mesh: no spring either
+      const Cell cell(&tria, found.first->level(), found.first->index(), &dof);
+      for (unsigned i = 0; i < dpc; ++i)
+        Fe[i] = sup.stiffness * sup.weights[p] * fe->shape_value(i, found.second) *
+                sup.base[p][fe->system_to_component_index(i).first];
+      cell->get_dof_indices(idx);
+      constraints.distribute_local_to_global(Fe, idx, f_support);
+    }
+  f += f_support;
+}
+
+template <int dim>
+void ElasticModel<dim>::set_volume_support_base(std::size_t index, std::vector<Vec<dim>> base) {
+  Impl& m = *impl_;
+  if (index >= m.supports.size())
+    throw std::invalid_argument("set_volume_support_base: no volume support " + std::to_string(index) +
+                                " (the model has " + std::to_string(m.supports.size()) + ")");
+  check_support_base<dim>(base, m.supports[index].points.size(),
+                          "set_volume_support_base: support '" + m.supports[index].name + "'");
+  if (m.solve_comm != MPI_COMM_NULL)
+    throw std::invalid_argument("set_volume_support_base: volume supports are solved serially only");
+  m.supports[index].base = std::move(base);
+  if (!m.matrices_assembled) return;  // the first assembly takes it
+  m.assemble_support_load();
+  m.have_u0 = false;
+}
+
+template <int dim>
+std::size_t ElasticModel<dim>::volume_support_points_outside() const {
+  return impl_->support_outside;
 }
 
 // ================================================================================================
@@ -459,6 +516,9 @@ unsigned ElasticModel<dim>::precompute(const std::vector<PointConstraint<dim>>& 
   template unsigned ElasticModel<dim>::Impl::apply_inverse(const Vector<double>&, Vector<double>&, \
                                                            const SolverOptions&, double*) const;   \
   template void ElasticModel<dim>::Impl::ensure_u0(const SolverOptions&, double*);                 \
+  template void ElasticModel<dim>::Impl::assemble_support_load();                                  \
+  template void ElasticModel<dim>::set_volume_support_base(std::size_t, std::vector<Vec<dim>>);    \
+  template std::size_t ElasticModel<dim>::volume_support_points_outside() const;                   \
   template Solution<dim> ElasticModel<dim>::solve(const std::vector<PointConstraint<dim>>&,        \
                                                   const SolverOptions&);                           \
   template unsigned ElasticModel<dim>::precompute(const std::vector<PointConstraint<dim>>&,        \

@@ -109,6 +109,17 @@ class BadScenario : public ::testing::Test {
   std::string image_;
 };
 
+// The base scenario's needle (lines 5-11) and a probe with a procedure that moves it, to replace it.
+const char* kNeedle =
+    "needle:\n  entry: [-8, 0, 1]\n  direction: [1, 0, 0]\n  depth: 8\n  steps: 2\n  diameter: 1\n"
+    "  friction: {model: stick}\n";
+std::string probe_procedure(const std::string& region, const std::string& support,
+                            const std::string& action) {
+  return "probe: {region: " + region + ", support: " + support + "}\nprocedure:\n  - probe: " + action + "\n";
+}
+const std::string kProbeCylinder = "{cylinder: {center: [0, 3, 0], axis: [1, 0, 0], radius: 1.5}}";
+const std::string kProbeSupport = "{elastic: {stiffness: 20}}";
+
 // One edit of the base scenario each (from → to), and the words its one-line error must hold.
 struct Edit {
   const char* name;
@@ -223,6 +234,34 @@ const Edit kEdits[] = {
      "  diameter: 1\n",
      "  diameter: 1\n  sample_spacing: 1.0e-8\n",
      {"needle.sample_spacing", "more than 100000 shaft points"}},
+    {"ProbeActionWithoutAProbe",
+     kNeedle,
+     "procedure:\n  - probe: {translate: [1, 0, 0], steps: 2}\n",
+     {"s.yaml:6:", "procedure[0].probe: the scenario has no 'probe' to move"}},
+    {"ProbeActionWithTranslateAndRotate",
+     kNeedle,
+     probe_procedure(kProbeCylinder, kProbeSupport, "{translate: [1, 0, 0], rotate: 5, steps: 2}"),
+     {"s.yaml:7:", "procedure[0].probe: give either translate or rotate, not both"}},
+    {"ProbeActionWithZeroSteps",
+     kNeedle,
+     probe_procedure(kProbeCylinder, kProbeSupport, "{translate: [1, 0, 0], steps: 0}"),
+     {"s.yaml:7:", "procedure[0].probe.steps must be in 1..1000000, got 0"}},
+    {"ProbeActionWithANonNumericAngle",
+     kNeedle,
+     probe_procedure(kProbeCylinder, kProbeSupport, "{rotate: ten, steps: 2}"),
+     {"s.yaml:7:", "procedure[0].probe.rotate must be a number, got 'ten'"}},
+    {"ProbeActionWithANonNumericTranslation",
+     kNeedle,
+     probe_procedure(kProbeCylinder, kProbeSupport, "{translate: [1, x, 0], steps: 2}"),
+     {"s.yaml:7:", "procedure[0].probe.translate[1] must be a number, got 'x'"}},
+    {"ProbeOnASphere",
+     kNeedle,
+     probe_procedure("{sphere: {center: [0, 3, 0], radius: 1.5}}", kProbeSupport, "{rotate: 5, steps: 2}"),
+     {"s.yaml:5:", "probe.region must be a cylinder (its axis is the probe's axis)"}},
+    {"ProbeHeldByItsNodes",
+     kNeedle,
+     probe_procedure(kProbeCylinder, "nodes", "{rotate: 5, steps: 2}"),
+     {"s.yaml:5:", "probe.support must be an elastic foundation"}},
     // Only the x component of one face held: the body can still slide along y and z and rotate about x.
     {"ConditionsThatLeaveARigidMotionFree",
      "  - {type: fixed, region: {box_face: x_max}}\n  - {type: fixed, region: {cylinder: "
@@ -251,6 +290,15 @@ TEST_F(BadScenario, BaseScenarioRuns) {
   const CliRun r = run(kBase);
   ASSERT_EQ(r.code, 0) << r.err;
   for (const char* f : {"mesh.vtu", "report.json", "needle.csv", "simulation.pvd", "steps/step_0002.vtu"})
+    EXPECT_TRUE(fs::exists(dir_ / "out" / f)) << f;
+}
+
+// The probe edits' scenario without its one fault runs and writes the probe's outputs.
+TEST_F(BadScenario, ProbeProcedureRuns) {
+  const CliRun r =
+      run(with(kNeedle, probe_procedure(kProbeCylinder, kProbeSupport, "{rotate: 5, steps: 2}")));
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (const char* f : {"report.json", "probe.csv", "probe/simulation.pvd", "probe/steps/step_0002.vtu"})
     EXPECT_TRUE(fs::exists(dir_ / "out" / f)) << f;
 }
 

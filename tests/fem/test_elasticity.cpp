@@ -698,6 +698,56 @@ TEST(VolumeSupport, HoldsTheBodyWhereNoNodeIsAndRejectsBadInput) {
   EXPECT_THROW(solve_distributed(model, MPI_COMM_SELF), std::invalid_argument);
 }
 
+// A base moved by T carries a body the foundation alone holds rigidly: the elastic stiffness does nothing
+// to a translation and, by the partition of unity, Σ_j k w N_i N_j T = k w N_i T, so u = T exactly. And
+// moving the base after solves with point constraints changes the load alone: the next solve (the same
+// factor, the cached columns K⁻¹cᵀ with their c·u0 renewed) equals a model built with that base.
+TEST(VolumeSupport, MovedBaseCarriesAFreeBodyRigidlyAndChangesTheLoadAlone) {
+  const auto mesh = test::kuhn_box<3>({{3, 2, 2}}, {{0, 0, 0}}, {{3, 1, 1}});
+  const VolumeSupport<3> sup = foundation(3.0, 1.0, 0.25, 5.0);
+  ElasticModel<3> free_body(mesh, std::vector<double>(mesh.n_cells(), 2.0), 0.3, 2);
+  free_body.add_volume_support(sup);
+  for (const auto& v : free_body.solve().vertex_displacement) EXPECT_LT(v.norm(), 1e-14);  // at rest
+  const Vec<3> T(0.1, -0.2, 0.05);
+  free_body.set_volume_support_base(0, std::vector<Vec<3>>(sup.points.size(), T));
+  const Solution<3> carried = free_body.solve();
+  for (const auto& v : carried.vertex_displacement) EXPECT_LT((v - T).norm(), 1e-10);
+  EXPECT_LT(std::abs(carried.strain_energy), 1e-12);
+  // A sheared base (b = (0.1 z, 0.05 x, 0)) under a fixed face x = 0 and a point held inside.
+  std::vector<Vec<3>> base;
+  for (const auto& x : sup.points) base.emplace_back(0.1 * x[2], 0.05 * x[0], 0.0);
+  DirichletBC<3> face;
+  face.region = box_face_region<3>(Vec<3>(0, 0, 0), Vec<3>(3, 1, 1), 0, false, 1e-9);
+  const std::vector<PointConstraint<3>> held = {
+      PointConstraint<3>(Vec<3>(2.1, 0.4, 0.6), Vec<3>(0.02, 0, 0))};
+  ElasticModel<3> moved(mesh, std::vector<double>(mesh.n_cells(), 2.0), 0.3, 2);
+  moved.add_dirichlet(face);
+  moved.add_volume_support(sup);
+  moved.solve(held);  // factorised, the held point's columns cached at rest
+  moved.set_volume_support_base(0, base);
+  const Solution<3> after = moved.solve(held);
+  VolumeSupport<3> built = sup;
+  built.base = base;
+  ElasticModel<3> fresh(mesh, std::vector<double>(mesh.n_cells(), 2.0), 0.3, 2);
+  fresh.add_dirichlet(face);
+  fresh.add_volume_support(built);
+  const Solution<3> reference = fresh.solve(held);
+  double largest = 0.0, difference = 0.0;
+  for (std::size_t v = 0; v < after.vertex_displacement.size(); ++v) {
+    largest = std::max(largest, reference.vertex_displacement[v].norm());
+    difference =
+        std::max(difference, (after.vertex_displacement[v] - reference.vertex_displacement[v]).norm());
+  }
+  EXPECT_GT(largest, 0.05);
+  EXPECT_LT(difference, 1e-12);
+  EXPECT_LT((after.point_force[0] - reference.point_force[0]).norm(), 1e-10);
+  EXPECT_LT((after.dirichlet_reaction[0] - reference.dirichlet_reaction[0]).norm(), 1e-10);
+  EXPECT_THAT(message_of([&] { moved.set_volume_support_base(1, base); }), HasSubstr("no volume support 1"));
+  base.pop_back();
+  EXPECT_THAT(message_of([&] { moved.set_volume_support_base(0, base); }),
+              HasSubstr("base displacements for"));
+}
+
 // DirichletBC::axes. Independent truth: the same body rotated by R, with its supports along the
 // rotated model's own axes (the plain per-DoF path). Body A lives in the unit box; body B = R·A. On A,
 // the supports act along B's axes seen from A (axes = Rᵀ): a sliding support on A's face x = 0 that

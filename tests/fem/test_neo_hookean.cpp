@@ -205,7 +205,7 @@ void tangent_check(unsigned degree) {
   model.add_dirichlet(clamp);
   model.add_surface_load(
       {box_face_region<dim>(Vec<dim>::Zero(), Vec<dim>::Ones(), 1, true, 1e-9), Vec<dim>::Zero(), 0.5});
-  model.add_volume_support({"spring", {Vec<dim>::Constant(0.5)}, {0.1}, 30.0});
+  model.add_volume_support({"spring", {Vec<dim>::Constant(0.5)}, {0.1}, 30.0, {}});
   const unsigned n = model.n_dofs();
   Eigen::VectorXd u(n);
   for (unsigned i = 0; i < n; ++i) u[i] = amp(rng);

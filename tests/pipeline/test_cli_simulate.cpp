@@ -293,6 +293,9 @@ TEST(CliSimulate, ReadmeScenarioReferenceParses) {
   ASSERT_EQ(plan.needles.size(), 7u);  // a stabilising needle, then six with seeds
   EXPECT_TRUE(plan.needles[0].stay);
   EXPECT_EQ(seeds, 17u);
+  ASSERT_TRUE(plan.probe);  // the TRUS probe, moved once between the third and the fourth seed needle
+  ASSERT_EQ(plan.probe->motions.size(), 1u);
+  EXPECT_EQ(plan.probe->motions[0].after, 4u);
 }
 
 // The AMG solver uses Trilinos, which needs MPI initialised even on one process. The CLI runs without

@@ -422,6 +422,26 @@ void parse_mesh(const Reader& r, const Fields& top, Scenario& s) {
   }
 }
 
+// A fixed condition's `support:` at `sp`: nodes, or an elastic foundation {elastic: {stiffness, spacing}}.
+void parse_support(const Reader& r, const YAML::Node& sn, const std::string& sp, BoundaryConditionSpec& bc) {
+  if (bc.type != BoundaryConditionSpec::Type::fixed || bc.region.kind == RegionSpec::Kind::box_face ||
+      bc.region.kind == RegionSpec::Kind::label)
+    r.fail(sn, sp + " applies only to type fixed on a volume region (box, sphere, cylinder)");
+  if (sn.IsScalar()) {
+    const std::string v = r.choice(sn, sp, {"nodes", "elastic"});
+    if (v == "elastic")
+      r.fail(sn, sp + ": elastic needs a stiffness, e.g. {elastic: {stiffness: 15}} (modulus per length^2)");
+    return;
+  }
+  const Fields sf = r.check_keys(sn, sp, {"elastic"});
+  const Fields ef =
+      r.check_keys(r.require(sf, "elastic", sp + ".elastic"), sp + ".elastic", {"stiffness", "spacing"});
+  bc.support = BoundaryConditionSpec::Support::elastic;
+  bc.support_stiffness =
+      r.positive(r.require(ef, "stiffness", sp + ".elastic.stiffness"), sp + ".elastic.stiffness");
+  if (const YAML::Node& h = ef["spacing"]) bc.support_spacing = r.positive(h, sp + ".elastic.spacing");
+}
+
 // boundary_conditions: at least one that holds the model (fixed or displacement).
 void parse_boundary_conditions(const Reader& r, const Fields& top, Scenario& s, int dim) {
   {
@@ -449,28 +469,7 @@ void parse_boundary_conditions(const Reader& r, const Fields& top, Scenario& s, 
       } else {
         bc.value = r.vector(r.require(f, "value", p + ".value"), p + ".value", dim);
       }
-      if (const YAML::Node& sn = f["support"]) {
-        const std::string sp = p + ".support";
-        if (bc.type != BoundaryConditionSpec::Type::fixed || bc.region.kind == RegionSpec::Kind::box_face ||
-            bc.region.kind == RegionSpec::Kind::label)
-          r.fail(sn, sp + " applies only to type fixed on a volume region (box, sphere, cylinder)");
-        if (sn.IsScalar()) {
-          const std::string v = r.choice(sn, sp, {"nodes", "elastic"});
-          if (v == "elastic")
-            r.fail(
-                sn,
-                sp + ": elastic needs a stiffness, e.g. {elastic: {stiffness: 15}} (modulus per length^2)");
-        } else {
-          const Fields sf = r.check_keys(sn, sp, {"elastic"});
-          const Fields ef = r.check_keys(r.require(sf, "elastic", sp + ".elastic"), sp + ".elastic",
-                                         {"stiffness", "spacing"});
-          bc.support = BoundaryConditionSpec::Support::elastic;
-          bc.support_stiffness =
-              r.positive(r.require(ef, "stiffness", sp + ".elastic.stiffness"), sp + ".elastic.stiffness");
-          if (const YAML::Node& h = ef["spacing"])
-            bc.support_spacing = r.positive(h, sp + ".elastic.spacing");
-        }
-      }
+      if (const YAML::Node& sn = f["support"]) parse_support(r, sn, p + ".support", bc);
       bc.components.assign(dim, true);
       if (const YAML::Node& c = f["components"]) {
         if (bc.support == BoundaryConditionSpec::Support::elastic)
@@ -558,7 +557,13 @@ void check_static_load(const Reader& r, const Fields& top, const Scenario& s) {
         refuse("a needle left in the tissue (stay: true", "a staying needle is held on the linear model",
                "stay");
     }
-  if (!s.needles.empty()) return;
+  if (s.material_model == Scenario::MaterialModel::neo_hookean && s.probe && !s.probe->motions.empty())
+    r.fail(top["material"]["model"], "material.model = 'neo-hookean' with a probe motion (procedure[" +
+                                         std::to_string(s.probe->motions.front().action) + "], line " +
+                                         std::to_string(s.probe->motions.front().line) +
+                                         ") is not built: the probe moves its foundation's base as a load of "
+                                         "the linear model; use material.model: linear or remove the motion");
+  if (!s.needles.empty() || s.procedure) return;
   if (std::none_of(s.boundary_conditions.begin(), s.boundary_conditions.end(), is_load))
     r.fail(top["boundary_conditions"],
            "boundary_conditions: a scenario without 'needle' or 'needles' is a static load case, but no "
@@ -648,7 +653,7 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
   if (!root || root.IsNull()) throw ScenarioError(s.where(0) + "the scenario file is empty");
   const Fields top = r.check_keys(root, "",
                                   {"units", "material", "mesh", "boundary_conditions", "needle", "needles",
-                                   "procedure", "dose", "targets", "output", "solver", "labels"});
+                                   "procedure", "dose", "probe", "targets", "output", "solver", "labels"});
 
   if (const YAML::Node& u = top["units"]) {
     const Fields f = r.check_keys(u, "units", {"length", "modulus"});
@@ -660,6 +665,12 @@ Scenario parse_scenario_text(const std::string& yaml_text, int dim, const std::s
   if (const YAML::Node& l = top["labels"]) parse_labels(l, s);
   parse_mesh(r, top, s);
   parse_boundary_conditions(r, top, s, dim);
+  if (const YAML::Node& p = top["probe"])
+    parse_probe(
+        p, s, [&](const YAML::Node& n, const std::string& at) { return parse_region(r, n, at, dim); },
+        [&](const YAML::Node& n, const std::string& at, BoundaryConditionSpec& bc) {
+          parse_support(r, n, at, bc);
+        });
   parse_needles(r, top, s, dim);
   check_static_load(r, top, s);
   if (const YAML::Node& d = top["dose"])

@@ -1,9 +1,11 @@
-// A scenario's `procedure:` (docs/procedure.md) and its `dose:` (docs/dose.md): an ordered list of one-key
-// actions, `insert` (a needle as in `needles`, with stay and seeds) and `withdraw` (a needle back out in
-// steps). Each insertion becomes an entry of Scenario::needles, in order, with its seeds and its withdrawal;
-// a needle not withdrawn by an action is withdrawn with its insertion's steps before the next action (stay:
-// false); one with stay: true stays in to the end, its stations holding the tissue for the later ones.
+// A scenario's `procedure:` (docs/procedure.md), its `probe:` and its `dose:` (docs/dose.md): an ordered
+// list of one-key actions, `insert` (a needle as in `needles`, with stay and seeds), `withdraw` (a needle
+// back out in steps) and `probe` (the probe translated or rotated in steps, ProbeMotionSpec). Each insertion
+// becomes an entry of Scenario::needles, in order, with its seeds and its withdrawal; a needle not withdrawn
+// by an action is withdrawn with its insertion's steps before the next action (stay: false); one with stay:
+// true stays in to the end, its stations holding the tissue for the later ones.
 #include <algorithm>
+#include <cmath>
 #include <set>
 #include <string>
 #include <vector>
@@ -31,13 +33,70 @@ std::vector<double> read_seeds(const Reader& r, const YAML::Node& n, const std::
   return seeds;
 }
 
+// A procedure's `probe:` action at `path`: {translate: [x, y, z] | rotate: DEG, steps: K}.
+void parse_probe_motion(const Reader& r, const YAML::Node& n, const std::string& path, int action,
+                        Scenario& s) {
+  if (!s.probe)
+    r.fail(n, path +
+                  ": the scenario has no 'probe' to move; define it at the top level, e.g. probe: {region: "
+                  "{cylinder: {center, axis, radius}}, support: {elastic: {stiffness: 15}}}");
+  const Fields f = r.check_keys(n, path, {"translate", "rotate", "steps"});
+  ProbeMotionSpec m;
+  m.line = Reader::line(n);
+  m.action = action;
+  m.after = s.needles.size();
+  const YAML::Node &t = f["translate"], &a = f["rotate"];
+  if (t && a) r.fail(a, path + ": give either translate or rotate, not both (one motion per action)");
+  if (!t && !a)
+    r.fail(n, path + " needs translate: [x, y" + (s.dim == 3 ? ", z]" : "]") +
+                  " (length units) or rotate: DEG (degrees about the probe's axis)");
+  if (t) {
+    m.translate = r.vector(t, path + ".translate", s.dim);
+  } else {
+    if (s.dim != 3) r.fail(a, path + ".rotate needs a 3D image (a rotation about the probe's axis)");
+    m.rotate = r.number(a, path + ".rotate");
+    if (!(std::abs(m.rotate) <= 90.0))
+      r.fail(a, path + ".rotate = " + number_text(m.rotate) + " must be in [-90, 90] degrees");
+  }
+  const YAML::Node& st = r.require(f, "steps", path + ".steps");
+  const long steps = r.integer(st, path + ".steps");
+  if (steps <= 0 || steps > 1000000)
+    r.fail(st, path + ".steps must be in 1..1000000, got " + std::to_string(steps));
+  m.steps = static_cast<int>(steps);
+  s.probe->motions.push_back(m);
+}
+
 }  // namespace
+
+void parse_probe(
+    const YAML::Node& probe, Scenario& s,
+    const std::function<RegionSpec(const YAML::Node&, const std::string&)>& region,
+    const std::function<void(const YAML::Node&, const std::string&, BoundaryConditionSpec&)>& support) {
+  const Reader r(s);
+  const Fields f = r.check_keys(probe, "probe", {"region", "support"});
+  ProbeSpec p;
+  p.line = Reader::line(probe);
+  p.hold.line = p.line;
+  const YAML::Node& reg = r.require(f, "region", "probe.region");
+  p.hold.region = region(reg, "probe.region");
+  if (p.hold.region.kind != RegionSpec::Kind::cylinder)
+    r.fail(reg,
+           "probe.region must be a cylinder (its axis is the probe's axis), got " + p.hold.region.describe());
+  const YAML::Node& sup = r.require(f, "support", "probe.support");
+  support(sup, "probe.support", p.hold);
+  if (p.hold.support != BoundaryConditionSpec::Support::elastic)
+    r.fail(sup,
+           "probe.support must be an elastic foundation, e.g. {elastic: {stiffness: 15}} (modulus per "
+           "length^2): the tissue is bonded to the probe through it");
+  p.hold.components.assign(static_cast<std::size_t>(s.dim), true);
+  s.probe = p;
+}
 
 void parse_procedure(const YAML::Node& procedure, Scenario& s,
                      const std::function<NeedleSpec(const YAML::Node&, const std::string&)>& needle) {
   const Reader r(s);
   if (!procedure.IsSequence() || procedure.size() == 0)
-    r.fail(procedure, "procedure must be a non-empty list of actions (insert, withdraw)");
+    r.fail(procedure, "procedure must be a non-empty list of actions (insert, withdraw, probe)");
   s.procedure = s.needle_list = true;
   std::set<std::string> names;
   std::size_t in = s.needles.size();  // the needle in the tissue (none: needles.size())
@@ -50,8 +109,13 @@ void parse_procedure(const YAML::Node& procedure, Scenario& s,
     const std::string path = "procedure[" + std::to_string(i) + "]";
     const YAML::Node& action = procedure[i];
     if (!action.IsMap() || action.size() != 1)
-      r.fail(action, path + " must be a mapping with one key, the action: insert or withdraw");
-    const Fields f = r.check_keys(action, path, {"insert", "withdraw"});
+      r.fail(action, path + " must be a mapping with one key, the action: insert, withdraw or probe");
+    const Fields f = r.check_keys(action, path, {"insert", "withdraw", "probe"});
+    if (const YAML::Node& n = f["probe"]) {
+      withdraw_implicitly();  // the probe moves with only the needles left in
+      parse_probe_motion(r, n, path + ".probe", static_cast<int>(i), s);
+      continue;
+    }
     if (const YAML::Node& n = f["insert"]) {
       withdraw_implicitly();
       const std::string at = path + ".insert";

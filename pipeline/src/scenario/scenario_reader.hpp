@@ -24,6 +24,12 @@ std::string read_input_text(const std::string& path, const std::string& what);
 // insertion read by `needle` (the needle keys and stay, seeds) at its key path.
 void parse_procedure(const YAML::Node& procedure, Scenario& s,
                      const std::function<NeedleSpec(const YAML::Node&, const std::string&)>& needle);
+// `probe:` (scenario_procedure.cpp) into s.probe: its region read by `region`, its support by
+// `support` (a condition's `support:` key) at their key paths. Before the procedure.
+void parse_probe(
+    const YAML::Node& probe, Scenario& s,
+    const std::function<RegionSpec(const YAML::Node&, const std::string&)>& region,
+    const std::function<void(const YAML::Node&, const std::string&, BoundaryConditionSpec&)>& support);
 // `dose:` (scenario_procedure.cpp) into s.dose, its region read by `region` at its key path.
 void parse_dose(const YAML::Node& dose, Scenario& s,
                 const std::function<RegionSpec(const YAML::Node&, const std::string&)>& region);

@@ -94,10 +94,10 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
           cell >= 0 ? fem::shear_modulus(ctx_.E[static_cast<std::size_t>(cell)], ctx_.sc.poisson_ratio)
                     : 0.0);
     }
-  // External loads (a prescribed displacement, a pressure, a traction) and the needles left in act from
-  // the start: before the tip reaches the first shaft point (step 0 included)
-  // the tissue deforms under them alone, not rest.
-  loaded_ = (elastic_ && elastic_->holds()) ||
+  // External loads (a prescribed displacement, a pressure, a traction, a moved probe) and the needles left in
+  // act from the start: before the tip reaches the first shaft point (step 0 included) the tissue deforms
+  // under them alone, not rest.
+  loaded_ = (elastic_ && elastic_->holds()) || (ctx_.probe && ctx_.probe->moved()) ||
             std::any_of(ctx_.sc.boundary_conditions.begin(), ctx_.sc.boundary_conditions.end(),
                         [](const BoundaryConditionSpec &bc) {
                           return bc.type != BoundaryConditionSpec::Type::fixed;

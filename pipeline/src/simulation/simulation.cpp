@@ -17,6 +17,7 @@
 #include "simulation/needle_compare_linear.hpp"
 #include "simulation/needle_insertion.hpp"
 #include "simulation/needle_options.hpp"
+#include "simulation/probe_motion.hpp"
 #include "simulation/procedure_dose.hpp"
 #include "simulation/simulation_context.hpp"
 #include "simulation/simulation_output.hpp"
@@ -33,6 +34,7 @@ struct NeedleSimulation<dim>::Impl : SimulationContext<dim> {
   using Base::blocked, Base::held_regions, Base::box_max, Base::box_min, Base::locator, Base::model,
       Base::opt, Base::point_axes, Base::region, Base::sc, Base::solver, Base::tf;
   void setup(const std::vector<Vec>& vertices);
+  void setup_probe();
   fem::VolumeSupport<dim> volume_support(const BoundaryConditionSpec& bc, const std::string& where) const;
   NeedleOutcome<dim> run_needle(const NeedleSpec& spec, const std::string& prefix,
                                 bool snap_to_vertices = false) {
@@ -200,9 +202,41 @@ void NeedleSimulation<dim>::Impl::setup(const std::vector<Vec>& vertices) {
       model->add_surface_load(load);
     }
   }
+  if (sc.probe) setup_probe();
   for (const auto& t : sc.targets)
     if (locator().locate(tf.to_frame(spec_vector<dim>(t.position))) < 0)
       throw ScenarioError(sc.where(t.line) + "target '" + t.name + "' is outside the meshed domain");
+}
+
+// The probe's foundation: a volume support like a condition's (its lattice over the cylinder), the model's
+// support after the conditions' elastic ones.
+template <int dim>
+void NeedleSimulation<dim>::Impl::setup_probe() {
+  const ProbeSpec& spec = *sc.probe;
+  const std::string where = sc.where(spec.line) + "probe";
+  if (opt.mpi_ranks > 1)
+    throw ScenarioError(where +
+                        ": the probe's elastic foundation is solved on one process; run without "
+                        "--mpi-ranks");
+  if (opt.compare_linear && !spec.motions.empty())
+    throw ScenarioError(where +
+                        ": --compare-linear with a probe motion is not built (the neo-Hookean model "
+                        "has no moving foundation base); leave out --compare-linear");
+  if (voxel && sc.solver_type == "multigrid")
+    throw ScenarioError(where + ": the probe's elastic foundation needs solver.type auto, direct or amg");
+  const fem::VolumeSupport<dim> sup = volume_support(spec.hold, where);
+  typename Base::Probe p;
+  p.support = static_cast<std::size_t>(std::count_if(
+      sc.boundary_conditions.begin(), sc.boundary_conditions.end(),
+      [](const BoundaryConditionSpec& bc) { return bc.support == BoundaryConditionSpec::Support::elastic; }));
+  p.points = sup.points;
+  p.weights = sup.weights;
+  p.stiffness = sup.stiffness;
+  p.center = spec_vector<dim>(spec.hold.region.center);
+  p.axis = spec_vector<dim>(spec.hold.region.axis_vector).normalized();
+  model->add_volume_support(sup);
+  held_regions.push_back(region(spec.hold.region));
+  this->probe = std::move(p);
 }
 
 template <int dim>
@@ -467,6 +501,18 @@ void NeedleSimulation<dim>::Impl::check_sample_spacing(const NeedleSpec& spec, c
   }
 }
 
+// A needle whose stick-slip active set still changed after the last sweep at some steps.
+template <int dim>
+std::string unsettled_warning(const NeedleRun<dim>& r, int max_sweeps) {
+  std::ostringstream w;
+  w << (r.name.empty() ? std::string("the needle") : "needle '" + r.name + "'") << ": at "
+    << r.unsettled_steps.size() << " of " << r.depth.size() - 1 << " steps (first: step "
+    << r.unsettled_steps.front() << ") the stick-slip active set still changed after " << max_sweeps
+    << (max_sweeps > 1 ? " sweeps" : " sweep")
+    << "; those steps keep the last iterate, so a shaft load may exceed its friction limit (try more steps)";
+  return w.str();
+}
+
 template <int dim>
 SimulationResult<dim> NeedleSimulation<dim>::run() {
   Impl& m = *impl_;
@@ -486,7 +532,9 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
   if ((finite_strain || m.opt.compare_linear) && !m.sc.needles.empty() && m.opt.mpi_ranks > 1)
     throw ScenarioError(m.sc.where(m.sc.material_model_line) +
                         "material.model = 'neo-hookean' is solved on one process; run without --mpi-ranks");
+  ProbeMotions<dim> probe(m);
   for (const auto& spec : m.sc.needles) {
+    probe.before(res.needles.size(), res);
     const std::string prefix = m.sc.needle_list ? spec.name + "/" : "";
     const std::string who = spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'";
     m.check_sample_spacing(spec, who, res.warnings);
@@ -512,9 +560,11 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
     res.needles.push_back(std::move(needle.run));
     needles.push_back(std::move(needle.report));
   }
+  probe.before(m.sc.needles.size(), res);
   rep["needles"] = needles;
   if (!compared.empty()) rep["compare_linear"] = compare_linear_needles(compared);
-  if (m.sc.needles.empty()) {  // a static load case: step 0 only
+  if (m.sc.probe) rep["probe"] = probe.finish(res.probe_steps);
+  if (m.sc.needles.empty() && !m.sc.procedure) {  // a static load case: step 0 only
     StaticLoadOutcome<dim> load = run_static_load<dim>(m, res.warnings);
     res.static_load = std::move(load.run);
     if (load.report.contains("compare_linear")) {  // --compare-linear: at the top of simulation
@@ -527,17 +577,8 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
     for (std::size_t t = 0; t < m.sc.targets.size(); ++t)
       rep["final_displacement_" + m.sc.targets[t].name] = res.static_load->target_displacement[t].norm();
   }
-  for (const auto& r : res.needles) {
-    if (r.unsettled_steps.empty()) continue;
-    std::ostringstream w;
-    w << (r.name.empty() ? std::string("the needle") : "needle '" + r.name + "'") << ": at "
-      << r.unsettled_steps.size() << " of " << r.depth.size() - 1 << " steps (first: step "
-      << r.unsettled_steps.front() << ") the stick-slip active set still changed after " << m.max_sweeps()
-      << (m.max_sweeps() > 1 ? " sweeps" : " sweep")
-      << "; those steps keep the last iterate, so a shaft load may exceed its friction limit (try more "
-         "steps)";
-    res.warnings.push_back(w.str());
-  }
+  for (const auto& r : res.needles)
+    if (!r.unsettled_steps.empty()) res.warnings.push_back(unsettled_warning<dim>(r, m.max_sweeps()));
   for (const auto& spec : m.sc.needles)
     for (auto& w : m.held_path_warnings(spec)) res.warnings.push_back(std::move(w));
   if (!res.warnings.empty()) rep["warnings"] = res.warnings;

@@ -55,6 +55,20 @@ struct SimulationContext {
     int needle = 0;
   };
   std::vector<ReleasedSeed> released;
+  // The probe (Scenario::probe): its foundation, the model's volume support number `support` (points in
+  // the frame, weights, k), its axis centre and unit axis at the start (world), and the pose its motions
+  // have reached (translation, world; angle about the axis, degrees). The base follows the pose.
+  struct Probe {
+    std::size_t support = 0;
+    std::vector<Vec> points;
+    std::vector<double> weights;
+    double stiffness = 0.0;
+    Vec center = Vec::Zero(), axis = Vec::Zero();
+    Vec translation = Vec::Zero();
+    double angle = 0.0;
+    bool moved() const { return angle != 0.0 || !translation.isZero(0.0); }
+  };
+  std::optional<Probe> probe;
   bool voxel = false;
   unsigned degree = 1;
   double build_seconds = 0.0;

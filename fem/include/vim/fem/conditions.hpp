@@ -63,19 +63,23 @@ struct SurfaceLoad {
   double pressure = 0.0;
 };
 
-// Elastic support (a Winkler foundation) inside a volume: adds the energy ½ k Σ_p w_p |u(x_p)|², a
-// quadrature of ½ ∫_R k |u|² dx over the sample points x_p (weights w_p in volume units), to the
-// stiffness. Unlike a DirichletBC, which holds the nodes that happen to lie in a region, it does not
-// depend on where the mesh puts its nodes: the same points, weights and k give every mesh (simplex or
-// voxel) the same support, and a region that holds no node still holds the tissue. As k → ∞ the
-// support tends to u = 0 on every cell that holds a sample point. Points outside the mesh are ignored
-// (counted in n_outside after the first solve). Serial solves only (not solve_distributed).
+// Elastic support (a Winkler foundation) inside a volume: adds the energy ½ k Σ_p w_p |u(x_p) − b_p|², a
+// quadrature of ½ ∫_R k |u − b|² dx over the sample points x_p (weights w_p in volume units): k w_p to
+// the stiffness and, where the foundation's base has moved by b_p (`base`), the load k w_p b_p. Unlike a
+// DirichletBC, which holds the nodes that happen to lie in a region, it does not depend on where the mesh
+// puts its nodes: the same points, weights and k give every mesh (simplex or voxel) the same support, and a
+// region that holds no node still holds the tissue. As k → ∞ the support tends to u = 0 on every cell that
+// holds a sample point. Points outside the mesh are ignored (counted in n_outside after the first solve).
+// Serial solves only (not solve_distributed).
 template <int dim>
 struct VolumeSupport {
   std::string name;
   std::vector<Vec<dim>> points;
   std::vector<double> weights;  // one per point (volume each point stands for)
   double stiffness = 0.0;       // k > 0: force per length^(dim+1) (modulus per length²)
+  // The base's displacement b_p at each point (empty: at rest); ElasticModel::set_volume_support_base
+  // moves it later as a change of the load alone (the factorisation and the cached columns stay).
+  std::vector<Vec<dim>> base;
 };
 
 }  // namespace vim::fem

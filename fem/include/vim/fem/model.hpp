@@ -102,6 +102,11 @@ class ElasticModel {
   // Elastic support over sample points (see VolumeSupport); throws std::invalid_argument for
   // k ≤ 0 or not finite, sizes that differ, negative or non-finite weights or points.
   void add_volume_support(const VolumeSupport<dim>& support);
+  // Moves the base of volume support `index` (in the order added) to `base` (one displacement per
+  // point; empty: at rest): a change of the load k w_p b_p only, so K's factorisation and the cached
+  // columns K⁻¹cᵀ are kept and the next solve does one back-substitution for K⁻¹f. Serial solves only;
+  // throws std::invalid_argument for an index out of range, a size that differs or values not finite.
+  void set_volume_support_base(std::size_t index, std::vector<Vec<dim>> base);
   // Sample points of the volume supports that lie outside the mesh (known after the first assembly).
   std::size_t volume_support_points_outside() const;
 

@@ -158,6 +158,24 @@ struct DoseSpec {
   int line = 0;
 };
 
+// `probe:` (docs/procedure.md, the probe): a rigid TRUS probe, the tissue bonded to it over a cylinder
+// (its axis the probe's) through an elastic foundation: `hold` is a fixed condition on that cylinder with
+// an elastic support (BoundaryConditionSpec::Support::elastic). A procedure's `probe:` actions move it:
+// the foundation's base follows the probe's rigid motion (a change of the load alone, linear model).
+struct ProbeMotionSpec {
+  std::vector<double> translate;  // world, dim values; empty: a rotation
+  double rotate = 0.0;            // degrees about the probe's axis (right-handed), when translate is empty
+  int steps = 0;
+  std::size_t after = 0;  // the number of Scenario::needles run before it (each withdrawn or left in)
+  int action = 0;         // its index in `procedure`
+  int line = 0;
+};
+struct ProbeSpec {
+  BoundaryConditionSpec hold;            // a cylinder, support elastic
+  std::vector<ProbeMotionSpec> motions;  // in the procedure's order
+  int line = 0;
+};
+
 struct TargetSpec {
   std::string name;
   std::vector<double> position;  // world (a label target: set by the run, docs/labels.md)
@@ -216,6 +234,7 @@ struct Scenario {
   // before the next action (docs/procedure.md).
   bool procedure = false;
   std::optional<DoseSpec> dose;  // only with a procedure
+  std::optional<ProbeSpec> probe;
 
   std::vector<TargetSpec> targets;
 

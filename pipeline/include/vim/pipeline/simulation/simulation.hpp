@@ -191,9 +191,28 @@ struct StaticLoadRun {
   fem::SolverStats stats;
 };
 
+// One step of a procedure's probe motion (docs/procedure.md, the probe): the probe's pose from its start
+// (translation, and angle about its axis), the force the tissue exerts on it (−Σ of the foundation's
+// forces k w_p (b_p − u(x_p)) on the tissue) and the moment of those forces about the probe's axis centre
+// (the cylinder's centre, moved with the probe; arms R(θ)(x_p − c)), world axes (2D: the moment's z
+// component only), and the targets' displacements.
+template <int dim>
+struct ProbeStep {
+  using Vec = Eigen::Matrix<double, dim, 1>;
+  int action = 0;  // its action's index in `procedure`
+  int step = 0;    // 1..steps of that action
+  Vec translation = Vec::Zero();
+  double angle = 0.0;  // degrees
+  Vec force = Vec::Zero();
+  Eigen::Vector3d moment = Eigen::Vector3d::Zero();
+  std::vector<Vec> target_displacement;  // per target, world axes
+  double max_displacement = 0.0;         // largest vertex displacement norm
+};
+
 template <int dim>
 struct SimulationResult {
   std::vector<NeedleRun<dim>> needles;
+  std::vector<ProbeStep<dim>> probe_steps;        // a procedure's probe motions, every step in order
   std::optional<StaticLoadRun<dim>> static_load;  // the scenario has no needle
   std::vector<std::string> target_names;  // the scenario's targets, in the order of target_displacement
   std::vector<Eigen::Matrix<double, dim, 1>> target_positions;  // their rest positions, world
