@@ -27,6 +27,7 @@ Insertion<dim>::Insertion(const NeedleOptions<dim>& options, std::vector<ShaftPo
   state_.axial.assign(n, 0.0);
   state_.stick.assign(n, 0.0);
   state_.carried.assign(n, 0.0);
+  state_.start = start_;
   picked_.assign(n, false);
   state_.active.reserve(n);  // steps allocate nothing (the real-time needle)
   state_.cutting = n;
