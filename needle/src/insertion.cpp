@@ -27,6 +27,7 @@ Insertion<dim>::Insertion(const NeedleOptions<dim>& options, std::vector<ShaftPo
   state_.axial.assign(n, 0.0);
   state_.stick.assign(n, 0.0);
   state_.carried.assign(n, 0.0);
+  state_.start = start_;
   picked_.assign(n, false);
   state_.active.reserve(n);  // steps allocate nothing (the real-time needle)
   state_.cutting = n;
@@ -143,7 +144,12 @@ double Insertion<dim>::press_tip(double cut, double travel) {
   const std::size_t np = shaft_.size();
   if (cut <= tips_.front().s) return state_.front;  // not in contact yet
   std::size_t& row = state_.cutting;
-  const double reach = state_.tip_cutting ? state_.front + travel : state_.front;
+  // The prediction holds while the cutting force stays that of the last step: a tip entering tissue
+  // with a higher cutting force presses it deeper first, and the stations would carry uncut tissue.
+  const PathProfile& fc = options_.friction.cutting_profile;
+  const double limit = fc.empty() ? 0.0 : fc.at(state_.front);
+  const double reach = state_.tip_cutting && limit == pressed_limit_ ? state_.front + travel : state_.front;
+  pressed_limit_ = limit;
   if (row == n_points()) state_.front = std::max(state_.front, tips_.front().s);
   std::size_t k = 0;
   for (std::size_t i = 1; i < tips_.size(); ++i)

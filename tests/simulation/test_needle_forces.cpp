@@ -255,10 +255,12 @@ CurveChanges curve_changes(const NeedleRun<3>& coarse, const NeedleRun<3>& fine)
 // A uniform block image (20 × 20 × 24 voxels of 1 mm, 20 kPa), the needle along z off the mesh
 // vertices with stick-slip friction and a cutting force, three targets: beside the path, off it and
 // ahead of the final tip.
-Scenario convergence_scenario(int steps) {
+// `tissues`: a needle.tissues entry list (empty: none).
+Scenario convergence_scenario(int steps, const std::string& tissues = "") {
   std::ostringstream needle;
   needle << "{entry: [9.37, 10.29, 0], direction: [0, 0, 1], depth: 16, steps: " << steps
-         << ", diameter: 1.27, cutting_force: 8, friction: {model: stick-slip, max_shear_per_length: 3}}";
+         << ", diameter: 1.27, cutting_force: 8, friction: {model: stick-slip, max_shear_per_length: 3}"
+         << (tissues.empty() ? "" : ", tissues: " + tissues) << "}";
   return parse_scenario_text(
       yaml(needle.str(),
            "[{name: beside, position: [12.6, 10.29, 8]}, {name: off, position: [14.0, 12.0, 10]}, "
@@ -309,4 +311,39 @@ TEST(NeedleTip, ForceCurveAndTargetTrajectoriesConvergeOnAUniformBlock) {
     EXPECT_LE(c->force, 0.03);
     for (std::size_t t = 0; t < 3; ++t) EXPECT_LE(c->targets[t], 0.03) << "target " << t;
   }
+}
+
+// The same block with two tissues along the path: from z = 7.3 (between the stations and grid planes
+// of both meshes) q = 12 instead of 3 and a cutting force of 20 instead of 8 (a box region). The force
+// curve changes by at most 3% of its largest value between the two finer grids of the test above, and
+// between 16 and 32 steps on the middle one (the stations do not carry tissue the tip has not cut
+// while it presses the tissue of the higher cutting force): a
+// station across z = 7.3 takes the integral of q over the shaft it carries, and the tip the cutting
+// force of the tissue at the front, so neither jump moves with the stations or the tip disks. With q
+// sampled at each station's centre the curve moves by about (12 − 3) mN/mm × the distance from the
+// centre of the station across z = 7.3 to it between the grids.
+TEST(NeedleTip, ForceCurveConvergesAcrossATissueBoundary) {
+  const Image<3> img = block_image({{20, 20, 24}}, 20.0);
+  const std::string tissues =
+      "[{region: {box: {min: [-1, -1, 7.3], max: [21, 21, 25]}}, max_shear_per_length: 12, cutting_force: "
+      "20}]";
+  SimulationOptions o = quiet();
+  o.degree = 2;
+  const auto run = [&](const std::array<int, 3>& n, int steps) {
+    const SimplexMesh<3> grid = regular_grid_mesh<3>(img.box_min(), img.box_max(), n);
+    return NeedleSimulation<3>(image_mesh(img, grid), convergence_scenario(steps, tissues), o)
+        .run()
+        .needles.at(0);
+  };
+  const NeedleRun<3> mid = run({{11, 11, 13}}, 16), fine = run({{15, 15, 18}}, 16),
+                     twice = run({{11, 11, 13}}, 32);
+  const auto abs = [](double x) { return std::abs(x); };
+  const double mesh = curve_change(mid.depth, mid.axial_force, fine.depth, fine.axial_force, abs);
+  const double steps = curve_change(mid.depth, mid.axial_force, twice.depth, twice.axial_force, abs);
+  std::printf("mid vs fine %.4f, 16 vs 32 steps %.4f; final force %.4f / %.4f / %.4f mN\n", mesh, steps,
+              mid.axial_force.back(), fine.axial_force.back(), twice.axial_force.back());
+  EXPECT_LE(mesh, 0.03);
+  EXPECT_LE(steps, 0.03);
+  // The deep tissue counts: its q and cutting force lift the final force well above the one-tissue run's.
+  EXPECT_GT(fine.axial_force.back(), 20.0 + 3.0 * 7.3 + 12.0 * 5.0);
 }

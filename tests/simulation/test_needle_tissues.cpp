@@ -1,9 +1,10 @@
-// needle.tissues: per shaft point the friction limit and cutting force of the tissue it lies in (a
-// scenario region or a modulus range), against closed forms: the sliding force is the sum over the
-// points of q_tissue × carried length, and a stiff layer with a higher cutting force is pushed until
+// needle.tissues: the friction limit and cutting force of the tissue the path crosses (a scenario
+// region or a modulus range), against closed forms: the sliding force is the integral of q_tissue over
+// the carried shaft, and a stiff layer with a higher cutting force is pushed until
 // its cutting force, then cut (a puncture peak and drop at the interface).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <vim/initial_mesh.hpp>
@@ -30,48 +31,65 @@ std::vector<double> carried_lengths(const NeedleRun<3>& r, double d) {
   return carried;
 }
 
+// ∫_a^b q ds for q = q_soft below z_layer and q_deep from it on (the path runs along z from 0).
+double two_layer_integral(double a, double b, double q_soft, double q_deep, double z_layer) {
+  return q_soft * (std::min(b, z_layer) - std::min(a, z_layer)) +
+         q_deep * (std::max(b, z_layer) - std::max(a, z_layer));
+}
+
 }  // namespace
 
 // Two layers (z < 8: the needle's own q = 0.05; z >= 8: q = 0.4 from a box region, the first entry; a
 // second entry that holds the deepest of them is ignored there). The friction is low enough that every
-// station slides at the last step: each station's force is q of its own tissue × its carried length, and the
-// axial force is their sum (with one q for all, the deep stations' forces would be 8 times too small).
-TEST(NeedleTissues, SlidingForceIsTheSumOfEachTissuesLimitTimesItsCarriedLength) {
+// station slides at the last step: each station's force is the integral of q over the shaft it carries
+// (a station across z = 8 takes each layer's q for its own part, not the q at its centre), so the
+// shaft behind the last wholly carried station pulls exactly q_soft·8 + q_deep·(e − 8), e that
+// station's end, whatever the stations' layout (with one q for all, the deep part would be 8 times too
+// small; with q sampled at each station's centre, the station across z = 8 would be off by
+// (q_deep − q_soft) × the distance from its centre to z = 8).
+TEST(NeedleTissues, SlidingForceIsTheIntegralOfEachTissuesLimitAlongTheCarriedShaft) {
   const double q_soft = 0.05, q_deep = 0.4, z_layer = 8.0;
-  const std::string needle =
-      "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 20, steps: 10, diameter: 1, friction: {model: "
-      "stick-slip, max_shear_per_length: 0.05}, tissues: [{region: {box: {min: [-7, -7, 8], max: [7, 7, "
-      "25]}}, "
-      "max_shear_per_length: 0.4}, {region: {box: {min: [-7, -7, 12], max: [7, 7, 25]}}, "
-      "max_shear_per_length: 9}]}";
-  const auto res = run_simulation<3>(axis_block(), parse_scenario_text(yaml(needle), 3), quiet());
-  const NeedleRun<3>& r = res.needles[0];
-  ASSERT_EQ(r.point_tissue.size(), r.point_s.size());
-  int deep = 0;
-  for (std::size_t j = 0; j < r.point_s.size(); ++j) {
-    EXPECT_EQ(r.point_tissue[j], r.point_s[j] >= z_layer ? 0 : -1) << "station at s = " << r.point_s[j];
-    deep += r.point_s[j] >= z_layer;
-  }
-  ASSERT_GE(deep, 3);
-  const double d = r.depth.back();
-  const std::vector<double> carried = carried_lengths(r, d);
-  double sum = 0.0, rest = 0.0;
-  int deep_full = 0;
-  for (std::size_t j = 0; j < carried.size(); ++j) {
-    const double q = r.point_s[j] >= z_layer ? q_deep : q_soft;
-    const double f = std::abs(r.point_axial_force.back()[j]);
-    if (carried[j] < 0.0) {  // near the tip: within its limit for the part it can carry
-      EXPECT_LE(f, q * r.point_length[j] * (1.0 + 1e-9)) << "station " << j;
-      rest += f;
-      continue;
+  for (const char* spacing :
+       {", sample_spacing: 3", ", sample_spacing: 2.5"}) {  // across z = 8: [6, 9], [7.5, 10]
+    SCOPED_TRACE(spacing);
+    const std::string needle =
+        std::string("{entry: [0, 0, 0], direction: [0, 0, 1], depth: 20, steps: 10, diameter: 1") + spacing +
+        ", friction: {model: stick-slip, max_shear_per_length: 0.05}, tissues: [{region: {box: {min: [-7, "
+        "-7, "
+        "8], max: [7, 7, 25]}}, max_shear_per_length: 0.4}, {region: {box: {min: [-7, -7, 12], max: [7, 7, "
+        "25]}}, max_shear_per_length: 9}]}";
+    const auto res = run_simulation<3>(axis_block(), parse_scenario_text(yaml(needle), 3), quiet());
+    const NeedleRun<3>& r = res.needles[0];
+    ASSERT_EQ(r.point_tissue.size(), r.point_s.size());
+    int across = 0;
+    for (std::size_t j = 0; j < r.point_s.size(); ++j) {
+      EXPECT_EQ(r.point_tissue[j], r.point_s[j] >= z_layer ? 0 : -1) << "station at s = " << r.point_s[j];
+      const double b = r.point_s[j] - 0.5 * r.point_length[j], e = b + r.point_length[j];
+      across += b < z_layer - 0.1 && e > z_layer + 0.1;
     }
-    EXPECT_NEAR(f, q * carried[j], 1e-6 * q * carried[j] + 1e-12) << "station " << j;
-    sum += q * carried[j];
-    deep_full += r.point_s[j] >= z_layer;
+    ASSERT_EQ(across, 1);
+    const double d = r.depth.back();
+    const std::vector<double> carried = carried_lengths(r, d);
+    double sum = 0.0, rest = 0.0, end = 0.0;
+    for (std::size_t j = 0; j < carried.size(); ++j) {
+      const double b = r.point_s[j] - 0.5 * r.point_length[j], e = b + r.point_length[j];
+      const double f = std::abs(r.point_axial_force.back()[j]);
+      const double limit = two_layer_integral(b, e, q_soft, q_deep, z_layer);
+      if (carried[j] < 0.0) {  // near the tip: within its limit for the part it can carry
+        EXPECT_LE(f, limit * (1.0 + 1e-9)) << "station " << j;
+        rest += f;
+        continue;
+      }
+      EXPECT_NEAR(f, limit, 1e-9 * limit) << "station " << j;
+      sum += f;
+      end = std::max(end, e);
+    }
+    ASSERT_GT(end, z_layer + 3.0);
+    // The wholly carried shaft [0, end]: the integral from the region boundary, by hand.
+    const double exact = q_soft * z_layer + q_deep * (end - z_layer);
+    EXPECT_NEAR(sum, exact, 1e-9 * exact);
+    EXPECT_NEAR(r.axial_force.back(), sum + rest, 1e-9 * (sum + rest));
   }
-  ASSERT_GE(deep_full, 2);
-  EXPECT_NEAR(r.axial_force.back(), sum + rest, 1e-6 * (sum + rest));
-  EXPECT_GT(sum, q_soft * d * 2.0);  // the deep layer's limit counts
 }
 
 // A stiff layer (E 40 for 10 < z < 14, a capsule picked by a modulus range) whose cutting force 3 is

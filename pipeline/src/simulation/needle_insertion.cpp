@@ -44,8 +44,8 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
     std::vector<Vec> positions;
     for (const auto &p : shaft) positions.push_back(p.position);
     for (const auto &p : tip_rows_) positions.push_back(p.position);
-    std::vector<int> tissue = point_tissues<dim>(
-        spec, positions,
+    const auto lookup = tissue_lookup<dim>(
+        spec,
         [this](const RegionSpec &r) {
           return scenario_region<dim>(r, ctx_.box_min, ctx_.box_max, ctx_.tf, ctx_.label_image.get());
         },
@@ -53,7 +53,11 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
           const long cell = ctx_.locator().locate(x);
           return cell >= 0 ? ctx_.E[static_cast<std::size_t>(cell)] : -1.0;
         });
+    std::vector<int> tissue = point_tissues<dim>(lookup, positions);
     set_point_values(spec, tissue, needle_.friction);
+    if (spec.model == NeedleSpec::Model::kinematic)
+      set_path_values<dim>(spec, lookup, needle_.path, std::min(pitch_, needle_.path.depth / 16) / 16,
+                           needle_.friction);
     tissue.resize(np);
     run_.point_tissue = std::move(tissue);
   }

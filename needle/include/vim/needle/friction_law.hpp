@@ -15,6 +15,28 @@
 
 namespace vim::needle {
 
+// A value that is piecewise constant along the needle's path (a property of the tissues the path
+// crosses): v = values[i] on [breaks[i], breaks[i + 1]) (arc lengths at rest), the end values beyond
+// the ends. The stick-slip limit per length: a shaft point carrying [b, b + L] has the limit
+// ∫_b^{b+L} q ds, exact; the cutting force: that of the tissue at the front.
+class PathProfile {
+ public:
+  PathProfile() = default;
+  // breaks increasing, one more than values; throws std::invalid_argument otherwise.
+  PathProfile(std::vector<double> breaks, std::vector<double> values);
+  bool empty() const { return values_.empty(); }
+  // The value at s (the piece that starts at s where s is a break).
+  double at(double s) const { return values_[piece(s)]; }
+  // ∫_a^b v ds (a ≤ b).
+  double integral(double a, double b) const;
+  const std::vector<double>& breaks() const { return breaks_; }
+  const std::vector<double>& values() const { return values_; }
+
+ private:
+  std::size_t piece(double s) const;  // the piece holding s (the first or last beyond the ends)
+  std::vector<double> breaks_, values_, cumulative_;  // cumulative_[i] = ∫_{breaks[0]}^{breaks[i]} v ds
+};
+
 // A law and its parameters (the scenario's needle.model, needle.friction and their keys).
 struct FrictionOptions {
   std::string law = "stick-slip";     // a name of friction_laws()
@@ -27,6 +49,10 @@ struct FrictionOptions {
   // Per shaft point, from the tissue at each point (filled once the shaft is built; empty: the values
   // above everywhere): the stick-slip limit per length, and the cutting force when the tip pushes it.
   std::vector<double> point_max_shear_per_length, point_cutting_force;
+  // Along the path (3D; not empty: they replace the per-point values): the stick-slip limit per length,
+  // whose integral over a shaft point's carried interval (ShaftState::start) is its limit, and the
+  // cutting force of the tissue at the front (ShaftState::front) for the tip row the tip presses.
+  PathProfile shear_profile, cutting_profile;
 
   // The values at shaft point j: its own, else the needle's.
   double max_shear_per_length_at(std::size_t j) const {

@@ -22,6 +22,9 @@ struct ShaftState {
   std::vector<double> axial;    // axial constraint value: kept between steps, set by the law
   std::vector<double> stick;    // the value that moves the point with the needle at this step
   std::vector<double> carried;  // shaft length the point carries (its segment up to the tip)
+  // Per shaft point (tip rows excluded): the arc length at rest where its carried interval starts; it
+  // carries [start, start + carried].
+  std::vector<double> start;
   // 3D: the arc length, at rest, of the tissue at the tip (what the tip has cut).
   double front = 0.0;
   // The point the tip pushes is held at the cutting force (the tip cuts) in the last solve.
