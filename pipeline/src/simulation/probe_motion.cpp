@@ -147,7 +147,7 @@ template <int dim>
 void ProbeMotions<dim>::output_step(int k, const fem::Solution<dim>& s, const std::vector<Vec>& u) {
   const std::string file = "steps/" + step_file(k, ctx_.opt.mpi_ranks);
   write_step_vtu<dim>(ctx_, "probe/" + file, &s);
-  pvd_.emplace_back(k, file);
+  pvd_.push_back({static_cast<double>(k), file});
   if (!ctx_.sc.procedure || !ctx_.opt.output_file) return;
   std::vector<Vec> position, planned;
   std::vector<int> needle;
@@ -159,7 +159,7 @@ void ProbeMotions<dim>::output_step(int k, const fem::Solution<dim>& s, const st
   char name[32];
   std::snprintf(name, sizeof name, "steps/seeds_%04d.vtu", k);
   write_seed_points<dim>(ctx_.opt.output_file(std::string("probe/") + name), position, planned, needle);
-  seeds_pvd_.emplace_back(k, name);
+  seeds_pvd_.push_back({static_cast<double>(k), name});
 }
 
 namespace {

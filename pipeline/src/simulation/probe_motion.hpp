@@ -9,6 +9,7 @@
 #include <string>
 #include <utility>
 #include <vector>
+#include <vim/pipeline/output/vtk_output.hpp>
 
 #include "simulation/simulation_context.hpp"
 
@@ -36,7 +37,7 @@ class ProbeMotions {
   void output_step(int k, const fem::Solution<dim>& solution, const std::vector<Vec>& seed_displacement);
 
   SimulationContext<dim>& ctx_;
-  std::vector<std::pair<double, std::string>> pvd_, seeds_pvd_;
+  std::vector<PvdDataSet> pvd_, seeds_pvd_;
 };
 
 }  // namespace vim::pipeline
