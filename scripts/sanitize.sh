@@ -159,8 +159,8 @@ for t in $targets; do
     failed=$(echo "${counts:-0 tests failed out of 0}" | awk '{print $1}')
     passed=$(echo "${counts:-0 tests failed out of 0}" | awk '{print $NF - $1}')
   else
-    passed=$(grep -hoE '^\[  PASSED  \] [0-9]+ test' "$log" | awk '{s += $4} END {print s + 0}')
-    failed=$(grep -oE '^\[  FAILED  \] [A-Za-z_0-9/]+\.[A-Za-z_0-9/]+' "$log" | sort -u | wc -l)
+    passed=$({ grep -hoE '^\[  PASSED  \] [0-9]+ test' "$log" || true; } | awk '{s += $4} END {print s + 0}')
+    failed=$({ grep -oE '^\[  FAILED  \] [A-Za-z_0-9/]+\.[A-Za-z_0-9/]+' "$log" || true; } | sort -u | wc -l)
   fi
   { [ "$rc" -ne 0 ] || [ "$reports" -ne 0 ]; } && status=1
   summary+=$(printf '%-16s exit %-3s passed %-4s failed %-4s sanitizer reports %-3s build %5s s run %5s s' \
