@@ -4,14 +4,15 @@
 # them, timing the build and the run of each suite. The suites of CHECKED_TARGETS (default: all) are
 # built with the mesh-invariant checks on (VIM_CHECKED=ON: every VIM stage of every test run is
 # checked) in BUILD_DIR; any others in BUILD_DIR-unchecked without them (the instrumented mesher is
-# then compiled twice). The instrumented code is compiled at -O1 with
-# line tables (-g1), enough for the sanitizers' stacks. Each suite runs as 2 x JOBS GoogleTest shards
-# (GTEST_TOTAL_SHARDS), JOBS processes at a time: an instrumented process linking deal.II takes 1-3 s
-# of CPU to start (its dynamic loading under ASan), so one process per test would spend minutes on
-# starts; PER_TEST=1 runs every test in its own process through CTest instead (a crash or sanitizer
-# report then names its test alone). CI (scripts/test.sh) runs the mesher, pipeline and bad-input
-# suites this way (SANITIZE_TARGETS chooses); the fem suite and the validation smoke run from this
-# script (docs/robustness.md records the last run and its commit).
+# then compiled twice). The instrumented code is compiled at -O0 with line tables (-g1), enough for
+# the sanitizers' stacks, except the mesher and the needle library, where the suites spend their
+# instrumented time, at -O1 (vim_sanitize_optimized in CMakeLists.txt). Each suite runs as 2 x JOBS
+# GoogleTest shards (GTEST_TOTAL_SHARDS), JOBS processes at a time: an instrumented process linking
+# deal.II takes 1-3 s of CPU to start (its dynamic loading under ASan), so one process per test would
+# spend minutes on starts; PER_TEST=1 runs every test in its own process through CTest instead (a
+# crash or sanitizer report then names its test alone). CI (scripts/test.sh) runs the mesher, pipeline
+# and bad-input suites this way (SANITIZE_TARGETS chooses); the fem suite and the validation smoke
+# run from this script (docs/robustness.md records the last run and its commit).
 #   scripts/sanitize.sh [BUILD_DIR]            (default: ../build-sanitize next to the checkout)
 # Environment: JOBS (default 1: build and test parallelism), TARGETS (default: every suite below),
 # CHECKED_TARGETS (default: every suite of TARGETS),
@@ -52,13 +53,13 @@ for t in $targets; do
   case " $checked_targets " in *" $t "*) dir_of[$t]="$build" ;; *) dir_of[$t]="$build-unchecked" ;; esac
   case " ${dirs[*]:-} " in *" ${dir_of[$t]} "*) ;; *) dirs+=("${dir_of[$t]}") ;; esac
 done
-# Release, not RelWithDebInfo: deal_ii_setup_target only knows Debug/Release; -O1 -g1 replace its
+# Release, not RelWithDebInfo: deal_ii_setup_target only knows Debug/Release; -O0 -g1 replace its
 # -O3 (CMakeLists.txt also drops the -g -O2 deal.II adds to the targets above fem).
 for d in "${dirs[@]}"; do
   checked=ON
   [ "$d" = "$build-unchecked" ] && checked=OFF
   cmake -S "$root" -B "$d" -DCMAKE_BUILD_TYPE=Release -DVIM_SANITIZE=ON -DVIM_CHECKED=$checked -DVIM_BUILD_BENCH=OFF \
-    -DCMAKE_CXX_FLAGS="-g1" -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" -DVIM_FEM_LIBRARY="$fem_library" \
+    -DCMAKE_CXX_FLAGS="-g1" -DCMAKE_CXX_FLAGS_RELEASE="-O0 -DNDEBUG" -DVIM_FEM_LIBRARY="$fem_library" \
     -DVIM_UNITY_BUILD="$([ "${UNITY:-1}" = 0 ] && echo OFF || echo ON)" \
     ${CMAKE_ARGS:-} >/dev/null
   echo "configured $d (VIM_SANITIZE=ON, VIM_CHECKED=$checked${fem_library:+, fem linked uninstrumented from $fem_library})"
