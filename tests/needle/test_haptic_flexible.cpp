@@ -8,6 +8,7 @@
 // - the rigid limit: with the tube's modulus × 10⁶ and the holder gripping the hub (moving with the needle,
 //   its free length shrinking), the flexible needle's forces equal the rigid needle's stepped by its tip,
 //   and its tip deviation vanishes;
+// - a stiff tube follows its holder's sideways move and tilt as a rigid body;
 // - a pose that does not fit: a holder past the entry, the wrong step for the needle's kind.
 #include <gtest/gtest.h>
 
@@ -197,6 +198,37 @@ TEST(HapticFlexibleNeedle, StiffTubeGrippedAtTheHubEqualsTheRigidNeedle) {
   }
   EXPECT_GT(last_deviation[0], 0.0);
   EXPECT_LT(last_deviation[1], 1e-5 * last_deviation[0]);
+}
+
+// Truth: a stiff tube moves as a rigid body with its holder. The tube with the modulus × 10⁶, gripped at
+// its hub 1.3 behind the tip, is inserted along the planned line; at the last call the holder moves
+// sideways by δ and tilts by θ about the x axis. The tip deviates from the planned line by δ + θ × the
+// needle's length from the holder (the holder's offset plus its slope carried to the tip) within 1e-3,
+// and the reported tip is the straight needle's of that pose.
+TEST(HapticFlexibleNeedle, StiffTubeFollowsItsHoldersOffsetAndTilt) {
+  auto model = layered_block(1);
+  const NeedleOptions<3> n = needle_options(0.0);
+  const BandCoupling::Geometry g = band_geometry(model, n);
+  HapticNeedle::Options o = haptic_options(g, n, g.spacing);
+  o.flexible = FlexibleNeedle{2.0e10, 0.0, kInner, 0.0};
+  HapticNeedle needle(model, around_path(), {}, o);
+  HapticNeedle::BasePose hub;
+  hub.direction = kAxis, hub.length = 1.3;
+  for (int k = 0; k < n.steps; ++k) {
+    hub.position = kEntry + (n.path.depth * k / n.steps - hub.length) * kAxis;
+    needle.step(hub);
+  }
+  const double delta = 0.01, theta = 0.005;
+  hub.position += delta * Vec<3>::UnitX();
+  hub.direction = kAxis + theta * Vec<3>::UnitY();
+  const auto& s = needle.step(hub);
+  ASSERT_GT(s.stations, 3u);
+  const double reach = hub.length / hub.direction.norm();  // the holder to the tip along the planned line
+  const Vec<3> expected = delta * Vec<3>::UnitX() + theta * reach * Vec<3>::UnitY();
+  EXPECT_LT((s.tip_deviation - expected).norm(), 1e-3 * expected.norm());
+  EXPECT_LT((s.tip - (hub.position + hub.length * hub.direction.normalized())).norm(),
+            1e-3 * expected.norm());
+  EXPECT_NEAR(s.tip_angle, std::atan(theta) * 180.0 / M_PI, 1e-3 * std::atan(theta) * 180.0 / M_PI);
 }
 
 TEST(HapticFlexibleNeedle, RefusesAPoseThatDoesNotFit) {
