@@ -5,7 +5,7 @@
 //   cutting force, P2, two tissues of different modulus, a bevelled 18 G-like tube held by a template
 //   before the entry — every station's force, the tip's force, the bent tip and the base's loads at every
 //   step;
-// - the rigid limit: with the tube's modulus × 10⁶ and the holder gripping the hub (moving with the needle,
+// - the rigid limit: with the tube's modulus × 10⁸ and the holder gripping the hub (moving with the needle,
 //   its free length shrinking), the flexible needle's forces equal the rigid needle's stepped by its tip,
 //   and its tip deviation vanishes;
 // - a stiff tube follows its holder's sideways move and tilt as a rigid body;
@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <vim/fem/elasticity.hpp>
 #include <vim/needle/band_coupling.hpp>
@@ -28,7 +29,7 @@ using namespace vim;
 using namespace vim::fem;
 using namespace vim::needle;
 
-namespace {
+namespace haptic_flexible_test {  // named: the suite's unity batches hold other files' helpers
 
 // 1 × 1 × 1.5 Kuhn block, bottom face held; two tissues: modulus 1 below z = 0.75, 3 above.
 ElasticModel<3> layered_block(unsigned degree) {
@@ -46,8 +47,10 @@ ElasticModel<3> layered_block(unsigned degree) {
   return model;
 }
 
-Region<3> around_path() {
-  return {"cylinder", [](const Vec<3>& x) { return std::hypot(x[0] - 0.5, x[1] - 0.5) < 0.6; }};
+// The condensed region: a cylinder of radius r about the block's axis (2: the whole block, for P1's wider
+// default band).
+Region<3> around_path(double r = 0.6) {
+  return {"cylinder", [r](const Vec<3>& x) { return std::hypot(x[0] - 0.5, x[1] - 0.5) < r; }};
 }
 
 const Vec<3> kEntry(0.52, 0.47, 1.5), kAxis(0.0, 0.0, -1.0);
@@ -120,7 +123,7 @@ TEST(HapticFlexibleNeedle, ForcesTipAndBaseLoadsEqualTheCliSteppingWithABevelP2T
   base.bevel_side = side;
   haptic.step(base);
   bool have = false, cut = false;
-  double deviation = 0.0;
+  double deviation = 0.0, worst_force = 0.0, worst_tip = 0.0;
   for (int k = 1; k <= n.steps; ++k) {
     const double d = cli.depth(k), prev = cli.depth(k - 1);
     cli.pick_up(d, d - prev, [&](std::size_t j) { return have ? tissue.held_axial(j, kAxis) : 0.0; });
@@ -139,8 +142,10 @@ TEST(HapticFlexibleNeedle, ForcesTipAndBaseLoadsEqualTheCliSteppingWithABevelP2T
     const auto& ref = tissue.solution().point_force;
     double fmax = 0.0;
     for (std::size_t i = 0; i < state.active.size(); ++i) fmax = std::max(fmax, ref[i].norm());
-    for (std::size_t i = 0; i < s.stations; ++i)
+    for (std::size_t i = 0; i < s.stations; ++i) {
       EXPECT_LT((s.station_force[i] - ref[i]).norm(), 1e-8 * fmax) << "step " << k << " station " << i;
+      worst_force = std::max(worst_force, (s.station_force[i] - ref[i]).norm() / fmax);
+    }
     const Vec<3> tip_ref = tip ? ref[state.active.size() - 1] : Vec<3>::Zero();
     EXPECT_LE((s.tip_force - tip_ref).norm(), 1e-8 * fmax) << "step " << k;
     EXPECT_EQ(s.tip_cutting, state.tip_cutting) << "step " << k;
@@ -153,13 +158,19 @@ TEST(HapticFlexibleNeedle, ForcesTipAndBaseLoadsEqualTheCliSteppingWithABevelP2T
     EXPECT_LT((s.base_force - bf).norm(), 1e-8 * std::max(fmax, bf.norm())) << "step " << k;
     EXPECT_LT((s.base_moment - bm).norm(), 1e-8 * std::max(fmax, bm.norm())) << "step " << k;
     deviation = dev.norm();
+    if (on) worst_tip = std::max(worst_tip, (s.tip_deviation - dev).norm() / dev.norm());
   }
+  std::printf(
+      "flexible haptic vs CLI: station forces %.2e of the step's largest, tip deviation %.2e of its "
+      "norm; final deviation %.4f (%.2f%% of the depth)\n",
+      worst_force, worst_tip, deviation, 100.0 * deviation / n.path.depth);
   EXPECT_GT(deviation, 0.01 * n.path.depth);
   EXPECT_TRUE(cut);
 }
 
 // Truth: the rigid needle (HapticNeedle stepped by its tip) on the same path. The flexible needle with
-// the tube's modulus × 10⁶ is gripped at its hub, 1.3 behind the tip (the holder moves with it, its
+// the tube's modulus × 10⁸ (its 2 × 10⁴ against the tissue's 1–3: × 10⁶ still leaves a bend under the
+// bevel of 1e-5 of the force) is gripped at its hub, 1.3 behind the tip (the holder moves with it, its
 // free length before the entry shrinking from 1.3 to 0.25); a bevel loads its tip. Its station and tip
 // forces equal the rigid needle's within 1e-5 of the largest, and its final tip deviation is below 1e-5
 // of the same needle's with the real modulus.
@@ -169,13 +180,13 @@ TEST(HapticFlexibleNeedle, StiffTubeGrippedAtTheHubEqualsTheRigidNeedle) {
   const BandCoupling::Geometry g = band_geometry(model, n);
   const double pitch = g.spacing;
   const HapticNeedle::Options rigid_options = haptic_options(g, n, pitch);
-  HapticNeedle rigid(model, around_path(), {}, rigid_options);
+  HapticNeedle rigid(model, around_path(2.0), {}, rigid_options);
   std::vector<double> last_deviation;
-  for (double scale : {1.0, 1e6}) {
+  for (double scale : {1.0, 1e8}) {
     HapticNeedle::Options o = rigid_options;
     o.flexible = FlexibleNeedle{2.0e4 * scale, 0.0, kInner, 0.0};
     o.bevel_angle = kBevelAngle;
-    HapticNeedle flexible(model, around_path(), {}, o);
+    HapticNeedle flexible(model, around_path(2.0), {}, o);
     HapticNeedle::BasePose hub;
     hub.direction = kAxis, hub.length = 1.3, hub.bevel_side = Vec<3>(0.0, 1.0, 0.0);
     double fmax = 0.0, worst = 0.0;
@@ -194,7 +205,9 @@ TEST(HapticFlexibleNeedle, StiffTubeGrippedAtTheHubEqualsTheRigidNeedle) {
       fmax = std::max(fmax, r.tip_force.norm());
       worst = std::max(worst, (f.tip_force - r.tip_force).norm());
     }
-    if (scale > 1.0) EXPECT_LT(worst, 1e-5 * fmax);
+    if (scale > 1.0) {
+      EXPECT_LT(worst, 1e-5 * fmax);
+    }
   }
   EXPECT_GT(last_deviation[0], 0.0);
   EXPECT_LT(last_deviation[1], 1e-5 * last_deviation[0]);
@@ -211,7 +224,7 @@ TEST(HapticFlexibleNeedle, StiffTubeFollowsItsHoldersOffsetAndTilt) {
   const BandCoupling::Geometry g = band_geometry(model, n);
   HapticNeedle::Options o = haptic_options(g, n, g.spacing);
   o.flexible = FlexibleNeedle{2.0e10, 0.0, kInner, 0.0};
-  HapticNeedle needle(model, around_path(), {}, o);
+  HapticNeedle needle(model, around_path(2.0), {}, o);
   HapticNeedle::BasePose hub;
   hub.direction = kAxis, hub.length = 1.3;
   for (int k = 0; k < n.steps; ++k) {
@@ -236,18 +249,18 @@ TEST(HapticFlexibleNeedle, RefusesAPoseThatDoesNotFit) {
   const NeedleOptions<3> n = needle_options(0.0);
   const BandCoupling::Geometry g = band_geometry(model, n);
   HapticNeedle::Options o = haptic_options(g, n, g.spacing);
-  HapticNeedle rigid(model, around_path(), {}, o);
+  HapticNeedle rigid(model, around_path(2.0), {}, o);
   HapticNeedle::BasePose base;
   base.position = kEntry, base.direction = kAxis, base.length = 0.0;
   EXPECT_THROW(rigid.step(base), std::logic_error);
   o.flexible = FlexibleNeedle{2.0e4, 0.0, kInner, 0.0};
-  HapticNeedle flexible(model, around_path(), {}, o);
+  HapticNeedle flexible(model, around_path(2.0), {}, o);
   EXPECT_THROW(flexible.step(kEntry, kAxis), std::logic_error);
   flexible.step(base);
   base.position = kEntry + 0.1 * kAxis;  // the holder past the entry
   EXPECT_THROW(flexible.step(base), std::invalid_argument);
   o.flexible->inner_diameter = kDiameter;
-  EXPECT_THROW(HapticNeedle(model, around_path(), {}, o), std::invalid_argument);
+  EXPECT_THROW(HapticNeedle(model, around_path(2.0), {}, o), std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace haptic_flexible_test

@@ -17,6 +17,7 @@
 namespace vim::needle {
 
 using haptic::Pattern;
+using haptic::pattern_of;
 using haptic::RegionTissue;
 
 namespace {

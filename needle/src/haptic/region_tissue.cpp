@@ -8,9 +8,6 @@
 
 namespace vim::needle::haptic {
 
-using Term = fem::CondensedRegion::Term;
-using Index = Eigen::Index;
-
 RegionTissue::RegionTissue(fem::ElasticModel<3>& model, const fem::Region<3>& region,
                            const std::vector<Vec<3>>& probes, const fem::SolverOptions& solver,
                            const NeedleBand& band, const Pattern& disk, std::size_t cap)

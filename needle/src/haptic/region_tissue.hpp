@@ -29,6 +29,9 @@
 
 namespace vim::needle::haptic {
 
+using Term = fem::CondensedRegion::Term;
+using Index = Eigen::Index;
+
 // A row's sample pattern in frame coordinates (l1, l2, axis) with its weights.
 struct Pattern {
   std::vector<Vec<3>> offsets;
