@@ -454,10 +454,12 @@ TEST(FlexibleNeedle, DISABLED_LateralStiffnessConvergenceStudy) {
 
 // A measurement, not a check (docs/needle-model.md, the flexible needle's convergence): the P2 tip
 // deviation of the convergence study with the band's radius and the stations' spacing fixed (4 mm and 2
-// mm on every mesh) instead of following the element size, then each of the two fixed alone.
+// mm on every mesh) instead of following the element size, then each of the two fixed alone, then other
+// fixed radii (3 and 6 mm).
 TEST(FlexibleNeedle, DISABLED_ConvergenceStudyFixedBand) {
   for (const char* band :
-       {", coupling_radius: 4, sample_spacing: 2", ", coupling_radius: 4", ", sample_spacing: 2"})
+       {", coupling_radius: 4, sample_spacing: 2", ", coupling_radius: 4", ", sample_spacing: 2",
+        ", coupling_radius: 3, sample_spacing: 2", ", coupling_radius: 6, sample_spacing: 2"})
     for (const std::array<int, 3>& q :
          {std::array<int, 3>{{4, 4, 19}}, std::array<int, 3>{{5, 5, 25}}, std::array<int, 3>{{7, 7, 37}}}) {
       const auto t0 = std::chrono::steady_clock::now();
