@@ -6,9 +6,14 @@
 // nothing.
 //   bench_needle [--steps N] [--mono-steps N] [--mono-max-dofs N] [--friction stick|stick-slip]
 //                [--sizes 1k,10k] [--degrees 1,2] [--solver auto|direct|amg] [--haptic 0|1]
-//                [--cutting-force F]
+//                [--cutting-force F] [--flexible 0|1]
 // --haptic 1 adds a table of vim::needle::HapticNeedle (the real-time needle in a condensed region) on the
-// same blocks; --cutting-force F (mN, default 0) gives its tip that cutting force (the tip bearing). The
+// same blocks; --cutting-force F (mN, default 0) gives its tip that cutting force (the tip bearing).
+// --flexible 1 adds the flexible needle (an 18 G steel tube, needle.flexible {E 2e8 kPa, d_i 0.84 mm},
+// a 30° bevel) to each table: its steps per second (precomputation excluded) and its time per step as a
+// ratio to the rigid needle's of the same run (the CLI's: the same scenario without flexible and bevel;
+// the real-time needle's: the same calls stepped by the tip, the flexible one by its base held at the
+// entry as a template holds it). The
 // monolithic solve of a ~10k-node P2 block factorises a ~280k-DoF saddle-point matrix per step (minutes and
 // many GB): it runs only up to --mono-max-dofs DoFs (default 100000).
 #include <mpi.h>
@@ -49,11 +54,18 @@ struct Timing {
   double cpu_mean = 0.0;  // haptic: thread CPU seconds per call (robust to a loaded machine)
 };
 
+// The 18 G steel needle's tube (ASM Handbook vol. 1: steel 200 GPa = 2e8 kPa; 18 G: 1.27 / 0.84 mm) and
+// a 30° bevel (assumed).
+constexpr double kSteelModulus = 2.0e8, kInnerDiameter = 0.84, kBevelAngle = 30.0;
+
 Timing time_run(const MeshModel<3>& model, unsigned degree, int steps, const std::string& friction,
-                const std::string& solver, bool monolithic) {
-  const std::string law = friction == "stick-slip"
-                              ? ", friction: {model: stick-slip, max_shear_per_length: 0.5}"
-                              : ", friction: {model: stick}";
+                const std::string& solver, bool monolithic, bool flexible = false) {
+  std::string law = friction == "stick-slip" ? ", friction: {model: stick-slip, max_shear_per_length: 0.5}"
+                                             : ", friction: {model: stick}";
+  if (flexible)
+    law += ", flexible: {youngs_modulus: " + std::to_string(kSteelModulus) +
+           ", inner_diameter: " + std::to_string(kInnerDiameter) +
+           "}, bevel: {angle: " + std::to_string(kBevelAngle) + ", side: [1, 0, 0]}";
   const std::string y =
       "material: {poisson_ratio: 0.45}\n"
       "boundary_conditions: [{type: fixed, region: {box_face: z_max}}]\n"
@@ -88,7 +100,8 @@ Timing time_run(const MeshModel<3>& model, unsigned degree, int steps, const std
 // (the target), stick-slip at 0.5 mN/mm (the registered law), the tip advanced along the path in `steps`
 // calls. Returns the precomputation (s), the region's DoFs and the per-call times (wall, and the thread's
 // CPU time, which time slices taken by other processes do not inflate).
-Timing time_haptic(const MeshModel<3>& model, unsigned degree, double h, int steps, double cutting_force) {
+Timing time_haptic(const MeshModel<3>& model, unsigned degree, double h, int steps, double cutting_force,
+                   bool flexible = false) {
   const std::string y =
       "material: {poisson_ratio: 0.45}\n"
       "boundary_conditions: [{type: fixed, region: {box_face: z_max}}]\n"
@@ -105,6 +118,10 @@ Timing time_haptic(const MeshModel<3>& model, unsigned degree, double h, int ste
   o.friction.law = "stick-slip";
   o.friction.max_shear_per_length = 0.5;
   o.friction.cutting_force = cutting_force;
+  if (flexible) {
+    o.flexible = vim::needle::FlexibleNeedle{kSteelModulus, 0.0, kInnerDiameter, 0.0};
+    o.bevel_angle = kBevelAngle;
+  }
   const double reach = vim::needle::default_coupling_radius(o.radius, h, degree) + h;
   const fem::Region<3> region{
       "path", [reach](const fem::Vec<3>& x) { return std::hypot(x[0] - 0.3, x[1] + 0.2) < reach; }};
@@ -123,7 +140,10 @@ Timing time_haptic(const MeshModel<3>& model, unsigned degree, double h, int ste
   for (int k = 0; k <= steps; ++k) {
     const double c0 = cpu_now();
     const auto a = std::chrono::steady_clock::now();
-    const auto& r = needle.step(fem::Vec<3>(0.3, -0.2, 40.0 * k / steps), fem::Vec<3>(0, 0, 1));
+    const fem::Vec<3> tip(0.3, -0.2, 40.0 * k / steps), direction(0, 0, 1);
+    const auto& r = flexible
+                        ? needle.step({tip - tip[2] * direction, direction, tip[2], fem::Vec<3>(1, 0, 0)})
+                        : needle.step(tip, direction);
     const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count();
     const double dc = cpu_now() - c0;
     if (k == 0) continue;
@@ -137,6 +157,17 @@ Timing time_haptic(const MeshModel<3>& model, unsigned degree, double h, int ste
   t.median = st[st.size() / 2];
   t.p99 = st[std::min(st.size() - 1, static_cast<std::size_t>(0.99 * static_cast<double>(st.size())))];
   return t;
+}
+
+// A flexible needle's row under its rigid one's: steps per second (wall; CPU for the real-time needle),
+// median and p99, and its mean time per step over the rigid needle's.
+void print_flexible(const char* name, const Timing& flex, const Timing& rigid) {
+  const bool cpu = flex.cpu_mean > 0.0;
+  std::printf(
+      "%10s: %10.0f st/s%s, median %.3f ms, p99 %.3f ms, time per step x%.2f of the rigid needle's, "
+      "force %.5g\n",
+      name, 1.0 / (cpu ? flex.cpu_mean : flex.mean), cpu ? " (cpu)" : "", 1e3 * flex.median, 1e3 * flex.p99,
+      cpu ? flex.cpu_mean / rigid.cpu_mean : flex.mean / rigid.mean, flex.force);
 }
 
 std::vector<std::string> split(const std::string& s) {
@@ -158,7 +189,7 @@ int main(int argc, char** argv) {
   int steps = 200, mono_steps = 5;
   unsigned mono_max_dofs = 100000;
   std::string friction = "stick", sizes = "1k,10k", degrees = "1,2", solver = "auto";
-  bool haptic = false;
+  bool haptic = false, flexible = false;
   double cutting_force = 0.0;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
@@ -178,6 +209,8 @@ int main(int argc, char** argv) {
       solver = v;
     else if (k == "--haptic")
       haptic = v == "1";
+    else if (k == "--flexible")
+      flexible = v == "1";
     else if (k == "--cutting-force")
       cutting_force = std::atof(v.c_str());
     else {
@@ -205,6 +238,10 @@ int main(int argc, char** argv) {
       std::printf("%6zu %3u %8u %7d %11.2f %10.0f %10.3f %10.3f %11s %8s %10.5g\n", m.mesh.n_points(), degree,
                   fast.dofs, fast.points, fast.precompute, 1.0 / fast.mean, 1e3 * fast.median, 1e3 * fast.p99,
                   mono_rate, ratio, fast.force);
+      if (flexible) {
+        const Timing flex = time_run(m, degree, steps, friction, solver, false, true);
+        print_flexible("flexible", flex, fast);
+      }
       std::fflush(stdout);
     }
   }
@@ -225,6 +262,7 @@ int main(int argc, char** argv) {
         std::printf("%6zu %3u %11u %9d %11.2f %10.0f %10.0f %10.3f %10.3f %10.5g\n", m.mesh.n_points(),
                     degree, t.dofs, t.points, t.precompute, 1.0 / t.mean, 1.0 / t.cpu_mean, 1e3 * t.median,
                     1e3 * t.p99, t.force);
+        if (flexible) print_flexible("flexible", time_haptic(m, degree, h, steps, cutting_force, true), t);
         std::fflush(stdout);
       }
     }

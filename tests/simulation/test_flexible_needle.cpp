@@ -267,10 +267,12 @@ TEST(FlexibleNeedle, OutputsCarryTheBentNeedle) {
 namespace {
 
 // The unturned 60 mm insertion of HalfTurnAtHalfDepthSteersTheTipBack with a target beside the path, on
-// the long block with `quadrant` nodes per axis, at `degree` and `steps`.
-NeedleRun<3> convergence_run(const std::array<int, 3>& quadrant, int steps, unsigned degree) {
+// the long block with `quadrant` nodes per axis, at `degree` and `steps`; `band`: needle keys added (e.g.
+// a fixed coupling radius and station spacing).
+NeedleRun<3> convergence_run(const std::array<int, 3>& quadrant, int steps, unsigned degree,
+                             const std::string& band = "") {
   const std::string n =
-      "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 60, steps: " + std::to_string(steps) +
+      "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 60, steps: " + std::to_string(steps) + band +
       ", diameter: 1.27, friction: {model: stick}, cutting_force: 20, flexible: "
       "{youngs_modulus: 2.0e+6, inner_diameter: 0.84}, bevel: {angle: 20, side: [0, 1, 0]}}";
   SimulationOptions o = quiet();
@@ -308,21 +310,26 @@ namespace {
 // An 18 G tube of modulus `e` (kPa) inserted 60 mm straight (no bevel) along the axis of a symmetric block
 // (2w x 2w x 72 mm, 10 kPa, P1, `quadrant` nodes; the far face held and, with `walls`, the lateral faces) in
 // 4 steps, its holder at the entry moved by w0 along x at the last step (needle.flexible.base_offset).
-NeedleRun<3> levered_run(const std::string& e, double w0, double w = 12.0, bool walls = true,
-                         const std::array<int, 3>& quadrant = {{5, 5, 25}}) {
+SimulationResult<3> levered_result(const std::string& e, double w0, double w, bool walls,
+                                   const std::array<int, 3>& quadrant, unsigned degree) {
   const std::string n =
       "{entry: [0, 0, 0], direction: [0, 0, 1], depth: 60, steps: 4, diameter: 1.27, friction: {model: "
       "stick}, "
       "flexible: {youngs_modulus: " +
       e + ", inner_diameter: 0.84, base_offset: [" + std::to_string(w0) + ", 0, 0]}}";
   SimulationOptions o = quiet();
-  o.degree = 1;
+  o.degree = degree;
   std::string held = "[{type: fixed, region: {box_face: z_max}}";
   if (walls)
     for (const char* f : {"x_min", "x_max", "y_min", "y_max"})
       held += std::string(", {type: fixed, region: {box_face: ") + f + "}}";
   const Scenario sc = parse_scenario_text(yaml(n, "[]", "{}", held + "]"), 3);
-  return run_simulation<3>(axis_block(10.0, w, 72.0, quadrant), sc, o).needles.at(0);
+  return run_simulation<3>(axis_block(10.0, w, 72.0, quadrant), sc, o);
+}
+
+NeedleRun<3> levered_run(const std::string& e, double w0, double w = 12.0, bool walls = true,
+                         const std::array<int, 3>& quadrant = {{5, 5, 25}}) {
+  return levered_result(e, w0, w, walls, quadrant, 1).needles.at(0);
 }
 
 // Hetényi's semi-infinite beam on a Winkler foundation with its end displaced by 1 and held in direction:
@@ -427,4 +434,41 @@ TEST(FlexibleNeedle, DISABLED_FoundationStudy) {
     for (const double w : {12.0, 24.0})
       for (const bool walls : {true, false}) foundation_fit(e, w, walls);
   foundation_fit(2.0e6, 12.0, true, {{7, 7, 37}});
+}
+
+// A measurement, not a check (docs/needle-model.md, the flexible needle's convergence): the foundation
+// modulus k the rigid needle measures (levered_run's block, the lateral faces held) and the default band's
+// radius on the convergence study's three meshes, P1 and P2, with the wall time of each run.
+TEST(FlexibleNeedle, DISABLED_LateralStiffnessConvergenceStudy) {
+  for (unsigned degree : {1u, 2u})
+    for (const std::array<int, 3>& q :
+         {std::array<int, 3>{{4, 4, 19}}, std::array<int, 3>{{5, 5, 25}}, std::array<int, 3>{{7, 7, 37}}}) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const SimulationResult<3> res = levered_result("2.0e+14", 0.2, 12.0, true, q, degree);
+      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      const double k = res.needles.at(0).base_force.back().x() / (60.0 * 0.2);
+      std::printf("P%u, quadrant %dx%dx%d: k = %.3f kPa, band radius %.3f mm (%.1f s)\n", degree, q[0], q[1],
+                  q[2], k, res.report["needles"][0]["coupling_radius"].get<double>(), seconds);
+    }
+}
+
+// A measurement, not a check (docs/needle-model.md, the flexible needle's convergence): the P2 tip
+// deviation of the convergence study with the band's radius and the stations' spacing fixed (4 mm and 2
+// mm on every mesh) instead of following the element size, then each of the two fixed alone, then other
+// fixed radii (3 and 6 mm).
+TEST(FlexibleNeedle, DISABLED_ConvergenceStudyFixedBand) {
+  for (const char* band :
+       {", coupling_radius: 4, sample_spacing: 2", ", coupling_radius: 4", ", sample_spacing: 2",
+        ", coupling_radius: 3, sample_spacing: 2", ", coupling_radius: 6, sample_spacing: 2"})
+    for (const std::array<int, 3>& q :
+         {std::array<int, 3>{{4, 4, 19}}, std::array<int, 3>{{5, 5, 25}}, std::array<int, 3>{{7, 7, 37}}}) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const NeedleRun<3> r = convergence_run(q, 20, 2, band);
+      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      std::printf(
+          "P2, quadrant %dx%dx%d, needle keys '%s': tip deviation y at 30 mm %.4f, at 60 mm %.4f; "
+          "target |u| %.4f (%.1f s)\n",
+          q[0], q[1], q[2], band + 2, r.tip_deviation[10][1], r.tip_deviation.back()[1],
+          r.target_displacement.back()[0].norm(), seconds);
+    }
 }

@@ -7,12 +7,52 @@
 
 namespace vim::needle {
 
+namespace {
+
+// The CLI's tissue as a flexible needle sees it: the condensed rows, their lateral values the
+// deflected coupling's.
+class CoupledTissue final : public DeflectableTissue {
+ public:
+  CoupledTissue(ElasticTissue<3>& tissue, DeflectedCoupling& coupling)
+      : tissue_(tissue), coupling_(coupling) {}
+  const std::vector<double>& solve(const std::vector<double>& axial) override { return tissue_.solve(axial); }
+  const AxialMap& axial_map() override { return tissue_.axial_map(); }
+  void set_deflection(const std::vector<Vec<3>>& deflection) override {
+    coupling_.set_deflection(deflection);
+  }
+  Vec<3> active_force(std::size_t i) const override {
+    const std::vector<Vec<3>>& f = tissue_.solution().point_force;
+    return i < f.size() ? f[i] : Vec<3>::Zero();
+  }
+
+ private:
+  ElasticTissue<3>& tissue_;
+  DeflectedCoupling& coupling_;
+};
+
+}  // namespace
+
 FlexibleTissue::FlexibleTissue(ElasticTissue<3>& tissue, DeflectedCoupling& coupling, const ShaftState& state,
                                const std::vector<ShaftPoint<3>>& stations, const Vec<3>& axis,
                                const FlexibleNeedle& needle, double element_length, std::size_t n_points,
                                double probe_step)
-    : tissue_(tissue),
-      coupling_(coupling),
+    : FlexibleTissue(std::make_unique<CoupledTissue>(tissue, coupling), nullptr, state, stations, axis,
+                     needle, element_length, n_points, probe_step) {}
+
+FlexibleTissue::FlexibleTissue(DeflectableTissue& tissue, const ShaftState& state,
+                               const std::vector<ShaftPoint<3>>& stations, const Vec<3>& axis,
+                               const FlexibleNeedle& needle, double element_length, std::size_t n_points,
+                               double probe_step)
+    : FlexibleTissue(nullptr, &tissue, state, stations, axis, needle, element_length, n_points, probe_step) {}
+
+FlexibleTissue::~FlexibleTissue() = default;
+
+FlexibleTissue::FlexibleTissue(std::unique_ptr<DeflectableTissue> owned, DeflectableTissue* tissue,
+                               const ShaftState& state, const std::vector<ShaftPoint<3>>& stations,
+                               const Vec<3>& axis, const FlexibleNeedle& needle, double element_length,
+                               std::size_t n_points, double probe_step)
+    : owned_(std::move(owned)),
+      tissue_(tissue ? *tissue : *owned_),
       state_(state),
       axis_(axis.normalized()),
       needle_(needle),
@@ -27,6 +67,13 @@ FlexibleTissue::FlexibleTissue(ElasticTissue<3>& tissue, DeflectedCoupling& coup
   // The bending planes: any two directions normal to the axis (a round tube bends alike in all).
   e_[0] = axis_.unitOrthogonal();
   e_[1] = axis_.cross(e_[0]);
+}
+
+void FlexibleTissue::hold_base(double free_length, const Vec<3>& slope) {
+  if (!(free_length >= 0.0))
+    throw std::invalid_argument("FlexibleTissue: the holder must not be past the entry");
+  needle_.free_length = free_length;
+  base_slope_ = slope - slope.dot(axis_) * axis_;
 }
 
 // Nodes from the holder (−free_length) to the needle's end, elements at most element_ long; the entry
@@ -58,12 +105,12 @@ void FlexibleTissue::set_depth(double depth, const Vec<3>& bevel_direction, doub
 }
 
 Eigen::VectorXd FlexibleTissue::lateral_forces() const {
-  const std::vector<Vec<3>>& f = tissue_.solution().point_force;
   Eigen::VectorXd lat(static_cast<Eigen::Index>(2 * stations_.size()));
-  for (std::size_t i = 0; i < stations_.size(); ++i)
+  for (std::size_t i = 0; i < stations_.size(); ++i) {
+    const Vec<3> f = tissue_.active_force(slots_[i]);
     for (int p = 0; p < 2; ++p)
-      lat[static_cast<Eigen::Index>(2 * i + static_cast<std::size_t>(p))] =
-          slots_[i] < f.size() ? f[slots_[i]].dot(e_[p]) : 0.0;
+      lat[static_cast<Eigen::Index>(2 * i + static_cast<std::size_t>(p))] = f.dot(e_[p]);
+  }
   return lat;
 }
 
@@ -76,14 +123,14 @@ void FlexibleTissue::measure_lateral_stiffness(const std::vector<double>& axial)
     if (state_.active[i] < s_.size()) stations_.push_back(state_.active[i]), slots_.push_back(i);
   const auto m2 = static_cast<Eigen::Index>(2 * stations_.size());
   std::vector<Vec<3>> d(n_points_, Vec<3>::Zero());
-  coupling_.set_deflection(d);
+  tissue_.set_deflection(d);
   tissue_.solve(axial);
   const Eigen::VectorXd f0 = lateral_forces();
   a_.resize(m2, m2);
   for (std::size_t i = 0; i < stations_.size(); ++i)
     for (int p = 0; p < 2; ++p) {
       d[stations_[i]] = probe_step_ * e_[p];
-      coupling_.set_deflection(d);
+      tissue_.set_deflection(d);
       tissue_.solve(axial);
       a_.col(static_cast<Eigen::Index>(2 * i + static_cast<std::size_t>(p))) =
           (lateral_forces() - f0) / probe_step_;
@@ -126,7 +173,7 @@ void FlexibleTissue::set_deflection(const Eigen::VectorXd& q) {
     const Eigen::RowVectorXd row = beam_.deflection_row(s_[j]);
     d[j] = row.dot(q.head(nd)) * e_[0] + row.dot(q.tail(nd)) * e_[1] - channel_[j];
   }
-  coupling_.set_deflection(std::move(d));
+  tissue_.set_deflection(d);
 }
 
 const std::vector<double>& FlexibleTissue::solve(const std::vector<double>& axial) {
@@ -141,9 +188,11 @@ const std::vector<double>& FlexibleTissue::solve(const std::vector<double>& axia
   const Vec<3> bevel = bevel_ratio_ * tip_force * bevel_direction_;
   const Eigen::RowVectorXd tip = beam_.deflection_row(beam_.nodes().back());
   for (Eigen::Index p = 0; p < 2; ++p) rhs_.segment(p * nd, nd) += bevel.dot(e_[p]) * tip.transpose();
-  // The held DOFs: the base's deflection at the holder's offset, its slope 0; their columns to the right.
+  // The held DOFs: the base's deflection at the holder's offset, its slope the holder's; their columns
+  // to the right.
   q_ = Eigen::VectorXd::Zero(2 * nd);
-  for (Eigen::Index p = 0; p < 2; ++p) q_[p * nd] = base_offset_.dot(e_[p]);
+  for (Eigen::Index p = 0; p < 2; ++p)
+    q_[p * nd] = base_offset_.dot(e_[p]), q_[p * nd + 1] = base_slope_.dot(e_[p]);
   const Eigen::VectorXd load = rhs_ - system_ * q_;
   const auto nf = static_cast<Eigen::Index>(free_.size());
   Eigen::VectorXd b(nf);

@@ -9,15 +9,19 @@
 //   (K_beam + Nᵀ A N) q = f_bevel − Nᵀ F₀(w),  base DOFs held (w at the holder's offset, θ = 0),
 // then the tissue with those lateral values, whose axial forces it returns. A is measured once per
 // active set with 2m + 1 tissue solves (the tissue is linear); F₀ with one solve per call. No
-// alternating iteration: the stepping and the friction laws see an ordinary TissueResponse.
+// alternating iteration: the stepping and the friction laws see an ordinary TissueResponse. The tissue is
+// any DeflectableTissue: the CLI's condensed rows with their DeflectedCoupling, or the real-time
+// needle's condensed region (HapticNeedle, whose base moves with the haptic device: hold_base).
 #pragma once
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <cstddef>
+#include <memory>
 #include <vector>
 #include <vim/needle/elastic_tissue.hpp>
 #include <vim/needle/flexible/beam.hpp>
+#include <vim/needle/flexible/deflectable_tissue.hpp>
 #include <vim/needle/flexible/deflected_coupling.hpp>
 #include <vim/needle/shaft.hpp>
 
@@ -39,6 +43,16 @@ class FlexibleTissue final : public TissueResponse {
   FlexibleTissue(ElasticTissue<3>& tissue, DeflectedCoupling& coupling, const ShaftState& state,
                  const std::vector<ShaftPoint<3>>& stations, const Vec<3>& axis, const FlexibleNeedle& needle,
                  double element_length, std::size_t n_points, double probe_step);
+  // Any tissue whose rows take the deflection (it outlives this).
+  FlexibleTissue(DeflectableTissue& tissue, const ShaftState& state,
+                 const std::vector<ShaftPoint<3>>& stations, const Vec<3>& axis, const FlexibleNeedle& needle,
+                 double element_length, std::size_t n_points, double probe_step);
+  ~FlexibleTissue() override;
+
+  // Before set_depth: the holder `free_length` before the entry along the planned line, and the
+  // needle's slope there (the lateral part of its direction over the axial part, frame; 0: along the
+  // planned line, as a template holds it).
+  void hold_base(double free_length, const Vec<3>& slope);
 
   // The needle's end is at arc length `depth` from the entry at this step: the beam runs from the base to
   // it. The stations the tip reaches now take the channel it cuts: the last step's tip extended along
@@ -67,8 +81,12 @@ class FlexibleTissue final : public TissueResponse {
   void assemble();
   void set_deflection(const Eigen::VectorXd& q);
 
-  ElasticTissue<3>& tissue_;
-  DeflectedCoupling& coupling_;
+  FlexibleTissue(std::unique_ptr<DeflectableTissue> owned, DeflectableTissue* tissue, const ShaftState& state,
+                 const std::vector<ShaftPoint<3>>& stations, const Vec<3>& axis, const FlexibleNeedle& needle,
+                 double element_length, std::size_t n_points, double probe_step);
+
+  std::unique_ptr<DeflectableTissue> owned_;  // the CLI's rows and coupling, adapted
+  DeflectableTissue& tissue_;
   const ShaftState& state_;
   std::vector<double> s_;  // arc length per shaft point
   Vec<3> axis_, e_[2];     // the planned line's direction and the two bending planes' normals
@@ -78,7 +96,7 @@ class FlexibleTissue final : public TissueResponse {
   Beam beam_;
   Vec<3> bevel_direction_ = Vec<3>::Zero();
   double bevel_ratio_ = 0.0;
-  Vec<3> base_offset_ = Vec<3>::Zero();
+  Vec<3> base_offset_ = Vec<3>::Zero(), base_slope_ = Vec<3>::Zero();
   std::vector<Vec<3>> channel_;        // per station: the lateral position of the channel the tip cut there
   std::vector<bool> cut_;              // its channel is set
   std::vector<std::size_t> stations_;  // the active shaft stations (not tip rows), and their slot in active
