@@ -1,7 +1,8 @@
 // PipelineRun, stage 1 (pipeline_run.hpp), the label image (--labels, docs/labels.md): read and checked
 // (integers), resampled nearest-neighbour into IMAGE's grid or, alone, turned into the modulus image
 // of the label table (the scenario's `labels:`, then --label-modulus); every scenario label must be in
-// the image, and alone every label needs a modulus.
+// the image, and alone every label needs a modulus. The voxel model takes the labels beside IMAGE for
+// regions and targets alone (its moduli are IMAGE's).
 #include <sstream>
 #include <vim/label_statistics.hpp>
 #include <vim/pipeline/image/label_image.hpp>
@@ -100,10 +101,10 @@ void PipelineRun<dim>::read_label_image() {
     if (!o.label_moduli.empty()) throw InputError("--label-modulus needs a label image (--labels LABELS)");
     return;
   }
-  if (o.mesher == MesherKind::voxel)
+  if (o.mesher == MesherKind::voxel && o.labels_alone())
     throw InputError("--labels " + o.labels +
-                     ": the voxel model (--mesher voxel) takes its moduli from IMAGE alone; mesh the labels "
-                     "with --mesher vim or --mesher grid");
+                     ": the voxel model (--mesher voxel) takes its moduli from IMAGE alone; give IMAGE "
+                     "beside the labels, or mesh the labels with --mesher vim or --mesher grid");
   if (o.labels_alone()) {
     labels_ = image_->image;
   } else {
@@ -137,6 +138,11 @@ void PipelineRun<dim>::read_label_image() {
                        o.labels + ", which holds the labels " + list_text(present));
     model_.label_modulus[label] = e;
   }
+  if (o.mesher == MesherKind::voxel && !model_.label_modulus.empty())
+    throw InputError("--labels " + o.labels + ": label " + std::to_string(model_.label_modulus.begin()->first) +
+                     " has a Young's modulus of its own, but the voxel model (--mesher voxel) takes its moduli "
+                     "from IMAGE alone (its labels serve regions and targets): give the label youngs_modulus: "
+                     "image, or use --mesher vim or --mesher grid");
   if (o.labels_alone()) {
     for (int l : present)
       if (!model_.label_modulus.count(l))
