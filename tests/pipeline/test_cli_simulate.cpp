@@ -323,9 +323,9 @@ TEST(CliSimulate, AmgSolverRunsWithoutAnMpiLauncher) {
     const fs::path scenario = dir.path / ("needle_" + mesher + "_" + solver + ".yaml");
     std::ofstream(scenario) << text;
     const fs::path out = dir.path / ("out_" + mesher + "_" + solver);
-    const auto r = run_pipeline(quote(image.string()) + " --labels " + quote(labels.string()) + " --mesher " +
-                                mesher + " --quiet --simulate " + quote(scenario.string()) + " --out " +
-                                quote(out.string()));
+    const auto r =
+        run_pipeline(quote(image.string()) + " --labels " + quote(labels.string()) + " --mesher " + mesher +
+                     " --quiet --simulate " + quote(scenario.string()) + " --out " + quote(out.string()));
     EXPECT_EQ(r.code, 0) << mesher << "/" << solver << ": " << r.err;
     std::ifstream f(out / "report.json");
     nlohmann::json report;

@@ -230,16 +230,15 @@ TEST(ProstateNeedle, ExampleTissuesAreThePhantomsAnatomyOnEveryModel) {
   sc.output_every = 0;
   const vim::pipeline::OrientedImage<3> img = vim::pipeline::phantoms::prostate(30);
   const auto labels =
-      std::make_shared<const vim::pipeline::Image<3>>(vim::pipeline::phantoms::prostate_labels(30).image);
+      std::make_shared<const vim::Image<3>>(vim::pipeline::phantoms::prostate_labels(30).image);
   vim::pipeline::WorldTransform<3> tf;
   tf.origin = img.origin();
   tf.direction = img.direction;
   vim::pipeline::SimulationOptions opt;
   opt.progress = false;
   std::vector<std::pair<std::string, vim::pipeline::NeedleRun<3>>> runs;
-  runs.emplace_back("voxel", vim::pipeline::NeedleSimulation<3>::voxel(img.image, tf, sc, opt, labels)
-                                 .run()
-                                 .needles.at(0));
+  runs.emplace_back(
+      "voxel", vim::pipeline::NeedleSimulation<3>::voxel(img.image, tf, sc, opt, labels).run().needles.at(0));
   const V3 lo = img.image.box_min(), hi = img.image.box_max();
   const vim::VoxelStatistics<3> stats(img.image);
   for (long budget : {343L, 1000L}) {

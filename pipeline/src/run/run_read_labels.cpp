@@ -139,10 +139,11 @@ void PipelineRun<dim>::read_label_image() {
     model_.label_modulus[label] = e;
   }
   if (o.mesher == MesherKind::voxel && !model_.label_modulus.empty())
-    throw InputError("--labels " + o.labels + ": label " + std::to_string(model_.label_modulus.begin()->first) +
-                     " has a Young's modulus of its own, but the voxel model (--mesher voxel) takes its moduli "
-                     "from IMAGE alone (its labels serve regions and targets): give the label youngs_modulus: "
-                     "image, or use --mesher vim or --mesher grid");
+    throw InputError(
+        "--labels " + o.labels + ": label " + std::to_string(model_.label_modulus.begin()->first) +
+        " has a Young's modulus of its own, but the voxel model (--mesher voxel) takes its moduli "
+        "from IMAGE alone (its labels serve regions and targets): give the label youngs_modulus: "
+        "image, or use --mesher vim or --mesher grid");
   if (o.labels_alone()) {
     for (int l : present)
       if (!model_.label_modulus.count(l))
