@@ -145,16 +145,14 @@ double Insertion<dim>::press_tip(double cut, double travel) {
   const std::size_t np = shaft_.size();
   if (cut <= tips_.front().s) return state_.front;  // not in contact yet
   std::size_t& row = state_.cutting;
-  // The prediction holds while the cutting force stays that of the last step: a tip entering tissue
-  // with a higher cutting force presses it deeper first, and the stations would carry uncut tissue.
-  // Nor does it reach past the next change of the cutting force along the path (solve() stops the cut
-  // there).
+  // The prediction holds while the cutting force stays that of the tissue at the front: it does not
+  // reach past the next change of the cutting force along the path, where solve() stops the cut (a tip
+  // entering tissue with a higher cutting force presses it deeper first, and the stations would carry
+  // uncut tissue). A tip that cut in the last step has the indentation of the tissue at its front.
   const PathProfile& fc = options_.friction.cutting_profile;
-  const double limit = fc.empty() ? 0.0 : fc.at(state_.front);
   const double ahead =
       fc.empty() ? state_.front + travel : std::min(state_.front + travel, fc.next_change(state_.front));
-  const double reach = state_.tip_cutting && limit == pressed_limit_ ? ahead : state_.front;
-  pressed_limit_ = limit;
+  const double reach = state_.tip_cutting ? ahead : state_.front;
   if (row == n_points()) state_.front = std::max(state_.front, tips_.front().s);
   std::size_t k = 0;
   for (std::size_t i = 1; i < tips_.size(); ++i)
