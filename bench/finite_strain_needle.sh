@@ -14,14 +14,14 @@ NODES="${NODES:-3000}"
 export OPENBLAS_NUM_THREADS=1
 WORK="$(mktemp -d)"
 trap 'rm -rf "$WORK"' EXIT
-"$BUILD/examples/vim-make-phantom" prostate "$WORK/prostate.mha" > /dev/null
+"$BUILD/examples/vim-make-phantom" prostate "$WORK/prostate.mha" --labels "$WORK/labels.mha" > /dev/null
 sed 's/^  poisson_ratio: 0.45/  poisson_ratio: 0.45\n  model: neo-hookean/' "$ROOT/examples/prostate_needle.yaml" > "$WORK/neo-hookean.yaml"
 cp "$ROOT/examples/prostate_needle.yaml" "$WORK/linear.yaml"
 for model in linear neo-hookean; do
-  "$BUILD/pipeline/vim-pipeline" "$WORK/prostate.mha" --nodes "$NODES" --simulate "$WORK/$model.yaml" \
+  "$BUILD/pipeline/vim-pipeline" "$WORK/prostate.mha" --labels "$WORK/labels.mha" --nodes "$NODES" --simulate "$WORK/$model.yaml" \
     --export none -q --out "$WORK/$model"
 done
-"$BUILD/pipeline/vim-pipeline" "$WORK/prostate.mha" --nodes "$NODES" --simulate "$WORK/neo-hookean.yaml" \
+"$BUILD/pipeline/vim-pipeline" "$WORK/prostate.mha" --labels "$WORK/labels.mha" --nodes "$NODES" --simulate "$WORK/neo-hookean.yaml" \
   --export none -q --compare-linear --out "$WORK/compare"
 /usr/bin/python3 - "$WORK" <<'PY'
 import json, sys

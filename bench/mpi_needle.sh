@@ -15,7 +15,7 @@ RUNS="${RUNS:-1:auto 2:direct 2:amg}"
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 WORK="$(mktemp -d)"
 trap 'rm -rf "$WORK"' EXIT
-"$BUILD/examples/vim-make-phantom" prostate "$WORK/prostate.mha" > /dev/null
+"$BUILD/examples/vim-make-phantom" prostate "$WORK/prostate.mha" --labels "$WORK/labels.mha" > /dev/null
 /usr/bin/python3 - "$ROOT/examples/prostate_needle.yaml" "$WORK/needle.yaml" <<'PY'
 import re, sys
 s = open(sys.argv[1]).read()
@@ -32,7 +32,7 @@ for run in $RUNS; do
   grep -q "solver: {type: $solver," "$WORK/needle_$solver.yaml"
   start=$(date +%s.%N)
   mpirun -np "$r" --oversubscribe /usr/bin/time -f "  rank peak %M kB, CPU %U s user + %S s system" \
-    "$BUILD/pipeline/vim-pipeline" "$WORK/prostate.mha" --simulate "$WORK/needle_$solver.yaml" --nodes "$NODES" \
+    "$BUILD/pipeline/vim-pipeline" "$WORK/prostate.mha" --labels "$WORK/labels.mha" --simulate "$WORK/needle_$solver.yaml" --nodes "$NODES" \
     --export none --out "$WORK/out$run" -q 2> "$WORK/time$run"
   end=$(date +%s.%N)
   wall=$(echo "$end - $start" | bc)

@@ -14,12 +14,12 @@ NODES="${NODES:-1500 4500 13500}"
 LIMIT="${LIMIT:-0.02}"
 WORK="$(mktemp -d)"
 trap 'rm -rf "$WORK"' EXIT
-"$BUILD/examples/vim-make-phantom" prostate "$WORK/prostate.mha" > /dev/null
+"$BUILD/examples/vim-make-phantom" prostate "$WORK/prostate.mha" --labels "$WORK/labels.mha" > /dev/null
 sed 's/^solver: .*/solver: {type: direct, tolerance: 1.0e-10}/' "$ROOT/examples/prostate_needle.yaml" \
   > "$WORK/direct.yaml"
 grep -q '^solver: {type: direct' "$WORK/direct.yaml" || { echo "needle_convergence.sh: no solver line" >&2; exit 2; }
 for n in $NODES; do
-  "$BUILD/pipeline/vim-pipeline" "$WORK/prostate.mha" --simulate "$WORK/direct.yaml" --nodes "$n" \
+  "$BUILD/pipeline/vim-pipeline" "$WORK/prostate.mha" --labels "$WORK/labels.mha" --simulate "$WORK/direct.yaml" --nodes "$n" \
     --out "$WORK/n$n" --export none -q
 done
 /usr/bin/python3 - "$LIMIT" $(for n in $NODES; do echo "$WORK/n$n"; done) <<'PY'

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Curve convergence of the prostate demo (docs/needle-model.md, the tip bearing: curve convergence):
 # examples/prostate_needle.yaml (P2; the direct solver, so that the finest mesh stays on the Cholesky
-# path) on VIM meshes of NODES (default "1500 4500 13500": the node count triples), and on the middle
+# path; the phantom's anatomy labels for its needle tissues, as scripts/demo.sh) on VIM meshes of NODES
+# (default "1500 4500 13500": the node count triples), and on the middle
 # mesh with twice the steps (72). For the axial force, its friction and tip parts, and every target's
 # displacement vector, prints max over the steps of |X_a − X_b| / max over the steps of |X_b| (b the
 # finer run; the 72-step run read at the 36 steps' depths) for each pair of successive meshes and for
@@ -15,7 +16,7 @@ NODES="${NODES:-1500 4500 13500}"
 LIMIT="${LIMIT:-0.03}"
 WORK="${WORK:-$(mktemp -d)}"
 mkdir -p "$WORK"
-"$BUILD/examples/vim-make-phantom" prostate "$WORK/prostate.mha" > /dev/null
+"$BUILD/examples/vim-make-phantom" prostate "$WORK/prostate.mha" --labels "$WORK/labels.mha" > /dev/null
 sed -e 's/^solver: .*/solver: {type: direct, tolerance: 1.0e-10}/' -e 's/^output: .*/output: {every: 0}/' \
   "$ROOT/examples/prostate_needle.yaml" > "$WORK/direct.yaml"
 grep -q '^solver: {type: direct' "$WORK/direct.yaml" || { echo "needle_curve_convergence.sh: no solver line" >&2; exit 2; }
@@ -23,8 +24,8 @@ sed 's/^  steps: 36.*/  steps: 72/' "$WORK/direct.yaml" > "$WORK/direct72.yaml"
 grep -q '^  steps: 72' "$WORK/direct72.yaml" || { echo "needle_curve_convergence.sh: no steps line" >&2; exit 2; }
 run() {  # run NAME NODES SCENARIO
   [ -s "$WORK/$1/needle.csv" ] && return 0
-  "$BUILD/pipeline/vim-pipeline" "$WORK/prostate.mha" --simulate "$3" --nodes "$2" --out "$WORK/$1" \
-    --export none -q
+  "$BUILD/pipeline/vim-pipeline" "$WORK/prostate.mha" --labels "$WORK/labels.mha" --simulate "$3" \
+    --nodes "$2" --out "$WORK/$1" --export none -q
 }
 set -- $NODES
 for n in "$@"; do run "n$n" "$n" "$WORK/direct.yaml"; done

@@ -46,11 +46,11 @@ prostate() {
   local tmp
   tmp=$(mktemp -d)
   # 2 mm voxels (30x25x25), as the needle rows above, so the voxel reference stays small.
-  "$BUILD/examples/vim-make-phantom" prostate "$tmp/prostate.mha" --size 30 >/dev/null || return 1
+  "$BUILD/examples/vim-make-phantom" prostate "$tmp/prostate.mha" --size 30 --labels "$tmp/labels.mha" >/dev/null || return 1
   echo
   echo '## Prostate needle insertion (CLI, 2 mm image, 1000 nodes; final target displacement norms in mm from report.json)'
   for mesher in vim grid voxel; do
-    "$BUILD/pipeline/vim-pipeline" "$tmp/prostate.mha" --mesher "$mesher" --nodes 1000 --quiet \
+    "$BUILD/pipeline/vim-pipeline" "$tmp/prostate.mha" --labels "$tmp/labels.mha" --mesher "$mesher" --nodes 1000 --quiet \
       --simulate "$SCENARIO" --out "$tmp/$mesher" || return 1
     echo "- $mesher: $(tr -d '\n ' < "$tmp/$mesher/report.json" | grep -o '"final_displacement_[a-z_]*":[-0-9.e+]*' | tr '\n' ' ')"
   done

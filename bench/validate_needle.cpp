@@ -35,6 +35,7 @@
 #include <exception>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -158,8 +159,10 @@ void describe(const char* name, const MeshModel<3>& m) {
       regions.c_str());
 }
 
+// `labels`: the phantom's anatomy labels on the image's grid, for the scenario's label regions (its needle
+// tissues).
 Meshes make_meshes(const OrientedImage<3>& img, long budget, const VimOptions& vo, const Image<3>* density,
-                   const Scenario& sc, const WorldTransform<3>& tf) {
+                   const Scenario& sc, const WorldTransform<3>& tf, std::shared_ptr<const Image<3>> labels) {
   Meshes m;
   const auto lo = img.image.box_min(), hi = img.image.box_max();
   const auto axis = nodes_per_axis_for_budget<3>(lo, hi, budget);
@@ -172,6 +175,7 @@ Meshes make_meshes(const OrientedImage<3>& img, long budget, const VimOptions& v
   for (MeshModel<3>* mm : {&m.grid, &m.vim}) {
     mm->transform.origin = img.origin();
     mm->transform.direction = img.direction;
+    mm->label_image = labels;
   }
   m.grid.mesh = initial;
   for (std::size_t c = 0; c < initial.n_cells(); ++c)
@@ -256,7 +260,8 @@ void reference_on_other_image(int n, const Scenario& sc, const SimulationOptions
   Samples at = s;
   for (V3& p : at.points) p = other.to_frame(tf.to_world(p));
   const auto t = Clock::now();
-  auto sim = NeedleSimulation<3>::voxel(img.image, other, sc, opt);
+  auto sim = NeedleSimulation<3>::voxel(img.image, other, sc, opt,
+                                        std::make_shared<const Image<3>>(phantoms::prostate_labels(n).image));
   const NeedleOut o = finish(sim, at);
   const Err e = compare(o.u, ref.u, s);
   std::printf(
@@ -440,6 +445,8 @@ int main(int argc, char** argv) try {
   const double lambda = vo.lambda;
 
   const OrientedImage<3> img = phantoms::prostate(n);
+  // The anatomy labels behind the phantom: the scenario's needle tissues are label regions.
+  const auto labels = std::make_shared<const Image<3>>(phantoms::prostate_labels(n).image);
   const V3 lo = img.image.box_min(), hi = img.image.box_max();
   WorldTransform<3> tf;
   tf.origin = img.origin();
@@ -479,7 +486,7 @@ int main(int argc, char** argv) try {
     else
       std::printf("# VIM meshes for the %s, without a needle refinement\n", purpose);
     for (long b : budgets) {
-      out.push_back(make_meshes(img, b, vo, d, sc, tf));
+      out.push_back(make_meshes(img, b, vo, d, sc, tf, labels));
       std::printf("mesh budget %ld: %zu nodes, grid %zu cells, VIM %zu cells (%.1f s)\n", b, out.back().nodes,
                   out.back().cells_grid, out.back().cells_vim, out.back().vim_seconds);
       describe("grid", out.back().grid);
@@ -561,7 +568,7 @@ int main(int argc, char** argv) try {
     SimulationOptions opt;
     opt.progress = false;
     auto t = Clock::now();
-    auto ref_sim = NeedleSimulation<3>::voxel(img.image, tf, sc, opt);
+    auto ref_sim = NeedleSimulation<3>::voxel(img.image, tf, sc, opt, labels);
     const NeedleOut ref = finish(ref_sim, s);
     std::printf(
         "\n## Prostate needle insertion (%s, %d steps, %.1f mm): reference %u DoFs, %d shaft points, "

@@ -16,7 +16,7 @@ WORK="$(mktemp -d)"
 trap 'rm -rf "$WORK"' EXIT
 cd "$WORK"
 "$NEW/examples/vim-make-phantom" table1 t.mha --size 40 >/dev/null
-"$NEW/examples/vim-make-phantom" prostate p.mha --size 40 >/dev/null
+"$NEW/examples/vim-make-phantom" prostate p.mha --size 40 --labels pl.mha >/dev/null
 "$NEW/examples/vim-make-phantom" two-inclusions c.mha --size 60 >/dev/null
 sed "s/^solver: .*$/solver: {type: direct}/" "$ROOT/examples/prostate_needle.yaml" > needle.yaml
 cases=(
@@ -24,9 +24,9 @@ cases=(
   "c.mha --nodes 300"
   "t.mha --nodes 300 --mesher grid"
   "c.mha --mesher voxel"
-  "p.mha --nodes 400 --simulate needle.yaml --degree 1"
-  "p.mha --nodes 400 --simulate needle.yaml --degree 2"
-  "p.mha --nodes 400 --simulate needle.yaml --mesher grid --degree 1"
+  "p.mha --labels pl.mha --nodes 400 --simulate needle.yaml --degree 1"
+  "p.mha --labels pl.mha --nodes 400 --simulate needle.yaml --degree 2"
+  "p.mha --labels pl.mha --nodes 400 --simulate needle.yaml --mesher grid --degree 1"
 )
 fail=0
 for i in "${!cases[@]}"; do

@@ -12,13 +12,16 @@ BIN="$BUILD_DIR/pipeline/vim-pipeline"
 PHANTOM="$BUILD_DIR/examples/vim-make-phantom"
 GEN="$ROOT/examples/generated"
 mkdir -p "$GEN"
-for kind in table1 prostate diamond two-circles; do
+for kind in table1 diamond two-circles; do
   "$PHANTOM" "$kind" "$GEN/$kind.mha"
 done
+# The prostate phantom with its anatomy labels: the needle's tissues (examples/prostate_needle.yaml).
+"$PHANTOM" prostate "$GEN/prostate.mha" --labels "$GEN/prostate_labels.mha"
 for kind in table1 prostate; do
   "$BIN" "$GEN/$kind.mha" --info
 done
-"$BIN" "$GEN/prostate.mha" --simulate "$ROOT/examples/prostate_needle.yaml" --out "$OUT" --overwrite
+"$BIN" "$GEN/prostate.mha" --labels "$GEN/prostate_labels.mha" --simulate "$ROOT/examples/prostate_needle.yaml" \
+  --out "$OUT" --overwrite
 echo
 echo "demo: results in $OUT"
 echo "  mesh:        $OUT/mesh.vtu (open in ParaView / 3D Slicer), exports mesh.vtk/.feb/.msh/.inp"

@@ -34,6 +34,13 @@ double PathProfile::integral(double a, double b) const {
          values_[k] * (b - breaks_[k]);
 }
 
+double PathProfile::next_change(double s) const {
+  const std::size_t i = piece(s);
+  for (std::size_t k = i + 1; k < values_.size(); ++k)
+    if (values_[k] != values_[i]) return breaks_[k];
+  return std::numeric_limits<double>::infinity();
+}
+
 void friction_limits(const ShaftState& state, const FrictionOptions& options, bool stick,
                      std::vector<double>& limit) {
   const bool along_path = !options.shear_profile.empty();

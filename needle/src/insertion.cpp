@@ -1,6 +1,7 @@
 // The insertion stepping of one needle (vim/needle/insertion.hpp).
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vim/needle/insertion.hpp>
 
 namespace vim::needle {
@@ -144,12 +145,14 @@ double Insertion<dim>::press_tip(double cut, double travel) {
   const std::size_t np = shaft_.size();
   if (cut <= tips_.front().s) return state_.front;  // not in contact yet
   std::size_t& row = state_.cutting;
-  // The prediction holds while the cutting force stays that of the last step: a tip entering tissue
-  // with a higher cutting force presses it deeper first, and the stations would carry uncut tissue.
+  // The prediction holds while the cutting force stays that of the tissue at the front: it does not
+  // reach past the next change of the cutting force along the path, where solve() stops the cut (a tip
+  // entering tissue with a higher cutting force presses it deeper first, and the stations would carry
+  // uncut tissue). A tip that cut in the last step has the indentation of the tissue at its front.
   const PathProfile& fc = options_.friction.cutting_profile;
-  const double limit = fc.empty() ? 0.0 : fc.at(state_.front);
-  const double reach = state_.tip_cutting && limit == pressed_limit_ ? state_.front + travel : state_.front;
-  pressed_limit_ = limit;
+  const double ahead =
+      fc.empty() ? state_.front + travel : std::min(state_.front + travel, fc.next_change(state_.front));
+  const double reach = state_.tip_cutting ? ahead : state_.front;
   if (row == n_points()) state_.front = std::max(state_.front, tips_.front().s);
   std::size_t k = 0;
   for (std::size_t i = 1; i < tips_.size(); ++i)
@@ -206,11 +209,28 @@ void Insertion<dim>::withdraw(double depth, double travel) {
 // tissue up to cut − w, w its value (the indentation).
 template <int dim>
 FrictionStep Insertion<dim>::solve(TissueResponse& tissue) {
-  const FrictionStep step = law_->update(state_, tissue);
+  const double front = state_.front;  // the tissue the tip met at the step's start
+  FrictionStep step = law_->update(state_, tissue);
   const std::size_t c = state_.cutting;
   state_.tip_cutting =
       c < n_points() && state_.axial[c] < state_.stick[c] - 1e-12 * std::max(1.0, std::abs(state_.stick[c]));
   if (state_.tip_cutting && c >= shaft_.size()) state_.front = std::max(state_.front, cut_ - state_.axial[c]);
+  // The tip cut past the next change of the cutting force along the path: it cut at this tissue's force
+  // only up to there, and presses the next tissue from there at that tissue's force (solved again).
+  const PathProfile& fc = options_.friction.cutting_profile;
+  const double boundary = fc.empty() ? std::numeric_limits<double>::infinity() : fc.next_change(front);
+  if (dim == 3 && state_.tip_cutting && c >= shaft_.size() &&
+      state_.front > boundary + 1e-9 * options_.path.depth) {
+    state_.front = boundary;
+    state_.stick[c] = cut_ - boundary;
+    join_stations(cut_, boundary);
+    reach_ = std::max(reach_, boundary);
+    list_active();
+    const FrictionStep again = law_->update(state_, tissue);
+    step = {again.sweeps + step.sweeps, again.settled};
+    state_.tip_cutting = state_.axial[c] < state_.stick[c] - 1e-12 * std::max(1.0, std::abs(state_.stick[c]));
+    if (state_.tip_cutting) state_.front = std::max(state_.front, cut_ - state_.axial[c]);
+  }
   // The tip cut past the front the stations took (it punctured in this step, or cut more than the last
   // step's indentation predicted): the tissue cut in this step joins now and the step is solved again,
   // so that it carries friction in the step that cut it.

@@ -121,6 +121,40 @@ TEST(Insertion, TipPressesUntilTheCuttingForceThenCutsAtIt) {
   }
 }
 
+// A cutting force that rises along the path (PathProfile: F_c = 2 before s = 3.2, 6 after), tip rows on
+// springs k = 4, steps of 1. Up to cut = 3 the tip cuts at 2 with the indentation 0.5 (front cut − 0.5).
+// At cut = 4 it would cut to 3.5 at F_c = 2, but the tissue from 3.2 on needs 6: it cuts to 3.2 and
+// presses the next tissue by 4 − 3.2 = 0.8 (force 3.2 < 6, no cut). From cut = 5 on it cuts at 6
+// (indentation 1.5, front cut − 1.5). The stations carry the tissue cut, [b, min(e, front)], at every
+// step: none carries the harder tissue the tip has only pressed.
+TEST(Insertion, TipCutsAtEachTissuesForceUpToWhereTheCuttingForceChanges) {
+  NeedleOptions<3> o = options_for("stick", 10, 0.0);
+  o.friction.cutting_force = 2.0;
+  o.friction.cutting_profile = PathProfile({0.0, 3.2, 10.0}, {2.0, 6.0});
+  std::vector<ShaftPoint<3>> tips;
+  for (int k = 0; k <= 20; ++k) tips.push_back({Vec<3>(0.0, 0.0, 0.5 * k), 0.5 * k, 0.0});
+  Insertion<3> ins(o, five_stations(), tips);
+  Springs tissue(std::vector<double>(26, 4.0), ins.state());
+  double prev = 0.0;
+  for (int k = 1; k <= 10; ++k) {
+    const double d = ins.depth(k);
+    ins.pick_up(d, d - prev, [](std::size_t) { return 0.0; });
+    ins.solve(tissue);
+    prev = d;
+    const ShaftState& s = ins.state();
+    ASSERT_GE(s.cutting, 5u) << "step " << k;
+    const double front = d <= 3.0 + 1e-9 ? d - 0.5 : d <= 4.0 + 1e-9 ? 3.2 : d - 1.5;
+    const double force = d <= 3.0 + 1e-9 ? 2.0 : d <= 4.0 + 1e-9 ? 4.0 * (d - 3.2) : 6.0;
+    EXPECT_NEAR(s.front, front, 1e-9) << "step " << k;
+    EXPECT_NEAR(4.0 * s.axial[s.cutting], force, 1e-9) << "step " << k;
+    EXPECT_EQ(s.tip_cutting, std::abs(d - 4.0) > 1e-9) << "step " << k;
+    for (std::size_t j = 0; j < 5; ++j) {
+      const double b = 2.0 * static_cast<double>(j);
+      EXPECT_NEAR(s.carried[j], std::clamp(front - b, 0.0, 2.0), 1e-9) << "step " << k << " station " << j;
+    }
+  }
+}
+
 // Withdrawn stuck (stick law, no cutting distance): the tissue on the shaft moves back with the needle
 // and leaves it where the tip passes back over it, so at every depth d on the way out a station
 // carries [b, min(e, d)] and holds the mean over it of d − s, the same closed form as on the way in.

@@ -304,9 +304,9 @@ TEST(CliSimulate, ReadmeScenarioReferenceParses) {
 // and report the AMG method, with the same target displacement as the direct solver.
 TEST(CliSimulate, AmgSolverRunsWithoutAnMpiLauncher) {
   vim::test::TempDir dir("cliamg");
-  const fs::path image = dir.path / "prostate.mha";
-  const auto made =
-      vim::test::run_command(VIM_PHANTOM_EXE, "prostate " + quote(image.string()) + " --size 12");
+  const fs::path image = dir.path / "prostate.mha", labels = dir.path / "labels.mha";
+  const auto made = vim::test::run_command(
+      VIM_PHANTOM_EXE, "prostate " + quote(image.string()) + " --size 12 --labels " + quote(labels.string()));
   ASSERT_EQ(made.code, 0) << made.err;
   std::string yaml = vim::test::slurp(fs::path(VIM_SOURCE_DIR) / "examples" / "prostate_needle.yaml");
   auto replace = [&](const std::string& from, const std::string& to) {
@@ -323,8 +323,9 @@ TEST(CliSimulate, AmgSolverRunsWithoutAnMpiLauncher) {
     const fs::path scenario = dir.path / ("needle_" + mesher + "_" + solver + ".yaml");
     std::ofstream(scenario) << text;
     const fs::path out = dir.path / ("out_" + mesher + "_" + solver);
-    const auto r = run_pipeline(quote(image.string()) + " --mesher " + mesher + " --quiet --simulate " +
-                                quote(scenario.string()) + " --out " + quote(out.string()));
+    const auto r =
+        run_pipeline(quote(image.string()) + " --labels " + quote(labels.string()) + " --mesher " + mesher +
+                     " --quiet --simulate " + quote(scenario.string()) + " --out " + quote(out.string()));
     EXPECT_EQ(r.code, 0) << mesher << "/" << solver << ": " << r.err;
     std::ifstream f(out / "report.json");
     nlohmann::json report;

@@ -325,6 +325,12 @@ TEST(LabelsCli, BadLabelInputsAreOneLineErrors) {
       {test::quote(dir / "modulus.mha") + " --labels " + test::quote(dir / "far.mha"),
        "the label image does not overlap the modulus image"},
       {"--labels " + test::quote(dir / "labels.mha") + " --label-modulus 1=ten", "--label-modulus 1=ten"},
+      // The voxel model takes labels beside IMAGE for regions and targets, its moduli from IMAGE alone.
+      {"--labels " + test::quote(dir / "labels.mha") + all + " --mesher voxel",
+       "give IMAGE beside the labels"},
+      {test::quote(dir / "modulus.mha") + " --labels " + test::quote(dir / "labels.mha") +
+           " --label-modulus 2=20 --mesher voxel",
+       "label 2 has a Young's modulus of its own, but the voxel model"},
   };
   int k = 0;
   for (const Case& c : cases) {

@@ -240,7 +240,8 @@ void add_label_options(CLI::App& app, RunOptions& o) {
          "--labels", o.labels,
          "Label image (integers: a segmentation) meshed by the label energy, every label's boundary "
          "followed (docs/labels.md); beside IMAGE (resampled nearest-neighbour into its grid) or alone "
-         "(IMAGE omitted; the label table gives the moduli) (default: none)")
+         "(IMAGE omitted; the label table gives the moduli); with --mesher voxel beside IMAGE, for label "
+         "regions and targets only (default: none)")
       ->type_name("LABELS");
   app.add_option("--label-modulus", o.label_moduli,
                  "Young's modulus of one label, LABEL=E (repeatable; over the scenario's labels: table); "

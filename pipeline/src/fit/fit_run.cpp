@@ -54,9 +54,10 @@ void fit_image(const RunOptions& o, ImageFile file) {
     so.step_fields = false;
     so.scenario_checked = true;
     const bool voxel = o.mesher == MesherKind::voxel;
-    NeedleSimulation<dim> sim =
-        voxel ? NeedleSimulation<dim>::voxel(mesh.image().image, mesh.model().transform, s, so)
-              : NeedleSimulation<dim>(mesh.model(), s, so);
+    NeedleSimulation<dim> sim = voxel
+                                    ? NeedleSimulation<dim>::voxel(mesh.image().image, mesh.model().transform,
+                                                                   s, so, mesh.model().label_image)
+                                    : NeedleSimulation<dim>(mesh.model(), s, so);
     const SimulationResult<dim> result = sim.run();
     return ForceCurve{result.needles.front().depth, result.needles.front().axial_force};
   };

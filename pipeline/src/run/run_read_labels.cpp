@@ -1,7 +1,9 @@
 // PipelineRun, stage 1 (pipeline_run.hpp), the label image (--labels, docs/labels.md): read and checked
 // (integers), resampled nearest-neighbour into IMAGE's grid or, alone, turned into the modulus image
 // of the label table (the scenario's `labels:`, then --label-modulus); every scenario label must be in
-// the image, and alone every label needs a modulus.
+// the image, and alone every label needs a modulus. The voxel model takes the labels beside IMAGE for
+// regions and targets alone (its moduli are IMAGE's).
+#include <map>
 #include <sstream>
 #include <vim/label_statistics.hpp>
 #include <vim/pipeline/image/label_image.hpp>
@@ -40,6 +42,21 @@ std::pair<int, double> label_modulus_option(const std::string& text) {
                      ": expected LABEL=E with an integer label and a Young's "
                      "modulus > 0, e.g. --label-modulus 2=30");
   return {label, e};
+}
+
+// The voxel model takes labels beside IMAGE, for label regions and targets only: its moduli are IMAGE's.
+void check_voxel_labels(const RunOptions& o, const std::map<int, double>& label_modulus) {
+  if (o.mesher != MesherKind::voxel) return;
+  if (o.labels_alone())
+    throw InputError("--labels " + o.labels +
+                     ": the voxel model (--mesher voxel) takes its moduli from IMAGE alone; give IMAGE "
+                     "beside the labels, or mesh the labels with --mesher vim or --mesher grid");
+  if (!label_modulus.empty())
+    throw InputError(
+        "--labels " + o.labels + ": label " + std::to_string(label_modulus.begin()->first) +
+        " has a Young's modulus of its own, but the voxel model (--mesher voxel) takes its moduli "
+        "from IMAGE alone (its labels serve regions and targets): give the label youngs_modulus: "
+        "image, or use --mesher vim or --mesher grid");
 }
 
 // Every label region of the scenario (boundary conditions, needle tissues, the dose region), with its
@@ -100,10 +117,6 @@ void PipelineRun<dim>::read_label_image() {
     if (!o.label_moduli.empty()) throw InputError("--label-modulus needs a label image (--labels LABELS)");
     return;
   }
-  if (o.mesher == MesherKind::voxel)
-    throw InputError("--labels " + o.labels +
-                     ": the voxel model (--mesher voxel) takes its moduli from IMAGE alone; mesh the labels "
-                     "with --mesher vim or --mesher grid");
   if (o.labels_alone()) {
     labels_ = image_->image;
   } else {
@@ -137,6 +150,7 @@ void PipelineRun<dim>::read_label_image() {
                        o.labels + ", which holds the labels " + list_text(present));
     model_.label_modulus[label] = e;
   }
+  check_voxel_labels(o, model_.label_modulus);
   if (o.labels_alone()) {
     for (int l : present)
       if (!model_.label_modulus.count(l))

@@ -32,8 +32,8 @@ void PipelineRun<dim>::build_model() {
     so.max_memory = options_.max_memory > 0.0 ? options_.max_memory
                                               : available_memory_bytes().value_or(0.0) / ranks_.size;
   if (options_.mesher == MesherKind::voxel) {
-    simulation_ = std::make_unique<NeedleSimulation<dim>>(
-        NeedleSimulation<dim>::voxel(image_->image, model_.transform, *scenario_, std::move(so)));
+    simulation_ = std::make_unique<NeedleSimulation<dim>>(NeedleSimulation<dim>::voxel(
+        image_->image, model_.transform, *scenario_, std::move(so), model_.label_image));
   } else {
     // Validates the scenario against the mesh (regions that select no node, targets outside it).
     simulation_ = std::make_unique<NeedleSimulation<dim>>(model_, *scenario_, std::move(so));

@@ -62,6 +62,9 @@ void read_cylinder(const Reader& r, const YAML::Node& v, const std::string& p, i
 void read_label(const Reader& r, const YAML::Node& v, const std::string& p, int, RegionSpec& reg) {
   reg.label = r.string(v, p);
   if (reg.label.empty()) r.fail(v, p + " must name a label of the label image (its name or number)");
+  // A number names its label already (a name is resolved by the run against the `labels:` table).
+  if (reg.label.find_first_not_of("0123456789") == std::string::npos && reg.label.size() < 10)
+    reg.label_value = std::stoi(reg.label);
 }
 
 // The region types, in the order messages list them (region_types() gives their names).

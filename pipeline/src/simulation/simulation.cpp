@@ -294,7 +294,8 @@ NeedleSimulation<dim>::NeedleSimulation(const MeshModel<dim>& mm, const Scenario
 template <int dim>
 NeedleSimulation<dim> NeedleSimulation<dim>::voxel(const Image<dim>& image,
                                                    const WorldTransform<dim>& transform,
-                                                   const Scenario& scenario, SimulationOptions options) {
+                                                   const Scenario& scenario, SimulationOptions options,
+                                                   std::shared_ptr<const Image<dim>> labels) {
   NeedleSimulation sim;
   Impl& m = *sim.impl_;
   const auto t0 = Clock::now();
@@ -302,6 +303,9 @@ NeedleSimulation<dim> NeedleSimulation<dim>::voxel(const Image<dim>& image,
   m.opt = std::move(options);
   m.tf = transform;
   m.voxel = true;
+  if (labels && labels->size != image.size)
+    throw std::invalid_argument("voxel model: the label image is not on the modulus image's grid");
+  m.label_image = std::move(labels);
   if (scenario.dim != dim)
     throw ScenarioError(scenario.where(0) + "scenario was parsed for a " + std::to_string(scenario.dim) +
                         "D image");

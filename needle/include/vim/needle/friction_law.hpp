@@ -29,6 +29,8 @@ class PathProfile {
   double at(double s) const { return values_[piece(s)]; }
   // ∫_a^b v ds (a ≤ b).
   double integral(double a, double b) const;
+  // The first arc length after s at which the value differs from at(s) (infinity if it never does).
+  double next_change(double s) const;
   const std::vector<double>& breaks() const { return breaks_; }
   const std::vector<double>& values() const { return values_; }
 

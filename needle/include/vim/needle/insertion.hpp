@@ -86,10 +86,9 @@ class Insertion {
   std::unique_ptr<FrictionLaw> law_;
   ShaftState state_;
   std::vector<bool> picked_;
-  bool cuts_ = false;           // the tip pushes the tissue until it cuts it
-  double cut_ = 0.0;            // the tip's travel at this step
-  double reach_ = 0.0;          // 3D: the front the stations took at this step
-  double pressed_limit_ = 0.0;  // 3D: the cutting force at the front at the last pick-up
+  bool cuts_ = false;   // the tip pushes the tissue until it cuts it
+  double cut_ = 0.0;    // the tip's travel at this step
+  double reach_ = 0.0;  // 3D: the front the stations took at this step
 };
 
 }  // namespace vim::needle

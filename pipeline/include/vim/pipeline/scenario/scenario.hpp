@@ -38,8 +38,8 @@ struct RegionSpec {
   std::string face;                                 // box_face name as written
   std::vector<double> center, axis_vector, lo, hi;  // dim values each (world)
   double radius = 0.0;
-  // label: the label's name or number as written, and the label it names (set by the run from the
-  // label image and the `labels:` table, docs/labels.md).
+  // label: the label's name or number as written, and the label it names (a number: set by the parser;
+  // a name: set by the run from the label image and the `labels:` table, docs/labels.md).
   std::string label;
   int label_value = 0;
   std::string describe() const;

@@ -229,8 +229,11 @@ class NeedleSimulation {
   // mesh (regions that select no node, targets outside the mesh) and throws ScenarioError; writes nothing.
   NeedleSimulation(const MeshModel<dim>& model, const Scenario& scenario, SimulationOptions options = {});
   // Fine voxel reference model: one Q1 cell per voxel of `image`, E = voxel value × scale (clamped).
+  // `labels`: the label image on `image`'s grid, for the scenario's label regions (docs/labels.md); the
+  // moduli stay the image's.
   static NeedleSimulation voxel(const Image<dim>& image, const WorldTransform<dim>& transform,
-                                const Scenario& scenario, SimulationOptions options = {});
+                                const Scenario& scenario, SimulationOptions options = {},
+                                std::shared_ptr<const Image<dim>> labels = nullptr);
   ~NeedleSimulation();
   NeedleSimulation(NeedleSimulation&&) noexcept;
 
