@@ -84,7 +84,7 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
   earlier_displacement_.assign(earlier_points_.size(), Vec::Zero());
   for (std::size_t i = 0; i < ctx_.sc.needles.size(); ++i)
     if (ctx_.sc.needles[i].name == spec.name) number_ = static_cast<int>(i) + 1;
-  total_steps_ = needle_.steps + spec.withdraw_steps;
+  total_steps_ = needle_.steps + (spec.withdrawn_later() ? 0 : spec.withdraw_steps);
   if constexpr (dim == 3)
     band_check_ = check_bands(needle_.path.entry, axis_, coupling_radius_, run_.point_s, run_.point_length,
                               targets_, [this](const Vec &x) {
@@ -101,12 +101,15 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
   // External loads (a prescribed displacement, a pressure, a traction, a moved probe) and the needles left in
   // act from the start: before the tip reaches the first shaft point (step 0 included) the tissue deforms
   // under them alone, not rest.
-  loaded_ = (elastic_ && elastic_->holds()) || (ctx_.probe && ctx_.probe->moved()) ||
-            std::any_of(ctx_.sc.boundary_conditions.begin(), ctx_.sc.boundary_conditions.end(),
-                        [](const BoundaryConditionSpec &bc) {
-                          return bc.type != BoundaryConditionSpec::Type::fixed;
-                        });
+  loaded_ = loaded();
   write_ = writes_steps(ctx_.opt) && ctx_.sc.output_every > 0;
+}
+
+template <int dim>
+bool NeedleInsertion<dim>::loaded() const {
+  return (elastic_ && elastic_->holds()) || (ctx_.probe && ctx_.probe->moved()) ||
+         std::any_of(ctx_.sc.boundary_conditions.begin(), ctx_.sc.boundary_conditions.end(),
+                     [](const BoundaryConditionSpec &bc) { return bc.type != BoundaryConditionSpec::Type::fixed; });
 }
 
 // The tissue behind the rows: the linear model (holding the needles left in), or the neo-Hookean one
@@ -191,22 +194,35 @@ std::vector<needle::ShaftPoint<dim>> NeedleInsertion<dim>::make_coupling(bool sn
 }
 
 template <int dim>
-NeedleOutcome<dim> NeedleInsertion<dim>::run() {
-  Progress progress("needle " + spec_.name, total_steps_);
-  const auto t_run = Clock::now();
+void NeedleInsertion<dim>::precompute() {
   if (!ctx_.opt.monolithic || neo_hookean_) {  // every shaft row's column K⁻¹cᵀ in one batch: no
                                                // step does a sparse solve (neo-Hookean: the rows)
     const auto t = Clock::now();
     tissue_->precompute(probe_points());
-    run_.precompute_seconds = seconds_since(t);
+    run_.precompute_seconds += seconds_since(t);
   }
+}
+
+template <int dim>
+NeedleOutcome<dim> NeedleInsertion<dim>::run() {
+  const auto t_run = Clock::now();
+  precompute();
   rest();
   record_newton(0);
   if (stepping_->law().has_active_set())
     run_.active_set_sweeps.assign(static_cast<std::size_t>(total_steps_) + 1, 0);
   for (std::size_t i = 0; i < run_.seeds.size(); ++i) run_.seeds[i].rest_displacement = seed_displacement_[i];
   const auto t_steps = Clock::now();
-  for (int k = 1; k <= total_steps_; ++k) {
+  take_steps(1);
+  run_.stepping_seconds = seconds_since(t_steps);
+  if (spec_.stay) leave_in();
+  return finish(seconds_since(t_run));
+}
+
+template <int dim>
+void NeedleInsertion<dim>::take_steps(int first) {
+  Progress progress("needle " + spec_.name, total_steps_);
+  for (int k = first; k <= total_steps_; ++k) {
     try {
       if (k <= needle_.steps)
         advance_one_step(k);
@@ -226,14 +242,62 @@ NeedleOutcome<dim> NeedleInsertion<dim>::run() {
       progress.report(k, msg.str());
     }
   }
-  run_.stepping_seconds = seconds_since(t_steps);
-  if (spec_.stay) {  // left in: its stations keep holding the tissue as this last step left it
-    const needle::ShaftState &state = stepping_->state();
-    const auto rows = coupling_->rows(state.active, state.axial);
-    ctx_.staying.insert(ctx_.staying.end(), rows.begin(), rows.end());
-    ctx_.staying_needles.push_back({coupling_, state, rows.size()});
+}
+
+// Left in: its stations keep holding the tissue as this last step left it.
+template <int dim>
+void NeedleInsertion<dim>::leave_in() {
+  const needle::ShaftState &state = stepping_->state();
+  const auto rows = coupling_->rows(state.active, state.axial);
+  ctx_.staying.insert(ctx_.staying.end(), rows.begin(), rows.end());
+  ctx_.staying_needles.push_back({coupling_, state, rows.size()});
+}
+
+template <int dim>
+void NeedleInsertion<dim>::release_hold() {
+  std::size_t first = 0;
+  for (auto it = ctx_.staying_needles.begin(); it != ctx_.staying_needles.end(); ++it) {
+    if (it->coupling == coupling_) {
+      const auto begin = ctx_.staying.begin() + static_cast<long>(first);
+      ctx_.staying.erase(begin, begin + static_cast<long>(it->rows));
+      ctx_.staying_needles.erase(it);
+      return;
+    }
+    first += it->rows;
   }
-  const double run_seconds = seconds_since(t_run);
+  throw std::logic_error("withdraw_later: needle '" + spec_.name + "' is not left in");
+}
+
+template <int dim>
+NeedleOutcome<dim> NeedleInsertion<dim>::withdraw_later(std::vector<NeedleRun<dim>> &runs, std::size_t index) {
+  const auto t_run = Clock::now();
+  run_ = std::move(runs.at(index));
+  release_hold();
+  make_tissue(spec_);  // holds the needles still left in
+  earlier_points_.clear();
+  for (const auto &r : ctx_.released) earlier_points_.push_back(r.planned_frame);
+  earlier_displacement_.assign(earlier_points_.size(), Vec::Zero());
+  loaded_ = loaded();
+  const int first = total_steps_ + 1;
+  total_steps_ += spec_.withdraw_steps;
+  precompute();
+  if (stepping_->law().has_active_set())
+    run_.active_set_sweeps.resize(static_cast<std::size_t>(total_steps_) + 1, 0);
+  const auto t_steps = Clock::now();
+  take_steps(first);
+  run_.stepping_seconds += seconds_since(t_steps);
+  // The seeds released since its insertion (by the later needles, in ctx_.released's order) end where
+  // this withdrawal leaves the tissue.
+  std::size_t j = 0;
+  for (std::size_t n = 0; n < runs.size(); ++n)
+    for (auto &seed : runs[n].seeds)
+      if (n != index && seed.release_step >= 0 && j < earlier_displacement_.size())
+        seed.rest_displacement = earlier_displacement_[j++];
+  return finish(seconds_since(t_run));
+}
+
+template <int dim>
+NeedleOutcome<dim> NeedleInsertion<dim>::finish(double run_seconds) {
   run_.solve_seconds = tissue_->solve_seconds();
   run_.steps_per_second = run_seconds > 0.0 ? total_steps_ / run_seconds : 0.0;
   for (std::size_t i = 0; i < run_.seeds.size(); ++i) {  // later runs carry this needle's seeds
