@@ -38,6 +38,7 @@ struct RegionSpec {
   std::string face;                                 // box_face name as written
   std::vector<double> center, axis_vector, lo, hi;  // dim values each (world)
   double radius = 0.0;
+  double length = 0.0;  // cylinder: its length, centred at center (0: infinite)
   // label: the label's name or number as written, and the label it names (set by the run from the
   // label image and the `labels:` table, docs/labels.md).
   std::string label;
