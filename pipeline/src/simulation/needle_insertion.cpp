@@ -244,58 +244,6 @@ void NeedleInsertion<dim>::take_steps(int first) {
   }
 }
 
-// Left in: its stations keep holding the tissue as this last step left it.
-template <int dim>
-void NeedleInsertion<dim>::leave_in() {
-  const needle::ShaftState &state = stepping_->state();
-  const auto rows = coupling_->rows(state.active, state.axial);
-  ctx_.staying.insert(ctx_.staying.end(), rows.begin(), rows.end());
-  ctx_.staying_needles.push_back({coupling_, state, rows.size()});
-}
-
-template <int dim>
-void NeedleInsertion<dim>::release_hold() {
-  std::size_t first = 0;
-  for (auto it = ctx_.staying_needles.begin(); it != ctx_.staying_needles.end(); ++it) {
-    if (it->coupling == coupling_) {
-      const auto begin = ctx_.staying.begin() + static_cast<long>(first);
-      ctx_.staying.erase(begin, begin + static_cast<long>(it->rows));
-      ctx_.staying_needles.erase(it);
-      return;
-    }
-    first += it->rows;
-  }
-  throw std::logic_error("withdraw_later: needle '" + spec_.name + "' is not left in");
-}
-
-template <int dim>
-NeedleOutcome<dim> NeedleInsertion<dim>::withdraw_later(std::vector<NeedleRun<dim>> &runs, std::size_t index) {
-  const auto t_run = Clock::now();
-  run_ = std::move(runs.at(index));
-  release_hold();
-  make_tissue(spec_);  // holds the needles still left in
-  earlier_points_.clear();
-  for (const auto &r : ctx_.released) earlier_points_.push_back(r.planned_frame);
-  earlier_displacement_.assign(earlier_points_.size(), Vec::Zero());
-  loaded_ = loaded();
-  const int first = total_steps_ + 1;
-  total_steps_ += spec_.withdraw_steps;
-  precompute();
-  if (stepping_->law().has_active_set())
-    run_.active_set_sweeps.resize(static_cast<std::size_t>(total_steps_) + 1, 0);
-  const auto t_steps = Clock::now();
-  take_steps(first);
-  run_.stepping_seconds += seconds_since(t_steps);
-  // The seeds released since its insertion (by the later needles, in ctx_.released's order) end where
-  // this withdrawal leaves the tissue.
-  std::size_t j = 0;
-  for (std::size_t n = 0; n < runs.size(); ++n)
-    for (auto &seed : runs[n].seeds)
-      if (n != index && seed.release_step >= 0 && j < earlier_displacement_.size())
-        seed.rest_displacement = earlier_displacement_[j++];
-  return finish(seconds_since(t_run));
-}
-
 template <int dim>
 NeedleOutcome<dim> NeedleInsertion<dim>::finish(double run_seconds) {
   run_.solve_seconds = tissue_->solve_seconds();
@@ -315,6 +263,9 @@ NeedleOutcome<dim> NeedleInsertion<dim>::finish(double run_seconds) {
                                              tissue_->solves(), ctx_.opt.monolithic, ctx_.sc);
   std::vector<std::string> warnings;
   report["material_model"] = neo_hookean_ ? "neo-hookean" : "linear";
+  report["energy"] = {{"needle_work", run_.needle_work.back()},
+                      {"dissipated_work", run_.dissipated_work.back()},
+                      {"tissue_work", run_.needle_work.back() - run_.dissipated_work.back()}};
   if (neo_hookean_) report["newton"] = {{"per_step", std::move(newton_steps_)}};
   if (dim == 3) {
     report["coupling_radius"] = coupling_radius_;
@@ -475,6 +426,28 @@ void NeedleInsertion<dim>::record_newton(int k) {
 }
 
 template <int dim>
+void NeedleInsertion<dim>::account_energy(double travel, const fem::Solution<dim> *s) {
+  const std::size_t n = stepping_->n_points();
+  std::vector<double> f(n, 0.0), u(n, 0.0);
+  if (s) {
+    f = coupling_->axial_forces(stepping_->state().active, *s);
+    f.resize(n, 0.0);
+    for (std::size_t j = 0; j < n; ++j) u[j] = tissue_->held_axial(j, axis_);
+  }
+  double work = 0.0, dissipated = 0.0;
+  for (std::size_t j = 0; j < point_force_.size(); ++j) {
+    const double mean = 0.5 * (f[j] + point_force_[j]);
+    work += mean * travel;
+    dissipated += mean * (travel - (u[j] - point_axial_[j]));
+  }
+  run_.needle_work.push_back((run_.needle_work.empty() ? 0.0 : run_.needle_work.back()) + work);
+  run_.dissipated_work.push_back((run_.dissipated_work.empty() ? 0.0 : run_.dissipated_work.back()) +
+                                 dissipated);
+  point_force_ = std::move(f);
+  point_axial_ = std::move(u);
+}
+
+template <int dim>
 double NeedleInsertion<dim>::axial_displacement(std::size_t j) const {
   return have_solution_ ? tissue_->held_axial(j, axis_) : 0.0;
 }
@@ -484,6 +457,7 @@ double NeedleInsertion<dim>::axial_displacement(std::size_t j) const {
 // and lateral = |F − (F·a)a|.
 template <int dim>
 void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim> *s, int solves) {
+  account_energy(run_.depth.empty() ? 0.0 : depth - run_.depth.back(), s);
   run_.depth.push_back(depth);
   run_.tip.push_back(entry_world_ + depth * axis_world_);
   if (flexible_) record_flexible(depth);

@@ -71,6 +71,10 @@ class NeedleInsertion {
   std::vector<needle::ShaftPoint<dim>> make_coupling(bool snap_to_vertices);
   void make_tissue(const NeedleSpec &spec);  // tissue_ (and elastic_ or neo_hookean_) on the coupling
   void record(double depth, const fem::Solution<dim> *solution, int solves);
+  // The step's needle work and dissipated work (NeedleRun::needle_work) from the points' axial forces and
+  // the tissue's axial displacement at their rows, now and at the last step (point_force_, point_axial_).
+  void account_energy(double travel, const fem::Solution<dim> *solution);
+  std::vector<double> point_force_, point_axial_;
   void record_flexible(double depth);
   void bend(double depth);  // the flexible needle's beam and bevel at this step
   void record_field(const fem::Solution<dim> *solution, bool skipped);
