@@ -9,8 +9,8 @@
 #include <cmath>
 #include <fstream>
 #include <map>
-#include <sstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <vim/pipeline/study/study.hpp>
 
 #include "run_cli.hpp"

@@ -44,7 +44,8 @@ Balance run_balance(const std::string& friction) {
   const MeshModel<3> mm = axis_block();
   SimulationOptions o = quiet();
   o.keep_step_fields = true;
-  SimulationResult<3> res = run_simulation<3>(mm, parse_scenario_text(in_and_out(friction), 3, "plan.yaml"), o);
+  SimulationResult<3> res =
+      run_simulation<3>(mm, parse_scenario_text(in_and_out(friction), 3, "plan.yaml"), o);
   const fem::ElasticModel<3> model(mm.mesh, std::vector<double>(mm.mesh.n_cells(), 10.0), 0.49, 1);
   Balance b;
   b.run = std::move(res.needles.at(0));
@@ -71,7 +72,7 @@ TEST(ProcedureEnergy, DissipatedWorkIsTheNeedlesWorkLessTheStoredEnergy) {
     if (k > 0) EXPECT_GE(r.dissipated_work[k] - r.dissipated_work[k - 1], -1e-9 * scale) << "step " << k;
     largest_stored = std::max(largest_stored, b.stored[k]);
   }
-  EXPECT_GT(largest_stored, 1e-3 * scale);  // energy is stored while the needle is in
+  EXPECT_GT(largest_stored, 1e-3 * scale);                  // energy is stored while the needle is in
   EXPECT_GT(r.dissipated_work[6], 0.1 * r.needle_work[6]);  // the tissue slips on the way in
   // Out again, the tissue at rest: the needle's work has all been dissipated.
   EXPECT_LT(b.stored.back(), 1e-12 * scale);

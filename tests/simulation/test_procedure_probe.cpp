@@ -126,8 +126,8 @@ TEST(ProcedureProbe, FiniteProbeIsBondedOverItsLengthOnly) {
   std::string head = kHead;
   const std::string infinite = "radius: 1.5}";
   head.replace(head.find(infinite), infinite.size(), "radius: 1.5, length: 8}");
-  const Scenario sc =
-      parse_scenario_text(head + "procedure:\n  - probe: {translate: [0, 0.3, 0.5], steps: 1}\n", 3, "plan.yaml");
+  const Scenario sc = parse_scenario_text(
+      head + "procedure:\n  - probe: {translate: [0, 0.3, 0.5], steps: 1}\n", 3, "plan.yaml");
   ASSERT_DOUBLE_EQ(sc.probe->hold.region.length, 8.0);
   const MeshModel<3> mm = axis_block();
   const SimulationResult<3> res = run_simulation<3>(mm, sc, quiet());

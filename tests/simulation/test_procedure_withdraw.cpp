@@ -39,11 +39,12 @@ double largest_vertex_difference(const std::vector<V3>& u, const std::vector<V3>
 
 // a left in, b in (seeds at 4 and 8) and out, then a withdrawn in 6 steps; against a alone, in and out.
 TEST(ProcedureWithdrawLeftIn, LaterWithdrawalRetracesTheNeedlesOwnWithdrawal) {
-  const Scenario sc = parse_scenario_text(kHead + "procedure:\n  - insert: " + kA +
-                                              ", stay: true}\n  - insert: " + kB +
-                                              ", seeds: [4, 8]}\n  - withdraw: {needle: b, steps: 6}\n"
-                                              "  - withdraw: {needle: a, steps: 6}\n" + kTargets,
-                                          3, "plan.yaml");
+  const Scenario sc =
+      parse_scenario_text(kHead + "procedure:\n  - insert: " + kA + ", stay: true}\n  - insert: " + kB +
+                              ", seeds: [4, 8]}\n  - withdraw: {needle: b, steps: 6}\n"
+                              "  - withdraw: {needle: a, steps: 6}\n" +
+                              kTargets,
+                          3, "plan.yaml");
   ASSERT_TRUE(sc.needles.at(0).withdrawn_later());
   EXPECT_EQ(sc.needles[0].withdraw_action, 3);
   EXPECT_EQ(sc.needles[0].withdraw_after, 2u);
@@ -66,9 +67,10 @@ TEST(ProcedureWithdrawLeftIn, LaterWithdrawalRetracesTheNeedlesOwnWithdrawal) {
     EXPECT_NEAR(a.axial_force[k], a_ref.axial_force[k], 1e-9 * std::max(1.0, std::abs(a_ref.axial_force[k])))
         << k;
     for (std::size_t t = 0; t < 3; ++t)
-      EXPECT_LT((a.target_displacement[k][t] - a_ref.target_displacement[k][t]).norm(), 1e-9) << k << " " << t;
+      EXPECT_LT((a.target_displacement[k][t] - a_ref.target_displacement[k][t]).norm(), 1e-9)
+          << k << " " << t;
   }
-  EXPECT_GT(max_norm(a.vertex_displacement[6]), 0.1);  // the stuck needle had dragged the tissue
+  EXPECT_GT(max_norm(a.vertex_displacement[6]), 0.1);       // the stuck needle had dragged the tissue
   EXPECT_LT(max_norm(a.vertex_displacement.back()), 1e-9);  // and the tissue is back at rest
   // b's seeds end where a's withdrawal leaves their tissue (at rest): error = −u_release(P).
   const NeedleRun<3>& b = res.needles[1];
@@ -89,12 +91,12 @@ TEST(ProcedureWithdrawLeftIn, AfterTheProbeMotionTheTissueIsThatOfTheMotionAlone
   const std::string probe =
       "probe: {region: {cylinder: {center: [0, -4, 12], axis: [0, 0, 1], radius: 1.5}}, "
       "support: {elastic: {stiffness: 40, spacing: 0.5}}}\n";
-  const std::string head = "material: {}\nboundary_conditions: [{type: fixed, region: {box_face: y_max}}]\n" +
-                           probe + kTargets;
+  const std::string head =
+      "material: {}\nboundary_conditions: [{type: fixed, region: {box_face: y_max}}]\n" + probe + kTargets;
   const std::string motion = "  - probe: {translate: [0, 0.2, 0.5], steps: 2}\n";
-  const Scenario sc = parse_scenario_text(
-      head + "procedure:\n  - insert: " + kA + ", stay: true}\n" + motion + "  - withdraw: {needle: a, steps: 4}\n",
-      3, "plan.yaml");
+  const Scenario sc = parse_scenario_text(head + "procedure:\n  - insert: " + kA + ", stay: true}\n" +
+                                              motion + "  - withdraw: {needle: a, steps: 4}\n",
+                                          3, "plan.yaml");
   const Scenario without = parse_scenario_text(head + "procedure:\n" + motion, 3, "plan.yaml");
   SimulationOptions o = quiet();
   o.keep_step_fields = true;
@@ -121,10 +123,12 @@ TEST(ProcedureWithdrawLeftIn, BadWithdrawalsNameTheFileLineAndKey) {
                                         ", stay: true}\n  - withdraw: {needle: a, steps: 3}\n"
                                         "  - withdraw: {needle: a, steps: 3}\n");
   EXPECT_NE(e.find("plan.yaml:6:"), std::string::npos) << e;
-  EXPECT_NE(e.find("procedure[2].withdraw.needle = 'a' is not in the tissue (it was withdrawn before, on line 5)"),
-            std::string::npos)
+  EXPECT_NE(
+      e.find("procedure[2].withdraw.needle = 'a' is not in the tissue (it was withdrawn before, on line 5)"),
+      std::string::npos)
       << e;
-  e = procedure_parse_error(kHead + "procedure:\n  - insert: " + kA + ", stay: true}\n  - withdraw: {needle: a}\n");
+  e = procedure_parse_error(kHead + "procedure:\n  - insert: " + kA +
+                            ", stay: true}\n  - withdraw: {needle: a}\n");
   EXPECT_NE(e.find("procedure[1].withdraw"), std::string::npos) << e;
   EXPECT_NE(e.find("steps"), std::string::npos) << e;
 }

@@ -157,7 +157,8 @@ void parse_procedure(const YAML::Node& procedure, Scenario& s,
     }
     if (it->stay) {
       if (it->withdraw_action >= 0)
-        r.fail(name_node, at + ".needle = '" + name + "' is not in the tissue (it was withdrawn before, on line " +
+        r.fail(name_node, at + ".needle = '" + name +
+                              "' is not in the tissue (it was withdrawn before, on line " +
                               std::to_string(it->withdraw_line) + ")");
       if (it->flexible)
         r.fail(name_node, at + ".needle = '" + name + "' is a flexible needle left in (stay: true, line " +

@@ -108,8 +108,9 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
 template <int dim>
 bool NeedleInsertion<dim>::loaded() const {
   return (elastic_ && elastic_->holds()) || (ctx_.probe && ctx_.probe->moved()) ||
-         std::any_of(ctx_.sc.boundary_conditions.begin(), ctx_.sc.boundary_conditions.end(),
-                     [](const BoundaryConditionSpec &bc) { return bc.type != BoundaryConditionSpec::Type::fixed; });
+         std::any_of(
+             ctx_.sc.boundary_conditions.begin(), ctx_.sc.boundary_conditions.end(),
+             [](const BoundaryConditionSpec &bc) { return bc.type != BoundaryConditionSpec::Type::fixed; });
 }
 
 // The tissue behind the rows: the linear model (holding the needles left in), or the neo-Hookean one

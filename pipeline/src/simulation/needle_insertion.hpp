@@ -84,7 +84,7 @@ class NeedleInsertion {
   std::vector<Vec> probe_points() const;  // targets, this needle's seeds, the earlier seeds (frame)
 
   SimulationContext<dim> &ctx_;
-  const NeedleSpec spec_;  // a copy: a needle withdrawn later outlives the caller's spec
+  const NeedleSpec spec_;              // a copy: a needle withdrawn later outlives the caller's spec
   needle::NeedleOptions<dim> needle_;  // the needle as the needle library takes it (frame)
   std::string prefix_;
   Vec axis_world_, entry_world_, axis_;  // axis_: frame

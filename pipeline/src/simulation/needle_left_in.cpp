@@ -1,8 +1,8 @@
 // A needle left in (stay: true, docs/procedure.md): its rows held for the later actions, and its
 // withdrawal by a later action from its last state (needle_insertion.hpp, withdraw_later).
-#include "simulation/needle_insertion.hpp"
-
 #include <stdexcept>
+
+#include "simulation/needle_insertion.hpp"
 
 namespace vim::pipeline {
 
@@ -31,7 +31,8 @@ void NeedleInsertion<dim>::release_hold() {
 }
 
 template <int dim>
-NeedleOutcome<dim> NeedleInsertion<dim>::withdraw_later(std::vector<NeedleRun<dim>> &runs, std::size_t index) {
+NeedleOutcome<dim> NeedleInsertion<dim>::withdraw_later(std::vector<NeedleRun<dim>> &runs,
+                                                        std::size_t index) {
   const auto t_run = Clock::now();
   run_ = std::move(runs.at(index));
   release_hold();

@@ -395,7 +395,8 @@ void NeedleSimulation<dim>::Impl::actions_after(std::size_t insertions, ProbeMot
   for (const NeedleSpec& spec : sc.needles)
     if (spec.withdrawn_later() && spec.withdraw_after == insertions)
       actions.push_back({spec.withdraw_action, nullptr, &spec});
-  std::sort(actions.begin(), actions.end(), [](const Action& a, const Action& b) { return a.number < b.number; });
+  std::sort(actions.begin(), actions.end(),
+            [](const Action& a, const Action& b) { return a.number < b.number; });
   for (const Action& action : actions) {
     if (action.motion) {
       probe.move(*action.motion, res);

@@ -254,8 +254,7 @@ StudyCase make_case(const Reader& r, const Study& study, const YAML::Node& base_
     const Value* culprit = values.empty() ? nullptr : &values.front();
     for (const Value& v : values)
       if (message.find(scenario_key(v.key)) != std::string::npos ||
-          (action_key(v.key) &&
-           message.find(v.key.substr(0, v.key.find(']') + 1)) != std::string::npos) ||
+          (action_key(v.key) && message.find(v.key.substr(0, v.key.find(']') + 1)) != std::string::npos) ||
           (v.key == "max_shear_per_length" && message.find("needle.friction") != std::string::npos))
         culprit = &v;
     if (!culprit) throw;

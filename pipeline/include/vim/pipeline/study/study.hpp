@@ -38,8 +38,7 @@ struct ActionKey {
   std::string key;
 };
 std::optional<ActionKey> action_key(const std::string& key);  // nullopt: not of that form
-inline constexpr const char* kActionKeyPattern =
-    "procedure[N].entry|direction|depth|seeds|translate|rotate";
+inline constexpr const char* kActionKeyPattern = "procedure[N].entry|direction|depth|seeds|translate|rotate";
 
 struct StudyCase {
   std::string name;  // folder name under DIR/cases/
