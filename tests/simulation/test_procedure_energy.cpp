@@ -69,7 +69,9 @@ TEST(ProcedureEnergy, DissipatedWorkIsTheNeedlesWorkLessTheStoredEnergy) {
   for (std::size_t k = 0; k < 13; ++k) {
     const double balance = r.needle_work[k] - (b.stored[k] - b.stored[0]);
     EXPECT_NEAR(r.dissipated_work[k], balance, 1e-6 * scale) << "step " << k;
-    if (k > 0) EXPECT_GE(r.dissipated_work[k] - r.dissipated_work[k - 1], -1e-9 * scale) << "step " << k;
+    if (k > 0) {
+      EXPECT_GE(r.dissipated_work[k] - r.dissipated_work[k - 1], -1e-9 * scale) << "step " << k;
+    }
     largest_stored = std::max(largest_stored, b.stored[k]);
   }
   EXPECT_GT(largest_stored, 1e-3 * scale);                  // energy is stored while the needle is in

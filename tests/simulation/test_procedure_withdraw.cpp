@@ -18,18 +18,18 @@ using namespace vim::pipeline::simulation_test;
 
 namespace {
 
-const std::string kHead = "material: {}\nboundary_conditions: [{type: fixed, region: {box_face: z_max}}]\n";
-const std::string kA =
+const std::string kLeftInHead = "material: {}\nboundary_conditions: [{type: fixed, region: {box_face: z_max}}]\n";
+const std::string kNeedleA =
     "{name: a, entry: [-2.1, 0.2, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, "
     "friction: {model: stick}";
-const std::string kB =
+const std::string kNeedleB =
     "{name: b, entry: [2.1, 0.2, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, "
     "friction: {model: stick}";
-const std::string kTargets =
+const std::string kLeftInTargets =
     "targets: [{name: mid, position: [0, 0.2, 8]}, {name: s4, position: [2.1, 0.2, 4]},\n"
     "          {name: s8, position: [2.1, 0.2, 8]}]\n";
 
-double largest_vertex_difference(const std::vector<V3>& u, const std::vector<V3>& v) {
+double largest_vertex_change(const std::vector<V3>& u, const std::vector<V3>& v) {
   double m = 0.0;
   for (std::size_t i = 0; i < u.size(); ++i) m = std::max(m, (u[i] - v[i]).norm());
   return m;
@@ -40,16 +40,16 @@ double largest_vertex_difference(const std::vector<V3>& u, const std::vector<V3>
 // a left in, b in (seeds at 4 and 8) and out, then a withdrawn in 6 steps; against a alone, in and out.
 TEST(ProcedureWithdrawLeftIn, LaterWithdrawalRetracesTheNeedlesOwnWithdrawal) {
   const Scenario sc =
-      parse_scenario_text(kHead + "procedure:\n  - insert: " + kA + ", stay: true}\n  - insert: " + kB +
+      parse_scenario_text(kLeftInHead + "procedure:\n  - insert: " + kNeedleA + ", stay: true}\n  - insert: " + kNeedleB +
                               ", seeds: [4, 8]}\n  - withdraw: {needle: b, steps: 6}\n"
                               "  - withdraw: {needle: a, steps: 6}\n" +
-                              kTargets,
+                              kLeftInTargets,
                           3, "plan.yaml");
   ASSERT_TRUE(sc.needles.at(0).withdrawn_later());
   EXPECT_EQ(sc.needles[0].withdraw_action, 3);
   EXPECT_EQ(sc.needles[0].withdraw_after, 2u);
   const Scenario alone = parse_scenario_text(
-      kHead + "procedure:\n  - insert: " + kA + "}\n  - withdraw: {needle: a, steps: 6}\n" + kTargets, 3,
+      kLeftInHead + "procedure:\n  - insert: " + kNeedleA + "}\n  - withdraw: {needle: a, steps: 6}\n" + kLeftInTargets, 3,
       "plan.yaml");
   SimulationOptions o = quiet();
   o.keep_step_fields = true;
@@ -63,7 +63,7 @@ TEST(ProcedureWithdrawLeftIn, LaterWithdrawalRetracesTheNeedlesOwnWithdrawal) {
   EXPECT_EQ(res.report["needles"][0]["name"], "a");
   for (std::size_t k = 0; k < 13; ++k) {
     EXPECT_NEAR(a.depth[k], a_ref.depth[k], 1e-12) << k;
-    EXPECT_LT(largest_vertex_difference(a.vertex_displacement[k], a_ref.vertex_displacement[k]), 1e-9) << k;
+    EXPECT_LT(largest_vertex_change(a.vertex_displacement[k], a_ref.vertex_displacement[k]), 1e-9) << k;
     EXPECT_NEAR(a.axial_force[k], a_ref.axial_force[k], 1e-9 * std::max(1.0, std::abs(a_ref.axial_force[k])))
         << k;
     for (std::size_t t = 0; t < 3; ++t)
@@ -92,9 +92,9 @@ TEST(ProcedureWithdrawLeftIn, AfterTheProbeMotionTheTissueIsThatOfTheMotionAlone
       "probe: {region: {cylinder: {center: [0, -4, 12], axis: [0, 0, 1], radius: 1.5}}, "
       "support: {elastic: {stiffness: 40, spacing: 0.5}}}\n";
   const std::string head =
-      "material: {}\nboundary_conditions: [{type: fixed, region: {box_face: y_max}}]\n" + probe + kTargets;
+      "material: {}\nboundary_conditions: [{type: fixed, region: {box_face: y_max}}]\n" + probe + kLeftInTargets;
   const std::string motion = "  - probe: {translate: [0, 0.2, 0.5], steps: 2}\n";
-  const Scenario sc = parse_scenario_text(head + "procedure:\n  - insert: " + kA + ", stay: true}\n" +
+  const Scenario sc = parse_scenario_text(head + "procedure:\n  - insert: " + kNeedleA + ", stay: true}\n" +
                                               motion + "  - withdraw: {needle: a, steps: 4}\n",
                                           3, "plan.yaml");
   const Scenario without = parse_scenario_text(head + "procedure:\n" + motion, 3, "plan.yaml");
@@ -112,14 +112,16 @@ TEST(ProcedureWithdrawLeftIn, AfterTheProbeMotionTheTissueIsThatOfTheMotionAlone
     const V3 motion_alone = ref.probe_steps.back().target_displacement.at(t);
     EXPECT_GT(motion_alone.norm(), 1e-4) << t;
     // While a is in, the motion moves the targets differently (a's stations hold their tissue) ...
-    if (t == 0) EXPECT_GT((res.probe_steps.back().target_displacement[t] - motion_alone).norm(), 1e-4);
+    if (t == 0) {
+      EXPECT_GT((res.probe_steps.back().target_displacement[t] - motion_alone).norm(), 1e-4);
+    }
     // ... and once it is out the tissue is the motion's alone.
     EXPECT_LT((a.target_displacement.back()[t] - motion_alone).norm(), 1e-9) << t;
   }
 }
 
 TEST(ProcedureWithdrawLeftIn, BadWithdrawalsNameTheFileLineAndKey) {
-  std::string e = procedure_parse_error(kHead + "procedure:\n  - insert: " + kA +
+  std::string e = procedure_parse_error(kLeftInHead + "procedure:\n  - insert: " + kNeedleA +
                                         ", stay: true}\n  - withdraw: {needle: a, steps: 3}\n"
                                         "  - withdraw: {needle: a, steps: 3}\n");
   EXPECT_NE(e.find("plan.yaml:6:"), std::string::npos) << e;
@@ -127,7 +129,7 @@ TEST(ProcedureWithdrawLeftIn, BadWithdrawalsNameTheFileLineAndKey) {
       e.find("procedure[2].withdraw.needle = 'a' is not in the tissue (it was withdrawn before, on line 5)"),
       std::string::npos)
       << e;
-  e = procedure_parse_error(kHead + "procedure:\n  - insert: " + kA +
+  e = procedure_parse_error(kLeftInHead + "procedure:\n  - insert: " + kNeedleA +
                             ", stay: true}\n  - withdraw: {needle: a}\n");
   EXPECT_NE(e.find("procedure[1].withdraw"), std::string::npos) << e;
   EXPECT_NE(e.find("steps"), std::string::npos) << e;
