@@ -266,7 +266,9 @@ NeedleOutcome<dim> NeedleInsertion<dim>::finish(double run_seconds) {
   report["material_model"] = neo_hookean_ ? "neo-hookean" : "linear";
   report["energy"] = {{"needle_work", run_.needle_work.back()},
                       {"dissipated_work", run_.dissipated_work.back()},
-                      {"tissue_work", run_.needle_work.back() - run_.dissipated_work.back()}};
+                      {"join_work", run_.join_work.back()},
+                      {"stored_energy_change",
+                       run_.needle_work.back() - run_.dissipated_work.back() - run_.join_work.back()}};
   if (neo_hookean_) report["newton"] = {{"per_step", std::move(newton_steps_)}};
   if (dim == 3) {
     report["coupling_radius"] = coupling_radius_;
@@ -430,21 +432,37 @@ template <int dim>
 void NeedleInsertion<dim>::account_energy(double travel, const fem::Solution<dim> *s) {
   const std::size_t n = stepping_->n_points();
   std::vector<double> f(n, 0.0), u(n, 0.0);
+  std::vector<bool> on(n, false);
+  std::vector<double> carried(n, 0.0);  // the shaft length each point carries (grows as it joins)
+  const needle::ShaftState &state = stepping_->state();
+  for (std::size_t j = 0; j < n && j < state.carried.size(); ++j) carried[j] = state.carried[j];
   if (s) {
     f = coupling_->axial_forces(stepping_->state().active, *s);
     f.resize(n, 0.0);
     for (std::size_t j = 0; j < n; ++j) u[j] = tissue_->held_axial(j, axis_);
+    for (std::size_t j : stepping_->state().active) on[j] = true, u[j] = stepping_->state().axial[j];
   }
-  double work = 0.0, dissipated = 0.0;
+  double energy = 0.0;  // Clapeyron: ½ Σ f_j ū_j
+  for (std::size_t j = 0; j < n; ++j) energy += 0.5 * f[j] * u[j];
+  run_.row_energy.push_back(energy);
+  double work = 0.0, dissipated = 0.0, joins = 0.0;
   for (std::size_t j = 0; j < point_force_.size(); ++j) {
     const double mean = 0.5 * (f[j] + point_force_[j]);
     work += mean * travel;
-    dissipated += mean * (travel - (u[j] - point_axial_[j]));
+    // On the needle at both ends of the step, carrying the same length: friction × slip; joining or leaving
+    // it (or a part of its segment): the tissue's jump to or from the needle.
+    const bool kept = on[j] && point_on_[j] && carried[j] == point_carried_[j];
+    (kept ? dissipated : joins) += mean * (travel - (u[j] - point_axial_[j]));
   }
-  run_.needle_work.push_back((run_.needle_work.empty() ? 0.0 : run_.needle_work.back()) + work);
-  run_.dissipated_work.push_back((run_.dissipated_work.empty() ? 0.0 : run_.dissipated_work.back()) +
-                                 dissipated);
+  const auto add = [](std::vector<double> &sum, double x) {
+    sum.push_back((sum.empty() ? 0.0 : sum.back()) + x);
+  };
+  add(run_.needle_work, work);
+  add(run_.dissipated_work, dissipated);
+  add(run_.join_work, joins);
   point_force_ = std::move(f);
+  point_on_ = std::move(on);
+  point_carried_ = std::move(carried);
   point_axial_ = std::move(u);
 }
 

@@ -75,6 +75,8 @@ class NeedleInsertion {
   // the tissue's axial displacement at their rows, now and at the last step (point_force_, point_axial_).
   void account_energy(double travel, const fem::Solution<dim> *solution);
   std::vector<double> point_force_, point_axial_;
+  std::vector<bool> point_on_;         // on the needle at the last step
+  std::vector<double> point_carried_;  // the shaft length each point carried then
   void record_flexible(double depth);
   void bend(double depth);  // the flexible needle's beam and bevel at this step
   void record_field(const fem::Solution<dim> *solution, bool skipped);
