@@ -216,11 +216,12 @@ TEST(StudyCli, ActionKeysReachTheProcedureAndItsColumns) {
              "output: {every: 0}\n");
   write_file(dir.path / "study.yaml",
              "scenario: plan.yaml\n"
-             "cases:\n  - {name: here}\n  - {name: moved, procedure[0].entry: [0, 1.6, 1.4]}\n"
+             "cases:\n  - {name: here}\n  - {name: moved, \"procedure[0].entry\": [0, 1.6, 1.4]}\n"
              "grid:\n  procedure[0].seeds: [[0.5, 1.0, 1.5], [0.75, 1.25]]\n");
   const auto study = vim::pipeline::read_study((dir.path / "study.yaml").string(), 3);
   ASSERT_EQ(study.cases.size(), 4u);
-  EXPECT_EQ((std::vector<std::string>{"procedure[0].entry", "procedure[0].seeds"}), study.varied);
+  EXPECT_EQ((std::vector<std::string>{"procedure[0].seeds", "procedure[0].entry"}),
+            study.varied);  // as first varied
   EXPECT_EQ(study.cases[1].name, "here-g2");
   EXPECT_EQ(study.cases[1].scenario.needles.at(0).seeds, (std::vector<double>{0.75, 1.25}));
   EXPECT_EQ(study.cases[3].scenario.needles.at(0).entry, (std::vector<double>{0, 1.6, 1.4}));
@@ -281,20 +282,20 @@ TEST(StudyCli, BadActionKeysNameTheFileLineAndKey) {
     return std::string("no error");
   };
   std::string e = error("grid:\n  procedure[2].depth: [1]\n");
-  EXPECT_NE(e.find("s.yaml:2:"), std::string::npos) << e;
+  EXPECT_NE(e.find("s.yaml:3:"), std::string::npos) << e;
   EXPECT_NE(e.find("procedure[2].depth varies an action of a procedure, but"), std::string::npos) << e;
   EXPECT_NE(e.find("has 2 actions (numbered from 0)"), std::string::npos) << e;
   e = error("grid:\n  procedure[1].depth: [1]\n");
   EXPECT_NE(e.find("procedure[1] of"), std::string::npos) << e;
   EXPECT_NE(e.find("is a 'withdraw' action, which has no depth to vary"), std::string::npos) << e;
-  e = error("cases:\n  - {procedure[0].seeds: 5}\n");
+  e = error("cases:\n  - procedure[0].seeds: 5\n");
   EXPECT_NE(e.find("cases[0].procedure[0].seeds must be a non-empty list of depths, got '5'"),
             std::string::npos)
       << e;
-  e = error("cases:\n  - {procedure[0].length: 5}\n");
+  e = error("cases:\n  - procedure[0].length: 5\n");
   EXPECT_NE(e.find("unknown key 'cases[0].procedure[0].length'"), std::string::npos) << e;
   EXPECT_NE(e.find("procedure[N].entry|direction|depth|seeds|translate|rotate"), std::string::npos) << e;
   e = error("grid:\n  procedure[0].seeds: [[0.5, 2.0]]\n");  // beyond the depth: the scenario parser
-  EXPECT_NE(e.find("s.yaml:2:"), std::string::npos) << e;
+  EXPECT_NE(e.find("s.yaml:3:"), std::string::npos) << e;
   EXPECT_NE(e.find("procedure[0].insert.seeds[1] = 2 must be a depth in (0, 1.5]"), std::string::npos) << e;
 }

@@ -18,7 +18,8 @@ using namespace vim::pipeline::simulation_test;
 
 namespace {
 
-const std::string kLeftInHead = "material: {}\nboundary_conditions: [{type: fixed, region: {box_face: z_max}}]\n";
+const std::string kLeftInHead =
+    "material: {}\nboundary_conditions: [{type: fixed, region: {box_face: z_max}}]\n";
 const std::string kNeedleA =
     "{name: a, entry: [-2.1, 0.2, 0], direction: [0, 0, 1], depth: 12, steps: 6, diameter: 1, "
     "friction: {model: stick}";
@@ -39,18 +40,18 @@ double largest_vertex_change(const std::vector<V3>& u, const std::vector<V3>& v)
 
 // a left in, b in (seeds at 4 and 8) and out, then a withdrawn in 6 steps; against a alone, in and out.
 TEST(ProcedureWithdrawLeftIn, LaterWithdrawalRetracesTheNeedlesOwnWithdrawal) {
-  const Scenario sc =
-      parse_scenario_text(kLeftInHead + "procedure:\n  - insert: " + kNeedleA + ", stay: true}\n  - insert: " + kNeedleB +
-                              ", seeds: [4, 8]}\n  - withdraw: {needle: b, steps: 6}\n"
-                              "  - withdraw: {needle: a, steps: 6}\n" +
-                              kLeftInTargets,
-                          3, "plan.yaml");
+  const Scenario sc = parse_scenario_text(kLeftInHead + "procedure:\n  - insert: " + kNeedleA +
+                                              ", stay: true}\n  - insert: " + kNeedleB +
+                                              ", seeds: [4, 8]}\n  - withdraw: {needle: b, steps: 6}\n"
+                                              "  - withdraw: {needle: a, steps: 6}\n" +
+                                              kLeftInTargets,
+                                          3, "plan.yaml");
   ASSERT_TRUE(sc.needles.at(0).withdrawn_later());
   EXPECT_EQ(sc.needles[0].withdraw_action, 3);
   EXPECT_EQ(sc.needles[0].withdraw_after, 2u);
-  const Scenario alone = parse_scenario_text(
-      kLeftInHead + "procedure:\n  - insert: " + kNeedleA + "}\n  - withdraw: {needle: a, steps: 6}\n" + kLeftInTargets, 3,
-      "plan.yaml");
+  const Scenario alone = parse_scenario_text(kLeftInHead + "procedure:\n  - insert: " + kNeedleA +
+                                                 "}\n  - withdraw: {needle: a, steps: 6}\n" + kLeftInTargets,
+                                             3, "plan.yaml");
   SimulationOptions o = quiet();
   o.keep_step_fields = true;
   const SimulationResult<3> res = run_simulation<3>(axis_block(), sc, o);
@@ -91,8 +92,8 @@ TEST(ProcedureWithdrawLeftIn, AfterTheProbeMotionTheTissueIsThatOfTheMotionAlone
   const std::string probe =
       "probe: {region: {cylinder: {center: [0, -4, 12], axis: [0, 0, 1], radius: 1.5}}, "
       "support: {elastic: {stiffness: 40, spacing: 0.5}}}\n";
-  const std::string head =
-      "material: {}\nboundary_conditions: [{type: fixed, region: {box_face: y_max}}]\n" + probe + kLeftInTargets;
+  const std::string head = "material: {}\nboundary_conditions: [{type: fixed, region: {box_face: y_max}}]\n" +
+                           probe + kLeftInTargets;
   const std::string motion = "  - probe: {translate: [0, 0.2, 0.5], steps: 2}\n";
   const Scenario sc = parse_scenario_text(head + "procedure:\n  - insert: " + kNeedleA + ", stay: true}\n" +
                                               motion + "  - withdraw: {needle: a, steps: 4}\n",
