@@ -141,7 +141,7 @@ void describe(const char* name, const MeshModel<3>& m) {
     for (const auto& bc : g_scenario->boundary_conditions) {
       if (bc.region.kind != RegionSpec::Kind::cylinder) continue;
       const auto reg = fem::cylinder_region<3>(V3(bc.region.center.data()), V3(bc.region.axis_vector.data()),
-                                               bc.region.radius);
+                                               bc.region.radius, bc.region.length);
       long hits = 0;
       for (const auto& p : m.mesh.points) hits += reg.contains(m.transform.to_world(p));
       regions += ", nodes in the " + bc.region.describe() + ": " + std::to_string(hits);

@@ -44,16 +44,20 @@ Region<dim> box_region(const Vec<dim>& lo, const Vec<dim>& hi) {
 }
 
 template <int dim>
-Region<dim> cylinder_region(const Vec<dim>& center, const Vec<dim>& axis, double radius) {
+Region<dim> cylinder_region(const Vec<dim>& center, const Vec<dim>& axis, double radius, double length) {
   if (!(radius > 0.0))
     throw std::invalid_argument("cylinder_region: radius must be > 0, got " + std::to_string(radius));
   const double n = axis.norm();
   if (!(n > 0.0) || !std::isfinite(n))
     throw std::invalid_argument("cylinder_region: axis must be a non-zero finite vector");
+  if (!(length >= 0.0) || !std::isfinite(length))
+    throw std::invalid_argument("cylinder_region: length must be >= 0 (0: infinite), got " +
+                                std::to_string(length));
   const Vec<dim> a = axis / n;
-  return {"cylinder", [center, a, radius](const Vec<dim>& x) {
+  return {"cylinder", [center, a, radius, length](const Vec<dim>& x) {
             const Vec<dim> r = x - center;
-            return (r - r.dot(a) * a).norm() <= radius;
+            const double along = r.dot(a);
+            return (r - along * a).norm() <= radius && (length == 0.0 || std::abs(along) <= 0.5 * length);
           }};
 }
 
@@ -61,7 +65,7 @@ Region<dim> cylinder_region(const Vec<dim>& center, const Vec<dim>& axis, double
   template Region<dim> box_face_region<dim>(const Vec<dim>&, const Vec<dim>&, int, bool, double); \
   template Region<dim> sphere_region<dim>(const Vec<dim>&, double);                               \
   template Region<dim> box_region<dim>(const Vec<dim>&, const Vec<dim>&);                         \
-  template Region<dim> cylinder_region<dim>(const Vec<dim>&, const Vec<dim>&, double);
+  template Region<dim> cylinder_region<dim>(const Vec<dim>&, const Vec<dim>&, double, double);
 VIM_FEM_REGIONS(2)
 VIM_FEM_REGIONS(3)
 

@@ -295,6 +295,7 @@ TEST(CliSimulate, ReadmeScenarioReferenceParses) {
   EXPECT_EQ(seeds, 17u);
   ASSERT_TRUE(plan.probe);  // the TRUS probe, moved once between the third and the fourth seed needle
   ASSERT_EQ(plan.probe->motions.size(), 1u);
+  EXPECT_DOUBLE_EQ(plan.probe->hold.region.length, 40.0);  // in 40 mm from the perineum face, not to x_max
   EXPECT_EQ(plan.probe->motions[0].after, 4u);
 }
 

@@ -7,7 +7,10 @@
 
 #include <chrono>
 #include <cmath>
+#include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <vim/pipeline/study/study.hpp>
 
 #include "run_cli.hpp"
@@ -194,4 +197,105 @@ TEST(StudyCli, ProcedureColumnsAreTheCaseReportsSeedErrorAndDose) {
               1e-8 * number(rows[0], "seed_error_max"));
   EXPECT_NEAR(number(rows[1], "d90_final"), number(rows[0], "d90_final"),
               1e-8 * number(rows[0], "d90_final"));
+}
+
+// Study keys on a procedure's actions: `procedure[N].K` sets K of action N in each case's scenario (the
+// parser's NeedleSpec carries it), study.csv has its columns as written, and each case's seeds.csv has the
+// seeds at the planned positions entry + depth·direction of the case's values.
+TEST(StudyCli, ActionKeysReachTheProcedureAndItsColumns) {
+  vim::test::TempDir dir("study_actions");
+  vim::test::write_study_inputs(dir.path);
+  write_file(dir.path / "plan.yaml",
+             "units: {length: mm, modulus: kPa}\n"
+             "material: {youngs_modulus: image, scale: 10.0, poisson_ratio: 0.3}\n"
+             "boundary_conditions: [{type: fixed, region: {box_face: x_max}}]\n"
+             "procedure:\n"
+             "  - insert: {name: a, entry: [0, 1.4, 1.6], direction: [1, 0, 0], depth: 1.5, steps: 3,\n"
+             "             diameter: 0.2, friction: {model: stick}, seeds: [0.5, 1.0, 1.5]}\n"
+             "  - withdraw: {needle: a, steps: 3}\n"
+             "output: {every: 0}\n");
+  write_file(dir.path / "study.yaml",
+             "scenario: plan.yaml\n"
+             "cases:\n  - {name: here}\n  - {name: moved, \"procedure[0].entry\": [0, 1.6, 1.4]}\n"
+             "grid:\n  procedure[0].seeds: [[0.5, 1.0, 1.5], [0.75, 1.25]]\n");
+  const auto study = vim::pipeline::read_study((dir.path / "study.yaml").string(), 3);
+  ASSERT_EQ(study.cases.size(), 4u);
+  EXPECT_EQ((std::vector<std::string>{"procedure[0].seeds", "procedure[0].entry"}),
+            study.varied);  // as first varied
+  EXPECT_EQ(study.cases[1].name, "here-g2");
+  EXPECT_EQ(study.cases[1].scenario.needles.at(0).seeds, (std::vector<double>{0.75, 1.25}));
+  EXPECT_EQ(study.cases[3].scenario.needles.at(0).entry, (std::vector<double>{0, 1.6, 1.4}));
+  EXPECT_EQ(study.cases[0].scenario.needles.at(0).entry, (std::vector<double>{0, 1.4, 1.6}));
+  const fs::path out = dir.path / "out";
+  const auto r = run_pipeline(study_options(dir.path, "study.yaml", out));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto rows = read_study_csv(out / "study.csv");
+  ASSERT_EQ(rows.size(), 4u);
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const auto& row = rows[i];
+    ASSERT_EQ(row.at("status"), "done") << row.at("message");
+    const auto& needle = study.cases[i].scenario.needles.at(0);
+    EXPECT_EQ(number(row, "procedure[0].entry_y"), needle.entry[1]);
+    EXPECT_EQ(number(row, "procedure[0].entry_z"), needle.entry[2]);
+    EXPECT_EQ(row.at("procedure[0].seeds"), i % 2 ? "0.75 1.25" : "0.5 1.0 1.5");
+    const auto report = nlohmann::json::parse(slurp(out / "cases" / row.at("case") / "report.json"));
+    EXPECT_EQ(number(row, "seed_error_max"), report["simulation"]["seeds"]["all"]["max_error"].get<double>());
+    EXPECT_EQ(report["simulation"]["seeds"]["all"]["count"].get<std::size_t>(), needle.seeds.size());
+    // seeds.csv: the planned positions of the case's entry and depths.
+    std::ifstream seeds(out / "cases" / row.at("case") / "seeds.csv");
+    std::string line;
+    std::getline(seeds, line);
+    const std::string header = line;
+    std::size_t n = 0;
+    while (std::getline(seeds, line)) {
+      std::vector<std::string> cells;
+      std::stringstream cs(line);
+      for (std::string c; std::getline(cs, c, ',');) cells.push_back(c);
+      std::stringstream hs(header);
+      std::map<std::string, std::string> cell;
+      std::size_t k = 0;
+      for (std::string h; std::getline(hs, h, ',') && k < cells.size(); ++k) cell[h] = cells[k];
+      ASSERT_LT(n, needle.seeds.size());
+      EXPECT_NEAR(std::stod(cell.at("planned_x")), needle.entry[0] + needle.seeds[n], 1e-10) << line;
+      EXPECT_NEAR(std::stod(cell.at("planned_y")), needle.entry[1], 1e-10) << line;
+      EXPECT_NEAR(std::stod(cell.at("planned_z")), needle.entry[2], 1e-10) << line;
+      ++n;
+    }
+    EXPECT_EQ(n, needle.seeds.size()) << header;
+  }
+}
+
+TEST(StudyCli, BadActionKeysNameTheFileLineAndKey) {
+  vim::test::TempDir dir("study_action_errors");
+  write_file(dir.path / "plan.yaml",
+             "material: {}\nboundary_conditions: [{type: fixed, region: {box_face: x_max}}]\n"
+             "procedure:\n"
+             "  - insert: {name: a, entry: [0, 1.4, 1.6], direction: [1, 0, 0], depth: 1.5, steps: 3,\n"
+             "             diameter: 0.2, friction: {model: stick}, seeds: [0.5, 1.0, 1.5]}\n"
+             "  - withdraw: {needle: a, steps: 3}\n");
+  const auto error = [&](const std::string& study) {
+    try {
+      vim::pipeline::parse_study_text("scenario: plan.yaml\n" + study, (dir.path / "s.yaml").string(), 3);
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  std::string e = error("grid:\n  procedure[2].depth: [1]\n");
+  EXPECT_NE(e.find("s.yaml:3:"), std::string::npos) << e;
+  EXPECT_NE(e.find("procedure[2].depth varies an action of a procedure, but"), std::string::npos) << e;
+  EXPECT_NE(e.find("has 2 actions (numbered from 0)"), std::string::npos) << e;
+  e = error("grid:\n  procedure[1].depth: [1]\n");
+  EXPECT_NE(e.find("procedure[1] of"), std::string::npos) << e;
+  EXPECT_NE(e.find("is a 'withdraw' action, which has no depth to vary"), std::string::npos) << e;
+  e = error("cases:\n  - procedure[0].seeds: 5\n");
+  EXPECT_NE(e.find("cases[0].procedure[0].seeds must be a non-empty list of depths, got '5'"),
+            std::string::npos)
+      << e;
+  e = error("cases:\n  - procedure[0].length: 5\n");
+  EXPECT_NE(e.find("unknown key 'cases[0].procedure[0].length'"), std::string::npos) << e;
+  EXPECT_NE(e.find("procedure[N].entry|direction|depth|seeds|translate|rotate"), std::string::npos) << e;
+  e = error("grid:\n  procedure[0].seeds: [[0.5, 2.0]]\n");  // beyond the depth: the scenario parser
+  EXPECT_NE(e.find("s.yaml:3:"), std::string::npos) << e;
+  EXPECT_NE(e.find("procedure[0].insert.seeds[1] = 2 must be a depth in (0, 1.5]"), std::string::npos) << e;
 }

@@ -33,8 +33,8 @@ const V3 kCenter(0, -4, 12), kAxis(0, 0, 1);
 constexpr double kRadius = 1.5, kPitch = 0.5, kStiffness = 40.0;
 
 // The foundation's lattice (scenario.hpp, BoundaryConditionSpec::Support::elastic): centre + (i + ½)·h
-// per axis, inside the cylinder and the box.
-std::vector<V3> lattice() {
+// per axis, inside the cylinder (within length/2 of its centre along the axis when length > 0) and the box.
+std::vector<V3> lattice(double length = 0.0) {
   std::vector<V3> points;
   for (int i = -30; i < 30; ++i)
     for (int j = -30; j < 30; ++j)
@@ -42,6 +42,7 @@ std::vector<V3> lattice() {
         const V3 x = kCenter + kPitch * V3(i + 0.5, j + 0.5, k + 0.5);
         const V3 r = x - kCenter;
         if ((r - r.dot(kAxis) * kAxis).norm() > kRadius) continue;
+        if (length > 0.0 && std::abs(r.dot(kAxis)) > 0.5 * length) continue;
         if (std::abs(x[0]) > 6 || std::abs(x[1]) > 6 || x[2] < 0 || x[2] > 24) continue;
         points.push_back(x);
       }
@@ -54,7 +55,8 @@ struct Reference {
 };
 
 // The block with the foundation's base at the probe's pose (t, θ), solved once from scratch.
-Reference reference(const MeshModel<3>& mm, const V3& t, double degrees, const std::vector<V3>& targets) {
+Reference reference(const MeshModel<3>& mm, const V3& t, double degrees, const std::vector<V3>& targets,
+                    double length = 0.0) {
   fem::ElasticModel<3> model(mm.mesh, std::vector<double>(mm.mesh.n_cells(), 10.0), 0.49, 1);
   fem::DirichletBC<3> face;
   face.region = fem::box_face_region<3>(V3(-6, -6, 0), V3(6, 6, 24), 1, true, 1e-9);
@@ -62,7 +64,7 @@ Reference reference(const MeshModel<3>& mm, const V3& t, double degrees, const s
   fem::VolumeSupport<3> sup;
   sup.name = "probe";
   sup.stiffness = kStiffness;
-  sup.points = lattice();
+  sup.points = lattice(length);
   const Eigen::Matrix3d R = Eigen::AngleAxisd(degrees * M_PI / 180.0, kAxis).toRotationMatrix();
   for (const V3& x : sup.points) {
     sup.weights.push_back(std::pow(kPitch, 3));
@@ -116,6 +118,32 @@ TEST(ProcedureProbe, MotionMovesTheTissueAsTheFoundationsDisplacedBase) {
             res.probe_steps[1].target_displacement[0].norm());
   // The turn about +z (right-handed): the tissue resists it with a moment about −z on the probe.
   EXPECT_LT(res.probe_steps[3].moment[2], 0.0);
+}
+
+// A probe of finite length (its cylinder 8 mm long about z = 12, ending inside the block): the foundation
+// covers that part only, and a translation moves the targets as the reference model with that lattice.
+TEST(ProcedureProbe, FiniteProbeIsBondedOverItsLengthOnly) {
+  std::string head = kHead;
+  const std::string infinite = "radius: 1.5}";
+  head.replace(head.find(infinite), infinite.size(), "radius: 1.5, length: 8}");
+  const Scenario sc = parse_scenario_text(
+      head + "procedure:\n  - probe: {translate: [0, 0.3, 0.5], steps: 1}\n", 3, "plan.yaml");
+  ASSERT_DOUBLE_EQ(sc.probe->hold.region.length, 8.0);
+  const MeshModel<3> mm = axis_block();
+  const SimulationResult<3> res = run_simulation<3>(mm, sc, quiet());
+  const std::vector<V3> full = lattice(), part = lattice(8.0);
+  EXPECT_EQ(res.report["probe"]["points"].get<std::size_t>(), part.size());
+  EXPECT_LT(part.size(), full.size() / 2);  // 8 of the block's 24 mm
+  const std::vector<V3> targets = {V3(0.3, -1.8, 12.2), V3(3, 2, 6)};
+  const ProbeStep<3>& step = res.probe_steps.at(0);
+  const Reference ref = reference(mm, step.translation, 0.0, targets, 8.0);
+  const Reference whole = reference(mm, step.translation, 0.0, targets);
+  for (std::size_t t = 0; t < 2; ++t) {
+    EXPECT_LT((step.target_displacement.at(t) - ref.targets[t]).norm(), 1e-8) << t;
+    EXPECT_GT((ref.targets[t] - whole.targets[t]).norm(), 1e-4) << t;  // the length matters
+  }
+  EXPECT_LT((step.force - ref.reaction).norm(), 1e-8 * ref.reaction.norm());
+  EXPECT_LT(step.force.norm(), whole.reaction.norm());
 }
 
 // A needle after the motion starts from the tissue the probe left (the moved base is a load of every later

@@ -134,10 +134,6 @@ TEST(ProcedureStay, BadStayNamesTheFileLineAndKey) {
       procedure_parse_error(kStayHead + "procedure:\n  - insert: " + a + ", stay: true, seeds: [4]}\n");
   EXPECT_NE(e.find("plan.yaml:4:"), std::string::npos) << e;
   EXPECT_NE(e.find("procedure[0].insert.stay = true with seeds"), std::string::npos) << e;
-  e = procedure_parse_error(kStayHead + "procedure:\n  - insert: " + a +
-                            ", stay: true}\n  - withdraw: {needle: a, steps: 3}\n");
-  EXPECT_NE(e.find("plan.yaml:5:"), std::string::npos) << e;
-  EXPECT_NE(e.find("procedure[1].withdraw.needle = 'a' stays in"), std::string::npos) << e;
   e = procedure_parse_error(kStayHead + "procedure:\n  - insert: " + a + ", seeds: [4]}\n  - insert: " + b +
                             ", stay: true}\n");
   EXPECT_NE(e.find("plan.yaml:5:"), std::string::npos) << e;

@@ -348,8 +348,8 @@ TEST(StaticLoad, CompareLinearWithANeedleMatchesTwoSeparateRuns) {
     return p;
   };
   const auto run_one = [&](const fs::path& yaml, const std::string& out, const std::string& extra) {
-    const auto r = run_pipeline(quote(dir / "block.mha") + " --mesher grid --nodes 300 --export none " + extra +
-                                " --simulate " + quote(yaml) + " --out " + quote(dir / out));
+    const auto r = run_pipeline(quote(dir / "block.mha") + " --mesher grid --nodes 300 --export none " +
+                                extra + " --simulate " + quote(yaml) + " --out " + quote(dir / out));
     EXPECT_EQ(r.code, 0) << r.err;
     std::ifstream in(dir.path / out / "report.json");
     return std::make_pair(nlohmann::json::parse(in)["simulation"], r.out);
@@ -375,7 +375,8 @@ TEST(StaticLoad, CompareLinearWithANeedleMatchesTwoSeparateRuns) {
   const nlohmann::json& t = c["targets"]["side"]["per_step"];
   const std::size_t last = lin["axial_force"].size() - 1;
   for (int d = 0; d < 3; ++d)
-    EXPECT_NEAR(t["linear"][last][d].get<double>(), lin["target_displacement"]["side"][last][d].get<double>(), 1e-9)
+    EXPECT_NEAR(t["linear"][last][d].get<double>(), lin["target_displacement"]["side"][last][d].get<double>(),
+                1e-9)
         << d;
   EXPECT_NE(summary.find("axial force:"), std::string::npos) << summary;
 }

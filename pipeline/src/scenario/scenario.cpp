@@ -53,10 +53,11 @@ void read_sphere(const Reader& r, const YAML::Node& v, const std::string& p, int
 }
 
 void read_cylinder(const Reader& r, const YAML::Node& v, const std::string& p, int dim, RegionSpec& reg) {
-  const Fields f = r.check_keys(v, p, {"center", "axis", "radius"});
+  const Fields f = r.check_keys(v, p, {"center", "axis", "radius", "length"});
   reg.center = r.vector(r.require(f, "center", p + ".center"), p + ".center", dim);
   reg.axis_vector = r.nonzero_vector(r.require(f, "axis", p + ".axis"), p + ".axis", dim);
   reg.radius = r.positive(r.require(f, "radius", p + ".radius"), p + ".radius");
+  if (const YAML::Node& l = f["length"]) reg.length = r.positive(l, p + ".length");
 }
 
 void read_label(const Reader& r, const YAML::Node& v, const std::string& p, int, RegionSpec& reg) {
@@ -298,6 +299,7 @@ std::string RegionSpec::describe() const {
       break;
     case Kind::cylinder:
       s << "cylinder center " << v(center) << " axis " << v(axis_vector) << " radius " << radius;
+      if (length > 0.0) s << " length " << length;
       break;
     case Kind::label:
       s << "label " << label;

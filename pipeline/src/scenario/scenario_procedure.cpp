@@ -3,7 +3,8 @@
 // back out in steps) and `probe` (the probe translated or rotated in steps, ProbeMotionSpec). Each insertion
 // becomes an entry of Scenario::needles, in order, with its seeds and its withdrawal; a needle not withdrawn
 // by an action is withdrawn with its insertion's steps before the next action (stay: false); one with stay:
-// true stays in to the end, its stations holding the tissue for the later ones.
+// true stays in, its stations holding the tissue for the later actions, to the end or to a `withdraw` of it
+// (run after the insertions before that action).
 #include <algorithm>
 #include <cmath>
 #include <set>
@@ -126,8 +127,8 @@ void parse_procedure(const YAML::Node& procedure, Scenario& s,
       if (const YAML::Node& stay = n["stay"]) {
         spec.stay = r.boolean(stay, at + ".stay");
         if (spec.stay && n["seeds"])
-          r.fail(stay, at + ".stay = true with seeds: a needle that stays in is never withdrawn, so it "
-                            "releases no seeds; leave out stay or seeds");
+          r.fail(stay, at + ".stay = true with seeds: a needle left in releases no seeds (its later "
+                            "withdrawal is not a seeding pass); leave out stay or seeds");
         if (spec.stay && seeds_released)
           r.fail(stay, at + ".stay = true after a needle that released seeds: a needle left in moves the "
                             "tissue those seeds are in; insert the needles that stay first");
@@ -154,10 +155,19 @@ void parse_procedure(const YAML::Node& procedure, Scenario& s,
       r.fail(name_node, at + ".needle = '" + name + "' names no needle inserted before it (inserted: " +
                             (known.empty() ? "none" : known) + ")");
     }
-    if (it->stay)
-      r.fail(name_node, at + ".needle = '" + name + "' stays in (its insertion has stay: true, line " +
-                            std::to_string(it->line) + "): a needle that stays is not withdrawn");
-    if (static_cast<std::size_t>(it - s.needles.begin()) != in)
+    if (it->stay) {
+      if (it->withdraw_action >= 0)
+        r.fail(name_node, at + ".needle = '" + name +
+                              "' is not in the tissue (it was withdrawn before, on line " +
+                              std::to_string(it->withdraw_line) + ")");
+      if (it->flexible)
+        r.fail(name_node, at + ".needle = '" + name + "' is a flexible needle left in (stay: true, line " +
+                              std::to_string(it->line) +
+                              "): withdrawing it after other actions is built for the rigid needle only");
+      withdraw_implicitly();  // a needle in since the last action comes out first
+      it->withdraw_action = static_cast<int>(i);
+      it->withdraw_after = s.needles.size();
+    } else if (static_cast<std::size_t>(it - s.needles.begin()) != in)
       r.fail(name_node, at + ".needle = '" + name + "' is not in the tissue (it was withdrawn before" +
                             (it->withdraw_line > 0 ? ", on line " + std::to_string(it->withdraw_line) : "") +
                             ")");
@@ -167,7 +177,7 @@ void parse_procedure(const YAML::Node& procedure, Scenario& s,
       r.fail(st, at + ".steps must be in 1..1000000, got " + std::to_string(steps));
     it->withdraw_steps = static_cast<int>(steps);
     it->withdraw_line = Reader::line(w);
-    in = s.needles.size();
+    if (!it->stay) in = s.needles.size();
   }
   withdraw_implicitly();
 }

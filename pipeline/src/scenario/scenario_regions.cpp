@@ -32,7 +32,8 @@ fem::Region<dim> scenario_region(const RegionSpec& r, const Eigen::Matrix<double
   } else if (r.kind == RegionSpec::Kind::sphere) {
     world = fem::sphere_region<dim>(spec_vector<dim>(r.center), r.radius).contains;
   } else {
-    world = fem::cylinder_region<dim>(spec_vector<dim>(r.center), spec_vector<dim>(r.axis_vector), r.radius)
+    world = fem::cylinder_region<dim>(spec_vector<dim>(r.center), spec_vector<dim>(r.axis_vector), r.radius,
+                                      r.length)
                 .contains;
   }
   return {r.describe(), [world, tf](const Vec& x) { return world(tf.to_world(x)); }};

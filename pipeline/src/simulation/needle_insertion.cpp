@@ -84,7 +84,7 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
   earlier_displacement_.assign(earlier_points_.size(), Vec::Zero());
   for (std::size_t i = 0; i < ctx_.sc.needles.size(); ++i)
     if (ctx_.sc.needles[i].name == spec.name) number_ = static_cast<int>(i) + 1;
-  total_steps_ = needle_.steps + spec.withdraw_steps;
+  total_steps_ = needle_.steps + (spec.withdrawn_later() ? 0 : spec.withdraw_steps);
   if constexpr (dim == 3)
     band_check_ = check_bands(needle_.path.entry, axis_, coupling_radius_, run_.point_s, run_.point_length,
                               targets_, [this](const Vec &x) {
@@ -101,12 +101,16 @@ NeedleInsertion<dim>::NeedleInsertion(SimulationContext<dim> &context, const Nee
   // External loads (a prescribed displacement, a pressure, a traction, a moved probe) and the needles left in
   // act from the start: before the tip reaches the first shaft point (step 0 included) the tissue deforms
   // under them alone, not rest.
-  loaded_ = (elastic_ && elastic_->holds()) || (ctx_.probe && ctx_.probe->moved()) ||
-            std::any_of(ctx_.sc.boundary_conditions.begin(), ctx_.sc.boundary_conditions.end(),
-                        [](const BoundaryConditionSpec &bc) {
-                          return bc.type != BoundaryConditionSpec::Type::fixed;
-                        });
+  loaded_ = loaded();
   write_ = writes_steps(ctx_.opt) && ctx_.sc.output_every > 0;
+}
+
+template <int dim>
+bool NeedleInsertion<dim>::loaded() const {
+  return (elastic_ && elastic_->holds()) || (ctx_.probe && ctx_.probe->moved()) ||
+         std::any_of(
+             ctx_.sc.boundary_conditions.begin(), ctx_.sc.boundary_conditions.end(),
+             [](const BoundaryConditionSpec &bc) { return bc.type != BoundaryConditionSpec::Type::fixed; });
 }
 
 // The tissue behind the rows: the linear model (holding the needles left in), or the neo-Hookean one
@@ -191,22 +195,35 @@ std::vector<needle::ShaftPoint<dim>> NeedleInsertion<dim>::make_coupling(bool sn
 }
 
 template <int dim>
-NeedleOutcome<dim> NeedleInsertion<dim>::run() {
-  Progress progress("needle " + spec_.name, total_steps_);
-  const auto t_run = Clock::now();
+void NeedleInsertion<dim>::precompute() {
   if (!ctx_.opt.monolithic || neo_hookean_) {  // every shaft row's column K⁻¹cᵀ in one batch: no
                                                // step does a sparse solve (neo-Hookean: the rows)
     const auto t = Clock::now();
     tissue_->precompute(probe_points());
-    run_.precompute_seconds = seconds_since(t);
+    run_.precompute_seconds += seconds_since(t);
   }
+}
+
+template <int dim>
+NeedleOutcome<dim> NeedleInsertion<dim>::run() {
+  const auto t_run = Clock::now();
+  precompute();
   rest();
   record_newton(0);
   if (stepping_->law().has_active_set())
     run_.active_set_sweeps.assign(static_cast<std::size_t>(total_steps_) + 1, 0);
   for (std::size_t i = 0; i < run_.seeds.size(); ++i) run_.seeds[i].rest_displacement = seed_displacement_[i];
   const auto t_steps = Clock::now();
-  for (int k = 1; k <= total_steps_; ++k) {
+  take_steps(1);
+  run_.stepping_seconds = seconds_since(t_steps);
+  if (spec_.stay) leave_in();
+  return finish(seconds_since(t_run));
+}
+
+template <int dim>
+void NeedleInsertion<dim>::take_steps(int first) {
+  Progress progress("needle " + spec_.name, total_steps_);
+  for (int k = first; k <= total_steps_; ++k) {
     try {
       if (k <= needle_.steps)
         advance_one_step(k);
@@ -226,14 +243,10 @@ NeedleOutcome<dim> NeedleInsertion<dim>::run() {
       progress.report(k, msg.str());
     }
   }
-  run_.stepping_seconds = seconds_since(t_steps);
-  if (spec_.stay) {  // left in: its stations keep holding the tissue as this last step left it
-    const needle::ShaftState &state = stepping_->state();
-    const auto rows = coupling_->rows(state.active, state.axial);
-    ctx_.staying.insert(ctx_.staying.end(), rows.begin(), rows.end());
-    ctx_.staying_needles.push_back({coupling_, state, rows.size()});
-  }
-  const double run_seconds = seconds_since(t_run);
+}
+
+template <int dim>
+NeedleOutcome<dim> NeedleInsertion<dim>::finish(double run_seconds) {
   run_.solve_seconds = tissue_->solve_seconds();
   run_.steps_per_second = run_seconds > 0.0 ? total_steps_ / run_seconds : 0.0;
   for (std::size_t i = 0; i < run_.seeds.size(); ++i) {  // later runs carry this needle's seeds
@@ -251,6 +264,11 @@ NeedleOutcome<dim> NeedleInsertion<dim>::run() {
                                              tissue_->solves(), ctx_.opt.monolithic, ctx_.sc);
   std::vector<std::string> warnings;
   report["material_model"] = neo_hookean_ ? "neo-hookean" : "linear";
+  report["energy"] = {{"needle_work", run_.needle_work.back()},
+                      {"dissipated_work", run_.dissipated_work.back()},
+                      {"join_work", run_.join_work.back()},
+                      {"stored_energy_change",
+                       run_.needle_work.back() - run_.dissipated_work.back() - run_.join_work.back()}};
   if (neo_hookean_) report["newton"] = {{"per_step", std::move(newton_steps_)}};
   if (dim == 3) {
     report["coupling_radius"] = coupling_radius_;
@@ -411,6 +429,44 @@ void NeedleInsertion<dim>::record_newton(int k) {
 }
 
 template <int dim>
+void NeedleInsertion<dim>::account_energy(double travel, const fem::Solution<dim> *s) {
+  const std::size_t n = stepping_->n_points();
+  std::vector<double> f(n, 0.0), u(n, 0.0);
+  std::vector<bool> on(n, false);
+  std::vector<double> carried(n, 0.0);  // the shaft length each point carries (grows as it joins)
+  const needle::ShaftState &state = stepping_->state();
+  for (std::size_t j = 0; j < n && j < state.carried.size(); ++j) carried[j] = state.carried[j];
+  if (s) {
+    f = coupling_->axial_forces(stepping_->state().active, *s);
+    f.resize(n, 0.0);
+    for (std::size_t j = 0; j < n; ++j) u[j] = tissue_->held_axial(j, axis_);
+    for (std::size_t j : stepping_->state().active) on[j] = true, u[j] = stepping_->state().axial[j];
+  }
+  double energy = 0.0;  // Clapeyron: ½ Σ f_j ū_j
+  for (std::size_t j = 0; j < n; ++j) energy += 0.5 * f[j] * u[j];
+  run_.row_energy.push_back(energy);
+  double work = 0.0, dissipated = 0.0, joins = 0.0;
+  for (std::size_t j = 0; j < point_force_.size(); ++j) {
+    const double mean = 0.5 * (f[j] + point_force_[j]);
+    work += mean * travel;
+    // On the needle at both ends of the step, carrying the same length: friction × slip; joining or leaving
+    // it (or a part of its segment): the tissue's jump to or from the needle.
+    const bool kept = on[j] && point_on_[j] && carried[j] == point_carried_[j];
+    (kept ? dissipated : joins) += mean * (travel - (u[j] - point_axial_[j]));
+  }
+  const auto add = [](std::vector<double> &sum, double x) {
+    sum.push_back((sum.empty() ? 0.0 : sum.back()) + x);
+  };
+  add(run_.needle_work, work);
+  add(run_.dissipated_work, dissipated);
+  add(run_.join_work, joins);
+  point_force_ = std::move(f);
+  point_on_ = std::move(on);
+  point_carried_ = std::move(carried);
+  point_axial_ = std::move(u);
+}
+
+template <int dim>
 double NeedleInsertion<dim>::axial_displacement(std::size_t j) const {
   return have_solution_ ? tissue_->held_axial(j, axis_) : 0.0;
 }
@@ -420,6 +476,7 @@ double NeedleInsertion<dim>::axial_displacement(std::size_t j) const {
 // and lateral = |F − (F·a)a|.
 template <int dim>
 void NeedleInsertion<dim>::record(double depth, const fem::Solution<dim> *s, int solves) {
+  account_energy(run_.depth.empty() ? 0.0 : depth - run_.depth.back(), s);
   run_.depth.push_back(depth);
   run_.tip.push_back(entry_world_ + depth * axis_world_);
   if (flexible_) record_flexible(depth);

@@ -46,8 +46,20 @@ class NeedleInsertion {
   // the .pvd and needle.csv when the options name an output folder; returns
   // the run with the needle's report entry.
   NeedleOutcome<dim> run();
+  // A needle left in (stay: true) whose withdrawal a later action asks for (NeedleSpec::withdrawn_later),
+  // after run() and the actions between: its rows are no longer held for the others, the tissue is set up
+  // again with the needles still left in and the loads as they are now, and the needle comes out in
+  // spec.withdraw_steps steps from its last state. `runs[index]` is its run so far (taken and returned
+  // in the outcome, the steps appended); the seeds the other runs released end where it leaves the tissue.
+  NeedleOutcome<dim> withdraw_later(std::vector<NeedleRun<dim>> &runs, std::size_t index);
 
  private:
+  void precompute();
+  void take_steps(int first);  // steps first…total_steps_: in, then out
+  void leave_in();             // its rows held for the later actions (ctx_.staying)
+  void release_hold();         // no longer: its rows leave ctx_.staying
+  bool loaded() const;         // external loads or needles left in deform the tissue from step 0
+  NeedleOutcome<dim> finish(double run_seconds);  // files, report, warnings
   void rest();
   void advance_one_step(int k);
   void solve_state(int k, double d, int solves_before, bool bending);
@@ -59,6 +71,12 @@ class NeedleInsertion {
   std::vector<needle::ShaftPoint<dim>> make_coupling(bool snap_to_vertices);
   void make_tissue(const NeedleSpec &spec);  // tissue_ (and elastic_ or neo_hookean_) on the coupling
   void record(double depth, const fem::Solution<dim> *solution, int solves);
+  // The step's needle work and dissipated work (NeedleRun::needle_work) from the points' axial forces and
+  // the tissue's axial displacement at their rows, now and at the last step (point_force_, point_axial_).
+  void account_energy(double travel, const fem::Solution<dim> *solution);
+  std::vector<double> point_force_, point_axial_;
+  std::vector<bool> point_on_;         // on the needle at the last step
+  std::vector<double> point_carried_;  // the shaft length each point carried then
   void record_flexible(double depth);
   void bend(double depth);  // the flexible needle's beam and bevel at this step
   void record_field(const fem::Solution<dim> *solution, bool skipped);
@@ -68,7 +86,7 @@ class NeedleInsertion {
   std::vector<Vec> probe_points() const;  // targets, this needle's seeds, the earlier seeds (frame)
 
   SimulationContext<dim> &ctx_;
-  const NeedleSpec &spec_;
+  const NeedleSpec spec_;              // a copy: a needle withdrawn later outlives the caller's spec
   needle::NeedleOptions<dim> needle_;  // the needle as the needle library takes it (frame)
   std::string prefix_;
   Vec axis_world_, entry_world_, axis_;  // axis_: frame

@@ -81,13 +81,6 @@ void probe_load(const SimulationContext<dim>& ctx, const std::vector<Eigen::Matr
 }  // namespace
 
 template <int dim>
-void ProbeMotions<dim>::before(std::size_t needle, SimulationResult<dim>& res) {
-  if (ctx_.sc.probe)
-    for (const ProbeMotionSpec& motion : ctx_.sc.probe->motions)
-      if (motion.after == needle) move(motion, res);
-}
-
-template <int dim>
 void ProbeMotions<dim>::move(const ProbeMotionSpec& motion, SimulationResult<dim>& res) {
   SimulationContext<dim>& ctx = ctx_;
   std::vector<ProbeStep<dim>>& steps = res.probe_steps;

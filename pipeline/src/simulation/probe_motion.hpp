@@ -20,19 +20,16 @@ template <int dim>
 class ProbeMotions {
  public:
   explicit ProbeMotions(SimulationContext<dim>& ctx) : ctx_(ctx) {}
-  // The motions that come after the first `needle` needles (before the next one, or at the end), each
-  // in its steps (move): res.probe_steps grows, and the final positions of res.needles' released seeds
-  // follow the tissue.
-  void before(std::size_t needle, SimulationResult<dim>& res);
+  // Each step of `motion`: the base moved to the step's pose, the solve, the probe's force and moment,
+  // the targets and the released seeds, and the step files (probe/steps/step_NNNN.vtu, seeds_NNNN.vtu,
+  // numbered over all probe steps): res.probe_steps grows, and the final positions of res.needles'
+  // released seeds follow the tissue.
+  void move(const ProbeMotionSpec& motion, SimulationResult<dim>& res);
   // probe.csv, probe/simulation.pvd and probe/seeds.pvd when the run writes files, and report.json's
   // simulation.probe: the foundation, the motions and per step the pose, force, moment.
   nlohmann::json finish(const std::vector<ProbeStep<dim>>& steps) const;
 
  private:
-  // Each step of `motion`: the base moved to the step's pose, the solve, the probe's force and moment,
-  // the targets and the released seeds, and the step files (probe/steps/step_NNNN.vtu, seeds_NNNN.vtu,
-  // numbered over all probe steps).
-  void move(const ProbeMotionSpec& motion, SimulationResult<dim>& res);
   using Vec = Eigen::Matrix<double, dim, 1>;
   void output_step(int k, const fem::Solution<dim>& solution, const std::vector<Vec>& seed_displacement);
 

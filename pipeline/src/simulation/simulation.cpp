@@ -7,6 +7,7 @@
 #include <cmath>
 #include <iomanip>
 #include <limits>
+#include <map>
 #include <sstream>
 #include <vim/fem/distributed.hpp>
 #include <vim/pipeline/output/vtk_output.hpp>
@@ -38,8 +39,15 @@ struct NeedleSimulation<dim>::Impl : SimulationContext<dim> {
   fem::VolumeSupport<dim> volume_support(const BoundaryConditionSpec& bc, const std::string& where) const;
   NeedleOutcome<dim> run_needle(const NeedleSpec& spec, const std::string& prefix,
                                 bool snap_to_vertices = false) {
-    return NeedleInsertion<dim>(*this, spec, prefix, snap_to_vertices).run();
+    auto insertion = std::make_unique<NeedleInsertion<dim>>(*this, spec, prefix, snap_to_vertices);
+    NeedleOutcome<dim> out = insertion->run();
+    if (spec.withdrawn_later()) left_in[spec.name] = std::move(insertion);
+    return out;
   }
+  // The needles left in that a later action withdraws, by name, until then.
+  std::map<std::string, std::unique_ptr<NeedleInsertion<dim>>> left_in;
+  void actions_after(std::size_t insertions, ProbeMotions<dim>& probe, SimulationResult<dim>& res,
+                     json& needles);
   std::vector<std::string> held_path_warnings(const NeedleSpec& spec) const;
   // --compare-linear: the needle on the other material model, nothing written.
   NeedleOutcome<dim> insert_with_other_model(const NeedleSpec& spec, const std::string& prefix) {
@@ -373,6 +381,41 @@ std::vector<std::string> NeedleSimulation<dim>::Impl::held_path_warnings(const N
   return out;
 }
 
+// The actions of a procedure that come after its first `insertions` insertions (before the next one, or
+// at the end), in the procedure's order: the probe's motions and the withdrawals of needles left in (their
+// runs in res.needles and their report entries grow by the withdrawal's steps).
+template <int dim>
+void NeedleSimulation<dim>::Impl::actions_after(std::size_t insertions, ProbeMotions<dim>& probe,
+                                                SimulationResult<dim>& res, json& needles) {
+  struct Action {
+    int number;  // in the procedure
+    const ProbeMotionSpec* motion;
+    const NeedleSpec* withdrawn;
+  };
+  std::vector<Action> actions;
+  if (sc.probe)
+    for (const ProbeMotionSpec& motion : sc.probe->motions)
+      if (motion.after == insertions) actions.push_back({motion.action, &motion, nullptr});
+  for (const NeedleSpec& spec : sc.needles)
+    if (spec.withdrawn_later() && spec.withdraw_after == insertions)
+      actions.push_back({spec.withdraw_action, nullptr, &spec});
+  std::sort(actions.begin(), actions.end(),
+            [](const Action& a, const Action& b) { return a.number < b.number; });
+  for (const Action& action : actions) {
+    if (action.motion) {
+      probe.move(*action.motion, res);
+      continue;
+    }
+    const NeedleSpec& spec = *action.withdrawn;
+    std::size_t r = 0;
+    while (r < res.needles.size() && res.needles[r].name != spec.name) ++r;
+    NeedleOutcome<dim> out = left_in.at(spec.name)->withdraw_later(res.needles, r);
+    res.needles[r] = std::move(out.run);
+    needles[r] = std::move(out.report);
+    left_in.erase(spec.name);
+  }
+}
+
 // Inserts one needle; where its shaft points turn out nearly dependent (a path along mesh edges or
 // through a row of vertices), runs it again with the shaft at the mesh vertices and, for the default
 // spacing, with a coarser one, saying so in `warnings`. Solver failures become ScenarioErrors naming
@@ -538,7 +581,7 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
                         "material.model = 'neo-hookean' is solved on one process; run without --mpi-ranks");
   ProbeMotions<dim> probe(m);
   for (const auto& spec : m.sc.needles) {
-    probe.before(res.needles.size(), res);
+    m.actions_after(res.needles.size(), probe, res, needles);
     const std::string prefix = m.sc.needle_list ? spec.name + "/" : "";
     const std::string who = spec.name.empty() ? std::string("the needle") : "needle '" + spec.name + "'";
     m.check_sample_spacing(spec, who, res.warnings);
@@ -564,7 +607,7 @@ SimulationResult<dim> NeedleSimulation<dim>::run() {
     res.needles.push_back(std::move(needle.run));
     needles.push_back(std::move(needle.report));
   }
-  probe.before(m.sc.needles.size(), res);
+  m.actions_after(m.sc.needles.size(), probe, res, needles);
   rep["needles"] = needles;
   if (!compared.empty()) rep["compare_linear"] = compare_linear_needles(compared);
   if (m.sc.probe) rep["probe"] = probe.finish(res.probe_steps);

@@ -4,6 +4,7 @@
 // file, the line and the key (the scenario reader's style, scenario_reader.hpp).
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -25,6 +26,19 @@ const std::vector<StudyKey>& study_keys() {
   return keys;
 }
 
+std::optional<ActionKey> action_key(const std::string& key) {
+  const std::string head = "procedure[";
+  if (key.rfind(head, 0) != 0) return std::nullopt;
+  const std::size_t close = key.find("].", head.size());
+  if (close == std::string::npos || close == head.size() || close - head.size() > 6) return std::nullopt;
+  const std::string digits = key.substr(head.size(), close - head.size());
+  if (!std::all_of(digits.begin(), digits.end(), is_digit)) return std::nullopt;
+  const std::string name = key.substr(close + 2);
+  for (const char* k : {"entry", "direction", "depth", "seeds", "translate", "rotate"})
+    if (name == k) return ActionKey{std::stoul(digits), name};
+  return std::nullopt;
+}
+
 namespace {
 
 constexpr std::size_t kMaxCases = 100000;
@@ -41,8 +55,23 @@ std::string scenario_key(const std::string& key) {
   return key;
 }
 
-bool is_vector_key(const std::string& key) { return key == "entry" || key == "direction"; }
+bool is_vector_key(const std::string& key) {
+  const std::optional<ActionKey> a = action_key(key);
+  const std::string k = a ? a->key : key;
+  return k == "entry" || k == "direction" || (a && k == "translate");
+}
 bool is_needle_key(const std::string& key) { return key != "scale" && key != "poisson_ratio"; }
+
+// The keys a cases entry or the grid may give: the study keys and the action keys among n's keys (any
+// other key is refused with the study keys and the action-key pattern as the valid ones).
+std::vector<std::string> valid_keys(const YAML::Node& n) {
+  std::vector<std::string> valid = key_names();
+  if (n.IsMap())
+    for (const auto& kv : n)
+      if (kv.first.IsScalar() && action_key(kv.first.Scalar())) valid.push_back(kv.first.Scalar());
+  valid.emplace_back(kActionKeyPattern);
+  return valid;
+}
 
 // One varied value as written in the study file.
 struct Value {
@@ -58,13 +87,20 @@ std::string value_text(const YAML::Node& n) {
   return s + "]";
 }
 
-// A number, or for entry/direction a list of dim numbers (the scenario parser checks the ranges).
+// A number, for entry/direction/translate a list of dim numbers, for seeds a non-empty list of numbers
+// (the scenario parser checks the ranges).
 void check_value(const Reader& r, const std::string& key, const YAML::Node& n, const std::string& path,
                  int dim) {
-  if (is_vector_key(key))
+  const std::optional<ActionKey> a = action_key(key);
+  if (is_vector_key(key)) {
     r.vector(n, path, dim);
-  else
+  } else if (a && a->key == "seeds") {
+    if (!n.IsSequence() || n.size() == 0)
+      r.fail(n, path + " must be a non-empty list of depths, got " + scalar_text(n));
+    for (std::size_t i = 0; i < n.size(); ++i) r.number(n[i], path + "[" + std::to_string(i) + "]");
+  } else {
     r.number(n, path);
+  }
 }
 
 struct ListCase {
@@ -75,12 +111,12 @@ struct ListCase {
 std::vector<ListCase> parse_cases(const Reader& r, const YAML::Node& n, int dim) {
   if (!n.IsSequence() || n.size() == 0)
     r.fail(n, "cases must be a non-empty list of case mappings, got " + scalar_text(n));
-  std::vector<std::string> valid = key_names();
-  valid.insert(valid.begin(), "name");
   std::vector<ListCase> cases;
   for (std::size_t i = 0; i < n.size(); ++i) {
     const std::string path = "cases[" + std::to_string(i) + "]";
-    const Fields f = r.check_keys(n[i], path, valid);
+    std::vector<std::string> keys = valid_keys(n[i]);
+    keys.insert(keys.begin(), "name");
+    const Fields f = r.check_keys(n[i], path, keys);
     ListCase c;
     c.name = "case-" + std::to_string(i + 1);
     if (const YAML::Node& name = f["name"]) {
@@ -95,6 +131,11 @@ std::vector<ListCase> parse_cases(const Reader& r, const YAML::Node& n, int dim)
         check_value(r, key, v, path + "." + key, dim);
         c.values.push_back({key, v});
       }
+    for (const auto& kv : n[i])
+      if (action_key(kv.first.Scalar())) {
+        check_value(r, kv.first.Scalar(), kv.second, path + "." + kv.first.Scalar(), dim);
+        c.values.push_back({kv.first.Scalar(), kv.second});
+      }
     cases.push_back(std::move(c));
   }
   return cases;
@@ -107,7 +148,7 @@ struct GridAxis {
 
 // The grid's keys in the order written (the first varies slowest).
 std::vector<GridAxis> parse_grid(const Reader& r, const YAML::Node& n, int dim) {
-  r.check_keys(n, "grid", key_names());
+  r.check_keys(n, "grid", valid_keys(n));
   std::vector<GridAxis> axes;
   for (const auto& kv : n) {
     const std::string key = kv.first.Scalar(), path = "grid." + key;
@@ -121,11 +162,41 @@ std::vector<GridAxis> parse_grid(const Reader& r, const YAML::Node& n, int dim) 
   return axes;
 }
 
+// An action key's value put into the base scenario's procedure: the action must exist and have the key
+// (insert: entry, direction, depth, seeds; probe: translate or rotate, the other one removed).
+void set_action_value(const Reader& r, YAML::Node& root, const std::string& base_path, const ActionKey& a,
+                      const YAML::Node& value) {
+  const YAML::Node& base = root;  // const: looking up does not add keys
+  const YAML::Node& procedure = base["procedure"];
+  const std::string at = "procedure[" + std::to_string(a.index) + "]";
+  if (!procedure || !procedure.IsSequence() || a.index >= procedure.size())
+    r.fail(value, at + "." + a.key + " varies an action of a procedure, but " + base_path +
+                      (procedure && procedure.IsSequence()
+                           ? " has " + std::to_string(procedure.size()) + " actions (numbered from 0)"
+                           : " has no 'procedure' list"));
+  YAML::Node action = procedure[a.index];
+  if (!action.IsMap() || action.size() != 1) return;  // the scenario parser names it
+  const std::string name = action.begin()->first.Scalar();
+  const bool insert_key = a.key == "entry" || a.key == "direction" || a.key == "depth" || a.key == "seeds";
+  const bool probe_key = a.key == "translate" || a.key == "rotate";
+  if (!((name == "insert" && insert_key) || (name == "probe" && probe_key)))
+    r.fail(value, at + "." + a.key + ": " + at + " of " + base_path + " is a '" + name +
+                      "' action, which has no " + a.key +
+                      " to vary (insert: entry, direction, depth, seeds; probe: translate, rotate)");
+  YAML::Node body = action.begin()->second;
+  if (probe_key) body.remove(a.key == "translate" ? "rotate" : "translate");
+  body[a.key] = YAML::Clone(value);
+}
+
 // The base scenario's YAML with `values` put in.
 YAML::Node apply_values(const Reader& r, const YAML::Node& base_root, const std::string& base_path,
                         const std::vector<Value>& values) {
   YAML::Node root = YAML::Clone(base_root);
   for (const Value& v : values) {
+    if (const std::optional<ActionKey> a = action_key(v.key)) {
+      set_action_value(r, root, base_path, *a, v.node);
+      continue;
+    }
     if (!is_needle_key(v.key)) {
       if (!root["material"]) root["material"] = YAML::Node(YAML::NodeType::Map);
       root["material"][v.key] = YAML::Clone(v.node);
@@ -183,6 +254,7 @@ StudyCase make_case(const Reader& r, const Study& study, const YAML::Node& base_
     const Value* culprit = values.empty() ? nullptr : &values.front();
     for (const Value& v : values)
       if (message.find(scenario_key(v.key)) != std::string::npos ||
+          (action_key(v.key) && message.find(v.key.substr(0, v.key.find(']') + 1)) != std::string::npos) ||
           (v.key == "max_shear_per_length" && message.find("needle.friction") != std::string::npos))
         culprit = &v;
     if (!culprit) throw;
@@ -278,6 +350,11 @@ Study parse_study_text(const std::string& yaml_text, const std::string& source, 
       for (const auto& value : c.values) varied = varied || value.first == k.name;
     if (varied) study.varied.emplace_back(k.name);
   }
+  for (const StudyCase& c : study.cases)  // the action keys, in the order they first appear
+    for (const auto& value : c.values)
+      if (action_key(value.first) &&
+          std::find(study.varied.begin(), study.varied.end(), value.first) == study.varied.end())
+        study.varied.push_back(value.first);
   return study;
 }
 

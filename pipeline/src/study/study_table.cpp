@@ -1,6 +1,8 @@
 // The outcomes of a study's cases and study.csv (study_table.hpp).
 #include "study/study_table.hpp"
 
+#include <yaml-cpp/yaml.h>
+
 #include <algorithm>
 #include <vim/pipeline/common/atomic_file.hpp>
 
@@ -69,20 +71,45 @@ std::string quoted(const std::string& s) {
 
 const char* const kAxes[] = {"_x", "_y", "_z"};
 
+// An action key's value in a case's scenario as written there: per axis for entry, direction and
+// translate, the depths separated by spaces for seeds; empty where the action does not give it.
+std::vector<std::string> action_values(const Study& study, const StudyCase& c, const ActionKey& a) {
+  const bool vector = a.key == "entry" || a.key == "direction" || a.key == "translate";
+  std::vector<std::string> out(vector ? static_cast<std::size_t>(study.base.dim) : 1);
+  const YAML::Node root = YAML::Load(c.scenario_text);
+  const YAML::Node& procedure = static_cast<const YAML::Node&>(root)["procedure"];
+  if (!procedure || !procedure.IsSequence() || a.index >= procedure.size()) return out;
+  const YAML::Node action = procedure[a.index];
+  if (!action.IsMap() || action.size() != 1) return out;
+  const YAML::Node& v = static_cast<const YAML::Node&>(action.begin()->second)[a.key];
+  if (!v) return out;
+  if (v.IsScalar()) out[0] = v.Scalar();
+  for (std::size_t i = 0; v.IsSequence() && i < v.size(); ++i) {
+    if (vector && i < out.size()) out[i] = v[i].Scalar();
+    if (!vector) out[0] += (i ? " " : "") + v[i].Scalar();
+  }
+  return out;
+}
+
 // The columns of the varied inputs and the case's values for them.
 void input_columns(const Study& study, std::vector<std::string>& header) {
   for (const std::string& key : study.varied) {
-    if (key == "entry" || key == "direction")
+    const std::optional<ActionKey> a = action_key(key);
+    if (key == "entry" || key == "direction" ||
+        (a && (a->key == "entry" || a->key == "direction" || a->key == "translate")))
       for (int a = 0; a < study.base.dim; ++a) header.push_back(key + kAxes[a]);
     else
       header.push_back(key);
   }
 }
 
-void input_values(const Study& study, const Scenario& sc, std::vector<std::string>& row) {
+void input_values(const Study& study, const StudyCase& c, std::vector<std::string>& row) {
+  const Scenario& sc = c.scenario;
   const NeedleSpec* needle = sc.needles.empty() ? nullptr : &sc.needles.front();
   for (const std::string& key : study.varied) {
-    if (key == "entry" || key == "direction") {
+    if (const std::optional<ActionKey> a = action_key(key)) {
+      for (std::string& v : action_values(study, c, *a)) row.push_back(std::move(v));
+    } else if (key == "entry" || key == "direction") {
       for (int a = 0; a < study.base.dim; ++a)
         row.push_back(needle ? number((key == "entry" ? needle->entry : needle->direction)[a]) : "");
     } else if (key == "depth") {
@@ -135,7 +162,7 @@ void write_study_csv(const std::filesystem::path& path, const Study& study,
     s << "\n";
     for (const CaseOutcome& o : outcomes) {
       std::vector<std::string> row = {study.cases[o.index].name, o.status};
-      input_values(study, study.cases[o.index].scenario, row);
+      input_values(study, study.cases[o.index], row);
       result_values(study, o, row);
       for (const std::string& c : procedure_columns(study.base))
         row.push_back(o.status == "done" && o.procedure.contains(c) ? number(o.procedure.at(c).get<double>())

@@ -30,8 +30,10 @@ template <int dim>
 Region<dim> sphere_region(const Vec<dim>& center, double radius);
 template <int dim>
 Region<dim> box_region(const Vec<dim>& lo, const Vec<dim>& hi);
-template <int dim>  // infinite cylinder (2D: slab)
-Region<dim> cylinder_region(const Vec<dim>& center, const Vec<dim>& axis, double radius);
+// A cylinder (2D: a slab) about the line through `center` along `axis`: infinite when length is 0, else
+// the part within length/2 of center along the axis.
+template <int dim>
+Region<dim> cylinder_region(const Vec<dim>& center, const Vec<dim>& axis, double radius, double length = 0.0);
 
 // u_c = value_c on every support point in region, for each component c with components[c] true.
 // If `function` is set it replaces `value`: u_c = function(x)_c (e.g. a linear field for patch tests).

@@ -38,6 +38,7 @@ struct RegionSpec {
   std::string face;                                 // box_face name as written
   std::vector<double> center, axis_vector, lo, hi;  // dim values each (world)
   double radius = 0.0;
+  double length = 0.0;  // cylinder: its length, centred at center (0: infinite)
   // label: the label's name or number as written, and the label it names (a number: set by the parser;
   // a name: set by the run from the label image and the `labels:` table, docs/labels.md).
   std::string label;
@@ -139,12 +140,17 @@ struct NeedleSpec {
   // A procedure's insertion (scenario_procedure.cpp): the seeds' planned depths along the path (in
   // (0, depth], increasing), released as the tip passes them on the way out; the withdrawal's steps
   // (0: the needle stays in at the end of its run) and the line of the action that withdraws it.
-  // stay: the needle is left in the tissue to the end of the procedure; its stations keep holding the
-  // tissue where its last step left it during the later insertions (docs/procedure.md).
+  // stay: the needle is left in the tissue; its stations keep holding the tissue where its last step
+  // left it during the later actions (docs/procedure.md), to the end or to the action that withdraws it:
+  // then withdraw_action is that action's number in the procedure and withdraw_after the number of
+  // insertions before it (the withdrawal runs after them, its withdraw_steps after the insertion's run).
   std::vector<double> seeds;
   int withdraw_steps = 0;
   int withdraw_line = 0;
   bool stay = false;
+  int withdraw_action = -1;
+  std::size_t withdraw_after = 0;
+  bool withdrawn_later() const { return stay && withdraw_action >= 0; }
 };
 
 // `dose:` of a procedure (docs/dose.md): the TG-43U1 dose of its seeds at their planned and final

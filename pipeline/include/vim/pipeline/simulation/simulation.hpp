@@ -157,6 +157,14 @@ struct NeedleRun {
   std::vector<double> near_field_strain, small_strain_radius;
   std::vector<std::vector<int>> target_in_near_field;  // [step][target]: 1 within that distance of the shaft
   double solve_seconds = 0.0;                          // total time in solves
+  // The energy balance, per step from step 0 (docs/procedure.md, "Energy"), over the shaft points j with
+  // f̄_j the mean of the point's axial force at the step's two ends (trapezoidal rule), Δd the needle's
+  // travel and Δū_j that of the point's axial value (the tissue's, through the band's compliance, while it
+  // is on the needle): so far, the needle's work Σ f̄_j Δd; the friction's dissipated work Σ f̄_j (Δd − Δū_j)
+  // over the points on the needle at both ends of a step (force × slip); the same sum over the points
+  // that join or leave it (the tissue at the tip taken up or let go). row_energy: ½ Σ f_j ū_j at each
+  // step, the stored energy by Clapeyron's theorem when the needle's rows are the only load.
+  std::vector<double> needle_work, dissipated_work, join_work, row_energy;
   // Before stepping: the model's factorisation (if not done yet) and every shaft row's column
   // (ElasticModel::precompute); 0 with the monolithic reference.
   double precompute_seconds = 0.0;

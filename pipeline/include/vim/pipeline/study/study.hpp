@@ -17,6 +17,7 @@
 // With both, every case is combined with every grid point. study.cpp runs it; study_reader.cpp reads it.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 #include <vim/pipeline/run/run_options.hpp>
@@ -30,6 +31,14 @@ struct StudyKey {
   const char* scenario_key;  // what it sets in the base scenario
 };
 const std::vector<StudyKey>& study_keys();
+// A procedure's action may be varied too: `procedure[N].K` sets K of action N (from 0) of the base's
+// procedure, K one of entry, direction, depth, seeds (an insert) or translate, rotate (a probe motion).
+struct ActionKey {
+  std::size_t index = 0;
+  std::string key;
+};
+std::optional<ActionKey> action_key(const std::string& key);  // nullopt: not of that form
+inline constexpr const char* kActionKeyPattern = "procedure[N].entry|direction|depth|seeds|translate|rotate";
 
 struct StudyCase {
   std::string name;  // folder name under DIR/cases/
