@@ -4,11 +4,11 @@
 // voxels (centre in an element of another label). Reads only the mesh, the cell labels and the image.
 #pragma once
 
-#include "metrics.hpp"
-
 #include <cmath>
 #include <map>
 #include <vector>
+
+#include "metrics.hpp"
 
 namespace vim::metrics {
 
@@ -26,10 +26,12 @@ std::vector<int> voxel_owners(const Image<dim>& image, const SimplexMesh<dim>& m
 // Each element's label: most of its voxel centres (ties: the smallest label); an element holding
 // none takes the label of the voxel whose centre is nearest its centroid.
 template <int dim>
-std::vector<int> majority_labels(const Image<dim>& image, const SimplexMesh<dim>& mesh, const std::vector<int>& owner) {
+std::vector<int> majority_labels(const Image<dim>& image, const SimplexMesh<dim>& mesh,
+                                 const std::vector<int>& owner) {
   std::vector<std::map<int, long>> counts(mesh.n_cells());
   for (std::size_t k = 0; k < owner.size(); ++k)
-    if (owner[k] >= 0) ++counts[static_cast<std::size_t>(owner[k])][static_cast<int>(std::lround(image.data[k]))];
+    if (owner[k] >= 0)
+      ++counts[static_cast<std::size_t>(owner[k])][static_cast<int>(std::lround(image.data[k]))];
   std::vector<int> label(mesh.n_cells());
   for (std::size_t c = 0; c < mesh.n_cells(); ++c) {
     long best = 0;
@@ -59,7 +61,8 @@ struct LabelScore {
 };
 
 template <int dim>
-LabelScore label_score(const Image<dim>& image, const std::vector<int>& owner, const std::vector<int>& cell_label) {
+LabelScore label_score(const Image<dim>& image, const std::vector<int>& owner,
+                       const std::vector<int>& cell_label) {
   LabelScore s;
   for (std::size_t k = 0; k < owner.size(); ++k) {
     const int l = static_cast<int>(std::lround(image.data[k]));

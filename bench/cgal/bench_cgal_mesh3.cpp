@@ -30,12 +30,6 @@
 //
 //   bench_cgal_mesh3 [--n 100] [--nodes 4096] [--threads 0] [--search-width 3] [--max-tuning 8] [--match-tf]
 //                    [--repeat 3]
-#include "../metrics.hpp"
-
-#include "cgal_mesh3.hpp"
-
-#include <vim/vim.hpp>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -48,22 +42,26 @@
 #include <stdexcept>
 #include <string>
 #include <vector>
+#include <vim/vim.hpp>
+
+#include "../metrics.hpp"
+#include "cgal_mesh3.hpp"
 
 namespace {
 
 using namespace vim::cgal_bench;
 
 void print_header() {
-  std::printf("%-10s %6s %8s %8s %8s %8s %7s %7s %7s %7s %9s %9s\n", "method", "nodes", "elements", "minNRR", "minDA",
-              "maxDA", "FN", "FP", "TF", "TF%", "seconds", "VIM/this");
+  std::printf("%-10s %6s %8s %8s %8s %8s %7s %7s %7s %7s %9s %9s\n", "method", "nodes", "elements", "minNRR",
+              "minDA", "maxDA", "FN", "FP", "TF", "TF%", "seconds", "VIM/this");
 }
 
 void print_row(const char* method, const vim::SimplexMesh<3>& mesh, const vim::metrics::SphereMetrics& m,
                double seconds, double vim_seconds) {
   const auto q = vim::metrics::quality<3>(mesh);
-  std::printf("%-10s %6zu %8zu %8.5f %8.4f %8.3f %7ld %7ld %7ld %6.2f%% %9.2f %9.3f\n", method, mesh.n_points(),
-              mesh.n_cells(), q.min_nrr, q.min_angle, q.max_angle, m.fn, m.fp, m.tf, m.tf_percent, seconds,
-              vim_seconds / seconds);
+  std::printf("%-10s %6zu %8zu %8.5f %8.4f %8.3f %7ld %7ld %7ld %6.2f%% %9.2f %9.3f\n", method,
+              mesh.n_points(), mesh.n_cells(), q.min_nrr, q.min_angle, q.max_angle, m.fn, m.fp, m.tf,
+              m.tf_percent, seconds, vim_seconds / seconds);
 }
 
 }  // namespace
@@ -78,21 +76,30 @@ int main(int argc, char** argv) try {
       if (i + 1 >= argc) throw std::invalid_argument(std::string(name) + " needs a value");
       return argv[++i];
     };
-    if (!std::strcmp(argv[i], "--n")) n = std::atol(value("--n"));
-    else if (!std::strcmp(argv[i], "--nodes")) budget = std::atol(value("--nodes"));
-    else if (!std::strcmp(argv[i], "--threads")) options.threads = std::atoi(value("--threads"));
-    else if (!std::strcmp(argv[i], "--search-width")) options.search_width = std::atoi(value("--search-width"));
-    else if (!std::strcmp(argv[i], "--match-tf")) match_tf = true;
-    else if (!std::strcmp(argv[i], "--max-tuning")) max_tuning = std::atoi(value("--max-tuning"));
-    else if (!std::strcmp(argv[i], "--repeat")) repeat = std::max(1, std::atoi(value("--repeat")));
-    else throw std::invalid_argument(std::string("unknown argument ") + argv[i]);
+    if (!std::strcmp(argv[i], "--n"))
+      n = std::atol(value("--n"));
+    else if (!std::strcmp(argv[i], "--nodes"))
+      budget = std::atol(value("--nodes"));
+    else if (!std::strcmp(argv[i], "--threads"))
+      options.threads = std::atoi(value("--threads"));
+    else if (!std::strcmp(argv[i], "--search-width"))
+      options.search_width = std::atoi(value("--search-width"));
+    else if (!std::strcmp(argv[i], "--match-tf"))
+      match_tf = true;
+    else if (!std::strcmp(argv[i], "--max-tuning"))
+      max_tuning = std::atoi(value("--max-tuning"));
+    else if (!std::strcmp(argv[i], "--repeat"))
+      repeat = std::max(1, std::atoi(value("--repeat")));
+    else
+      throw std::invalid_argument(std::string("unknown argument ") + argv[i]);
   }
   options.validate();
 
   const vim::Image<3> image = vim::metrics::table1_phantom(n);
   const Eigen::Vector3d centre(1.5, 1.5, 1.5), lo = image.box_min(), hi = image.box_max();
-  std::printf("VIM vs CGAL %d.%d Mesh_3: Table I phantom %ld^3 voxels, cube [0,3]^3, sphere r=1; target %ld nodes\n",
-              CGAL_VERSION_MAJOR, CGAL_VERSION_MINOR, n, budget);
+  std::printf(
+      "VIM vs CGAL %d.%d Mesh_3: Table I phantom %ld^3 voxels, cube [0,3]^3, sphere r=1; target %ld nodes\n",
+      CGAL_VERSION_MAJOR, CGAL_VERSION_MINOR, n, budget);
   std::printf("object rule (all rows): largest face-connected set of elements with voxel mean > 1.5\n");
   std::fflush(stdout);
 
@@ -113,10 +120,12 @@ int main(int argc, char** argv) try {
   }
   const auto vm = vim::metrics::table1_metrics<3>(image, r.mesh, centre, 1.0);
   const long target = static_cast<long>(r.mesh.n_points());
-  std::printf("VIM done: %zu nodes, %zu elements, %.2f s (fastest of %d, slowest %.2f s), %zu iterations (search width %d, "
-              "threads %d)\n",
-              r.mesh.n_points(), r.mesh.n_cells(), vim_seconds, repeat, vim_slowest, r.history.size() - 1,
-              options.search_width, options.threads);
+  std::printf(
+      "VIM done: %zu nodes, %zu elements, %.2f s (fastest of %d, slowest %.2f s), %zu iterations (search "
+      "width %d, "
+      "threads %d)\n",
+      r.mesh.n_points(), r.mesh.n_cells(), vim_seconds, repeat, vim_slowest, r.history.size() - 1,
+      options.search_width, options.threads);
   // Where VIM's time goes: the set-up (history[0]), the node updates (parallel) and the swap passes
   // with their recolouring (sequential).
   double node_seconds = 0.0, swap_seconds = 0.0;
@@ -125,8 +134,8 @@ int main(int argc, char** argv) try {
     swap_seconds += r.history[i].swap_seconds;
   }
   const double setup_seconds = r.history[0].seconds;
-  std::printf("VIM phases: set-up %.3f s, node updates %.3f s, swap passes %.3f s (sequential)\n", setup_seconds,
-              node_seconds, swap_seconds);
+  std::printf("VIM phases: set-up %.3f s, node updates %.3f s, swap passes %.3f s (sequential)\n",
+              setup_seconds, node_seconds, swap_seconds);
   std::fflush(stdout);
   vim::VimOptions full_options = options;
   full_options.search_width = 0;
@@ -154,13 +163,17 @@ int main(int argc, char** argv) try {
         t0 = std::chrono::steady_clock::now();
         early = vim::optimize<3>(image, grid, early_options);
         early_seconds = std::min(early_seconds, seconds_since(t0));
-        if (rep == 0 && vim::metrics::table1_metrics<3>(image, early.mesh, centre, 1.0).tf_percent > p->second) break;
+        if (rep == 0 &&
+            vim::metrics::table1_metrics<3>(image, early.mesh, centre, 1.0).tf_percent > p->second)
+          break;
         if (rep + 1 == repeat) early_iterations = k;
       }
     }
     if (early_iterations > 0)
-      std::printf("VIM-early done: %d iterations reach the paper's TF %.2f%% in %.2f s (fastest of %d; not converged)\n",
-                  early_iterations, p->second, early_seconds, repeat);
+      std::printf(
+          "VIM-early done: %d iterations reach the paper's TF %.2f%% in %.2f s (fastest of %d; not "
+          "converged)\n",
+          early_iterations, p->second, early_seconds, repeat);
     std::fflush(stdout);
   }
 
@@ -170,7 +183,8 @@ int main(int argc, char** argv) try {
   // the initial surface points, so reusing one domain makes every call different.
   auto domain_of = [&cimage] { return Mesh_domain::create_labeled_image_mesh_domain(cimage); };
   // The final runs repeat the tuned s (fresh domain = same seed = same refinement).
-  const double s = tune_size(domain_of, target, std::cbrt(27.0 / static_cast<double>(target)) * 1.5, max_tuning);
+  const double s =
+      tune_size(domain_of, target, std::cbrt(27.0 / static_cast<double>(target)) * 1.5, max_tuning);
 
   struct Row {
     const char* name;
@@ -206,19 +220,24 @@ int main(int argc, char** argv) try {
   if (match_tf) {
     // Equal accuracy: the largest s whose refinement reaches VIM's TF% (TF falls as s shrinks, up to
     // the noise of CGAL's random initial points), by geometric bisection from the equal-node s.
-    std::printf("\nEqual-accuracy tuning: CGAL TF%% <= VIM's %.2f%% (refinement only, VIM object rule)\n", vm.tf_percent);
+    std::printf("\nEqual-accuracy tuning: CGAL TF%% <= VIM's %.2f%% (refinement only, VIM object rule)\n",
+                vm.tf_percent);
     double meets = 0.0, fails = s, t = s / 1.6;
     for (int run = 0; run < 2 * max_tuning; ++run) {
       const Mesh_domain domain = domain_of();
       t0 = std::chrono::steady_clock::now();
-      const C3t3 c3t3 = CGAL::make_mesh_3<C3t3>(domain, criteria_for(t), params::no_perturb(), params::no_exude());
+      const C3t3 c3t3 =
+          CGAL::make_mesh_3<C3t3>(domain, criteria_for(t), params::no_perturb(), params::no_exude());
       const double sec = seconds_since(t0);
       const CgalMesh m = extract(c3t3);
       const auto tm = vim::metrics::table1_metrics<3>(image, m.mesh, centre, 1.0);
-      std::printf("  tuning %d: s=%.5f -> %zu nodes, TF %.2f%% (%.2f s)\n", run, t, m.mesh.n_points(), tm.tf_percent, sec);
+      std::printf("  tuning %d: s=%.5f -> %zu nodes, TF %.2f%% (%.2f s)\n", run, t, m.mesh.n_points(),
+                  tm.tf_percent, sec);
       std::fflush(stdout);
-      if (tm.tf_percent <= vm.tf_percent) meets = std::max(meets, t);
-      else fails = std::min(fails, t);
+      if (tm.tf_percent <= vm.tf_percent)
+        meets = std::max(meets, t);
+      else
+        fails = std::min(fails, t);
       if (meets > 0.0 && fails / meets < 1.03) break;
       t = meets > 0.0 ? std::sqrt(meets * fails) : t / 1.6;
     }
@@ -234,31 +253,36 @@ int main(int argc, char** argv) try {
     }
   }
 
-  std::printf("\nCGAL s=%.5f (facet_size=cell_size=s, facet_distance=s/4, facet_angle=25, radius_edge=3)\n", s);
+  std::printf("\nCGAL s=%.5f (facet_size=cell_size=s, facet_distance=s/4, facet_angle=25, radius_edge=3)\n",
+              s);
   std::printf("CGAL-pe = refine+perturb+exude; CGAL-ol = refine+ODT+Lloyd(+perturb+exude)\n");
   print_header();
   print_row("VIM", r.mesh, vm, vim_seconds, vim_seconds);
-  print_row("VIM-full", full.mesh, vim::metrics::table1_metrics<3>(image, full.mesh, centre, 1.0), full_seconds,
-            vim_seconds);
+  print_row("VIM-full", full.mesh, vim::metrics::table1_metrics<3>(image, full.mesh, centre, 1.0),
+            full_seconds, vim_seconds);
   if (early_iterations > 0)
-    print_row("VIM-early", early.mesh, vim::metrics::table1_metrics<3>(image, early.mesh, centre, 1.0), early_seconds,
-              vim_seconds);
+    print_row("VIM-early", early.mesh, vim::metrics::table1_metrics<3>(image, early.mesh, centre, 1.0),
+              early_seconds, vim_seconds);
   for (const Row& row : rows) {
     const auto m = vim::metrics::table1_metrics<3>(image, row.mesh.mesh, centre, 1.0);
     print_row(row.name, row.mesh.mesh, m, row.seconds, vim_seconds);
   }
   if (early_iterations > 0)
-    std::printf("VIM-early (%d iterations, stopped before Eq. 9 convergence, TF at most the paper's): %.2f x CGAL-pe\n",
-                early_iterations, early_seconds / pe_seconds);
-  std::printf("VIM's set-up + swap passes alone: %.3f s = %.2f x CGAL-pe (the node updates are the other %.3f s)\n",
-              setup_seconds + swap_seconds, (setup_seconds + swap_seconds) / pe_seconds, node_seconds);
+    std::printf(
+        "VIM-early (%d iterations, stopped before Eq. 9 convergence, TF at most the paper's): %.2f x "
+        "CGAL-pe\n",
+        early_iterations, early_seconds / pe_seconds);
+  std::printf(
+      "VIM's set-up + swap passes alone: %.3f s = %.2f x CGAL-pe (the node updates are the other %.3f s)\n",
+      setup_seconds + swap_seconds, (setup_seconds + swap_seconds) / pe_seconds, node_seconds);
   std::printf("\nCGAL with the subdomain rule (object = tets CGAL labelled 2):\n");
   for (const Row& row : rows) {
     std::vector<bool> object(row.mesh.subdomain.size());
     for (std::size_t c = 0; c < object.size(); ++c) object[c] = row.mesh.subdomain[c] == 2;
     const auto m = vim::metrics::sphere_metrics<3>(image, row.mesh.mesh, object, centre, 1.0);
-    std::printf("%-10s FN %7ld FP %7ld TF %7ld TF%% %6.2f%%  (node ratio CGAL/VIM %.3f)\n", row.name, m.fn, m.fp, m.tf,
-                m.tf_percent, static_cast<double>(row.mesh.mesh.n_points()) / static_cast<double>(target));
+    std::printf("%-10s FN %7ld FP %7ld TF %7ld TF%% %6.2f%%  (node ratio CGAL/VIM %.3f)\n", row.name, m.fn,
+                m.fp, m.tf, m.tf_percent,
+                static_cast<double>(row.mesh.mesh.n_points()) / static_cast<double>(target));
   }
   return 0;
 } catch (const std::exception& e) {

@@ -4,8 +4,6 @@
 // CGAL's subdomain index per cell.
 #pragma once
 
-#include <vim/initial_mesh.hpp>
-
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Image_3.h>
 #include <CGAL/Labeled_mesh_domain_3.h>
@@ -20,6 +18,7 @@
 #include <cstdio>
 #include <map>
 #include <vector>
+#include <vim/initial_mesh.hpp>
 
 namespace vim::cgal_bench {
 
@@ -39,17 +38,18 @@ inline double seconds_since(std::chrono::steady_clock::time_point t0) {
 // voxel centre).
 template <class LabelOf>
 CGAL::Image_3 labeled_image(const vim::Image<3>& image, LabelOf&& label_of) {
-  _image* im = ::_createImage(image.size[0], image.size[1], image.size[2], 1, image.spacing[0], image.spacing[1],
-                              image.spacing[2], 1, WK_FIXED, SGN_UNSIGNED);
+  _image* im = ::_createImage(image.size[0], image.size[1], image.size[2], 1, image.spacing[0],
+                              image.spacing[1], image.spacing[2], 1, WK_FIXED, SGN_UNSIGNED);
   im->tx = static_cast<float>(image.origin[0]);
   im->ty = static_cast<float>(image.origin[1]);
   im->tz = static_cast<float>(image.origin[2]);
   auto* data = static_cast<unsigned char*>(im->data);
   for (std::size_t k = 0; k < image.voxel_count(); ++k) {
     const auto i = image.index_of(k);
-    const std::size_t lin = static_cast<std::size_t>(i[0]) +
-                            static_cast<std::size_t>(image.size[0]) *
-                                (static_cast<std::size_t>(i[1]) + static_cast<std::size_t>(image.size[1]) * i[2]);
+    const std::size_t lin =
+        static_cast<std::size_t>(i[0]) +
+        static_cast<std::size_t>(image.size[0]) *
+            (static_cast<std::size_t>(i[1]) + static_cast<std::size_t>(image.size[1]) * i[2]);
     data[lin] = static_cast<unsigned char>(label_of(image.data[k]));
   }
   return CGAL::Image_3(im);
@@ -98,7 +98,8 @@ double tune_size(DomainOf&& domain_of, long target, double s, int max_tuning) {
   for (int run = 0; run < max_tuning; ++run) {
     const auto t0 = std::chrono::steady_clock::now();
     const Mesh_domain domain = domain_of();
-    const C3t3 c3t3 = CGAL::make_mesh_3<C3t3>(domain, criteria_for(s), params::no_perturb(), params::no_exude());
+    const C3t3 c3t3 =
+        CGAL::make_mesh_3<C3t3>(domain, criteria_for(s), params::no_perturb(), params::no_exude());
     const CgalMesh m = extract(c3t3);
     const long nodes = static_cast<long>(m.mesh.n_points());
     std::printf("  tuning %d: s=%.5f -> %ld nodes, %zu tets (%.2f s, refinement only)\n", run, s, nodes,
@@ -107,13 +108,16 @@ double tune_size(DomainOf&& domain_of, long target, double s, int max_tuning) {
     const double rel = static_cast<double>(nodes) / static_cast<double>(target);
     if (std::abs(rel - 1.0) < best_err) best_err = std::abs(rel - 1.0), best_s = s;
     if (std::abs(rel - 1.0) <= 0.05) break;
-    if (rel > 1.0) s_lo = s;
-    else s_hi = s;
+    if (rel > 1.0)
+      s_lo = s;
+    else
+      s_hi = s;
     double next = s * std::cbrt(rel);  // model update
     if (s_lo > 0.0 && s_hi > 0.0 && (next <= s_lo || next >= s_hi)) next = 0.5 * (s_lo + s_hi);  // bisection
     s = next;
   }
-  if (best_err > 0.10) std::printf("  WARNING: best tuning run is %.1f%% off the target (outside +-10%%)\n", 100 * best_err);
+  if (best_err > 0.10)
+    std::printf("  WARNING: best tuning run is %.1f%% off the target (outside +-10%%)\n", 100 * best_err);
   return best_s;
 }
 

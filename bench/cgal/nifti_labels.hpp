@@ -4,14 +4,13 @@
 // is put at spacing/2, which is all a comparison of two meshers on the same voxels needs.
 #pragma once
 
-#include <vim/image.hpp>
-
 #include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
+#include <vim/image.hpp>
 
 namespace vim::cgal_bench {
 
@@ -27,7 +26,8 @@ inline vim::Image<3> read_nifti_labels(const std::string& path) {
   if (!in) throw std::invalid_argument(path + ": cannot open");
   char h[348];
   if (!in.read(h, sizeof h) || header_field<std::int32_t>(h, 0) != 348)
-    throw std::invalid_argument(path + ": not an uncompressed little-endian NIfTI-1 file (sizeof_hdr != 348)");
+    throw std::invalid_argument(path +
+                                ": not an uncompressed little-endian NIfTI-1 file (sizeof_hdr != 348)");
   const auto ndim = header_field<std::int16_t>(h, 40);
   if (ndim < 3 || (ndim > 3 && header_field<std::int16_t>(h, 48) > 1))
     throw std::invalid_argument(path + ": dim[0] = " + std::to_string(ndim) + ": a 3D image is needed");
@@ -38,7 +38,8 @@ inline vim::Image<3> read_nifti_labels(const std::string& path) {
     spacing[a] = header_field<float>(h, 80 + 4 * a);
     if (size[a] < 2 || !(spacing[a] > 0.0))
       throw std::invalid_argument(path + ": axis " + std::to_string(a) + " has " + std::to_string(size[a]) +
-                                  " voxels of size " + std::to_string(spacing[a]) + " (>= 2 voxels of size > 0 needed)");
+                                  " voxels of size " + std::to_string(spacing[a]) +
+                                  " (>= 2 voxels of size > 0 needed)");
     origin[a] = 0.5 * spacing[a];
   }
   const auto datatype = header_field<std::int16_t>(h, 70);
@@ -49,17 +50,30 @@ inline vim::Image<3> read_nifti_labels(const std::string& path) {
   in.seekg(static_cast<std::streamoff>(header_field<float>(h, 108)));
   auto read_as = [&](auto zero) {
     std::vector<decltype(zero)> raw(image.voxel_count());
-    if (!in.read(reinterpret_cast<char*>(raw.data()), static_cast<std::streamsize>(raw.size() * sizeof(zero))))
+    if (!in.read(reinterpret_cast<char*>(raw.data()),
+                 static_cast<std::streamsize>(raw.size() * sizeof(zero))))
       throw std::invalid_argument(path + ": file ends before its " + std::to_string(raw.size()) + " voxels");
     for (std::size_t k = 0; k < raw.size(); ++k) image.data[k] = static_cast<float>(raw[k]);
   };
   switch (datatype) {
-    case 2: read_as(std::uint8_t{}); break;
-    case 256: read_as(std::int8_t{}); break;
-    case 4: read_as(std::int16_t{}); break;
-    case 512: read_as(std::uint16_t{}); break;
-    case 8: read_as(std::int32_t{}); break;
-    case 768: read_as(std::uint32_t{}); break;
+    case 2:
+      read_as(std::uint8_t{});
+      break;
+    case 256:
+      read_as(std::int8_t{});
+      break;
+    case 4:
+      read_as(std::int16_t{});
+      break;
+    case 512:
+      read_as(std::uint16_t{});
+      break;
+    case 8:
+      read_as(std::int32_t{});
+      break;
+    case 768:
+      read_as(std::uint32_t{});
+      break;
     default:
       throw std::invalid_argument(path + ": datatype " + std::to_string(datatype) +
                                   " (valid: 2, 4, 8, 256, 512, 768: integer voxels)");
