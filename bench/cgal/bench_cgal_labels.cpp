@@ -1,6 +1,7 @@
 // VIM on labels vs CGAL Mesh_3's Labeled_mesh_domain_3 on the same multi-label image at (about) the
 // same node count, in one run (docs/cgal_comparison.md, "Labels"). The label image is an uncompressed
-// NIfTI-1 file of integer labels 1..255 (e.g. `vim-make-phantom prostate p.mha --labels labels.nii`).
+// NIfTI-1 file (e.g. `vim-make-phantom prostate p.mha --labels labels.nii`) or an INRIMAGE, read,
+// strided and renumbered 1..k by label_image_io.hpp.
 // VIM: vim::optimize_labels, default VimOptions, from the regular Kuhn grid at the node budget; each
 // element labelled by the majority rule. CGAL: make_mesh_3 with its default optimisers (perturb +
 // exude), s (facet_size = cell_size = s, facet_distance = s/4) tuned on refinement-only runs to VIM's
@@ -11,7 +12,7 @@
 // "CGAL-maj" scores CGAL's mesh with the majority rule instead of its subdomains. Times are the fastest of
 // --repeat runs (meshing only; scoring excluded).
 //
-//   bench_cgal_labels LABELS.nii [--nodes 1000] [--threads 0] [--repeat 3] [--max-tuning 8]
+//   bench_cgal_labels LABELS [--stride 1] [--nodes 1000] [--threads 0] [--repeat 3] [--max-tuning 8]
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -25,7 +26,7 @@
 
 #include "../label_metrics.hpp"
 #include "cgal_mesh3.hpp"
-#include "nifti_labels.hpp"
+#include "label_image_io.hpp"
 
 namespace {
 
@@ -74,7 +75,7 @@ void print_tables(const std::vector<Scored>& rows, double vim_seconds) {
 }  // namespace
 
 int main(int argc, char** argv) try {
-  long budget = 1000;
+  long budget = 1000, stride = 1;
   int max_tuning = 8, repeat = 3;
   std::string path;
   vim::VimOptions options;
@@ -85,6 +86,8 @@ int main(int argc, char** argv) try {
     };
     if (!std::strcmp(argv[i], "--nodes"))
       budget = std::atol(value("--nodes"));
+    else if (!std::strcmp(argv[i], "--stride"))
+      stride = std::max(1L, std::atol(value("--stride")));
     else if (!std::strcmp(argv[i], "--threads"))
       options.threads = std::atoi(value("--threads"));
     else if (!std::strcmp(argv[i], "--max-tuning"))
@@ -97,14 +100,9 @@ int main(int argc, char** argv) try {
       throw std::invalid_argument(std::string("unknown argument ") + argv[i]);
   }
   if (path.empty())
-    throw std::invalid_argument("usage: bench_cgal_labels LABELS.nii [--nodes N] [--threads T] ...");
+    throw std::invalid_argument("usage: bench_cgal_labels LABELS [--stride S] [--nodes N] ...");
   options.validate();
-  const vim::Image<3> image = read_nifti_labels(path);
-  for (std::size_t k = 0; k < image.voxel_count(); ++k)
-    if (image.data[k] < 1.0f || image.data[k] > 255.0f)
-      throw std::invalid_argument(path + ": voxel " + std::to_string(k) + " holds label " +
-                                  std::to_string(image.data[k]) +
-                                  " (valid: 1..255, CGAL meshes non-zero bytes)");
+  const vim::Image<3> image = label_image(path, stride);
   const Eigen::Vector3d lo = image.box_min(), hi = image.box_max();
   std::printf(
       "VIM labels vs CGAL %d.%d Labeled_mesh_domain_3: %s, %ld x %ld x %ld voxels; target %ld nodes\n",

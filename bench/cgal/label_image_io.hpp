@@ -81,4 +81,49 @@ inline vim::Image<3> read_nifti_labels(const std::string& path) {
   return image;
 }
 
+inline vim::Image<3> read_inr_labels(const std::string& path) {
+  CGAL::Image_3 in;
+  if (!in.read(path)) throw std::invalid_argument(path + ": cannot read as an INRIMAGE (.inr, .inr.gz)");
+  const std::array<long, 3> size{static_cast<long>(in.xdim()), static_cast<long>(in.ydim()),
+                                 static_cast<long>(in.zdim())};
+  const std::array<double, 3> spacing{in.vx(), in.vy(), in.vz()};
+  vim::Image<3> image(size, spacing, {0.5 * spacing[0], 0.5 * spacing[1], 0.5 * spacing[2]});
+  for (std::size_t k = 0; k < image.voxel_count(); ++k) {
+    const auto i = image.index_of(k);
+    image.data[k] = in.value(static_cast<std::size_t>(i[0]), static_cast<std::size_t>(i[1]),
+                             static_cast<std::size_t>(i[2]));
+  }
+  return image;
+}
+
+// Every stride-th voxel along each axis (stride 1: the image itself), labels renumbered 1..k by
+// ascending value; throws std::invalid_argument for a non-integer voxel or more than 255 labels.
+inline vim::Image<3> label_image(const std::string& path, long stride) {
+  const bool inr = path.size() > 4 &&
+                   (path.substr(path.size() - 4) == ".inr" || path.find(".inr.gz") != std::string::npos);
+  const vim::Image<3> full = inr ? read_inr_labels(path) : read_nifti_labels(path);
+  std::array<long, 3> size{};
+  std::array<double, 3> spacing{};
+  for (int a = 0; a < 3; ++a)
+    size[a] = (full.size[a] + stride - 1) / stride, spacing[a] = full.spacing[a] * stride;
+  vim::Image<3> image(size, spacing, {0.5 * spacing[0], 0.5 * spacing[1], 0.5 * spacing[2]});
+  std::map<float, int> rank;
+  for (std::size_t k = 0; k < image.voxel_count(); ++k) {
+    auto i = image.index_of(k);
+    for (auto& c : i) c *= stride;
+    const float v = full.at(i);
+    if (v != std::round(v))
+      throw std::invalid_argument(path + ": voxel " + std::to_string(k) + " holds " + std::to_string(v) +
+                                  " (valid: integer labels)");
+    image.data[k] = v;
+    rank.emplace(v, 0);
+  }
+  if (rank.size() > 255)
+    throw std::invalid_argument(path + ": " + std::to_string(rank.size()) + " labels (valid: at most 255)");
+  int next = 1;
+  for (auto& kv : rank) kv.second = next++;
+  for (float& v : image.data) v = static_cast<float>(rank.at(v));
+  return image;
+}
+
 }  // namespace vim::cgal_bench
