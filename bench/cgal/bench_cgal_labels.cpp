@@ -6,7 +6,7 @@
 // element labelled by the majority rule. CGAL: make_mesh_3 with its default optimisers (perturb +
 // exude), s (facet_size = cell_size = s, facet_distance = s/4) tuned on refinement-only runs to VIM's
 // node count (cgal_mesh3.hpp); each element labelled by its subdomain. The same independent code
-// (bench/label_metrics.hpp) scores both meshes: per label, the voxel centres in an element of another
+// (bench/cgal/label_metrics.hpp) scores both meshes: per label, the voxel centres in an element of another
 // label as a fraction of the label's voxels (volume fractions: all voxels have the same volume), and
 // the centres in no element (CGAL's boundary facets approximate the box, so it leaves some out). Row
 // "CGAL-maj" scores CGAL's mesh with the majority rule instead of its subdomains. Times are the fastest of
@@ -24,9 +24,9 @@
 #include <vector>
 #include <vim/vim.hpp>
 
-#include "../label_metrics.hpp"
 #include "cgal_mesh3.hpp"
 #include "label_image_io.hpp"
+#include "label_metrics.hpp"
 
 namespace {
 

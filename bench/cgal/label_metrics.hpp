@@ -8,7 +8,7 @@
 #include <map>
 #include <vector>
 
-#include "metrics.hpp"
+#include "../metrics.hpp"
 
 namespace vim::metrics {
 
