@@ -30,19 +30,6 @@
 //
 //   bench_cgal_mesh3 [--n 100] [--nodes 4096] [--threads 0] [--search-width 3] [--max-tuning 8] [--match-tf]
 //                    [--repeat 3]
-#include "../metrics.hpp"
-
-#include <vim/initial_mesh.hpp>
-#include <vim/vim.hpp>
-
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#include <CGAL/Image_3.h>
-#include <CGAL/Labeled_mesh_domain_3.h>
-#include <CGAL/Mesh_complex_3_in_triangulation_3.h>
-#include <CGAL/Mesh_criteria_3.h>
-#include <CGAL/Mesh_triangulation_3.h>
-#include <CGAL/make_mesh_3.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -55,81 +42,26 @@
 #include <stdexcept>
 #include <string>
 #include <vector>
+#include <vim/vim.hpp>
+
+#include "../metrics.hpp"
+#include "cgal_mesh3.hpp"
 
 namespace {
 
-using K = CGAL::Exact_predicates_inexact_constructions_kernel;
-using Mesh_domain = CGAL::Labeled_mesh_domain_3<K>;
-using Tr = CGAL::Mesh_triangulation_3<Mesh_domain, CGAL::Default, CGAL::Sequential_tag>::type;
-using C3t3 = CGAL::Mesh_complex_3_in_triangulation_3<Tr>;
-using Mesh_criteria = CGAL::Mesh_criteria_3<Tr>;
-namespace params = CGAL::parameters;
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-// CGAL::Image_3 from the vim image: one unsigned byte per voxel, label 2 where value > 1.5 else 1.
-// CGAL places voxel (i,j,k) at (i·vx + tx, ...): tx = the vim origin (first voxel centre).
-CGAL::Image_3 labeled_image(const vim::Image<3>& image) {
-  _image* im = ::_createImage(image.size[0], image.size[1], image.size[2], 1, image.spacing[0], image.spacing[1],
-                              image.spacing[2], 1, WK_FIXED, SGN_UNSIGNED);
-  im->tx = static_cast<float>(image.origin[0]);
-  im->ty = static_cast<float>(image.origin[1]);
-  im->tz = static_cast<float>(image.origin[2]);
-  auto* data = static_cast<unsigned char*>(im->data);
-  for (std::size_t k = 0; k < image.voxel_count(); ++k) {
-    const auto i = image.index_of(k);
-    const std::size_t lin = static_cast<std::size_t>(i[0]) +
-                            static_cast<std::size_t>(image.size[0]) *
-                                (static_cast<std::size_t>(i[1]) + static_cast<std::size_t>(image.size[1]) * i[2]);
-    data[lin] = image.data[k] > 1.5f ? 2 : 1;
-  }
-  return CGAL::Image_3(im);
-}
-
-struct CgalMesh {
-  vim::SimplexMesh<3> mesh;
-  std::vector<int> subdomain;
-};
-
-CgalMesh extract(const C3t3& c3t3) {
-  CgalMesh out;
-  std::map<Tr::Vertex_handle, int> index;
-  for (auto c = c3t3.cells_in_complex_begin(); c != c3t3.cells_in_complex_end(); ++c) {
-    std::array<int, 4> cell;
-    for (int k = 0; k < 4; ++k) {
-      const auto v = c->vertex(k);
-      auto [it, fresh] = index.emplace(v, static_cast<int>(out.mesh.points.size()));
-      if (fresh) {
-        const auto& p = v->point();
-        out.mesh.points.emplace_back(CGAL::to_double(p.x()), CGAL::to_double(p.y()), CGAL::to_double(p.z()));
-      }
-      cell[k] = it->second;
-    }
-    out.mesh.cells.push_back(cell);
-    out.subdomain.push_back(static_cast<int>(c3t3.subdomain_index(c)));
-  }
-  vim::orient_positively<3>(out.mesh);
-  return out;
-}
-
-Mesh_criteria criteria_for(double s) {
-  return Mesh_criteria(params::facet_angle = 25, params::facet_size = s, params::facet_distance = s / 4,
-                       params::cell_radius_edge_ratio = 3, params::cell_size = s);
-}
+using namespace vim::cgal_bench;
 
 void print_header() {
-  std::printf("%-10s %6s %8s %8s %8s %8s %7s %7s %7s %7s %9s %9s\n", "method", "nodes", "elements", "minNRR", "minDA",
-              "maxDA", "FN", "FP", "TF", "TF%", "seconds", "VIM/this");
+  std::printf("%-10s %6s %8s %8s %8s %8s %7s %7s %7s %7s %9s %9s\n", "method", "nodes", "elements", "minNRR",
+              "minDA", "maxDA", "FN", "FP", "TF", "TF%", "seconds", "VIM/this");
 }
 
 void print_row(const char* method, const vim::SimplexMesh<3>& mesh, const vim::metrics::SphereMetrics& m,
                double seconds, double vim_seconds) {
   const auto q = vim::metrics::quality<3>(mesh);
-  std::printf("%-10s %6zu %8zu %8.5f %8.4f %8.3f %7ld %7ld %7ld %6.2f%% %9.2f %9.3f\n", method, mesh.n_points(),
-              mesh.n_cells(), q.min_nrr, q.min_angle, q.max_angle, m.fn, m.fp, m.tf, m.tf_percent, seconds,
-              vim_seconds / seconds);
+  std::printf("%-10s %6zu %8zu %8.5f %8.4f %8.3f %7ld %7ld %7ld %6.2f%% %9.2f %9.3f\n", method,
+              mesh.n_points(), mesh.n_cells(), q.min_nrr, q.min_angle, q.max_angle, m.fn, m.fp, m.tf,
+              m.tf_percent, seconds, vim_seconds / seconds);
 }
 
 }  // namespace
@@ -144,21 +76,30 @@ int main(int argc, char** argv) try {
       if (i + 1 >= argc) throw std::invalid_argument(std::string(name) + " needs a value");
       return argv[++i];
     };
-    if (!std::strcmp(argv[i], "--n")) n = std::atol(value("--n"));
-    else if (!std::strcmp(argv[i], "--nodes")) budget = std::atol(value("--nodes"));
-    else if (!std::strcmp(argv[i], "--threads")) options.threads = std::atoi(value("--threads"));
-    else if (!std::strcmp(argv[i], "--search-width")) options.search_width = std::atoi(value("--search-width"));
-    else if (!std::strcmp(argv[i], "--match-tf")) match_tf = true;
-    else if (!std::strcmp(argv[i], "--max-tuning")) max_tuning = std::atoi(value("--max-tuning"));
-    else if (!std::strcmp(argv[i], "--repeat")) repeat = std::max(1, std::atoi(value("--repeat")));
-    else throw std::invalid_argument(std::string("unknown argument ") + argv[i]);
+    if (!std::strcmp(argv[i], "--n"))
+      n = std::atol(value("--n"));
+    else if (!std::strcmp(argv[i], "--nodes"))
+      budget = std::atol(value("--nodes"));
+    else if (!std::strcmp(argv[i], "--threads"))
+      options.threads = std::atoi(value("--threads"));
+    else if (!std::strcmp(argv[i], "--search-width"))
+      options.search_width = std::atoi(value("--search-width"));
+    else if (!std::strcmp(argv[i], "--match-tf"))
+      match_tf = true;
+    else if (!std::strcmp(argv[i], "--max-tuning"))
+      max_tuning = std::atoi(value("--max-tuning"));
+    else if (!std::strcmp(argv[i], "--repeat"))
+      repeat = std::max(1, std::atoi(value("--repeat")));
+    else
+      throw std::invalid_argument(std::string("unknown argument ") + argv[i]);
   }
   options.validate();
 
   const vim::Image<3> image = vim::metrics::table1_phantom(n);
   const Eigen::Vector3d centre(1.5, 1.5, 1.5), lo = image.box_min(), hi = image.box_max();
-  std::printf("VIM vs CGAL %d.%d Mesh_3: Table I phantom %ld^3 voxels, cube [0,3]^3, sphere r=1; target %ld nodes\n",
-              CGAL_VERSION_MAJOR, CGAL_VERSION_MINOR, n, budget);
+  std::printf(
+      "VIM vs CGAL %d.%d Mesh_3: Table I phantom %ld^3 voxels, cube [0,3]^3, sphere r=1; target %ld nodes\n",
+      CGAL_VERSION_MAJOR, CGAL_VERSION_MINOR, n, budget);
   std::printf("object rule (all rows): largest face-connected set of elements with voxel mean > 1.5\n");
   std::fflush(stdout);
 
@@ -179,10 +120,12 @@ int main(int argc, char** argv) try {
   }
   const auto vm = vim::metrics::table1_metrics<3>(image, r.mesh, centre, 1.0);
   const long target = static_cast<long>(r.mesh.n_points());
-  std::printf("VIM done: %zu nodes, %zu elements, %.2f s (fastest of %d, slowest %.2f s), %zu iterations (search width %d, "
-              "threads %d)\n",
-              r.mesh.n_points(), r.mesh.n_cells(), vim_seconds, repeat, vim_slowest, r.history.size() - 1,
-              options.search_width, options.threads);
+  std::printf(
+      "VIM done: %zu nodes, %zu elements, %.2f s (fastest of %d, slowest %.2f s), %zu iterations (search "
+      "width %d, "
+      "threads %d)\n",
+      r.mesh.n_points(), r.mesh.n_cells(), vim_seconds, repeat, vim_slowest, r.history.size() - 1,
+      options.search_width, options.threads);
   // Where VIM's time goes: the set-up (history[0]), the node updates (parallel) and the swap passes
   // with their recolouring (sequential).
   double node_seconds = 0.0, swap_seconds = 0.0;
@@ -191,8 +134,8 @@ int main(int argc, char** argv) try {
     swap_seconds += r.history[i].swap_seconds;
   }
   const double setup_seconds = r.history[0].seconds;
-  std::printf("VIM phases: set-up %.3f s, node updates %.3f s, swap passes %.3f s (sequential)\n", setup_seconds,
-              node_seconds, swap_seconds);
+  std::printf("VIM phases: set-up %.3f s, node updates %.3f s, swap passes %.3f s (sequential)\n",
+              setup_seconds, node_seconds, swap_seconds);
   std::fflush(stdout);
   vim::VimOptions full_options = options;
   full_options.search_width = 0;
@@ -220,46 +163,28 @@ int main(int argc, char** argv) try {
         t0 = std::chrono::steady_clock::now();
         early = vim::optimize<3>(image, grid, early_options);
         early_seconds = std::min(early_seconds, seconds_since(t0));
-        if (rep == 0 && vim::metrics::table1_metrics<3>(image, early.mesh, centre, 1.0).tf_percent > p->second) break;
+        if (rep == 0 &&
+            vim::metrics::table1_metrics<3>(image, early.mesh, centre, 1.0).tf_percent > p->second)
+          break;
         if (rep + 1 == repeat) early_iterations = k;
       }
     }
     if (early_iterations > 0)
-      std::printf("VIM-early done: %d iterations reach the paper's TF %.2f%% in %.2f s (fastest of %d; not converged)\n",
-                  early_iterations, p->second, early_seconds, repeat);
+      std::printf(
+          "VIM-early done: %d iterations reach the paper's TF %.2f%% in %.2f s (fastest of %d; not "
+          "converged)\n",
+          early_iterations, p->second, early_seconds, repeat);
     std::fflush(stdout);
   }
 
   // CGAL: labeled image domain, tune s on refinement-only runs (node count ~ s^-3).
-  const CGAL::Image_3 cimage = labeled_image(image);
+  const CGAL::Image_3 cimage = labeled_image(image, [](float v) { return v > 1.5f ? 2 : 1; });
   // A fresh domain per make_mesh_3 call: the domain owns the random generator (seeded 0) used for
   // the initial surface points, so reusing one domain makes every call different.
   auto domain_of = [&cimage] { return Mesh_domain::create_labeled_image_mesh_domain(cimage); };
-  double s = std::cbrt(27.0 / static_cast<double>(target)) * 1.5;
-  // CGAL's node count is not monotone in s (random initial surface points), so the s whose run came
-  // closest to the target is kept; the final runs repeat it (fresh domain = same seed = same refinement).
-  double s_lo = 0.0, s_hi = 0.0;  // bracket: s_lo gives too many nodes, s_hi too few
-  double best_s = s, best_err = 1e300;
-  for (int run = 0; run < max_tuning; ++run) {
-    t0 = std::chrono::steady_clock::now();
-    const Mesh_domain domain = domain_of();
-    const C3t3 c3t3 = CGAL::make_mesh_3<C3t3>(domain, criteria_for(s), params::no_perturb(), params::no_exude());
-    const CgalMesh m = extract(c3t3);
-    const long nodes = static_cast<long>(m.mesh.n_points());
-    std::printf("  tuning %d: s=%.5f -> %ld nodes, %zu tets (%.2f s, refinement only)\n", run, s, nodes,
-                m.mesh.n_cells(), seconds_since(t0));
-    std::fflush(stdout);
-    const double rel = static_cast<double>(nodes) / static_cast<double>(target);
-    if (std::abs(rel - 1.0) < best_err) best_err = std::abs(rel - 1.0), best_s = s;
-    if (std::abs(rel - 1.0) <= 0.05) break;
-    if (rel > 1.0) s_lo = s;
-    else s_hi = s;
-    double next = s * std::cbrt(rel);  // model update
-    if (s_lo > 0.0 && s_hi > 0.0 && (next <= s_lo || next >= s_hi)) next = 0.5 * (s_lo + s_hi);  // bisection
-    s = next;
-  }
-  s = best_s;
-  if (best_err > 0.10) std::printf("  WARNING: best tuning run is %.1f%% off the target (outside +-10%%)\n", 100 * best_err);
+  // The final runs repeat the tuned s (fresh domain = same seed = same refinement).
+  const double s =
+      tune_size(domain_of, target, std::cbrt(27.0 / static_cast<double>(target)) * 1.5, max_tuning);
 
   struct Row {
     const char* name;
@@ -295,19 +220,24 @@ int main(int argc, char** argv) try {
   if (match_tf) {
     // Equal accuracy: the largest s whose refinement reaches VIM's TF% (TF falls as s shrinks, up to
     // the noise of CGAL's random initial points), by geometric bisection from the equal-node s.
-    std::printf("\nEqual-accuracy tuning: CGAL TF%% <= VIM's %.2f%% (refinement only, VIM object rule)\n", vm.tf_percent);
+    std::printf("\nEqual-accuracy tuning: CGAL TF%% <= VIM's %.2f%% (refinement only, VIM object rule)\n",
+                vm.tf_percent);
     double meets = 0.0, fails = s, t = s / 1.6;
     for (int run = 0; run < 2 * max_tuning; ++run) {
       const Mesh_domain domain = domain_of();
       t0 = std::chrono::steady_clock::now();
-      const C3t3 c3t3 = CGAL::make_mesh_3<C3t3>(domain, criteria_for(t), params::no_perturb(), params::no_exude());
+      const C3t3 c3t3 =
+          CGAL::make_mesh_3<C3t3>(domain, criteria_for(t), params::no_perturb(), params::no_exude());
       const double sec = seconds_since(t0);
       const CgalMesh m = extract(c3t3);
       const auto tm = vim::metrics::table1_metrics<3>(image, m.mesh, centre, 1.0);
-      std::printf("  tuning %d: s=%.5f -> %zu nodes, TF %.2f%% (%.2f s)\n", run, t, m.mesh.n_points(), tm.tf_percent, sec);
+      std::printf("  tuning %d: s=%.5f -> %zu nodes, TF %.2f%% (%.2f s)\n", run, t, m.mesh.n_points(),
+                  tm.tf_percent, sec);
       std::fflush(stdout);
-      if (tm.tf_percent <= vm.tf_percent) meets = std::max(meets, t);
-      else fails = std::min(fails, t);
+      if (tm.tf_percent <= vm.tf_percent)
+        meets = std::max(meets, t);
+      else
+        fails = std::min(fails, t);
       if (meets > 0.0 && fails / meets < 1.03) break;
       t = meets > 0.0 ? std::sqrt(meets * fails) : t / 1.6;
     }
@@ -323,31 +253,36 @@ int main(int argc, char** argv) try {
     }
   }
 
-  std::printf("\nCGAL s=%.5f (facet_size=cell_size=s, facet_distance=s/4, facet_angle=25, radius_edge=3)\n", s);
+  std::printf("\nCGAL s=%.5f (facet_size=cell_size=s, facet_distance=s/4, facet_angle=25, radius_edge=3)\n",
+              s);
   std::printf("CGAL-pe = refine+perturb+exude; CGAL-ol = refine+ODT+Lloyd(+perturb+exude)\n");
   print_header();
   print_row("VIM", r.mesh, vm, vim_seconds, vim_seconds);
-  print_row("VIM-full", full.mesh, vim::metrics::table1_metrics<3>(image, full.mesh, centre, 1.0), full_seconds,
-            vim_seconds);
+  print_row("VIM-full", full.mesh, vim::metrics::table1_metrics<3>(image, full.mesh, centre, 1.0),
+            full_seconds, vim_seconds);
   if (early_iterations > 0)
-    print_row("VIM-early", early.mesh, vim::metrics::table1_metrics<3>(image, early.mesh, centre, 1.0), early_seconds,
-              vim_seconds);
+    print_row("VIM-early", early.mesh, vim::metrics::table1_metrics<3>(image, early.mesh, centre, 1.0),
+              early_seconds, vim_seconds);
   for (const Row& row : rows) {
     const auto m = vim::metrics::table1_metrics<3>(image, row.mesh.mesh, centre, 1.0);
     print_row(row.name, row.mesh.mesh, m, row.seconds, vim_seconds);
   }
   if (early_iterations > 0)
-    std::printf("VIM-early (%d iterations, stopped before Eq. 9 convergence, TF at most the paper's): %.2f x CGAL-pe\n",
-                early_iterations, early_seconds / pe_seconds);
-  std::printf("VIM's set-up + swap passes alone: %.3f s = %.2f x CGAL-pe (the node updates are the other %.3f s)\n",
-              setup_seconds + swap_seconds, (setup_seconds + swap_seconds) / pe_seconds, node_seconds);
+    std::printf(
+        "VIM-early (%d iterations, stopped before Eq. 9 convergence, TF at most the paper's): %.2f x "
+        "CGAL-pe\n",
+        early_iterations, early_seconds / pe_seconds);
+  std::printf(
+      "VIM's set-up + swap passes alone: %.3f s = %.2f x CGAL-pe (the node updates are the other %.3f s)\n",
+      setup_seconds + swap_seconds, (setup_seconds + swap_seconds) / pe_seconds, node_seconds);
   std::printf("\nCGAL with the subdomain rule (object = tets CGAL labelled 2):\n");
   for (const Row& row : rows) {
     std::vector<bool> object(row.mesh.subdomain.size());
     for (std::size_t c = 0; c < object.size(); ++c) object[c] = row.mesh.subdomain[c] == 2;
     const auto m = vim::metrics::sphere_metrics<3>(image, row.mesh.mesh, object, centre, 1.0);
-    std::printf("%-10s FN %7ld FP %7ld TF %7ld TF%% %6.2f%%  (node ratio CGAL/VIM %.3f)\n", row.name, m.fn, m.fp, m.tf,
-                m.tf_percent, static_cast<double>(row.mesh.mesh.n_points()) / static_cast<double>(target));
+    std::printf("%-10s FN %7ld FP %7ld TF %7ld TF%% %6.2f%%  (node ratio CGAL/VIM %.3f)\n", row.name, m.fn,
+                m.fp, m.tf, m.tf_percent,
+                static_cast<double>(row.mesh.mesh.n_points()) / static_cast<double>(target));
   }
   return 0;
 } catch (const std::exception& e) {
