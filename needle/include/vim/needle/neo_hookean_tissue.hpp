@@ -21,6 +21,13 @@ struct NewtonSolveRecord {
   unsigned halvings = 0;
 };
 
+// The axial map's stiffness is kept between solves with the same active points (a chord map: only its
+// offset is renewed at each solve) while its prediction of each solve's forces misses by at most this
+// fraction of their change since the map was renewed; the laws' rounds then contract the force misfit
+// by about this factor each, to the same tolerance (kNonlinearForceTolerance) as with a fresh tangent
+// per map. 0: a fresh tangent for every map (the tests compare both).
+inline double kept_map_miss_ratio = 0.1;
+
 template <int dim>
 class NeoHookeanTissue final : public ModelTissue<dim> {
  public:
@@ -46,6 +53,7 @@ class NeoHookeanTissue final : public ModelTissue<dim> {
   using Base::coupling_, Base::field_, Base::map_, Base::model_, Base::n_points_, Base::solution_,
       Base::solve_seconds_, Base::state_;
   fem::Solution<dim> whole_field() override;
+  bool keep_map() const;
 
   fem::NewtonOptions newton_;
   std::unique_ptr<fem::FiniteStrainRows<dim>> rows_;
@@ -54,6 +62,8 @@ class NeoHookeanTissue final : public ModelTissue<dim> {
   std::vector<std::size_t> solved_active_;
   bool loaded_rows_ = false;  // the last solve held some rows
   bool map_current_ = false;
+  std::vector<std::size_t> map_active_;  // the active points of the map's K (empty: none)
+  Eigen::VectorXd map_base_;             // the forces where the map was last renewed
   std::vector<NewtonSolveRecord> records_;
 };
 
