@@ -1,8 +1,9 @@
 // The neo-Hookean model behind the tissue interface (docs/finite-strain.md, "Needle insertion"): each
 // solve holds the active points' rows at their values by one Newton solve of the finite-strain model
 // from the previous solve's state (fem::FiniteStrainRows); the axial map is the tangent at the last
-// solve's state (the condensed compliance of the rows on the tangent stiffness), so the laws repeat
-// map and solve until the forces agree (TissueResponse::nonlinear). The band's compliances in series
+// solve's state (the condensed compliance of the rows on the tangent stiffness), or the last map's
+// stiffness kept while it predicts the solves' forces (kept_map_miss_ratio), so the laws repeat map
+// and solve until the forces agree (TissueResponse::nonlinear). The band's compliances in series
 // (the analytic near field of the shaft inside the band) stay linear.
 #pragma once
 
