@@ -7,8 +7,66 @@
 #include <cstring>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace vim::fem {
+
+namespace {
+
+void start(cholmod_common& common) {
+  cholmod_l_start(&common);
+  common.print = 0;
+  common.error_handler = nullptr;
+}
+
+// A view of K's upper triangle (or, with Ax null, of its pattern) as a CHOLMOD matrix.
+cholmod_sparse upper_triangle(long n, const std::vector<long>& Ap, const std::vector<long>& Ai,
+                              const std::vector<double>* Ax) {
+  cholmod_sparse A{};
+  A.nrow = A.ncol = static_cast<std::size_t>(n);
+  A.nzmax = static_cast<std::size_t>(Ap[static_cast<std::size_t>(n)]);
+  A.p = const_cast<long*>(Ap.data());
+  A.i = const_cast<long*>(Ai.data());
+  A.x = Ax ? const_cast<double*>(Ax->data()) : nullptr;
+  A.stype = 1;  // symmetric, upper triangle stored (entries below the diagonal are ignored)
+  A.itype = CHOLMOD_LONG;
+  A.xtype = Ax ? CHOLMOD_REAL : CHOLMOD_PATTERN;
+  A.dtype = CHOLMOD_DOUBLE;
+  A.sorted = 1;
+  A.packed = 1;
+  return A;
+}
+
+}  // namespace
+
+struct CholmodAnalysis::Data {
+  cholmod_common common;
+  cholmod_factor* symbolic = nullptr;
+};
+
+CholmodAnalysis::CholmodAnalysis(long n, std::vector<long> Ap, std::vector<long> Ai)
+    : n_(n), Ap_(std::move(Ap)), Ai_(std::move(Ai)), d_(new Data) {
+  start(d_->common);
+  cholmod_sparse A = upper_triangle(n_, Ap_, Ai_, nullptr);
+  // Analysed once and factorised many times: try AMD, METIS and nested dissection and keep the
+  // ordering with the least fill (on the P2 tangents of the demo's needle mesh the latter has about 40 %
+  // fewer flops than CHOLMOD's default choice).
+  d_->common.nmethods = 3;
+  d_->symbolic = cholmod_l_analyze(&A, &d_->common);
+  if (!d_->symbolic) {
+    const int status = d_->common.status;
+    cholmod_l_finish(&d_->common);
+    delete d_;
+    throw std::runtime_error("CHOLMOD analysis of the stiffness pattern failed (status " +
+                             std::to_string(status) + ")");
+  }
+}
+
+CholmodAnalysis::~CholmodAnalysis() {
+  cholmod_l_free_factor(&d_->symbolic, &d_->common);
+  cholmod_l_finish(&d_->common);
+  delete d_;
+}
 
 struct CholmodLLT::Data {
   cholmod_common common;
@@ -29,23 +87,23 @@ struct CholmodLLT::Data {
 
 CholmodLLT::CholmodLLT(long n, const std::vector<long>& Ap, const std::vector<long>& Ai,
                        const std::vector<double>& Ax)
-    : n_(n), d_(new Data) {
-  cholmod_l_start(&d_->common);
-  d_->common.print = 0;
-  d_->common.error_handler = nullptr;
-  cholmod_sparse A{};
-  A.nrow = A.ncol = static_cast<std::size_t>(n);
-  A.nzmax = static_cast<std::size_t>(Ap[static_cast<std::size_t>(n)]);
-  A.p = const_cast<long*>(Ap.data());
-  A.i = const_cast<long*>(Ai.data());
-  A.x = const_cast<double*>(Ax.data());
-  A.stype = 1;  // symmetric, upper triangle stored (entries below the diagonal are ignored)
-  A.itype = CHOLMOD_LONG;
-  A.xtype = CHOLMOD_REAL;
-  A.dtype = CHOLMOD_DOUBLE;
-  A.sorted = 1;
-  A.packed = 1;
-  d_->factor = cholmod_l_analyze(&A, &d_->common);
+    : n_(n) {
+  factorise(Ap, Ai, Ax, nullptr);
+}
+
+CholmodLLT::CholmodLLT(const CholmodAnalysis& analysis, const std::vector<double>& Ax) : n_(analysis.n_) {
+  if (Ax.size() != analysis.Ai_.size())
+    throw std::invalid_argument("CholmodLLT: the values do not fit the analysed pattern");
+  factorise(analysis.Ap_, analysis.Ai_, Ax, &analysis);
+}
+
+void CholmodLLT::factorise(const std::vector<long>& Ap, const std::vector<long>& Ai,
+                           const std::vector<double>& Ax, const CholmodAnalysis* analysis) {
+  d_ = new Data;
+  start(d_->common);
+  cholmod_sparse A = upper_triangle(n_, Ap, Ai, &Ax);
+  d_->factor = analysis ? cholmod_l_copy_factor(analysis->d_->symbolic, &d_->common)
+                        : cholmod_l_analyze(&A, &d_->common);
   const bool ok =
       d_->factor && cholmod_l_factorize(&A, d_->factor, &d_->common) && d_->common.status == CHOLMOD_OK;
   if (!ok) {

@@ -51,6 +51,13 @@ const AxialMap& NeoHookeanTissue<dim>::axial_map() {
   if (map_current_) return map_;
   const auto t = Clock::now();
   const std::size_t m = state_.active.size();
+  if (keep_map()) {
+    map_.c = state_.compact(forces_) - map_.K * state_.compact(axial_);
+    map_base_ = state_.compact(forces_);
+    map_current_ = true;
+    solve_seconds_ += seconds_since(t);
+    return map_;
+  }
   const auto mi = static_cast<Eigen::Index>(m);
   std::vector<double> shifted = axial_;
   std::vector<Vec<dim>> base;
@@ -67,9 +74,22 @@ const AxialMap& NeoHookeanTissue<dim>::axial_map() {
   }
   map_.K = (0.5 * (map_.K + map_.K.transpose())).eval();
   map_.c = state_.compact(forces_) - map_.K * state_.compact(axial_);
+  map_base_ = state_.compact(forces_);
+  map_active_ = state_.active;
   map_current_ = true;
   solve_seconds_ += seconds_since(t);
   return map_;
+}
+
+// The kept map (made for the same active points) predicted the last solve's forces f from those where
+// it was renewed, f₀: its miss max|f − (K w + c)| is at most kept_map_miss_ratio of max|f − f₀|.
+template <int dim>
+bool NeoHookeanTissue<dim>::keep_map() const {
+  if (map_active_.empty() || map_active_ != state_.active) return false;
+  const Eigen::VectorXd f = state_.compact(forces_);
+  const Eigen::VectorXd predicted = map_.K * state_.compact(axial_) + map_.c;
+  const double miss = (f - predicted).cwiseAbs().maxCoeff();
+  return miss <= kept_map_miss_ratio * (f - map_base_).cwiseAbs().maxCoeff();
 }
 
 template <int dim>
@@ -88,6 +108,7 @@ void NeoHookeanTissue<dim>::clear() {
     this->count_solve(t);
     loaded_rows_ = false;
     solved_active_.clear();
+    map_active_.clear();
     map_current_ = false;
   }
   solution_ = fem::Solution<dim>{};

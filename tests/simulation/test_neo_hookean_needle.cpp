@@ -12,6 +12,7 @@
 #include <vector>
 #include <vim/fem/finite_strain.hpp>
 #include <vim/fem/finite_strain_rows.hpp>
+#include <vim/needle/neo_hookean_tissue.hpp>
 #include <vim/pipeline/simulation/simulation.hpp>
 
 #include "simulation_test_util.hpp"
@@ -175,6 +176,30 @@ TEST(NeoHookeanNeedle, SmallLoadsTendToTheLinearInsertion) {
   }
   EXPECT_LT(target_rel[2], 1e-3);
   EXPECT_LT(force_rel[2], 1e-4);
+}
+
+// The kept (chord) axial map between the laws' rounds gives the insertion of a fresh tangent per map:
+// the axial forces and the targets within 1e-6 (relative to the largest), both settled to
+// kNonlinearForceTolerance; the kept map saves tangents at the cost of more solves.
+TEST(NeoHookeanNeedle, KeptMapGivesTheInsertionOfFreshTangents) {
+  const double ratio = needle::kept_map_miss_ratio;
+  ASSERT_GT(ratio, 0.0);
+  const NeedleRun<3> kept = insert("neo-hookean", 8.0, 10.0);
+  needle::kept_map_miss_ratio = 0.0;
+  const NeedleRun<3> fresh = insert("neo-hookean", 8.0, 10.0);
+  needle::kept_map_miss_ratio = ratio;
+  double df = 0.0, fmax = 0.0;
+  for (std::size_t k = 0; k < fresh.axial_force.size(); ++k) {
+    df = std::max(df, std::abs(kept.axial_force[k] - fresh.axial_force[k]));
+    fmax = std::max(fmax, std::abs(fresh.axial_force[k]));
+  }
+  ASSERT_GT(fmax, 1.0);
+  EXPECT_LT(df, 1e-6 * fmax);
+  EXPECT_LT(target_difference(kept, fresh), 1e-6);
+  int kept_solves = 0, fresh_solves = 0;
+  for (std::size_t k = 0; k < fresh.solves.size(); ++k)
+    kept_solves += kept.solves[k], fresh_solves += fresh.solves[k];
+  EXPECT_NE(kept_solves, fresh_solves);  // the kept map was used: its rounds differ
 }
 
 // Stick-slip without cutting force: each step adds sliding or sticking shaft to a needle advancing in one

@@ -8,7 +8,8 @@
 // (fem::CondensedConstraints, one dense Schur solve per call; pipeline's NeedleInsertion), or its
 // monolithic reference; the real-time needle's condensed region (HapticNeedle); the neo-Hookean model,
 // one Newton solve per call (NeoHookeanTissue), whose axial_map() is the tangent at the last solve's
-// state (nonlinear(): the laws repeat map and solve until the forces agree). A flexible needle adds its
+// state or a kept one that still predicts its forces (nonlinear(): the laws repeat map and solve until
+// the forces agree). A flexible needle adds its
 // own compliance to the rows behind this interface. Neither touches the stepping.
 #pragma once
 
